@@ -1,0 +1,187 @@
+#include "bakers/brdf/model_spec.h"
+
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "bakers/brdf/describe.h"
+#include "bakers/brdf/lambert.h"
+#include "bakers/brdf/microfacet.h"
+#include "bakers/brdf/oren_nayar.h"
+#include "bakers/brdf/schlick.h"
+#include "bakers/math/constants.h"
+
+namespace kiln::brdf {
+namespace {
+
+// Each enum's names in one table, so to_string, parsing and the lists in messages cannot disagree.
+template <typename E, size_t N>
+using Names = std::array<std::pair<E, const char*>, N>;
+
+constexpr Names<Model, 8> kModelNames{{{Model::lambert, "lambert"},
+                                       {Model::oren_nayar, "oren-nayar"},
+                                       {Model::oren_nayar_simple, "oren-nayar-simple"},
+                                       {Model::cook_torrance, "cook-torrance"},
+                                       {Model::ggx, "ggx"},
+                                       {Model::beckmann, "beckmann"},
+                                       {Model::schlick, "schlick"},
+                                       {Model::schlick_double, "schlick-double"}}};
+constexpr Names<FresnelMode, 3> kFresnelNames{
+    {{FresnelMode::none, "none"}, {FresnelMode::schlick, "schlick"}, {FresnelMode::exact, "exact"}}};
+constexpr Names<Distribution, 3> kDistributionNames{{{Distribution::ggx, "ggx"},
+                                                     {Distribution::beckmann, "beckmann"},
+                                                     {Distribution::schlick_beckmann, "schlick-beckmann"}}};
+constexpr Names<Masking, 4> kMaskingNames{{{Masking::separable, "separable"},
+                                           {Masking::height_correlated, "height-correlated"},
+                                           {Masking::v_groove, "v-groove"},
+                                           {Masking::schlick, "schlick"}}};
+constexpr Names<Normalization, 2> kNormalizationNames{{{Normalization::four, "4"}, {Normalization::pi, "pi"}}};
+
+template <typename E, size_t N>
+std::string name_of(const Names<E, N>& names, E e) {
+  for (const auto& [value, name] : names)
+    if (value == e) return name;
+  return "?";
+}
+template <typename E, size_t N>
+std::optional<E> parse(const Names<E, N>& names, const std::string& s) {
+  for (const auto& [value, name] : names)
+    if (s == name) return value;
+  return std::nullopt;
+}
+template <typename E, size_t N>
+std::string all_names(const Names<E, N>& names) {
+  std::string out;
+  for (const auto& [value, name] : names) out += (out.empty() ? "" : "|") + std::string(name);
+  return out;
+}
+
+bool is_microfacet(Model m) { return m == Model::cook_torrance || m == Model::ggx || m == Model::beckmann; }
+
+// Range checks that produce "field: must be in [lo, hi], got v". NaN fails every comparison, so it is caught too.
+std::optional<std::string> check_range(const std::string& field, double v, double lo, double hi, bool lo_open) {
+  const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
+  if (ok) return std::nullopt;
+  return field + ": must be in " + (lo_open ? "(" : "[") + format_number(lo) + ", " + format_number(hi) + "], got " +
+         format_number(v);
+}
+std::optional<std::string> check_rgb(const std::string& field, const Rgb& c, double lo, double hi) {
+  for (int i = 0; i < 3; ++i) {
+    if (auto e = check_range(field, c[i], lo, hi, false)) return e;
+  }
+  return std::nullopt;
+}
+std::optional<std::string> check_layer(const std::string& prefix, const SchlickLayer& l) {
+  if (auto e = check_rgb(prefix + "c", l.c, 0.0, 1.0)) return e;
+  if (auto e = check_range(prefix + "r", l.r, 0.0, 1.0, false)) return e;
+  return check_range(prefix + "p", l.p, 0.0, 1.0, false);
+}
+
+}  // namespace
+
+std::string to_string(Model m) { return name_of(kModelNames, m); }
+std::string to_string(FresnelMode m) { return name_of(kFresnelNames, m); }
+std::string to_string(Distribution d) { return name_of(kDistributionNames, d); }
+std::string to_string(Masking m) { return name_of(kMaskingNames, m); }
+std::string to_string(Normalization n) { return name_of(kNormalizationNames, n); }
+std::optional<Model> model_from_string(const std::string& s) { return parse(kModelNames, s); }
+std::optional<FresnelMode> fresnel_from_string(const std::string& s) { return parse(kFresnelNames, s); }
+std::optional<Distribution> distribution_from_string(const std::string& s) { return parse(kDistributionNames, s); }
+std::optional<Masking> masking_from_string(const std::string& s) { return parse(kMaskingNames, s); }
+std::optional<Normalization> normalization_from_string(const std::string& s) {
+  return parse(kNormalizationNames, s);
+}
+std::string model_names() { return all_names(kModelNames); }
+std::string fresnel_names() { return all_names(kFresnelNames); }
+std::string distribution_names() { return all_names(kDistributionNames); }
+std::string masking_names() { return all_names(kMaskingNames); }
+std::string normalization_names() { return all_names(kNormalizationNames); }
+
+std::optional<std::string> validate(const ModelSpec& spec) {
+  switch (spec.model) {
+    case Model::lambert:
+      return check_rgb("albedo", spec.albedo, 0.0, 1.0);
+    case Model::oren_nayar:
+    case Model::oren_nayar_simple:
+      if (auto e = check_rgb("albedo", spec.albedo, 0.0, 1.0)) return e;
+      // Oren & Nayar's fits were made for σ up to about 40° and slopes beyond 90° mean nothing.
+      return check_range("sigma", spec.sigma, 0.0, kPiOver2, false);
+    case Model::cook_torrance:
+    case Model::ggx:
+    case Model::beckmann:
+      if (auto e = check_range("alpha_x", spec.alpha_x, 0.0, 1.0, true)) return e;
+      if (auto e = check_range("alpha_y", spec.alpha_y, 0.0, 1.0, true)) return e;
+      if (spec.fresnel == FresnelMode::schlick) {
+        if (auto e = check_rgb("f0", spec.f0, 0.0, 1.0)) return e;
+      }
+      if (spec.fresnel == FresnelMode::exact) {
+        // Dielectrics only; a relative index above 10 is beyond any real dielectric interface.
+        if (auto e = check_range("eta", spec.eta, 0.0, 10.0, true)) return e;
+      }
+      return std::nullopt;
+    case Model::schlick:
+      return check_layer("", spec.layer);
+    case Model::schlick_double:
+      if (auto e = check_layer("top.", spec.layer)) return e;
+      return check_layer("bottom.", spec.bottom_layer);
+  }
+  return "model: unknown model";
+}
+
+std::unique_ptr<Bxdf> make_bxdf(const ModelSpec& spec) {
+  if (auto error = validate(spec)) throw std::invalid_argument(*error);
+  switch (spec.model) {
+    case Model::lambert:
+      return std::make_unique<Lambert>(spec.albedo);
+    case Model::oren_nayar:
+      return std::make_unique<OrenNayar>(spec.albedo, spec.sigma, spec.interreflection);
+    case Model::oren_nayar_simple:
+      return std::make_unique<OrenNayarSimple>(spec.albedo, spec.sigma);
+    case Model::cook_torrance:
+    case Model::ggx:
+    case Model::beckmann: {
+      MicrofacetParams p;
+      p.alpha_x = spec.alpha_x;
+      p.alpha_y = spec.alpha_y;
+      p.fresnel = spec.fresnel;
+      p.f0 = spec.f0;
+      p.eta = spec.eta;
+      p.normalization = spec.normalization;
+      if (spec.model == Model::cook_torrance) {
+        p.distribution = spec.distribution.value_or(Distribution::beckmann);
+        p.masking = spec.masking.value_or(Masking::v_groove);
+      } else {
+        p.distribution = spec.distribution.value_or(spec.model == Model::ggx ? Distribution::ggx
+                                                                            : Distribution::beckmann);
+        p.masking = spec.masking.value_or(Masking::separable);
+      }
+      return std::make_unique<MicrofacetBrdf>(p);
+    }
+    case Model::schlick:
+      return std::make_unique<SchlickSingle>(spec.layer);
+    case Model::schlick_double:
+      return std::make_unique<SchlickDouble>(spec.layer, spec.bottom_layer);
+  }
+  throw std::invalid_argument("model: unknown model");
+}
+
+const char* roughness_name(Model m) {
+  if (is_microfacet(m)) return "alpha";
+  if (m == Model::schlick || m == Model::schlick_double) return "r";
+  if (m == Model::oren_nayar || m == Model::oren_nayar_simple) return "sigma";
+  return "none";
+}
+
+ModelSpec with_roughness(ModelSpec spec, double roughness) {
+  if (is_microfacet(spec.model)) {
+    spec.alpha_x = spec.alpha_y = roughness;
+  } else if (spec.model == Model::schlick || spec.model == Model::schlick_double) {
+    spec.layer.r = roughness;
+  } else if (spec.model == Model::oren_nayar || spec.model == Model::oren_nayar_simple) {
+    spec.sigma = roughness;
+  }
+  return spec;
+}
+
+}  // namespace kiln::brdf

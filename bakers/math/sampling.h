@@ -1,0 +1,58 @@
+// Warping uniform samples on [0,1)^2 to directions, each with the density it produces (per solid angle).
+#pragma once
+
+#include <cmath>
+
+#include "bakers/math/constants.h"
+#include "bakers/math/vec3.h"
+
+namespace kiln {
+
+struct Point2 {
+  double x = 0, y = 0;
+};
+
+// Shirley–Chiu concentric map from the square to the unit disk: area-preserving and continuous.
+inline Point2 sample_concentric_disk(Point2 u) {
+  const double ox = 2.0 * u.x - 1.0, oy = 2.0 * u.y - 1.0;
+  // The centre of the square maps to the centre of the disk; the formulas below divide by ox or oy.
+  if (ox == 0.0 && oy == 0.0) return {0.0, 0.0};
+  double r, theta;
+  if (std::fabs(ox) > std::fabs(oy)) {
+    r = ox;
+    theta = kPiOver4 * (oy / ox);
+  } else {
+    r = oy;
+    theta = kPiOver2 - kPiOver4 * (ox / oy);
+  }
+  return {r * std::cos(theta), r * std::sin(theta)};
+}
+
+// Cosine-weighted hemisphere around +z (Malley's method); pdf = cos θ / π.
+inline Vec3 sample_cosine_hemisphere(Point2 u) {
+  const Point2 d = sample_concentric_disk(u);
+  const double z = std::sqrt(std::fmax(0.0, 1.0 - d.x * d.x - d.y * d.y));
+  return {d.x, d.y, z};
+}
+inline double cosine_hemisphere_pdf(double cos_theta) { return cos_theta > 0 ? cos_theta * kInvPi : 0.0; }
+
+inline Vec3 sample_uniform_hemisphere(Point2 u) {
+  const double z = u.x;
+  const double r = std::sqrt(std::fmax(0.0, 1.0 - z * z));
+  const double phi = 2.0 * kPi * u.y;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+inline double uniform_hemisphere_pdf() { return kInv2Pi; }
+
+inline Vec3 sample_uniform_sphere(Point2 u) {
+  const double z = 1.0 - 2.0 * u.x;
+  const double r = std::sqrt(std::fmax(0.0, 1.0 - z * z));
+  const double phi = 2.0 * kPi * u.y;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+inline double uniform_sphere_pdf() { return kInv4Pi; }
+
+// Reflection of wo about the unit vector n (both pointing away from the surface).
+inline Vec3 reflect(const Vec3& wo, const Vec3& n) { return -wo + n * (2.0 * dot(wo, n)); }
+
+}  // namespace kiln
