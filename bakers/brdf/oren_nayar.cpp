@@ -131,10 +131,10 @@ Rgb OrenNayar::eval(const Vec3& wo, const Vec3& wi) const {
 
   double first_order =
       c1_ + g.cos_dphi * c2 * g.tan_beta + (1.0 - std::fabs(g.cos_dphi)) * c3 * g.tan_half_sum;
-  // The fit goes negative: for cos Δφ < 0 the C2 term −|cos Δφ| C2 tan β tends to −0.45 σ²/(σ²+0.09)·6/π when both
-  // directions graze, which outweighs C1 for σ ≳ 0.7 rad (forward scattering near the horizon). Oren & Nayar fitted
-  // C2 for smaller σ; a BRDF cannot be negative, so the first-order term is clamped at zero there. The clamp is
-  // symmetric in (wo, wi), so reciprocity is kept.
+  // Departure from the paper: its fit can go negative. For cos Δφ = −1 the C2 term −C2 tan β tends to
+  // −0.45 σ²/(σ²+0.09)·6/π as both directions graze, which outweighs C1 once σ > 0.664 rad (forward scattering near
+  // the horizon; the fits were made for σ up to about 40°). A BRDF cannot be negative, so the first-order term is
+  // clamped at zero there. The clamp is symmetric in (wo, wi), so reciprocity is kept.
   if (first_order < 0) first_order = 0;
 
   // σ = 0: c2, c3 and the interreflection scale are exactly 0 and c1 exactly 1, so this is ρ · (1/π · 1) = ρ/π,

@@ -7,6 +7,9 @@
 namespace kiln::brdf {
 
 // The full first-order model (C1, C2 with its two branches, C3), optionally with the two-bounce interreflection term.
+// Where the paper's first-order fit turns negative (σ > 0.664 rad, forward scattering near the horizon) it is clamped
+// at zero. Measured albedo (ρ = 1, tests/brdf/oren_nayar_test.cpp): up to 1.0033 without and 1.050 with the
+// interreflection term, at grazing θo.
 class OrenNayar final : public Bxdf {
  public:
   OrenNayar(const Rgb& albedo, double sigma, bool interreflection);
@@ -24,7 +27,7 @@ class OrenNayar final : public Bxdf {
   double c1_, c2_scale_, c3_scale_, interreflection_scale_;
 };
 
-// The simplified A/B model (survey eq 27).
+// The simplified A/B model (survey eq 27). Measured albedo (ρ = 1): up to 1.0151 at grazing θo (σ = 0.2 rad).
 class OrenNayarSimple final : public Bxdf {
  public:
   OrenNayarSimple(const Rgb& albedo, double sigma);
