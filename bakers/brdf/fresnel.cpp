@@ -11,7 +11,11 @@ FresnelPolarized fresnel_dielectric_polarized(double cos_theta, double eta) {
   // eta = 1: no interface at all, nothing is reflected at any angle (the formulas below would give 0/0 at grazing).
   if (eta == 1.0) return {0.0, 0.0};
   const double ci = std::clamp(cos_theta, 0.0, 1.0);
-  const double sin2_t = (1.0 - ci * ci) / (eta * eta);  // Snell's law
+  const double eta2 = eta * eta;
+  // eta so small that eta² underflows: every angle is past the critical angle, and at normal incidence the limit of
+  // ((eta − 1)/(eta + 1))² is 1 too. (validate() keeps eta far from this; the guard keeps F finite for any input.)
+  if (!(eta2 > 0)) return {1.0, 1.0};
+  const double sin2_t = (1.0 - ci * ci) / eta2;  // Snell's law
   // Total internal reflection: only possible for eta < 1, past the critical angle (the survey's g is imaginary).
   if (sin2_t >= 1.0) return {1.0, 1.0};
   const double ct = std::sqrt(1.0 - sin2_t);

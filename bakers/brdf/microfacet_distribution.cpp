@@ -37,7 +37,10 @@ double MicrofacetDistribution::D(const Vec3& wh) const {
     case Distribution::schlick_beckmann: {
       // Schlick's rational Beckmann (survey eq 20) in t = n·h, m = α: D = m³x / (t (m x² − x² + m²)²), x = t + m − 1,
       // zero below t = 1 − m. Like the survey's eq 13 it approximates the Beckmann D WITHOUT 1/π, so it is divided by
-      // π here; it is not exactly normalised (tests/brdf/microfacet_test.cpp measures by how much).
+      // π here. So divided it is exactly normalised: with y = x², ∫ D t dω = m³ ∫_0^{m²} dy / (m² − (1 − m) y)² = 1
+      // (tests/brdf/microfacet_test.cpp checks it). Its tail is heavier than Beckmann's, though, and it has no Smith
+      // Λ of its own: paired with Beckmann's Λ its visible normals integrate to more than 1 at grazing angles (an
+      // energy gain that tests/brdf/microfacet_test.cpp measures).
       const double m = alpha_x_;
       const double t = wh.z;
       const double x = t + m - 1.0;
@@ -67,7 +70,8 @@ double MicrofacetDistribution::Lambda(const Vec3& w) const {
   const double a = 1.0 / std::sqrt(alpha2 * tan2);
   // For large a both terms cancel to below double precision: Λ is 0 (erf(a) = 1 and exp(−a²) underflows past a ≈ 27).
   if (a > 26.0) return 0.0;
-  return 0.5 * (std::erf(a) - 1.0) + std::exp(-a * a) / (2.0 * a * std::sqrt(kPi));
+  // erf(a) − 1 written as −erfc(a), which keeps its relative precision where Λ is small.
+  return -0.5 * std::erfc(a) + std::exp(-a * a) / (2.0 * a * std::sqrt(kPi));
 }
 
 double MicrofacetDistribution::D_visible(const Vec3& w, const Vec3& wh) const {
@@ -95,6 +99,18 @@ Vec3 MicrofacetDistribution::sample_wh(const Vec3& wo, Point2 u) const {
     const Vec3 nh = t1 * p1 + t2 * p2 + vh * std::sqrt(std::fmax(0.0, 1.0 - p1 * p1 - p2 * p2));
     return normalize(Vec3{alpha_x_ * nh.x, alpha_y_ * nh.y, std::fmax(0.0, nh.z)});
   }
+  if (kind_ == Distribution::schlick_beckmann) {
+    // Inverting the CDF of D(t) t in x = t − (1 − m), measured from the lower end of the support:
+    // P(x) = m³ / (1 − m) [1 / (m² − (1 − m) x²) − 1 / m²] = ξ  gives  x² = m² ξ / (m + ξ (1 − m)).
+    // Sampling this D itself matters: its tail is heavier than Beckmann's, whose density would give estimates
+    // of unbounded variance.
+    const double m = alpha_x_;
+    const double x = m * std::sqrt(u.x / (m + u.x * (1.0 - m)));
+    const double cos_theta = std::fmin(1.0, x + 1.0 - m);
+    const double sin_theta = std::sqrt(std::fmax(0.0, 1.0 - cos_theta * cos_theta));
+    const double phi = 2.0 * kPi * u.y;
+    return {sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta};
+  }
   // Beckmann slopes are Gaussian: P22(x̃, ỹ) ∝ exp(−x̃²/α_x² − ỹ²/α_y²), sampled by Box–Muller; the normal of slope
   // (x̃, ỹ) is (−x̃, −ỹ, 1) normalised, and this samples D(wh) cos θ_h exactly.
   // u.x = 0 gives the radius 0 (the normal itself); 1 − u.x > 0 since u ∈ [0, 1).
@@ -107,6 +123,7 @@ Vec3 MicrofacetDistribution::sample_wh(const Vec3& wo, Point2 u) const {
 double MicrofacetDistribution::pdf_wh(const Vec3& wo, const Vec3& wh) const {
   if (kind_ == Distribution::ggx) return D_visible(wo, wh);
   if (!(wh.z > 0)) return 0.0;
+  if (kind_ == Distribution::schlick_beckmann) return D(wh) * wh.z;
   return D_beckmann(wh) * wh.z;
 }
 

@@ -31,13 +31,14 @@ class MicrofacetDistribution {
   double D_visible(const Vec3& w, const Vec3& wh) const;
 
   // Samples a microfacet normal seen from wo (wo.z > 0): GGX samples the visible normals exactly (Heitz 2018);
-  // Beckmann and Schlick's rational D sample D(wh) cos θ_h (the Beckmann slopes are Gaussian).
+  // Beckmann and Schlick's rational D sample their own D(wh) cos θ_h (Beckmann slopes are Gaussian; the rational
+  // D has a closed-form inverse CDF).
   Vec3 sample_wh(const Vec3& wo, Point2 u) const;
   // Density of sample_wh per solid angle of wh.
   double pdf_wh(const Vec3& wo, const Vec3& wh) const;
 
  private:
-  // Beckmann's normalised D, also the sampling density behind Schlick's rational form.
+  // Beckmann's normalised D.
   double D_beckmann(const Vec3& wh) const;
 
   Distribution kind_;

@@ -98,6 +98,10 @@ std::string distribution_names() { return all_names(kDistributionNames); }
 std::string masking_names() { return all_names(kMaskingNames); }
 std::string normalization_names() { return all_names(kNormalizationNames); }
 
+FresnelMode fresnel_mode(const ModelSpec& spec) {
+  return spec.fresnel.value_or(spec.model == Model::cook_torrance ? FresnelMode::exact : FresnelMode::none);
+}
+
 std::optional<std::string> validate(const ModelSpec& spec) {
   switch (spec.model) {
     case Model::lambert:
@@ -112,12 +116,12 @@ std::optional<std::string> validate(const ModelSpec& spec) {
     case Model::beckmann:
       if (auto e = check_range("alpha_x", spec.alpha_x, 0.0, 1.0, true)) return e;
       if (auto e = check_range("alpha_y", spec.alpha_y, 0.0, 1.0, true)) return e;
-      if (spec.fresnel == FresnelMode::schlick) {
+      if (fresnel_mode(spec) == FresnelMode::schlick) {
         if (auto e = check_rgb("f0", spec.f0, 0.0, 1.0)) return e;
       }
-      if (spec.fresnel == FresnelMode::exact) {
-        // Dielectrics only; a relative index above 10 is beyond any real dielectric interface.
-        if (auto e = check_range("eta", spec.eta, 0.0, 10.0, true)) return e;
+      if (fresnel_mode(spec) == FresnelMode::exact) {
+        // Dielectric interfaces: 0.1 and 10 are far beyond any real pair of media (diamond in air is 2.42).
+        if (auto e = check_range("eta", spec.eta, 0.1, 10.0, false)) return e;
       }
       return std::nullopt;
     case Model::schlick:
@@ -144,7 +148,7 @@ std::unique_ptr<Bxdf> make_bxdf(const ModelSpec& spec) {
       MicrofacetParams p;
       p.alpha_x = spec.alpha_x;
       p.alpha_y = spec.alpha_y;
-      p.fresnel = spec.fresnel;
+      p.fresnel = fresnel_mode(spec);
       p.f0 = spec.f0;
       p.eta = spec.eta;
       p.normalization = spec.normalization;

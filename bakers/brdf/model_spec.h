@@ -52,7 +52,8 @@ struct ModelSpec {
   bool interreflection = false;   // Oren–Nayar two-bounce term (oren_nayar only)
 
   double alpha_x = 0.3, alpha_y = 0.3;  // width of D as it appears in the formula (GGX α, Beckmann m)
-  FresnelMode fresnel = FresnelMode::none;
+  // Unset: the model's own Fresnel term, exact for cook-torrance, none (F = 1, the white furnace) for the others.
+  std::optional<FresnelMode> fresnel;
   Rgb f0{0.04};       // reflectance at normal incidence for Schlick's Fresnel
   double eta = 1.5;   // relative index of refraction n_t / n_i for the exact Fresnel (dielectric)
   std::optional<Distribution> distribution;  // override the model's own D
@@ -62,6 +63,9 @@ struct ModelSpec {
   SchlickLayer layer;         // schlick, and the top layer of schlick_double
   SchlickLayer bottom_layer;  // schlick_double: the layer under the top one
 };
+
+// The Fresnel term the model will use: spec.fresnel, or the model's own default.
+FresnelMode fresnel_mode(const ModelSpec& spec);
 
 // nullopt if the spec is valid; otherwise "field: what is wrong, got value" for people.
 std::optional<std::string> validate(const ModelSpec& spec);

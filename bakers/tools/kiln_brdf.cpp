@@ -45,9 +45,9 @@ parameters:
   --interreflection on|off    Oren-Nayar two-bounce term (oren-nayar), default off
   --alpha A                   width of D as in the formula (GGX alpha, Beckmann m), (0, 1], default 0.3
   --alpha-x A --alpha-y A     anisotropic widths along the tangent and the bitangent
-  --fresnel none|schlick|exact  Fresnel term, default none (the white furnace)
+  --fresnel none|schlick|exact  Fresnel term; default exact for cook-torrance, none (the white furnace) otherwise
   --f0 F | R,G,B              reflectance at normal incidence for --fresnel schlick, default 0.04
-  --eta ETA                   relative index of refraction for --fresnel exact, default 1.5
+  --eta ETA                   relative index of refraction n_t/n_i for --fresnel exact, [0.1, 10], default 1.5
   --distribution ggx|beckmann|schlick-beckmann   override the model's D
   --masking separable|height-correlated|v-groove|schlick   override the model's G
   --normalization 4|pi        microfacet denominator, default 4

@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 #include "bakers/math/constants.h"
@@ -133,12 +133,13 @@ TEST(FresnelDielectric, MatchesTheSurveysEquation10WhereGIsReal) {
 TEST(FresnelDielectric, BoundedAndFiniteForAnyInput) {
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
   const double denorm = std::numeric_limits<double>::denorm_min();
-  std::vector<double> cosines = {nan, -inf, -1.0, -1e-300, -denorm, 0.0, denorm, 1e-300, 1e-8, 1.0 - 1e-16, 1.0,
-                                 1.0 + 1e-15, 2.0, inf};
+  std::vector<double> cosines = {nan,    -inf, -1.0,        -1e-300, -denorm,     0.0, denorm,
+                                 1e-300, 1e-8, 1.0 - 1e-16, 1.0,     1.0 + 1e-15, 2.0, inf};
   for (int i = 0; i <= 200; ++i) cosines.push_back(i / 200.0);
   // The index of refraction comes from a validated spec; this sweeps the physically meaningful range and a margin.
+  // validate() accepts any η in (0, 10], so the tiny η whose square underflows to 0 (η < 1.5e-154) is included too.
   std::vector<double> etas = kEtas;
-  for (double e : {1e-3, 0.1, 0.999999, 1.0, 1.000001, 3.0, 10.0, 1e3}) etas.push_back(e);
+  for (double e : {1e-200, 1e-3, 0.1, 0.999999, 1.0, 1.000001, 3.0, 10.0, 1e3}) etas.push_back(e);
   for (double eta : etas) {
     for (double c : cosines) {
       const double f = fresnel_dielectric(c, eta);

@@ -106,7 +106,7 @@ INSTANTIATE_TEST_SUITE_P(
                       BadInput{"eval --model oren-nayar --sigma 3 --wo 0,0,1 --wi 0,0,1", "sigma: must be in"},
                       BadInput{"eval --model schlick --r 1.5 --wo 0,0,1 --wi 0,0,1", "r: must be in [0, 1]"},
                       BadInput{"eval --model schlick --p -1 --wo 0,0,1 --wi 0,0,1", "p: must be in [0, 1]"},
-                      BadInput{"eval --model cook-torrance --fresnel exact --eta 0 --wo 0,0,1 --wi 0,0,1", "eta: must be in"},
+                      BadInput{"eval --model cook-torrance --eta 0 --wo 0,0,1 --wi 0,0,1", "eta: must be in [0.1, 10]"},
                       BadInput{"eval --model ggx --fresnel fancy --wo 0,0,1 --wi 0,0,1", "--fresnel: expected one of"},
                       BadInput{"eval --model ggx --masking none --wo 0,0,1 --wi 0,0,1", "--masking: expected one of"},
                       BadInput{"eval --model ggx --normalization 2 --wo 0,0,1 --wi 0,0,1", "--normalization: expected"},
