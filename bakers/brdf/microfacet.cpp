@@ -64,6 +64,9 @@ Rgb MicrofacetBrdf::eval(const Vec3& wo, const Vec3& wi) const {
   if (d == 0.0) return Rgb{};
   const double g = G(wo, wi, wh);
   const double denom = (params_.normalization == Normalization::four ? 4.0 : kPi) * wo.z * wi.z;
+  // Both directions within ~1e-154 of the horizon (denormal cosines): the product underflows to 0 and G to 0 with
+  // it. To double precision they lie on the horizon, which reflects nothing.
+  if (!(denom > 0)) return Rgb{};
   // Grazing pairs (cos θ ≈ 1e-7 on both sides) make denom ≈ 1e-14: the quotient stays finite because D ≤ 1/(π α²)
   // and every G vanishes at least like cos θ. It is large, but the cosine that multiplies it in any integral is not.
   return F(dot(wo, wh)) * (d * g / denom);
