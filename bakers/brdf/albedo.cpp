@@ -53,7 +53,7 @@ Rgb weight_or_zero(const std::optional<BsdfSample>& s) { return s ? s->weight : 
 }  // namespace
 
 Estimate directional_albedo(const Bxdf& bxdf, const Vec3& wo, const AlbedoOptions& options) {
-  if (!(wo.z > 0)) return Estimate{};  // no light leaves towards or below the horizon: E = 0
+  if (!above_horizon(wo)) return Estimate{};  // no light leaves towards or below the horizon: E = 0
   return estimate(options, 1, [&](Point2 u, double uc, Pcg32&) { return weight_or_zero(bxdf.sample(wo, u, uc)); });
 }
 

@@ -2,9 +2,11 @@
 //
 // Frame: all directions are unit vectors in the local shading frame, normal along +z, both pointing AWAY from the
 //   surface: `wo` towards the viewer (or the next vertex of a path), `wi` towards the light.
-// Reflection only: a model is defined on the upper hemisphere. If wo.z <= 0 or wi.z <= 0 it reflects nothing
-//   (eval = 0, pdf = 0, sample fails). A caller that wants two-sided shading flips its frame so that wo.z > 0.
-//   Grazing directions (cos θ = 0 exactly) are on the horizon and reflect nothing for the same reason.
+// Reflection only: a model is defined on the upper hemisphere. If wo or wi is at or below the horizon it reflects
+//   nothing (eval = 0, pdf = 0, sample fails). A caller that wants two-sided shading flips its frame so that
+//   wo.z > 0. "At the horizon" means cos θ ≤ kHorizonCos = 1e-100 (see above_horizon): no measurable light travels
+//   that close to a surface, and below it the 1 / (cos θ_i cos θ_o) of the microfacet models leaves the range of
+//   doubles. Grazing directions such as cos θ = 1e-7 are ordinary directions.
 // eval(wo, wi): the BRDF value f(wo, wi) in 1/sr, per RGB channel, WITHOUT the cosine factor cos θ_i.
 // sample(wo, u, uc): draws wi with the model's importance sampling from the uniform sample u ∈ [0,1)² and the
 //   lobe-selection sample uc ∈ [0,1). On success it returns wi, f = eval(wo, wi), pdf = pdf(wo, wi) (per unit solid
@@ -47,15 +49,17 @@ class Bxdf {
   virtual bool reciprocal() const { return true; }
 };
 
-// True when both directions are usable for a reflection query: finite and strictly above the horizon.
-// NaN fails both comparisons, so a NaN direction reflects nothing.
-inline bool valid_reflection_pair(const Vec3& wo, const Vec3& wi) {
-  return wo.z > 0 && wi.z > 0 && is_finite(wo) && is_finite(wi);
-}
+inline constexpr double kHorizonCos = 1e-100;
+
+// True when w is finite and above the horizon in the sense of the contract. NaN fails the comparison.
+inline bool above_horizon(const Vec3& w) { return w.z > kHorizonCos && is_finite(w); }
+
+// True when both directions are usable for a reflection query.
+inline bool valid_reflection_pair(const Vec3& wo, const Vec3& wi) { return above_horizon(wo) && above_horizon(wi); }
 
 // Completes a sample once wi and its density are known; keeps the weight finite where pdf > 0.
 inline std::optional<BsdfSample> make_sample(const Vec3& wi, const Rgb& f, double pdf) {
-  if (!(pdf > 0) || !std::isfinite(pdf) || !(wi.z > 0)) return std::nullopt;
+  if (!(pdf > 0) || !std::isfinite(pdf) || !above_horizon(wi)) return std::nullopt;
   return BsdfSample{wi, f, pdf, f * (wi.z / pdf)};
 }
 

@@ -85,7 +85,7 @@ double Material::specular_probability(double mu_o) const {
 }
 
 std::optional<BsdfSample> Material::sample(const Vec3& wo, Point2 u, double uc) const {
-  if (!(wo.z > 0) || !is_finite(wo)) return std::nullopt;
+  if (!above_horizon(wo)) return std::nullopt;
   const double p = specular_probability(wo.z);
   std::optional<BsdfSample> s;
   // uc is reused inside the chosen lobe after rescaling to [0, 1), so lobes that select sub-lobes still get a sample.

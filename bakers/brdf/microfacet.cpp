@@ -11,7 +11,9 @@ namespace kiln::brdf {
 
 double g_vgroove(const Vec3& wo, const Vec3& wi, const Vec3& wh) {
   // Survey eq 12 is correct as printed: for the half vector wo·wh = wi·wh, so both fractions share it.
-  const double o_dot_h = dot(wo, wh);
+  // wo·wh = wi·wh for the half vector; their mean is the same number computed symmetrically, so that swapping wo
+  // and wi gives bit-identical results (reciprocity to the last bit).
+  const double o_dot_h = 0.5 * (dot(wo, wh) + dot(wi, wh));
   if (!(o_dot_h > 0) || !(wh.z > 0)) return 0.0;  // a back-facing facet neither reflects nor is seen
   const double k = 2.0 * wh.z / o_dot_h;
   return std::clamp(std::fmin(k * wo.z, k * wi.z), 0.0, 1.0);
@@ -33,7 +35,7 @@ double MicrofacetBrdf::G(const Vec3& wo, const Vec3& wi, const Vec3& wh) const {
       return distribution_.G1(wo) * distribution_.G1(wi);
     case Masking::height_correlated:
       // Heitz 2014, eq 99: the masking of wo and the shadowing of wi are correlated through the height of the point.
-      return 1.0 / (1.0 + distribution_.Lambda(wo) + distribution_.Lambda(wi));
+      return 1.0 / (1.0 + (distribution_.Lambda(wo) + distribution_.Lambda(wi)));  // grouped: symmetric in wo, wi
     case Masking::v_groove:
       return g_vgroove(wo, wi, wh);
     case Masking::schlick: {
@@ -63,23 +65,24 @@ Rgb MicrofacetBrdf::eval(const Vec3& wo, const Vec3& wi) const {
   const double d = distribution_.D(wh);
   if (d == 0.0) return Rgb{};
   const double g = G(wo, wi, wh);
-  const double denom = (params_.normalization == Normalization::four ? 4.0 : kPi) * wo.z * wi.z;
-  // Both directions within ~1e-154 of the horizon (denormal cosines): the product underflows to 0 and G to 0 with
-  // it. To double precision they lie on the horizon, which reflects nothing.
-  if (!(denom > 0)) return Rgb{};
-  // Grazing pairs (cos θ ≈ 1e-7 on both sides) make denom ≈ 1e-14: the quotient stays finite because D ≤ 1/(π α²)
-  // and every G vanishes at least like cos θ. It is large, but the cosine that multiplies it in any integral is not.
-  return F(dot(wo, wh)) * (d * g / denom);
+  // Every factor below is computed symmetrically in wo and wi (the products grouped, the Fresnel cosine as the mean
+  // of wo·wh and wi·wh), so that f(wo, wi) and f(wi, wo) are the same bits. This matters where F is steep: near the
+  // critical angle of eta < 1 a rounding difference in the cosine changes F by orders of magnitude more.
+  const double denom = (params_.normalization == Normalization::four ? 4.0 : kPi) * (wo.z * wi.z);
+  // Grazing pairs make denom tiny, and the V-groove G stays 1 near the mirror direction, so f is huge there; it
+  // stays finite because valid_reflection_pair keeps both cosines above kHorizonCos = 1e-100 and D ≤ 1/(π α_x α_y).
+  // It is large, but the cosine that multiplies it in any integral is not.
+  return F(0.5 * (dot(wo, wh) + dot(wi, wh))) * (d * g / denom);
 }
 
 std::optional<BsdfSample> MicrofacetBrdf::sample(const Vec3& wo, Point2 u, double) const {
-  if (!(wo.z > 0) || !is_finite(wo)) return std::nullopt;
+  if (!above_horizon(wo)) return std::nullopt;
   const Vec3 wh = distribution_.sample_wh(wo, u);
   const double o_dot_h = dot(wo, wh);
   // A Beckmann-sampled normal can face away from wo (its sampler ignores visibility); it reflects nothing.
   if (!(o_dot_h > 0)) return std::nullopt;
   const Vec3 wi = reflect(wo, wh);
-  if (!(wi.z > 0)) return std::nullopt;  // reflected below the horizon: masked in reality, no energy here
+  if (!above_horizon(wi)) return std::nullopt;  // reflected below the horizon: masked in reality, no energy here
   return make_sample(wi, eval(wo, wi), pdf(wo, wi));
 }
 

@@ -149,7 +149,7 @@ Rgb OrenNayar::eval(const Vec3& wo, const Vec3& wi) const {
 }
 
 std::optional<BsdfSample> OrenNayar::sample(const Vec3& wo, Point2 u, double) const {
-  if (!(wo.z > 0) || !is_finite(wo)) return std::nullopt;
+  if (!above_horizon(wo)) return std::nullopt;
   const Vec3 wi = sample_cosine_hemisphere(u);
   return make_sample(wi, eval(wo, wi), pdf(wo, wi));
 }
@@ -180,7 +180,7 @@ Rgb OrenNayarSimple::eval(const Vec3& wo, const Vec3& wi) const {
 }
 
 std::optional<BsdfSample> OrenNayarSimple::sample(const Vec3& wo, Point2 u, double) const {
-  if (!(wo.z > 0) || !is_finite(wo)) return std::nullopt;
+  if (!above_horizon(wo)) return std::nullopt;
   const Vec3 wi = sample_cosine_hemisphere(u);
   return make_sample(wi, eval(wo, wi), pdf(wo, wi));
 }

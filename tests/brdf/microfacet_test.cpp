@@ -514,8 +514,10 @@ TEST(MicrofacetBrdf, VGrooveIsEquation12AndAtMostOne) {
     const double g = g_vgroove(wo, wi, h);
     EXPECT_GE(g, 0.0);
     EXPECT_LE(g, 1.0);
-    // Same expression with the operations in another order: a few ulp.
-    EXPECT_TRUE(close(g, vgroove_ref(wo, wi), 1e-14)) << g << " " << vgroove_ref(wo, wi);
+    // The library takes o·h as the mean of o·h and i·h (equal in exact arithmetic; the mean makes the result
+    // bit-symmetric in wo and wi). The two differ by rounding, which 1/(o·h) amplifies for large angles between wo
+    // and wi: 1e-12 relative is ample for these random pairs, and far below anything a model error would produce.
+    EXPECT_TRUE(close(g, vgroove_ref(wo, wi), 1e-12)) << g << " " << vgroove_ref(wo, wi);
     EXPECT_EQ(ct.G(wo, wi, h), g);
     // Reciprocal: o·h = i·h for the half vector, so swapping o and i swaps the two fractions.
     // (o − i)·h = (|o|² − |i|²)/|o + i| vanishes only up to the rounding of the unit vectors (~2ε) divided by
