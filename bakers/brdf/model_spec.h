@@ -40,7 +40,7 @@ enum class Normalization { four, pi };
 // One layer of Schlick's model.
 struct SchlickLayer {
   Rgb c{0.8};      // reflection factor C_λ at normal incidence (Schlick's S(u) uses it as f0)
-  double r = 0.5;  // roughness: 0 perfect mirror, 1 Lambertian
+  double r = 0.5;  // roughness: 0 perfect mirror, 1 Lambertian (at p = 1; the azimuthal factor A stays for p < 1)
   double p = 1.0;  // isotropy: 1 isotropic, towards 0 anisotropic along the tangent
 };
 
