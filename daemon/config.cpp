@@ -1,0 +1,197 @@
+#include "daemon/config.h"
+
+#include <google/protobuf/io/tokenizer.h>
+#include <google/protobuf/text_format.h>
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "daemon/kilnd_config.pb.h"
+
+namespace kiln::daemon {
+namespace {
+
+class CollectErrors : public google::protobuf::io::ErrorCollector {
+ public:
+  explicit CollectErrors(std::string file) : file_(std::move(file)) {}
+  void AddError(int line, int column, const std::string& message) override {
+    if (first_.empty()) {
+      first_ = file_ + ":" + std::to_string(line + 1) + ":" + std::to_string(column + 1) + ": " + message;
+    }
+  }
+  const std::string& first() const { return first_; }
+
+ private:
+  std::string file_, first_;
+};
+
+uint64_t parse_unsigned(const std::string& flag, const std::string& text, uint64_t lo, uint64_t hi) {
+  std::size_t used = 0;
+  unsigned long long v = 0;
+  bool ok = !text.empty() && text[0] != '-';
+  if (ok) {
+    try {
+      v = std::stoull(text, &used);
+    } catch (const std::exception&) {
+      ok = false;
+    }
+  }
+  if (!ok || used != text.size() || v < lo || v > hi) {
+    throw std::invalid_argument(flag + ": expected a whole number in [" + std::to_string(lo) + ", " +
+                                std::to_string(hi) + "], got '" + text + "'");
+  }
+  return v;
+}
+
+double parse_seconds(const std::string& flag, const std::string& text) {
+  std::size_t used = 0;
+  double v = NAN;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+  }
+  if (used != text.size() || !(v > 0) || !std::isfinite(v)) {
+    throw std::invalid_argument(flag + ": expected a positive number of seconds, got '" + text + "'");
+  }
+  return v;
+}
+
+struct Flag {
+  const char* name;
+  const char* field;  // the config file's field
+  const char* help;
+  std::function<void(Config&, const std::string&)> set;
+};
+
+const std::vector<Flag>& flags() {
+  static const std::vector<Flag> all = {
+      {"--listen", "listen", "TCP address HOST:PORT (port 0: any free port, printed at start); '' for none",
+       [](Config& c, const std::string& v) { c.listen = v; }},
+      {"--socket", "socket", "Unix socket path; its permissions decide who connects; '' for none",
+       [](Config& c, const std::string& v) { c.socket = v; }},
+      {"--store", "store", "folder of the job records, blobs and results",
+       [](Config& c, const std::string& v) { c.store = v; }},
+      {"--token-file", "token_file", "file of accepted tokens (mode 0600), required with TCP",
+       [](Config& c, const std::string& v) { c.token_file = v; }},
+      {"--workers", "workers", "jobs that run at once [1, 256]",
+       [](Config& c, const std::string& v) { c.workers = parse_unsigned("--workers", v, 1, 256); }},
+      {"--threads", "threads", "baking threads in total, 0 = all cores [0, 1024]",
+       [](Config& c, const std::string& v) { c.threads = parse_unsigned("--threads", v, 0, 1024); }},
+      {"--store-limit-bytes", "store_limit_bytes", "evict least recently used results past this size, 0 = none",
+       [](Config& c, const std::string& v) {
+         c.store_limit_bytes = parse_unsigned("--store-limit-bytes", v, 0, uint64_t{1} << 50);
+       }},
+      {"--max-connections", "max_connections", "connections at once [1, 10000]",
+       [](Config& c, const std::string& v) { c.max_connections = parse_unsigned("--max-connections", v, 1, 10000); }},
+      {"--frame-deadline", "frame_deadline_seconds", "seconds a client may take to finish a frame it started",
+       [](Config& c, const std::string& v) { c.frame_deadline_seconds = parse_seconds("--frame-deadline", v); }},
+      {"--idle-timeout", "idle_timeout_seconds", "seconds before an idle connection is closed",
+       [](Config& c, const std::string& v) { c.idle_timeout_seconds = parse_seconds("--idle-timeout", v); }},
+      {"--max-queued-jobs", "max_queued_jobs", "jobs waiting at once [1, 1000000]",
+       [](Config& c, const std::string& v) { c.max_queued_jobs = parse_unsigned("--max-queued-jobs", v, 1, 1000000); }},
+      {"--shutdown-grace", "shutdown_grace_seconds", "seconds running jobs get to finish on SIGTERM/SIGINT",
+       [](Config& c, const std::string& v) { c.shutdown_grace_seconds = parse_seconds("--shutdown-grace", v); }},
+  };
+  return all;
+}
+
+}  // namespace
+
+void load_config_file(const std::string& path, Config& config) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("config file " + path + ": cannot open it");
+  std::stringstream text;
+  text << in.rdbuf();
+  kiln::daemon::v1::DaemonConfig file;
+  google::protobuf::TextFormat::Parser parser;
+  CollectErrors errors(path);
+  parser.RecordErrorsTo(&errors);
+  if (!parser.ParseFromString(text.str(), &file)) {
+    throw std::runtime_error("config file " + errors.first() + " (fields are described in deploy/kilnd.conf)");
+  }
+  if (file.has_listen()) config.listen = file.listen();
+  if (file.has_socket()) config.socket = file.socket();
+  if (file.has_store()) config.store = file.store();
+  if (file.has_token_file()) config.token_file = file.token_file();
+  if (file.has_workers()) config.workers = file.workers();
+  if (file.has_threads()) config.threads = file.threads();
+  if (file.has_store_limit_bytes()) config.store_limit_bytes = file.store_limit_bytes();
+  if (file.has_max_connections()) config.max_connections = file.max_connections();
+  if (file.has_frame_deadline_seconds()) config.frame_deadline_seconds = file.frame_deadline_seconds();
+  if (file.has_idle_timeout_seconds()) config.idle_timeout_seconds = file.idle_timeout_seconds();
+  if (file.has_max_frame_bytes()) config.max_frame_bytes = file.max_frame_bytes();
+  if (file.has_max_chunk_bytes()) config.max_chunk_bytes = file.max_chunk_bytes();
+  if (file.has_max_blob_bytes()) config.max_blob_bytes = file.max_blob_bytes();
+  if (file.has_max_queued_jobs()) config.max_queued_jobs = file.max_queued_jobs();
+  if (file.has_shutdown_grace_seconds()) config.shutdown_grace_seconds = file.shutdown_grace_seconds();
+}
+
+CommandLine parse_command_line(const std::vector<std::string>& args) {
+  CommandLine cl;
+  // --config first, wherever it stands, so that every other flag overrides the file.
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--help" || args[i] == "-h") cl.help = true;
+    if (args[i] == "--config") {
+      if (i + 1 >= args.size()) throw std::invalid_argument("--config: missing the file name");
+      load_config_file(args[i + 1], cl.config);
+    }
+  }
+  if (cl.help) return cl;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--config") {
+      ++i;
+      continue;
+    }
+    const Flag* flag = nullptr;
+    for (const Flag& f : flags()) {
+      if (a == f.name) flag = &f;
+    }
+    if (!flag) throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
+    if (i + 1 >= args.size()) throw std::invalid_argument(a + ": missing value");
+    flag->set(cl.config, args[++i]);
+  }
+  return cl;
+}
+
+void validate(const Config& c) {
+  if (c.listen.empty() && c.socket.empty()) {
+    throw std::invalid_argument("nothing to listen on: give --listen HOST:PORT or --socket PATH");
+  }
+  if (!c.listen.empty() && c.listen.rfind(':') == std::string::npos) {
+    throw std::invalid_argument("--listen: expected HOST:PORT, got '" + c.listen + "'");
+  }
+  if (!c.listen.empty() && c.token_file.empty()) {
+    throw std::invalid_argument("--listen needs --token-file: TCP clients must present a token");
+  }
+  if (c.store.empty()) throw std::invalid_argument("--store: a folder is required");
+  if (c.workers < 1 || c.workers > 256) throw std::invalid_argument("workers: must be in [1, 256]");
+  if (c.max_frame_bytes < 1024 || c.max_frame_bytes > (uint64_t{64} << 20)) {
+    throw std::invalid_argument("max_frame_bytes: must be in [1 KiB, 64 MiB]");
+  }
+  // A chunk travels inside a frame with a little framing around it.
+  if (c.max_chunk_bytes < 1024 || c.max_chunk_bytes + 1024 > c.max_frame_bytes) {
+    throw std::invalid_argument("max_chunk_bytes: must be at least 1 KiB and 1 KiB below max_frame_bytes");
+  }
+}
+
+std::string usage() {
+  std::string u =
+      "usage: kilnd [--config FILE] [flags]\n\n"
+      "kilnd, the kiln baking daemon. Settings come from built-in defaults, then the protobuf text-format file\n"
+      "given with --config (annotated example: deploy/kilnd.conf), then these flags:\n\n";
+  for (const Flag& f : flags()) {
+    char line[256];
+    std::snprintf(line, sizeof line, "  %-22s %-24s %s\n", f.name, f.field, f.help);
+    u += line;
+  }
+  u += "\nThe second column is the config file's field. Logs go to stderr. SIGTERM or SIGINT stops accepting,\n"
+       "lets running jobs finish within shutdown_grace_seconds, re-queues the rest and exits.\n";
+  return u;
+}
+
+}  // namespace kiln::daemon

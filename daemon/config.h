@@ -1,0 +1,48 @@
+// kilnd's configuration: defaults, a protobuf text-format file, command-line flags on top, then validation.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kiln::daemon {
+
+struct Config {
+  std::string listen = "127.0.0.1:7878";
+  std::string socket;
+  std::string store = "kiln-store";
+  std::string token_file;
+  uint32_t workers = 1;
+  uint32_t threads = 0;
+  uint64_t store_limit_bytes = 0;
+  uint32_t max_connections = 64;
+  double frame_deadline_seconds = 30;
+  double idle_timeout_seconds = 600;
+  uint64_t max_frame_bytes = uint64_t{4} << 20;
+  uint64_t max_chunk_bytes = uint64_t{1} << 20;
+  uint64_t max_blob_bytes = uint64_t{1} << 30;
+  uint32_t max_queued_jobs = 1000;
+  double shutdown_grace_seconds = 30;
+};
+
+// What the command line asked for besides the configuration.
+struct CommandLine {
+  Config config;
+  bool help = false;
+};
+
+// Reads the text-format file into `config`, field by field (fields the file leaves out keep their value).
+// Throws std::runtime_error naming the file and the line on a syntax error or an unknown field.
+void load_config_file(const std::string& path, Config& config);
+
+// Defaults, then --config FILE, then the other flags in any order. Throws std::invalid_argument with a message for
+// people ("--workers: expected a whole number in [1, 256], got 'x'").
+CommandLine parse_command_line(const std::vector<std::string>& args);
+
+// Checks ranges and combinations (TCP needs a token file; at least one listener). Throws std::invalid_argument.
+void validate(const Config& config);
+
+// --help: every flag and its config-file field.
+std::string usage();
+
+}  // namespace kiln::daemon

@@ -1,0 +1,97 @@
+// kilnd's configuration: defaults, file, flags on top, and clear errors.
+#include "daemon/config.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace kiln::daemon {
+namespace {
+
+std::string write_file(const std::string& name, const std::string& text) {
+  const auto dir = std::filesystem::temp_directory_path() / ("kiln_config_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto p = dir / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+TEST(Config, DefaultsListenOnLoopbackOnly) {
+  const CommandLine cl = parse_command_line({});
+  EXPECT_EQ(cl.config.listen.rfind("127.0.0.1:", 0), 0u);
+  EXPECT_FALSE(cl.help);
+}
+
+TEST(Config, FlagsOverrideTheFileWhereverConfigStands) {
+  const std::string f = write_file("a.conf", "# comment\nworkers: 3\nstore: \"/srv/kiln\"\nthreads: 2\n");
+  const CommandLine cl = parse_command_line({"--workers", "5", "--config", f, "--listen", "127.0.0.1:0"});
+  EXPECT_EQ(cl.config.workers, 5u);       // the flag wins although it came first
+  EXPECT_EQ(cl.config.store, "/srv/kiln");  // from the file
+  EXPECT_EQ(cl.config.threads, 2u);
+  EXPECT_EQ(cl.config.listen, "127.0.0.1:0");
+}
+
+TEST(Config, FileFieldsLeftOutKeepDefaults) {
+  const std::string f = write_file("b.conf", "workers: 2\n");
+  Config c;
+  const double idle = c.idle_timeout_seconds;
+  load_config_file(f, c);
+  EXPECT_EQ(c.workers, 2u);
+  EXPECT_EQ(c.idle_timeout_seconds, idle);
+}
+
+TEST(Config, SyntaxErrorsNameFileAndLine) {
+  const std::string f = write_file("bad.conf", "workers: 2\nwrokers: 3\n");
+  try {
+    parse_command_line({"--config", f});
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("bad.conf:2"), std::string::npos) << m;
+    EXPECT_NE(m.find("wrokers"), std::string::npos) << m;
+  }
+}
+
+TEST(Config, BadFlagsAreRefusedWithTheFlagNamed) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--workers", "0"}, "--workers"},       {{"--workers", "x"}, "--workers"},
+      {{"--workers", "-1"}, "--workers"},      {{"--threads", "99999"}, "--threads"},
+      {{"--idle-timeout", "0"}, "--idle-timeout"}, {{"--frame-deadline", "nan"}, "--frame-deadline"},
+      {{"--bogus", "1"}, "unknown argument '--bogus'"}, {{"--listen"}, "--listen: missing value"},
+      {{"--config"}, "--config: missing"},
+  };
+  for (const auto& [args, fragment] : cases) {
+    try {
+      parse_command_line(args);
+      ADD_FAILURE() << "accepted " << args[0];
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Config, ValidationRequiresATokenForTcpAndSomeListener) {
+  Config c;
+  c.token_file.clear();
+  EXPECT_THROW(validate(c), std::invalid_argument);  // TCP without a token
+  c.listen.clear();
+  EXPECT_THROW(validate(c), std::invalid_argument);  // nothing to listen on
+  c.socket = "/tmp/kiln.sock";
+  EXPECT_NO_THROW(validate(c));  // the Unix socket alone needs no token
+  c.listen = "localhost";
+  c.token_file = "/x";
+  EXPECT_THROW(validate(c), std::invalid_argument);  // no port
+}
+
+TEST(Config, HelpListsEveryFlag) {
+  const std::string u = usage();
+  for (const char* f : {"--config", "--listen", "--socket", "--store", "--token-file", "--workers", "--threads"}) {
+    EXPECT_NE(u.find(f), std::string::npos) << f;
+  }
+  EXPECT_TRUE(parse_command_line({"--workers", "bad", "--help"}).help);  // --help wins over a bad flag
+}
+
+}  // namespace
+}  // namespace kiln::daemon
