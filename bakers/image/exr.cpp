@@ -1,0 +1,191 @@
+#include "bakers/image/exr.h"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <set>
+#include <stdexcept>
+
+namespace kiln::image {
+namespace {
+
+// Any name works for the plugin lookup: with an IOProxy nothing touches the file system.
+constexpr const char* kVirtualName = "kiln-memory.exr";
+// EXR sorts channels by name; this attribute remembers the caller's order so that a round trip is exact.
+constexpr const char* kChannelOrderKey = "kiln:channel_order";
+// A header may claim any size; refuse to allocate more than this many floats (1 GiB) for one image.
+constexpr uint64_t kMaxDecodedValues = uint64_t{1} << 28;
+
+bool reserved_key(const std::string& key) {
+  return key == "compression" || key == kChannelOrderKey || key.rfind("oiio:", 0) == 0;
+}
+
+std::string join(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ",") + n;
+  return out;
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = s.find(',', start);
+    out.push_back(s.substr(start, comma - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return out;
+}
+
+void check_image(const FloatImage& image) {
+  if (image.width < 1 || image.height < 1 || image.channels < 1) {
+    throw std::invalid_argument("encode_exr: width, height and channels must be at least 1, got " +
+                                std::to_string(image.width) + "x" + std::to_string(image.height) + "x" +
+                                std::to_string(image.channels));
+  }
+  const uint64_t expected = static_cast<uint64_t>(image.width) * static_cast<uint64_t>(image.height) *
+                            static_cast<uint64_t>(image.channels);
+  if (image.pixels.size() != expected) {
+    throw std::invalid_argument("encode_exr: pixels holds " + std::to_string(image.pixels.size()) +
+                                " floats, but a " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                                " image with " + std::to_string(image.channels) + " channels needs " +
+                                std::to_string(expected));
+  }
+  if (!image.channel_names.empty()) {
+    if (image.channel_names.size() != static_cast<size_t>(image.channels)) {
+      throw std::invalid_argument("encode_exr: channel_names has " + std::to_string(image.channel_names.size()) +
+                                  " names for " + std::to_string(image.channels) + " channels");
+    }
+    std::set<std::string> seen;
+    for (const auto& n : image.channel_names) {
+      if (n.empty() || n.find(',') != std::string::npos) {
+        throw std::invalid_argument("encode_exr: channel name '" + n + "' must be non-empty and without commas");
+      }
+      if (!seen.insert(n).second) throw std::invalid_argument("encode_exr: channel name '" + n + "' appears twice");
+    }
+  }
+  for (const auto& [key, value] : image.metadata) {
+    if (key.empty() || reserved_key(key)) {
+      throw std::invalid_argument("encode_exr: metadata key '" + key +
+                                  "' is reserved for the file layout (compression, oiio:*, kiln:channel_order); "
+                                  "choose another name");
+    }
+  }
+}
+
+std::string hex_prefix(const std::string& bytes) {
+  std::string out;
+  char buf[4];
+  for (size_t i = 0; i < std::min<size_t>(bytes.size(), 4); ++i) {
+    std::snprintf(buf, sizeof buf, "%s%02x", i ? " " : "", static_cast<unsigned char>(bytes[i]));
+    out += buf;
+  }
+  return out.empty() ? "nothing" : out;
+}
+
+}  // namespace
+
+std::string encode_exr(const FloatImage& image) {
+  check_image(image);
+  OIIO::ImageSpec spec(image.width, image.height, image.channels, OIIO::TypeDesc::FLOAT);
+  if (!image.channel_names.empty()) spec.channelnames = image.channel_names;
+  spec.attribute("compression", "zip");
+  // OpenImageIO stamps the current time unless DateTime is given; an empty value leaves it out, so that the same
+  // image always gives the same bytes (the daemon addresses results by their digest).
+  spec.attribute("DateTime", "");
+  for (const auto& [key, value] : image.metadata) spec.attribute(key, value);
+  spec.attribute(kChannelOrderKey, join(spec.channelnames));
+
+  std::vector<unsigned char> buffer;
+  OIIO::Filesystem::IOVecOutput proxy(buffer);
+  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(kVirtualName);
+  if (!out) throw std::runtime_error("encode_exr: OpenImageIO has no OpenEXR writer: " + OIIO::geterror());
+  out->threads(1);  // tiny images; the caller owns the thread budget
+  const auto fail = [&](const std::string& what) {
+    throw std::runtime_error("encode_exr: could not " + what + " a " + std::to_string(image.width) + "x" +
+                             std::to_string(image.height) + " EXR image with " + std::to_string(image.channels) +
+                             " channels: " + out->geterror());
+  };
+  if (!out->set_ioproxy(&proxy)) fail("attach the memory buffer to");
+  if (!out->open(kVirtualName, spec)) fail("start");
+  if (!out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data())) fail("write the pixels of");
+  if (!out->close()) fail("finish");
+  return std::string(buffer.begin(), buffer.end());
+}
+
+FloatImage decode_exr(const std::string& bytes) {
+  // Checked here so that the common mistake (handing over some other file) gets a plain answer.
+  static constexpr unsigned char kMagic[4] = {0x76, 0x2f, 0x31, 0x01};
+  if (bytes.size() < 4 || !std::equal(kMagic, kMagic + 4, reinterpret_cast<const unsigned char*>(bytes.data()))) {
+    throw std::runtime_error("decode_exr: the " + std::to_string(bytes.size()) +
+                             " bytes are not an OpenEXR image: they start with " + hex_prefix(bytes) +
+                             ", an EXR file starts with 76 2f 31 01");
+  }
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  void* proxy_ptr = &proxy;
+  OIIO::ImageSpec config;
+  config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy_ptr);
+  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(kVirtualName, &config);
+  if (!in) {
+    throw std::runtime_error("decode_exr: could not read the header of the " + std::to_string(bytes.size()) +
+                             "-byte EXR image (truncated or corrupt?): " + OIIO::geterror());
+  }
+  in->threads(1);
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.deep) throw std::runtime_error("decode_exr: deep EXR images are not supported; expected flat pixels");
+  const uint64_t values = static_cast<uint64_t>(std::max(0, spec.width)) * std::max(0, spec.height) *
+                          std::max(0, spec.depth) * std::max(0, spec.nchannels);
+  if (values == 0 || values > kMaxDecodedValues) {
+    throw std::runtime_error("decode_exr: the header describes a " + std::to_string(spec.width) + "x" +
+                             std::to_string(spec.height) + " image with " + std::to_string(spec.nchannels) +
+                             " channels, which is empty or larger than the limit of " +
+                             std::to_string(kMaxDecodedValues) + " values");
+  }
+  FloatImage image;
+  image.width = spec.width;
+  image.height = spec.height * std::max(1, spec.depth);
+  image.channels = spec.nchannels;
+  image.pixels.resize(values);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data())) {
+    throw std::runtime_error("decode_exr: could not read the pixels of the " + std::to_string(spec.width) + "x" +
+                             std::to_string(spec.height) + " EXR image (truncated or corrupt?): " + in->geterror());
+  }
+  image.channel_names = spec.channelnames;
+  std::string order;
+  for (const auto& attr : spec.extra_attribs) {
+    if (attr.type() != OIIO::TypeDesc::STRING) continue;
+    const std::string name = attr.name().string();
+    if (name == kChannelOrderKey) order = attr.get_string();
+    if (reserved_key(name)) continue;
+    image.metadata[name] = attr.get_string();
+  }
+  // Put the channels back in the writer's order when the file says what it was and it fits.
+  if (!order.empty()) {
+    const std::vector<std::string> wanted = split(order);
+    std::vector<int> source;
+    for (const auto& name : wanted) {
+      const auto it = std::find(image.channel_names.begin(), image.channel_names.end(), name);
+      if (it == image.channel_names.end()) break;
+      source.push_back(static_cast<int>(it - image.channel_names.begin()));
+    }
+    if (source.size() == image.channel_names.size() &&
+        std::set<int>(source.begin(), source.end()).size() == source.size()) {
+      std::vector<float> reordered(image.pixels.size());
+      const size_t n = static_cast<size_t>(image.width) * image.height;
+      const int c = image.channels;
+      for (size_t p = 0; p < n; ++p) {
+        for (int k = 0; k < c; ++k) reordered[p * c + k] = image.pixels[p * c + source[k]];
+      }
+      image.pixels = std::move(reordered);
+      image.channel_names = wanted;
+    }
+  }
+  in->close();
+  return image;
+}
+
+}  // namespace kiln::image

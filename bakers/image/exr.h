@@ -1,0 +1,36 @@
+// OpenEXR encoding of float images, in memory: 32-bit float channels, lossless ZIP compression.
+// Plain types only: OpenImageIO stays inside exr.cpp.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace kiln::image {
+
+struct FloatImage {
+  int width = 0, height = 0, channels = 0;
+  // Interleaved, row-major, top row first: pixels[(y * width + x) * channels + c].
+  std::vector<float> pixels;
+  // One name per channel, in the order of `pixels`. Empty means OpenImageIO's defaults (R, G, B, A, channel4, ...).
+  std::vector<std::string> channel_names;
+  // String attributes of the EXR header. Names OpenImageIO or this module use for the layout ("compression",
+  // "oiio:*", "kiln:channel_order") are reserved and rejected by encode_exr.
+  std::map<std::string, std::string> metadata;
+
+  float& at(int x, int y, int c) { return pixels[(static_cast<size_t>(y) * width + x) * channels + c]; }
+  float at(int x, int y, int c) const { return pixels[(static_cast<size_t>(y) * width + x) * channels + c]; }
+};
+
+// The bytes of a single-part scanline EXR file. Deterministic: the same image gives the same bytes (no time stamp
+// is written unless `metadata` has a "DateTime"). Every float, NaN payloads included, is stored bit for bit.
+// Throws std::invalid_argument when the image is inconsistent (sizes, names), std::runtime_error when encoding fails.
+std::string encode_exr(const FloatImage& image);
+
+// Reads an EXR file from memory into 32-bit float channels (half and uint channels are converted). The channels
+// come back in the order encode_exr was given (EXR itself stores them sorted by name); metadata holds the header's
+// string attributes except the reserved ones. Throws std::runtime_error with a message for people when the bytes
+// are not a readable EXR image (not EXR at all, truncated, corrupt, or too large to decode).
+FloatImage decode_exr(const std::string& bytes);
+
+}  // namespace kiln::image

@@ -1,0 +1,11 @@
+// Log lines for people on stderr: a timestamp, what the line is about (a job, a connection), and what happened.
+#pragma once
+
+#include <string>
+
+namespace kiln::daemon {
+
+// Writes "2026-11-22T01:02:03Z kilnd: SUBJECT: MESSAGE" as one line (lines from threads never interleave).
+void log_line(const std::string& subject, const std::string& message);
+
+}  // namespace kiln::daemon

@@ -1,0 +1,485 @@
+#include "daemon/service.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "daemon/log.h"
+#include "daemon/store/blob_store.h"
+#include "daemon/store/job_db.h"
+#include "daemon/translate.h"
+#include "daemon/workers.h"
+#include "proto/digest.h"
+#include "proto/framing.h"
+#include "proto/kiln.pb.h"
+
+namespace kiln::daemon {
+
+const char* const kServerVersion = "kilnd 0.1.0";
+
+namespace {
+
+constexpr std::size_t kMaxTokenBytes = 256;
+constexpr std::size_t kMaxClientNameBytes = 256;
+constexpr std::size_t kMaxIdempotencyKeyBytes = 128;
+constexpr std::size_t kMaxJobIdBytes = 64;
+constexpr uint32_t kMaxQueryDigests = 1024;
+constexpr uint32_t kHeartbeatSeconds = 10;
+constexpr uint32_t kMaxListJobs = 1000;
+
+// A request failed: the error goes into the response with its code, message and field.
+struct Failure {
+  v1::Error::Code code;
+  std::string message;
+  std::string field;
+};
+
+[[noreturn]] void fail(v1::Error::Code code, std::string message, std::string field = {}) {
+  throw Failure{code, std::move(message), std::move(field)};
+}
+
+v1::Error::Code to_code(store::StoreErrc e) {
+  switch (e) {
+    case store::StoreErrc::kInvalidArgument: return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::kNotFound: return v1::Error::NOT_FOUND;
+    case store::StoreErrc::kAlreadyExists: return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::kFailedPrecondition: return v1::Error::FAILED_PRECONDITION;
+    case store::StoreErrc::kOutOfRange: return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::kDataLoss: return v1::Error::DATA_LOSS;
+    case store::StoreErrc::kResourceExhausted: return v1::Error::RESOURCE_EXHAUSTED;
+    case store::StoreErrc::kIo: return v1::Error::INTERNAL;
+  }
+  return v1::Error::INTERNAL;
+}
+
+v1::JobState to_proto(store::JobState s) {
+  switch (s) {
+    case store::JobState::kQueued: return v1::JOB_STATE_QUEUED;
+    case store::JobState::kRunning: return v1::JOB_STATE_RUNNING;
+    case store::JobState::kSucceeded: return v1::JOB_STATE_SUCCEEDED;
+    case store::JobState::kFailed: return v1::JOB_STATE_FAILED;
+    case store::JobState::kCancelled: return v1::JOB_STATE_CANCELLED;
+  }
+  return v1::JOB_STATE_UNSPECIFIED;
+}
+
+// A digest from the wire, checked: 64 lowercase hex digits and a size within the limit.
+store::BlobId checked_digest(const v1::Digest& d, const std::string& field, uint64_t max_size) {
+  if (!proto::is_valid_sha256_hex(d.sha256())) {
+    fail(v1::Error::INVALID_ARGUMENT, "must be 64 lowercase hex digits", field + ".sha256");
+  }
+  if (d.size() > max_size) {
+    fail(v1::Error::RESOURCE_EXHAUSTED,
+         "blob of " + std::to_string(d.size()) + " bytes exceeds the limit of " + std::to_string(max_size),
+         field + ".size");
+  }
+  return store::BlobId{d.sha256(), d.size()};
+}
+
+std::string checked_job_id(const std::string& id, const std::string& field) {
+  if (id.empty() || id.size() > kMaxJobIdBytes) {
+    fail(v1::Error::INVALID_ARGUMENT, "a job id of 1 to 64 characters is required", field);
+  }
+  return id;
+}
+
+v1::JobEvent event_of(const std::string& id, const store::Progress& p) {
+  v1::JobEvent e;
+  e.set_job_id(id);
+  e.set_state(to_proto(p.state));
+  e.set_fraction(p.fraction);
+  e.set_eta_seconds(p.eta_seconds.value_or(-1));
+  e.set_samples(p.samples);
+  e.set_error_estimate(p.error_estimate.value_or(-1));
+  e.set_message(p.message);
+  e.set_final(store::is_terminal(p.state));
+  return e;
+}
+
+v1::JobEvent event_of(const store::JobRecord& r) {
+  store::Progress p;
+  p.state = r.state;
+  p.fraction = r.state == store::JobState::kSucceeded ? 1.0 : 0.0;
+  p.message = r.error;
+  v1::JobEvent e = event_of(r.id, p);
+  if (r.started && r.finished) e.set_elapsed_seconds(*r.finished - *r.started);
+  return e;
+}
+
+}  // namespace
+
+Service::Service(const Config& config, TokenSet tokens) : config_(config), tokens_(std::move(tokens)) {
+  std::filesystem::create_directories(config_.store);
+  // The database first: its lock keeps a second kilnd out of the store before the blob store cleans its tmp/.
+  db_ = std::make_unique<store::JobDb>(std::filesystem::path(config_.store) / "jobs.sqlite");
+  store::BlobStoreOptions blob_options;
+  blob_options.max_blob_size = config_.max_blob_bytes;
+  blobs_ = std::make_unique<store::BlobStore>(std::filesystem::path(config_.store), blob_options);
+  queue_ = std::make_unique<store::JobQueue>();
+  const store::Recovery recovery = db_->recover_unfinished();
+  for (const store::JobRecord& r : recovery.queued) queue_->push(r.id, r.priority, r.seq);
+  for (const store::JobRecord& r : recovery.gave_up) log_line("job " + r.id, "not run again: " + r.error);
+  if (!recovery.queued.empty()) {
+    log_line("store " + config_.store, std::to_string(recovery.queued.size()) +
+                                           " job(s) left unfinished by the previous run are queued again");
+  }
+  workers_ = std::make_unique<Workers>(config_, *db_, *blobs_, *queue_);
+  workers_->start();
+}
+
+Service::~Service() { shutdown(std::chrono::seconds(0)); }
+
+void Service::shutdown(std::chrono::duration<double> grace) {
+  if (shutting_down_.exchange(true)) return;
+  // Stop handing out jobs; those still waiting stay queued in the database.
+  queue_->shutdown();
+  const auto deadline = std::chrono::steady_clock::now() + grace;
+  while (queue_->running() > 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (queue_->running() > 0) {
+    log_line("shutdown", std::to_string(queue_->running()) + " running job(s) did not finish within the grace "
+                                                              "period; they are re-queued for the next start");
+    workers_->requeue_cancelled();
+    for (const std::string& id : queue_->running_ids()) {
+      if (auto flag = queue_->cancel_flag(id)) *flag = true;
+    }
+  }
+  workers_->join();
+}
+
+void Service::connection_error(v1::Response& response, int code, const std::string& message) {
+  response.Clear();
+  response.set_id(0);
+  response.mutable_error()->set_code(static_cast<v1::Error::Code>(code));
+  response.mutable_error()->set_message(message);
+}
+
+void Service::handle(SessionInfo& session, const v1::Request& req, v1::Response& resp,
+                     const std::function<void(const v1::Response&)>& on_event, store::Subscription* watch_handle) {
+  resp.Clear();
+  resp.set_id(req.id());
+  try {
+    if (req.id() == 0) fail(v1::Error::INVALID_ARGUMENT, "request ids must be nonzero", "id");
+    if (req.body_case() == v1::Request::kHello) return hello(session, req, resp);
+    if (!session.authenticated) {
+      fail(v1::Error::UNAUTHENTICATED, "send hello (with a token on TCP) before anything else");
+    }
+    switch (req.body_case()) {
+      case v1::Request::kBlobQuery: return blob_query(req, resp);
+      case v1::Request::kBlobPut: return blob_put(req, resp);
+      case v1::Request::kSubmit: return submit(session, req, resp);
+      case v1::Request::kWatch: return watch(req, resp, on_event, watch_handle);
+      case v1::Request::kCancel: return cancel(req, resp);
+      case v1::Request::kGetResult: return result(req, resp);
+      case v1::Request::kFetch: return fetch(req, resp);
+      case v1::Request::kStatus: return status(resp);
+      case v1::Request::kListJobs: return list_jobs(req, resp);
+      default: fail(v1::Error::INVALID_ARGUMENT, "empty or unknown request", "body");
+    }
+  } catch (const Failure& f) {
+    resp.clear_body();
+    resp.mutable_error()->set_code(f.code);
+    resp.mutable_error()->set_message(f.message);
+    resp.mutable_error()->set_field(f.field);
+  } catch (const InvalidField& e) {
+    resp.clear_body();
+    resp.mutable_error()->set_code(v1::Error::INVALID_ARGUMENT);
+    resp.mutable_error()->set_message(e.what());
+    resp.mutable_error()->set_field(e.field());
+  } catch (const store::StoreError& e) {
+    resp.clear_body();
+    resp.mutable_error()->set_code(to_code(e.code()));
+    resp.mutable_error()->set_message(e.what());
+  } catch (const std::exception& e) {
+    log_line("connection " + std::to_string(session.id), std::string("internal error: ") + e.what());
+    resp.clear_body();
+    resp.mutable_error()->set_code(v1::Error::INTERNAL);
+    resp.mutable_error()->set_message(std::string("internal error: ") + e.what());
+  }
+}
+
+void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) {
+  const v1::Hello& h = req.hello();
+  if (h.protocol_version() != proto::kProtocolVersion) {
+    fail(v1::Error::VERSION_MISMATCH,
+         "this server speaks protocol version " + std::to_string(proto::kProtocolVersion) + ", the client " +
+             std::to_string(h.protocol_version()) + "; upgrade the older side",
+         "hello.protocol_version");
+  }
+  if (h.token().size() > kMaxTokenBytes) fail(v1::Error::INVALID_ARGUMENT, "at most 256 bytes", "hello.token");
+  if (h.client().size() > kMaxClientNameBytes) fail(v1::Error::INVALID_ARGUMENT, "at most 256 bytes", "hello.client");
+  if (!s.unix_socket && !tokens_.accepts(h.token())) {
+    log_line("connection " + std::to_string(s.id) + " from " + s.peer, "refused: wrong or missing token");
+    fail(v1::Error::UNAUTHENTICATED, "wrong or missing token: pass the token kilnd was given (--token-file or "
+                                     "KILN_TOKEN)", "hello.token");
+  }
+  s.authenticated = true;
+  v1::HelloReply* r = resp.mutable_hello();
+  r->set_protocol_version(proto::kProtocolVersion);
+  r->set_server_version(kServerVersion);
+  v1::Limits* l = r->mutable_limits();
+  l->set_max_frame_bytes(config_.max_frame_bytes);
+  l->set_max_chunk_bytes(config_.max_chunk_bytes);
+  l->set_max_blob_bytes(config_.max_blob_bytes);
+  l->set_max_queued_jobs(config_.max_queued_jobs);
+  l->set_max_query_digests(kMaxQueryDigests);
+  l->set_heartbeat_seconds(kHeartbeatSeconds);
+  r->add_job_types("material");
+}
+
+void Service::blob_query(const v1::Request& req, v1::Response& resp) {
+  const auto& q = req.blob_query();
+  if (q.digests_size() > static_cast<int>(kMaxQueryDigests)) {
+    fail(v1::Error::INVALID_ARGUMENT, "at most " + std::to_string(kMaxQueryDigests) + " digests per query",
+         "blob_query.digests");
+  }
+  auto* reply = resp.mutable_blob_query();
+  for (int i = 0; i < q.digests_size(); ++i) {
+    const store::BlobId id =
+        checked_digest(q.digests(i), "blob_query.digests[" + std::to_string(i) + "]", config_.max_blob_bytes);
+    if (blobs_->contains(id)) continue;
+    auto* m = reply->add_missing();
+    *m->mutable_digest() = q.digests(i);
+    m->set_received(blobs_->received(id));
+  }
+}
+
+void Service::blob_put(const v1::Request& req, v1::Response& resp) {
+  const auto& p = req.blob_put();
+  const store::BlobId id = checked_digest(p.digest(), "blob_put.digest", config_.max_blob_bytes);
+  if (p.data().size() > config_.max_chunk_bytes) {
+    fail(v1::Error::INVALID_ARGUMENT, "chunks are at most " + std::to_string(config_.max_chunk_bytes) + " bytes",
+         "blob_put.data");
+  }
+  auto* reply = resp.mutable_blob_put();
+  if (blobs_->contains(id)) {
+    reply->set_received(id.size);
+    reply->set_complete(true);
+    return;
+  }
+  const uint64_t held = blobs_->received(id);
+  if (p.offset() != held) {
+    fail(v1::Error::FAILED_PRECONDITION,
+         "the server holds " + std::to_string(held) + " bytes of this blob; resume from there", "blob_put.offset");
+  }
+  if (p.offset() + p.data().size() > id.size) {
+    fail(v1::Error::INVALID_ARGUMENT, "chunk runs past the blob's declared size", "blob_put.data");
+  }
+  const uint64_t received = blobs_->append(id, p.offset(), p.data());
+  reply->set_received(received);
+  if (received == id.size) {
+    blobs_->complete(id);  // verifies the digest; DATA_LOSS discards the partial
+    reply->set_complete(true);
+  }
+}
+
+void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response& resp) {
+  if (shutting_down_) fail(v1::Error::UNAVAILABLE, "the server is shutting down; submit again after it restarts");
+  const v1::Submit& sub = req.submit();
+  if (sub.priority() < -100 || sub.priority() > 100) {
+    fail(v1::Error::INVALID_ARGUMENT, "must be in [-100, 100], got " + std::to_string(sub.priority()),
+         "priority");
+  }
+  if (sub.idempotency_key().size() > kMaxIdempotencyKeyBytes) {
+    fail(v1::Error::INVALID_ARGUMENT, "at most 128 bytes", "idempotency_key");
+  }
+  const BakeRequest bake = translate(sub.job());  // throws InvalidField with the path
+  const std::string key = cache_key(bake, kBakerVersion);
+
+  std::lock_guard lock(submit_mutex_);
+  store::NewJob job;
+  job.name = bake.name;
+  job.type = bake.type;
+  sub.job().SerializeToString(&job.spec);
+  job.spec_key = key;
+  job.priority = sub.priority();
+  if (!sub.idempotency_key().empty()) job.idempotency_key = sub.idempotency_key();
+  if (auto cached = db_->find_succeeded_by_spec_key(key)) {
+    // The result cache: the new job is recorded as succeeded at once, reporting the stored outputs.
+    v1::JobResult result;
+    if (result.ParseFromString(cached->result)) {
+      result.mutable_report()->set_cache_hit(true);
+      store::CachedResult c;
+      c.source_job_id = cached->id;
+      c.output_digests = cached->output_digests;
+      result.SerializeToString(&c.result);
+      job.cached = std::move(c);
+      const store::InsertOutcome out = db_->insert(job);
+      db_->touch(cached->id);
+      auto* reply = resp.mutable_submit();
+      reply->set_job_id(out.job.id);
+      reply->set_cache_hit(out.job.cache_source.has_value());
+      reply->set_state(to_proto(out.job.state));
+      log_line("job " + out.job.id, "answered from the result cache (the result of job " + cached->id + ")");
+      return;
+    }
+  }
+  if (queue_->size() >= config_.max_queued_jobs) {
+    fail(v1::Error::RESOURCE_EXHAUSTED, "the queue holds " + std::to_string(queue_->size()) +
+                                            " jobs, its limit; submit again later");
+  }
+  const store::InsertOutcome out = db_->insert(job);
+  if (out.created) {
+    queue_->push(out.job.id, out.job.priority, out.job.seq);
+    log_line("job " + out.job.id, "queued (" + job.type + ", priority " + std::to_string(job.priority) +
+                                      ", from connection " + std::to_string(s.id) + ")");
+  }
+  auto* reply = resp.mutable_submit();
+  reply->set_job_id(out.job.id);
+  reply->set_cache_hit(out.job.cache_source.has_value());
+  reply->set_state(to_proto(out.job.state));
+  if (config_.store_limit_bytes > 0) enforce_retention();
+}
+
+void Service::enforce_retention() {
+  const store::RetentionReport r = store::enforce_retention(*db_, *blobs_, config_.store_limit_bytes);
+  if (!r.blobs.removed.empty()) {
+    log_line("store " + config_.store, "evicted " + std::to_string(r.blobs.removed.size()) + " blob(s), " +
+                                           std::to_string(r.blobs.bytes_freed) + " bytes, " +
+                                           std::to_string(r.results_evicted) + " result(s)");
+  }
+}
+
+void Service::watch(const v1::Request& req, v1::Response& resp,
+                    const std::function<void(const v1::Response&)>& on_event, store::Subscription* handle) {
+  const std::string id = checked_job_id(req.watch().job_id(), "watch.job_id");
+  const uint64_t request_id = req.id();
+  if (handle && on_event) {
+    // The first callback runs inside subscribe(): it is the answer; later ones go to on_event.
+    // subscribe() runs the callback once before it returns, so `answer` is written only while this call lives.
+    auto first = std::make_shared<bool>(true);
+    v1::Response* answer = &resp;
+    auto sub = queue_->subscribe(id, [first, answer, id, request_id, on_event](const store::Progress& p) {
+      v1::Response r;
+      r.set_id(request_id);
+      *r.mutable_event() = event_of(id, p);
+      if (*first) {
+        *first = false;
+        *answer = std::move(r);
+      } else {
+        on_event(r);
+      }
+    });
+    if (sub) {
+      *handle = std::move(sub);
+      return;
+    }
+  }
+  // Not running or queued here: answer from the database with one final event.
+  const auto record = db_->get(id);
+  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "watch.job_id");
+  *resp.mutable_event() = event_of(*record);
+  resp.mutable_event()->set_final(true);
+}
+
+void Service::cancel(const v1::Request& req, v1::Response& resp) {
+  const std::string id = checked_job_id(req.cancel().job_id(), "cancel.job_id");
+  const auto record = db_->get(id);
+  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "cancel.job_id");
+  switch (queue_->cancel(id)) {
+    case store::CancelOutcome::kRemovedFromQueue: {
+      const store::JobRecord r = db_->mark_cancelled(id);
+      queue_->finish(id, store::Progress{store::JobState::kCancelled, 0, {}, 0, {}, "cancelled before it ran"});
+      log_line("job " + id, "cancelled while queued");
+      resp.mutable_cancel()->set_state(to_proto(r.state));
+      return;
+    }
+    case store::CancelOutcome::kSignalled:
+      // The worker records the cancellation when the bake stops (at its next check).
+      resp.mutable_cancel()->set_state(v1::JOB_STATE_CANCELLED);
+      log_line("job " + id, "cancel requested while running");
+      return;
+    case store::CancelOutcome::kUnknown:
+      resp.mutable_cancel()->set_state(to_proto(record->state));
+      return;
+  }
+}
+
+void Service::result(const v1::Request& req, v1::Response& resp) {
+  const std::string id = checked_job_id(req.get_result().job_id(), "get_result.job_id");
+  const auto record = db_->get(id);
+  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "get_result.job_id");
+  v1::JobResult* r = resp.mutable_result();
+  if (record->state == store::JobState::kSucceeded) {
+    const std::string& stored = record->result;
+    if (record->evicted) {
+      fail(v1::Error::NOT_FOUND, "the outputs of job " + id + " were evicted by the store's retention limit; "
+                                 "submit the job again", "get_result.job_id");
+    }
+    if (!r->ParseFromString(stored)) fail(v1::Error::DATA_LOSS, "the stored result of job " + id + " is unreadable");
+    if (record->cache_source) r->mutable_report()->set_cache_hit(true);
+    db_->touch(id);
+  }
+  r->set_job_id(id);
+  r->set_state(to_proto(record->state));
+  r->set_name(record->name);
+  r->set_submitted_unix(record->submitted);
+  if (record->finished) r->set_finished_unix(*record->finished);
+  if (record->state == store::JobState::kFailed) {
+    r->mutable_error()->set_code(v1::Error::INTERNAL);
+    r->mutable_error()->set_message(record->error);
+  }
+}
+
+void Service::fetch(const v1::Request& req, v1::Response& resp) {
+  const auto& f = req.fetch();
+  const store::BlobId id = checked_digest(f.digest(), "fetch.digest", config_.max_blob_bytes);
+  if (f.offset() > id.size) fail(v1::Error::INVALID_ARGUMENT, "past the end of the blob", "fetch.offset");
+  if (f.length() > config_.max_chunk_bytes) {
+    fail(v1::Error::INVALID_ARGUMENT, "at most " + std::to_string(config_.max_chunk_bytes) + " bytes",
+         "fetch.length");
+  }
+  if (!blobs_->contains(id)) fail(v1::Error::NOT_FOUND, "no blob " + id.digest + " in the store", "fetch.digest");
+  const uint64_t length = f.length() == 0 ? config_.max_chunk_bytes : f.length();
+  auto* reply = resp.mutable_fetch();
+  reply->set_offset(f.offset());
+  reply->set_data(blobs_->read_range(id, f.offset(), length));
+  reply->set_eof(f.offset() + reply->data().size() >= id.size);
+}
+
+void Service::status(v1::Response& resp) {
+  const store::JobCounts c = db_->counts();
+  auto* s = resp.mutable_status();
+  s->set_server_version(kServerVersion);
+  s->set_uptime_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count());
+  s->set_queued(static_cast<uint32_t>(queue_->size()));
+  s->set_running(static_cast<uint32_t>(queue_->running()));
+  s->set_workers(config_.workers);
+  s->set_threads(config_.threads == 0 ? std::thread::hardware_concurrency() : config_.threads);
+  s->set_store_bytes(blobs_->size_on_disk());
+  s->set_store_limit_bytes(config_.store_limit_bytes);
+  s->set_cache_hits(c.cache_hits);
+  s->set_jobs_completed(c.succeeded);
+  s->set_jobs_failed(c.failed);
+  s->set_connections(static_cast<uint32_t>(std::max(0, connections_.load())));
+}
+
+void Service::list_jobs(const v1::Request& req, v1::Response& resp) {
+  const auto& l = req.list_jobs();
+  if (l.limit() > kMaxListJobs) fail(v1::Error::INVALID_ARGUMENT, "must be in [0, 1000]", "list_jobs.limit");
+  std::optional<store::JobState> state;
+  switch (l.state()) {
+    case v1::JOB_STATE_UNSPECIFIED: break;
+    case v1::JOB_STATE_QUEUED: state = store::JobState::kQueued; break;
+    case v1::JOB_STATE_RUNNING: state = store::JobState::kRunning; break;
+    case v1::JOB_STATE_SUCCEEDED: state = store::JobState::kSucceeded; break;
+    case v1::JOB_STATE_FAILED: state = store::JobState::kFailed; break;
+    case v1::JOB_STATE_CANCELLED: state = store::JobState::kCancelled; break;
+    default: fail(v1::Error::INVALID_ARGUMENT, "unknown state", "list_jobs.state");
+  }
+  auto* list = resp.mutable_jobs();
+  for (const store::JobRecord& r : db_->list(l.limit() == 0 ? 100 : l.limit(), state)) {
+    auto* j = list->add_jobs();
+    j->set_job_id(r.id);
+    j->set_name(r.name);
+    j->set_type(r.type);
+    j->set_state(to_proto(r.state));
+    j->set_priority(r.priority);
+    j->set_submitted_unix(r.submitted);
+    if (r.started) j->set_seconds((r.finished ? *r.finished : store::unix_now()) - *r.started);
+    j->set_cache_hit(r.cache_source.has_value());
+  }
+}
+
+}  // namespace kiln::daemon

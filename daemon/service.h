@@ -1,0 +1,95 @@
+// What kilnd does with each request, independent of sockets: authentication, blobs, jobs, results, status.
+// Sessions (session.cpp) feed it decoded requests and write back what it answers; workers (workers.cpp) run the
+// bakes. Everything here is thread-safe.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "daemon/auth.h"
+#include "daemon/config.h"
+#include "daemon/store/job_queue.h"
+
+namespace kiln::v1 {
+class Request;
+class Response;
+}  // namespace kiln::v1
+
+namespace kiln::store {
+class BlobStore;
+class JobDb;
+}  // namespace kiln::store
+
+namespace kiln::daemon {
+
+class Workers;
+
+extern const char* const kServerVersion;
+
+// What the service knows of one connection.
+struct SessionInfo {
+  bool unix_socket = false;     // the socket's permissions already decided who may connect
+  bool authenticated = false;   // a Hello was accepted
+  std::string peer;             // for logs
+  uint64_t id = 0;              // for logs
+};
+
+class Service {
+ public:
+  // Opens the store under config.store (creating it), recovers the jobs a previous run left queued or running, and
+  // starts the workers. `tokens` may be empty only when the service is reached through a Unix socket alone.
+  Service(const Config& config, TokenSet tokens);
+  ~Service();
+  Service(const Service&) = delete;
+  Service& operator=(const Service&) = delete;
+
+  // Answers one request. For a Watch the first event is the answer, and `on_event` receives the later ones (from any
+  // thread) while `watch` is kept; the session calls watch->ready() when it has written the previous event.
+  void handle(SessionInfo& session, const v1::Request& request, v1::Response& response,
+              const std::function<void(const v1::Response&)>& on_event, store::Subscription* watch);
+
+  // A response for a connection-level problem (id 0), e.g. a frame too large or a deadline missed.
+  static void connection_error(v1::Response& response, int code, const std::string& message);
+
+  // Stops accepting submits, lets running jobs finish for `grace`, then cancels them back into the queue (they run
+  // again at the next start), and stops the workers.
+  void shutdown(std::chrono::duration<double> grace);
+  bool shutting_down() const { return shutting_down_; }
+
+  void connection_opened() { ++connections_; }
+  void connection_closed() { --connections_; }
+
+  const Config& config() const { return config_; }
+
+ private:
+  void hello(SessionInfo& s, const v1::Request& req, v1::Response& resp);
+  void blob_query(const v1::Request& req, v1::Response& resp);
+  void blob_put(const v1::Request& req, v1::Response& resp);
+  void submit(const SessionInfo& s, const v1::Request& req, v1::Response& resp);
+  void watch(const v1::Request& req, v1::Response& resp, const std::function<void(const v1::Response&)>& on_event,
+             store::Subscription* watch);
+  void cancel(const v1::Request& req, v1::Response& resp);
+  void result(const v1::Request& req, v1::Response& resp);
+  void fetch(const v1::Request& req, v1::Response& resp);
+  void status(v1::Response& resp);
+  void list_jobs(const v1::Request& req, v1::Response& resp);
+  // Evicts least recently used results past the store limit (under the submit lock).
+  void enforce_retention();
+
+  Config config_;
+  TokenSet tokens_;
+  std::unique_ptr<store::BlobStore> blobs_;
+  std::unique_ptr<store::JobDb> db_;
+  std::unique_ptr<store::JobQueue> queue_;
+  std::unique_ptr<Workers> workers_;
+  std::mutex submit_mutex_;  // submits and retention do not interleave (see store::enforce_retention)
+  std::atomic<bool> shutting_down_{false};
+  std::atomic<int> connections_{0};
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace kiln::daemon

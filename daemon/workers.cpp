@@ -1,0 +1,150 @@
+#include "daemon/workers.h"
+
+#include <tbb/task_arena.h>
+
+#include <chrono>
+#include <iostream>
+
+#include "daemon/log.h"
+#include "daemon/store/blob_store.h"
+#include "daemon/store/job_db.h"
+#include "daemon/store/job_queue.h"
+#include "daemon/translate.h"
+#include "proto/kiln.pb.h"
+
+namespace kiln::daemon {
+
+Workers::Workers(const Config& config, store::JobDb& db, store::BlobStore& blobs, store::JobQueue& queue)
+    : config_(config), db_(db), blobs_(blobs), queue_(queue) {
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int total = config.threads == 0 ? cores : static_cast<int>(config.threads);
+  // The baking threads are shared out among the jobs that run at once.
+  threads_per_job_ = std::max(1, total / static_cast<int>(std::max(1u, config.workers)));
+}
+
+Workers::~Workers() { join(); }
+
+void Workers::start() {
+  for (uint32_t i = 0; i < config_.workers; ++i) {
+    threads_.emplace_back([this](std::stop_token stop) { run(stop); });
+  }
+}
+
+void Workers::join() {
+  for (auto& t : threads_) t.request_stop();
+  for (auto& t : threads_) {
+    if (t.joinable()) t.join();
+  }
+  threads_.clear();
+}
+
+void Workers::run(std::stop_token stop) {
+  while (!stop.stop_requested()) {
+    std::optional<store::QueuedJob> job = queue_.pop(stop);
+    if (!job) return;
+    run_one(job->id, job->cancel);
+  }
+}
+
+namespace {
+
+std::string describe_output(const material::BakeOutput& o) {
+  if (o.name == "albedo.exr") return "directional albedo E(mu) with standard errors, and the white-furnace E";
+  if (o.name == "split_sum.exr") return "split-sum scale and bias on f0 over (mu, roughness), with standard errors";
+  if (o.name == "brdf.merl") return "the BRDF tabulated in the MERL binary layout (90 x 90 x 180 x RGB doubles)";
+  if (o.name == "report.json") return "the bake report: samples, time, errors, validation, plan";
+  return {};
+}
+
+}  // namespace
+
+void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel) {
+  const auto t0 = std::chrono::steady_clock::now();
+  store::JobRecord record;
+  try {
+    record = db_.mark_running(id);
+  } catch (const std::exception& e) {
+    // Cancelled or removed between the queue and here: nothing to run.
+    log_line("job " + id, std::string("not run: ") + e.what());
+    queue_.finish(id, store::Progress{store::JobState::kCancelled, 0, {}, 0, {}, e.what()});
+    return;
+  }
+  log_line("job " + id, "running (" + record.type + (record.name.empty() ? "" : ", " + record.name) + ", attempt " +
+                            std::to_string(record.attempts) + ")");
+  queue_.publish(id, store::Progress{store::JobState::kRunning, 0, {}, 0, {}, "started"});
+  try {
+    v1::JobSpec spec;
+    if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
+    const BakeRequest request = translate(spec);
+    material::BakeControl control;
+    control.cancel = cancel.get();
+    control.progress = [&](const material::BakeProgress& p) {
+      store::Progress progress{store::JobState::kRunning, p.fraction, {}, p.samples, {}, p.stage};
+      if (p.eta_seconds >= 0) progress.eta_seconds = p.eta_seconds;
+      if (p.error_estimate > 0) progress.error_estimate = p.error_estimate;
+      queue_.publish(id, progress);
+    };
+    material::MaterialBakeResult baked;
+    tbb::task_arena arena(threads_per_job_);
+    arena.execute([&] { baked = material::bake_material(request.material, control); });
+
+    v1::JobResult result;
+    result.set_job_id(id);
+    result.set_state(v1::JOB_STATE_SUCCEEDED);
+    result.set_name(record.name);
+    result.set_submitted_unix(record.submitted);
+    result.set_finished_unix(store::unix_now());
+    std::vector<std::string> digests;
+    for (const material::BakeOutput& o : baked.outputs) {
+      const store::BlobId blob = blobs_.put(o.bytes);
+      digests.push_back(blob.digest);
+      v1::Output* out = result.add_outputs();
+      out->set_name(o.name);
+      out->set_media_type(o.media_type);
+      out->set_color_space(o.color_space);
+      out->mutable_digest()->set_sha256(blob.digest);
+      out->mutable_digest()->set_size(blob.size);
+      out->set_description(describe_output(o));
+      if (o.name == "report.json") result.mutable_report()->set_json(o.bytes);
+    }
+    v1::BakeReport* report = result.mutable_report();
+    report->set_samples(baked.samples + baked.validation_samples);
+    report->set_seconds(baked.seconds);
+    report->set_error_estimate(baked.max_error_estimate);
+    report->set_baker_version(kBakerVersion);
+    for (const std::string& line : baked.plan) {
+      v1::PlanDecision* d = report->add_plan();
+      d->set_effect("material");
+      d->set_enabled(true);
+      d->set_reason(line);
+    }
+    std::string bytes;
+    result.SerializeToString(&bytes);
+    db_.mark_succeeded(id, bytes, digests);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    log_line("job " + id, "succeeded in " + std::to_string(seconds) + " s, " + std::to_string(report->samples()) +
+                              " samples, error estimate " + std::to_string(report->error_estimate()));
+    queue_.finish(id, store::Progress{store::JobState::kSucceeded, 1.0, 0.0, report->samples(),
+                                      report->error_estimate(), "done"});
+  } catch (const material::BakeCancelled&) {
+    if (requeue_) {
+      db_.mark_queued(id);
+      log_line("job " + id, "interrupted by the shutdown; it runs again at the next start");
+      queue_.finish(id, store::Progress{store::JobState::kQueued, 0, {}, 0, {}, "re-queued by a daemon shutdown"});
+    } else {
+      db_.mark_cancelled(id);
+      log_line("job " + id, "cancelled");
+      queue_.finish(id, store::Progress{store::JobState::kCancelled, 0, {}, 0, {}, "cancelled"});
+    }
+  } catch (const std::exception& e) {
+    try {
+      db_.mark_failed(id, e.what());
+    } catch (const std::exception& e2) {
+      log_line("job " + id, std::string("could not record the failure: ") + e2.what());
+    }
+    log_line("job " + id, std::string("failed: ") + e.what());
+    queue_.finish(id, store::Progress{store::JobState::kFailed, 0, {}, 0, {}, e.what()});
+  }
+}
+
+}  // namespace kiln::daemon
