@@ -78,7 +78,12 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
     const BakeRequest request = translate(spec);
     material::BakeControl control;
     control.cancel = cancel.get();
+    // Watchers need a few updates a second, not one per table entry.
+    auto last_publish = std::chrono::steady_clock::time_point{};
     control.progress = [&](const material::BakeProgress& p) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_publish < std::chrono::milliseconds(100) && p.fraction < 1.0) return;
+      last_publish = now;
       store::Progress progress{store::JobState::kRunning, p.fraction, {}, p.samples, {}, p.stage};
       if (p.eta_seconds >= 0) progress.eta_seconds = p.eta_seconds;
       if (p.error_estimate > 0) progress.error_estimate = p.error_estimate;
