@@ -1,0 +1,360 @@
+// The service end to end: the real kilnd on loopback and a Unix socket, driven by the real client library.
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <future>
+#include <thread>
+
+#include "client/lib/client.h"
+#include "proto/digest.h"
+#include "proto/framing.h"
+#include "proto/kiln.pb.h"
+#include "tests/integration/daemon_fixture.h"
+
+namespace kiln {
+namespace {
+
+using client::Client;
+using test::Daemon;
+
+v1::JobSpec ggx_job(double alpha, uint64_t samples = 1024, int table = 8) {
+  v1::JobSpec spec;
+  spec.set_name("ggx " + std::to_string(alpha));
+  spec.mutable_material()->mutable_ggx()->set_alpha(alpha);
+  spec.mutable_material()->set_table_mu(table);
+  spec.mutable_material()->set_table_roughness(table);
+  spec.mutable_quality()->set_samples(samples);
+  return spec;
+}
+
+Client connect(const Daemon& d, bool unix_socket = false) {
+  Client c(unix_socket ? d.unix_address() : d.tcp());
+  c.hello(d.token());
+  return c;
+}
+
+// Reads what the daemon sends on a raw socket until it closes (or 10 s pass); returns true if it closed.
+bool closed_by_server(int fd, std::chrono::seconds limit = std::chrono::seconds(10)) {
+  timeval tv{static_cast<time_t>(limit.count()), 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  char buf[4096];
+  for (;;) {
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n == 0) return true;
+    if (n < 0) return errno == ECONNRESET;
+  }
+}
+
+TEST(Daemon, SubmitWatchFetchOverTcpAndUnixSocket) {
+  Daemon d;
+  for (bool unix_socket : {false, true}) {
+    Client c = connect(d, unix_socket);
+    const v1::SubmitReply sub = c.submit(ggx_job(unix_socket ? 0.4 : 0.3));
+    EXPECT_FALSE(sub.cache_hit());
+    int events = 0;
+    double last_fraction = 0;
+    const v1::JobEvent last = c.watch(sub.job_id(), [&](const v1::JobEvent& e) {
+      ++events;
+      EXPECT_GE(e.fraction(), last_fraction);  // progress never goes backwards
+      last_fraction = e.fraction();
+    });
+    EXPECT_TRUE(last.final());
+    ASSERT_EQ(last.state(), v1::JOB_STATE_SUCCEEDED) << last.message() << d.log();
+    EXPECT_GE(events, 2);
+    const v1::JobResult r = c.result(sub.job_id());
+    ASSERT_EQ(r.state(), v1::JOB_STATE_SUCCEEDED);
+    std::set<std::string> names;
+    for (const v1::Output& o : r.outputs()) {
+      names.insert(o.name());
+      const std::string bytes = c.fetch(o.digest());  // the library verifies the digest too
+      EXPECT_EQ(bytes.size(), o.digest().size());
+      EXPECT_EQ(proto::sha256_hex(bytes), o.digest().sha256());
+    }
+    EXPECT_EQ(names, (std::set<std::string>{"albedo.exr", "split_sum.exr", "report.json"}));
+    EXPECT_GT(r.report().samples(), 0u);
+    EXPECT_GT(r.report().seconds(), 0.0);
+    EXPECT_GT(r.report().error_estimate(), 0.0);
+    EXPECT_FALSE(r.report().json().empty());
+  }
+}
+
+TEST(Daemon, IdenticalJobIsACacheHitWithTheSameDigests) {
+  Daemon d;
+  Client c = connect(d);
+  const auto first = c.submit(ggx_job(0.5));
+  ASSERT_EQ(c.watch(first.job_id()).state(), v1::JOB_STATE_SUCCEEDED);
+  v1::JobSpec again = ggx_job(0.5);
+  again.set_name("another name, same bake");
+  const auto second = c.submit(again);
+  EXPECT_TRUE(second.cache_hit());
+  EXPECT_EQ(second.state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_NE(second.job_id(), first.job_id());
+  const auto r1 = c.result(first.job_id()), r2 = c.result(second.job_id());
+  ASSERT_EQ(r1.outputs_size(), r2.outputs_size());
+  for (int i = 0; i < r1.outputs_size(); ++i) EXPECT_EQ(r1.outputs(i).digest().sha256(), r2.outputs(i).digest().sha256());
+  EXPECT_TRUE(r2.report().cache_hit());
+  EXPECT_EQ(c.status().cache_hits(), 1u);
+}
+
+TEST(Daemon, WrongOrMissingTokenIsRefusedOnTcp) {
+  Daemon d;
+  for (const std::string& token : std::vector<std::string>{"", "wrong-token-0123456789", d.token() + "x"}) {
+    Client c(d.tcp());
+    try {
+      c.hello(token);
+      ADD_FAILURE() << "accepted token '" << token << "'";
+    } catch (const client::ServerError& e) {
+      EXPECT_EQ(e.code(), v1::Error::UNAUTHENTICATED) << e.what();
+      EXPECT_EQ(e.field(), "hello.token");
+    }
+  }
+  // Without hello nothing is answered but UNAUTHENTICATED.
+  Client c(d.tcp());
+  try {
+    c.status();
+    ADD_FAILURE();
+  } catch (const client::ServerError& e) {
+    EXPECT_EQ(e.code(), v1::Error::UNAUTHENTICATED);
+  }
+  // The Unix socket's permissions decide: no token needed.
+  Client u(d.unix_address());
+  EXPECT_NO_THROW(u.hello(""));
+}
+
+TEST(Daemon, BadStreamsAreDroppedAndOthersStillServed) {
+  Daemon d({"--frame-deadline", "1"});
+  const unsigned port = test::port_of(d.tcp());
+  Client good = connect(d);
+  {  // a frame declaring 2^40 bytes: refused as soon as its length arrives
+    const int fd = test::connect_tcp(port);
+    const unsigned char header[] = {0x80, 0x80, 0x80, 0x80, 0x80, 0x20};
+    ASSERT_EQ(::send(fd, header, sizeof header, 0), static_cast<ssize_t>(sizeof header));
+    EXPECT_TRUE(closed_by_server(fd));
+    ::close(fd);
+  }
+  {  // random bytes
+    const int fd = test::connect_tcp(port);
+    std::string junk(4096, '\0');
+    for (size_t i = 0; i < junk.size(); ++i) junk[i] = static_cast<char>((i * 2654435761u) >> 13);
+    ::send(fd, junk.data(), junk.size(), MSG_NOSIGNAL);
+    EXPECT_TRUE(closed_by_server(fd));
+    ::close(fd);
+  }
+  {  // a truncated frame, then nothing: the frame deadline (1 s here) drops it
+    const int fd = test::connect_tcp(port);
+    const unsigned char partial[] = {0x20, 0x08, 0x01};  // declares 32 bytes, sends 2
+    ::send(fd, partial, sizeof partial, MSG_NOSIGNAL);
+    EXPECT_TRUE(closed_by_server(fd, std::chrono::seconds(10)));
+    ::close(fd);
+  }
+  EXPECT_NO_THROW(good.status());  // still served
+  EXPECT_NE(d.log().find("dropped"), std::string::npos);
+}
+
+// The protocol spoken by hand over a plain socket: for requests the client library would never send.
+class RawConnection {
+ public:
+  explicit RawConnection(unsigned port) : fd_(test::connect_tcp(port)) {}
+  ~RawConnection() { ::close(fd_); }
+  v1::Response call(const v1::Request& request) {
+    const std::string frame = proto::encode_frame(request);
+    EXPECT_EQ(::send(fd_, frame.data(), frame.size(), MSG_NOSIGNAL), static_cast<ssize_t>(frame.size()));
+    char buf[65536];
+    std::string_view payload;
+    while (decoder_.next(payload) != proto::FrameDecoder::Status::frame) {
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+      if (n <= 0) throw std::runtime_error("connection closed");
+      decoder_.feed(std::string_view(buf, static_cast<size_t>(n)));
+    }
+    v1::Response r;
+    EXPECT_TRUE(proto::parse_frame(payload, r));
+    return r;
+  }
+
+ private:
+  int fd_;
+  proto::FrameDecoder decoder_;
+};
+
+v1::Request put(uint64_t id, const std::string& sha, uint64_t size, uint64_t offset, std::string data) {
+  v1::Request r;
+  r.set_id(id);
+  r.mutable_blob_put()->mutable_digest()->set_sha256(sha);
+  r.mutable_blob_put()->mutable_digest()->set_size(size);
+  r.mutable_blob_put()->set_offset(offset);
+  r.mutable_blob_put()->set_data(std::move(data));
+  return r;
+}
+
+TEST(Daemon, BlobDigestIsVerifiedAndUploadsResume) {
+  Daemon d;
+  Client c = connect(d);
+  std::string data(3 << 20, '\0');
+  for (size_t i = 0; i < data.size(); ++i) data[i] = static_cast<char>(i * 31 + (i >> 11));
+  const v1::Digest digest = c.upload_blob(data);  // several 1 MiB chunks
+  EXPECT_EQ(digest.sha256(), proto::sha256_hex(data));
+  EXPECT_EQ(c.query_blobs({digest}).missing_size(), 0);
+  EXPECT_EQ(c.fetch(digest), data);
+
+  RawConnection raw(test::port_of(d.tcp()));
+  v1::Request hello;
+  hello.set_id(1);
+  hello.mutable_hello()->set_protocol_version(1);
+  hello.mutable_hello()->set_token(d.token());
+  ASSERT_FALSE(raw.call(hello).has_error());
+
+  // Bytes that do not hash to the declared digest: the completing chunk is answered DATA_LOSS and nothing is kept.
+  const std::string claimed = proto::sha256_hex("the real content");
+  const v1::Response bad = raw.call(put(2, claimed, 5, 0, "fake!"));
+  ASSERT_TRUE(bad.has_error());
+  EXPECT_EQ(bad.error().code(), v1::Error::DATA_LOSS) << bad.error().message();
+  v1::Digest claimed_digest;
+  claimed_digest.set_sha256(claimed);
+  claimed_digest.set_size(5);
+  const auto after = c.query_blobs({claimed_digest});
+  ASSERT_EQ(after.missing_size(), 1);
+  EXPECT_EQ(after.missing(0).received(), 0u);
+
+  // An upload broken half-way: the server holds the first half, the client library resumes from there.
+  std::string blob(2 << 20, '\0');
+  for (size_t i = 0; i < blob.size(); ++i) blob[i] = static_cast<char>(i * 7 + 3);
+  const std::string sha = proto::sha256_hex(blob);
+  const v1::Response half = raw.call(put(3, sha, blob.size(), 0, blob.substr(0, 1 << 20)));
+  ASSERT_FALSE(half.has_error()) << half.error().message();
+  EXPECT_EQ(half.blob_put().received(), 1u << 20);
+  // A chunk at the wrong offset is refused with the offset to resume from.
+  const v1::Response wrong = raw.call(put(4, sha, blob.size(), 12345, "x"));
+  ASSERT_TRUE(wrong.has_error());
+  EXPECT_EQ(wrong.error().code(), v1::Error::FAILED_PRECONDITION);
+  EXPECT_EQ(wrong.error().field(), "blob_put.offset");
+  v1::Digest blob_digest;
+  blob_digest.set_sha256(sha);
+  blob_digest.set_size(blob.size());
+  EXPECT_EQ(c.query_blobs({blob_digest}).missing(0).received(), 1u << 20);
+  uint64_t uploaded_from = 0;
+  c.upload_blob(blob, [&](uint64_t done, uint64_t) {
+    if (uploaded_from == 0) uploaded_from = done;
+  });
+  EXPECT_GE(uploaded_from, 1u << 20) << "the upload started over instead of resuming";
+  EXPECT_EQ(c.fetch(blob_digest), blob);
+}
+
+TEST(Daemon, InvalidFieldsAreNamed) {
+  Daemon d;
+  Client c = connect(d);
+  struct Case {
+    std::function<void(v1::JobSpec&)> edit;
+    const char* field;
+  };
+  const std::vector<Case> cases = {
+      {[](v1::JobSpec& s) { s.mutable_material()->mutable_ggx()->set_alpha(-0.2); }, "job.material.ggx.alpha"},
+      {[](v1::JobSpec& s) { s.mutable_material()->set_table_mu(0); }, "job.material.table_mu"},
+      {[](v1::JobSpec& s) { s.mutable_quality()->set_target_error(-1); }, "job.quality.target_error"},
+      {[](v1::JobSpec& s) { s.clear_material(); }, "job"},
+      {[](v1::JobSpec& s) { s.mutable_material()->mutable_schlick()->set_r(3); }, "job.material.schlick.r"},
+  };
+  for (const Case& k : cases) {
+    v1::JobSpec spec = ggx_job(0.3);
+    k.edit(spec);
+    try {
+      c.submit(spec);
+      ADD_FAILURE() << "accepted, expected an error on " << k.field;
+    } catch (const client::ServerError& e) {
+      EXPECT_EQ(e.code(), v1::Error::INVALID_ARGUMENT);
+      EXPECT_EQ(e.field(), k.field) << e.what();
+    }
+  }
+  try {
+    c.submit(ggx_job(0.3), 1000);
+    ADD_FAILURE();
+  } catch (const client::ServerError& e) {
+    EXPECT_EQ(e.field(), "priority");
+  }
+}
+
+TEST(Daemon, CancelStopsARunningJobPromptly) {
+  Daemon d;
+  Client c = connect(d);
+  // Large enough to run for many seconds.
+  const auto sub = c.submit(ggx_job(0.3, 1 << 20, 64));
+  Client w = connect(d);
+  std::promise<void> running;
+  bool signalled = false;
+  auto watcher = std::async(std::launch::async, [&] {
+    return w.watch(sub.job_id(), [&](const v1::JobEvent& e) {
+      if (e.state() == v1::JOB_STATE_RUNNING && e.fraction() > 0 && !signalled) {
+        signalled = true;
+        running.set_value();
+      }
+    });
+  });
+  ASSERT_EQ(running.get_future().wait_for(std::chrono::seconds(60)), std::future_status::ready);
+  const auto t0 = std::chrono::steady_clock::now();
+  c.cancel(sub.job_id());
+  const v1::JobEvent last = watcher.get();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(last.state(), v1::JOB_STATE_CANCELLED);
+  EXPECT_LT(seconds, 10.0) << "the bake checks its cancel flag every 65536 samples";
+  EXPECT_EQ(c.result(sub.job_id()).state(), v1::JOB_STATE_CANCELLED);
+}
+
+TEST(Daemon, KillNineThenRestartCompletesEveryJob) {
+  std::vector<std::string> ids;
+  std::filesystem::path dir;
+  {
+    Daemon d;
+    d.keep();
+    dir = d.dir();
+    Client c = connect(d);
+    for (int i = 0; i < 4; ++i) ids.push_back(c.submit(ggx_job(0.2 + 0.1 * i, 1 << 16, 16)).job_id());
+    // Wait until the first one runs, then crash.
+    for (int i = 0; i < 200; ++i) {
+      if (c.result(ids[0]).state() != v1::JOB_STATE_QUEUED) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    d.kill9();
+  }
+  Daemon again({}, dir);
+  Client c = connect(again);
+  for (const std::string& id : ids) {
+    const v1::JobEvent last = c.watch(id);
+    ASSERT_EQ(last.state(), v1::JOB_STATE_SUCCEEDED) << id << ": " << last.message() << again.log();
+    const v1::JobResult r = c.result(id);
+    for (const v1::Output& o : r.outputs()) EXPECT_EQ(proto::sha256_hex(c.fetch(o.digest())), o.digest().sha256());
+  }
+}
+
+TEST(Daemon, TwentyClientsFiveJobsEach) {
+  Daemon d({"--workers", "2"});
+  const long rss_before = d.rss_kib();
+  std::atomic<int> succeeded{0};
+  std::vector<std::thread> clients;
+  for (int k = 0; k < 20; ++k) {
+    clients.emplace_back([&, k] {
+      Client c = connect(d, k % 2 == 1);
+      std::vector<std::string> ids;
+      for (int j = 0; j < 5; ++j) ids.push_back(c.submit(ggx_job(0.05 + 0.009 * (k * 5 + j), 256, 4)).job_id());
+      for (const auto& id : ids) {
+        if (c.watch(id).state() == v1::JOB_STATE_SUCCEEDED) ++succeeded;
+      }
+    });
+  }
+  for (auto& t : clients) t.join();
+  EXPECT_EQ(succeeded.load(), 100) << d.log();
+  const long rss_after = d.rss_kib();
+  // 100 small jobs: the daemon's memory may grow by its caches, but not by anything like the work done.
+  EXPECT_LT(rss_after, rss_before + 200 * 1024) << rss_before << " KiB -> " << rss_after << " KiB";
+  std::cout << "[ measured ] kilnd RSS " << rss_before << " KiB before, " << rss_after << " KiB after 100 jobs\n";
+}
+
+TEST(Daemon, SigtermExitsCleanly) {
+  Daemon d;
+  { Client c = connect(d); }
+  EXPECT_EQ(d.terminate(), 0);
+}
+
+}  // namespace
+}  // namespace kiln
