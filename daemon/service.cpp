@@ -350,10 +350,15 @@ void Service::watch(const v1::Request& req, v1::Response& resp,
     // subscribe() runs the callback once before it returns, so `answer` is written only while this call lives.
     auto first = std::make_shared<bool>(true);
     v1::Response* answer = &resp;
-    auto sub = queue_->subscribe(id, [first, answer, id, request_id, on_event](const store::Progress& p) {
+    // When the job started running, for elapsed_seconds: from its record, or when the watch first sees it run.
+    auto started = std::make_shared<std::optional<double>>();
+    if (const auto record = db_->get(id); record && record->started) *started = *record->started;
+    auto sub = queue_->subscribe(id, [first, answer, started, id, request_id, on_event](const store::Progress& p) {
       v1::Response r;
       r.set_id(request_id);
       *r.mutable_event() = event_of(id, p);
+      if (p.state == store::JobState::kRunning && !*started) *started = store::unix_now();
+      if (*started) r.mutable_event()->set_elapsed_seconds(store::unix_now() - **started);
       if (*first) {
         *first = false;
         *answer = std::move(r);

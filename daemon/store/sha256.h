@@ -1,4 +1,4 @@
-// SHA-256 through OpenSSL's EVP interface: the digest that names every blob and result in the store.
+// SHA-256 of files: the digest that names every blob and result in the store, checked when they are read.
 #pragma once
 
 #include <cstdint>
@@ -7,27 +7,14 @@
 #include <string>
 #include <string_view>
 
+#include "proto/digest.h"
+
 namespace kiln::store {
 
-// Incremental hashing, for data that arrives or is read in pieces.
-class Sha256 {
- public:
-  Sha256();
-  ~Sha256();
-  Sha256(const Sha256&) = delete;
-  Sha256& operator=(const Sha256&) = delete;
-
-  void update(std::string_view data);
-  // The digest as 64 lowercase hex digits. The hasher cannot be updated afterwards.
-  std::string finish_hex();
-
- private:
-  struct Ctx;
-  std::unique_ptr<Ctx> ctx_;
-  bool finished_ = false;
-};
-
-std::string sha256_hex(std::string_view data);
+// The hashing itself is the protocol's (proto/digest.h, library kiln_digest): one implementation for the wire and
+// the store.
+using proto::Sha256;
+using proto::sha256_hex;
 
 struct FileDigest {
   std::string digest;  // 64 lowercase hex digits

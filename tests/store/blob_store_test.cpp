@@ -77,7 +77,7 @@ TEST(Sha256, KnownVectors) {
   Sha256 h;  // in pieces, as uploads arrive
   h.update("a");
   h.update("bc");
-  EXPECT_EQ(h.finish_hex(), sha256_hex("abc"));
+  EXPECT_EQ(h.finish(), sha256_hex("abc"));
 }
 
 TEST(BlobStore, PutStoresUnderItsDigestAndReadsBack) {

@@ -1,0 +1,92 @@
+"""kiln: the Python client of the kiln baking service (kilnd).
+
+    import kiln
+    with kiln.Client("127.0.0.1:7878") as c:            # token from $KILN_TOKEN, or token=..., token_file=...
+        job = kiln.material_job("ggx", alpha=0.3, fresnel="schlick", f0=0.04, table_mu=32, samples=4096)
+        reply = c.submit(job)
+        final = c.watch(reply.job_id, on_event=lambda e: print(e.fraction))
+        paths = c.fetch_outputs(reply.job_id, "out/ggx")  # every output, its SHA-256 verified
+
+The protocol's messages (kiln.v1, proto/kiln.proto) are `kiln.pb`: code protoc generates from kiln.proto into
+<build>/python/kiln/kiln_pb2.py. This package finds that file, in this order:
+  1. the folder named by $KILN_PYTHON_PROTO;
+  2. this package's own folder (an installed or copied kiln_pb2.py next to this file);
+  3. <repository>/build*/python/kiln/ (a build tree next to the sources; the newest if there are several);
+  4. a top-level module `kiln_pb2` on sys.path.
+It needs Debian's python3-protobuf (use /usr/bin/python3) and nothing else beyond the standard library.
+"""
+
+import glob as _glob
+import importlib as _importlib
+import os as _os
+import sys as _sys
+
+_PB2 = "kiln_pb2.py"
+
+
+def _load_pb2():
+    here = _os.path.dirname(_os.path.abspath(__file__))
+    env = _os.environ.get("KILN_PYTHON_PROTO")
+    if env:
+        if not _os.path.isfile(_os.path.join(env, _PB2)):
+            raise ImportError(
+                "KILN_PYTHON_PROTO=%s holds no %s: build the target kiln_proto_python and point it at "
+                "<build>/python/kiln" % (env, _PB2))
+        candidates = [env]
+    elif _os.path.isfile(_os.path.join(here, _PB2)):
+        candidates = []  # a plain submodule import finds it
+    else:
+        repo = _os.path.dirname(_os.path.dirname(_os.path.dirname(here)))
+        found = _glob.glob(_os.path.join(repo, "build*", "python", "kiln", _PB2))
+        found.sort(key=_os.path.getmtime, reverse=True)
+        candidates = [_os.path.dirname(found[0])] if found else []
+    for folder in candidates:
+        if folder not in __path__:
+            __path__.append(folder)
+    try:
+        return _importlib.import_module(__name__ + ".kiln_pb2")
+    except ModuleNotFoundError as e:
+        if e.name != __name__ + ".kiln_pb2":
+            raise  # e.g. google.protobuf itself is missing: say so, not something else
+    try:
+        module = _importlib.import_module("kiln_pb2")
+    except ModuleNotFoundError as e:
+        if e.name != "kiln_pb2":
+            raise
+        raise ImportError(
+            "kiln: cannot find kiln_pb2.py (generated from proto/kiln.proto by the build target kiln_proto_python); "
+            "set KILN_PYTHON_PROTO to <build>/python/kiln") from None
+    _sys.modules[__name__ + ".kiln_pb2"] = module
+    return module
+
+
+pb = _load_pb2()
+
+from .client import (  # noqa: E402  (needs pb loaded first)
+    PROTOCOL_VERSION,
+    Client,
+    ConnectionError,
+    KilnError,
+    ServerError,
+    TimeoutError,
+    digest_of,
+    load_job,
+    material_job,
+    parse_job,
+    state_name,
+)
+
+__all__ = [
+    "PROTOCOL_VERSION",
+    "Client",
+    "ConnectionError",
+    "KilnError",
+    "ServerError",
+    "TimeoutError",
+    "digest_of",
+    "load_job",
+    "material_job",
+    "parse_job",
+    "pb",
+    "state_name",
+]
