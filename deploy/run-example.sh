@@ -1,26 +1,51 @@
 #!/usr/bin/env bash
-# The main job, as far as kiln goes today: set up and build, then bake the bundled example materials with kiln-brdf
-# into out/ and say where they are and what they cost. (The daemon kilnd and the client kiln come with the service
-# milestone; this script will then start kilnd and submit the same examples through it.)
+# The main job: set up and build, start kilnd (loopback only, a store under out/, a freshly generated token), submit
+# the bundled example jobs (client/examples/*.textproto) with the kiln client, write each job's outputs into
+# out/<example>/, say where they are and what they cost, and stop the daemon.
 set -euo pipefail
 top="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="$top/build"
 out="$top/out"
 "$top/deploy/setup.sh" "$build"
-mkdir -p "$out"
-brdf="$build/bin/kiln-brdf"
 
-bake() {  # bake NAME ARGS...: albedo and split-sum tables of one material
-  local name="$1"; shift
-  local start="$EPOCHREALTIME"
-  "$brdf" table "$@" --n-mu 32 --n-roughness 32 --samples 4096 > "$out/$name.csv"
-  printf '  %-28s %-60s %6.2f s\n' "$name.csv" "$*" "$(awk -v a="$start" -v b="$EPOCHREALTIME" 'BEGIN{print b-a}')"
-}
+state="$out/.kilnd"
+mkdir -p "$state"
+token_file="$state/token"
+# A new token for this run, readable only by its owner (kilnd refuses a token file others can read).
+( umask 077; od -An -N32 -tx1 /dev/urandom | tr -d ' \n' > "$token_file"; echo >> "$token_file" )
 
-echo "kiln: baking the example materials into $out"
-bake ggx-dielectric      --model ggx --alpha 0.3 --fresnel schlick --f0 0.04
-bake beckmann-rough      --model beckmann --alpha 0.7 --masking height-correlated
-bake cook-torrance-glass --model cook-torrance --alpha 0.2 --fresnel exact --eta 1.5
-bake oren-nayar-clay     --model oren-nayar --albedo 0.8,0.5,0.3 --sigma 0.5
-bake schlick-brushed     --model schlick --c 0.9 --r 0.2 --p 0.3
-echo "kiln: each CSV holds the directional albedo table (with standard errors) and the split-sum table."
+"$build/bin/kilnd" --listen 127.0.0.1:0 --store "$state/store" --token-file "$token_file" \
+  > "$state/kilnd.out" 2> "$state/kilnd.log" &
+kilnd_pid=$!
+stop_daemon() { kill -TERM "$kilnd_pid" 2>/dev/null && wait "$kilnd_pid" 2>/dev/null || true; }
+trap stop_daemon EXIT
+
+address=""
+for _ in $(seq 1 300); do
+  address=$(sed -n 's/^kilnd: listening on \(127\.0\.0\.1:[0-9]*\)$/\1/p' "$state/kilnd.out")
+  [ -n "$address" ] && break
+  kill -0 "$kilnd_pid" 2>/dev/null || { echo "kilnd did not start:"; cat "$state/kilnd.log"; exit 1; }
+  sleep 0.1
+done
+[ -n "$address" ] || { echo "kilnd did not start within 30 s:"; cat "$state/kilnd.log"; exit 1; }
+echo "kiln: kilnd is listening on $address (store $state/store, log $state/kilnd.log)"
+
+status=0
+for job in "$top"/client/examples/*.textproto; do
+  name="$(basename "$job" .textproto)"
+  echo
+  echo "kiln: baking $name"
+  "$build/bin/kiln" --server "$address" --token-file "$token_file" submit "$job" --wait --out "$out/$name" || status=1
+done
+
+# A second run of the same jobs is answered from the result cache: that is what makes a CI asset build fast.
+echo
+echo "kiln: submitting the first example again (a cache hit, no bake)"
+first="$(ls "$top"/client/examples/*.textproto | head -n 1)"
+"$build/bin/kiln" --server "$address" --token-file "$token_file" submit "$first" --wait --out "$out/cache-hit" || status=1
+
+echo
+"$build/bin/kiln" --server "$address" --token-file "$token_file" status || true
+echo
+echo "kiln: outputs are in $out/<example>/ (EXR tables, MERL where asked, report.json)"
+exit $status

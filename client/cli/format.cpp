@@ -1,0 +1,79 @@
+#include "client/cli/format.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+
+namespace kiln::cli {
+
+std::string format_number(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+std::string format_duration(double s) {
+  if (!(s >= 0) || !std::isfinite(s)) return "?";
+  char buf[48];
+  if (s < 10) {
+    std::snprintf(buf, sizeof buf, "%.2f s", s);
+  } else if (s < 60) {
+    std::snprintf(buf, sizeof buf, "%.1f s", s);
+  } else if (s < 3600) {
+    const long t = std::lround(s);
+    std::snprintf(buf, sizeof buf, "%ld min %02ld s", t / 60, t % 60);
+  } else {
+    const long t = std::lround(s / 60);
+    std::snprintf(buf, sizeof buf, "%ld h %02ld min", t / 60, t % 60);
+  }
+  return buf;
+}
+
+std::string format_count(std::uint64_t n) {
+  if (n < 1000) return std::to_string(n);
+  const char* units[] = {"k", "M", "G", "T", "P", "E"};
+  double v = static_cast<double>(n);
+  int u = -1;
+  while (v >= 1000 && u < 5) {
+    v /= 1000;
+    ++u;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, v < 10 ? "%.2f %s" : v < 100 ? "%.1f %s" : "%.0f %s", v, units[u]);
+  return buf;
+}
+
+std::string format_bytes(std::uint64_t n) {
+  if (n < 1024) return std::to_string(n) + " B";
+  const char* units[] = {"KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+  double v = static_cast<double>(n);
+  int u = -1;
+  while (v >= 1024 && u < 5) {
+    v /= 1024;
+    ++u;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, v < 10 ? "%.2f %s" : v < 100 ? "%.1f %s" : "%.0f %s", v, units[u]);
+  return buf;
+}
+
+std::string format_error(double e) {
+  if (!(e >= 0) || !std::isfinite(e)) return "unknown";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2g", e);
+  if (e != 0 && (e < 1e-3 || e >= 1e3)) std::snprintf(buf, sizeof buf, "%.1e", e);
+  return buf;
+}
+
+std::string format_time(double unix_seconds) {
+  if (!(unix_seconds > 0) || !std::isfinite(unix_seconds)) return "-";
+  const std::time_t t = static_cast<std::time_t>(unix_seconds);
+  std::tm tm{};
+  localtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S", &tm);
+  return buf;
+}
+
+}  // namespace kiln::cli

@@ -1,0 +1,22 @@
+// Numbers, sizes and times as `kiln` prints them for people.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace kiln::cli {
+
+// Shortest text that reads back as the same double ("0.3", "1e-05").
+std::string format_number(double v);
+// Seconds for people: "0.42 s", "12.3 s", "4 min 05 s", "2 h 03 min"; "?" for a negative (unknown) time.
+std::string format_duration(double seconds);
+// Counts with a unit prefix: "950", "12.3 k", "4.19 M", "1.07 G".
+std::string format_count(std::uint64_t n);
+// Bytes: "812 B", "1.2 KiB", "33.4 MiB".
+std::string format_bytes(std::uint64_t n);
+// A standard error: "3.1e-04"; "unknown" for a negative one.
+std::string format_error(double e);
+// Local time of a Unix timestamp: "2026-11-22 14:03:07"; "-" for 0.
+std::string format_time(double unix_seconds);
+
+}  // namespace kiln::cli
