@@ -350,6 +350,30 @@ TEST(Daemon, TwentyClientsFiveJobsEach) {
   std::cout << "[ measured ] kilnd RSS " << rss_before << " KiB before, " << rss_after << " KiB after 100 jobs\n";
 }
 
+// SIGTERM with a job running past the grace period: the daemon exits cleanly, the job goes back to the queue, and
+// the next start runs it to the end.
+TEST(Daemon, ShutdownRequeuesWhatDidNotFinish) {
+  std::filesystem::path dir;
+  std::string id;
+  {
+    Daemon d({"--shutdown-grace", "0.5"});
+    d.keep();
+    dir = d.dir();
+    Client c = connect(d);
+    id = c.submit(ggx_job(0.3, 1 << 16, 16)).job_id();  // runs for seconds, past the 0.5 s grace
+    for (int i = 0; i < 500 && c.result(id).state() != v1::JOB_STATE_RUNNING; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ASSERT_EQ(c.result(id).state(), v1::JOB_STATE_RUNNING);
+    EXPECT_EQ(d.terminate(), 0) << d.log();
+    EXPECT_NE(d.log().find("re-queued"), std::string::npos) << d.log();
+  }
+  Daemon again({}, dir);
+  Client c = connect(again);
+  const v1::JobEvent last = c.watch(id);
+  EXPECT_EQ(last.state(), v1::JOB_STATE_SUCCEEDED) << last.message() << again.log();
+}
+
 TEST(Daemon, SigtermExitsCleanly) {
   Daemon d;
   { Client c = connect(d); }
