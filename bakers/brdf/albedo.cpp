@@ -15,15 +15,24 @@ Vec3 direction_from(double mu, double phi) {
   return {s * std::cos(phi), s * std::sin(phi), mu};
 }
 
-// The shared estimator: `replicates` independent sets of n×n jittered strata of u (the lobe's 2-D sample), each set
-// averaged, the spread of the set means giving the standard error. `contribution` maps one stratum sample
-// (u, uc, the set's generator) to the value to average.
-using Contribution = std::function<Rgb(Point2 u, double uc, Pcg32& rng)>;
+Rgb weight_or_zero(const std::optional<BsdfSample>& s) { return s ? s->weight : Rgb{}; }
 
-Estimate estimate(const AlbedoOptions& options, uint64_t stream, const Contribution& contribution) {
-  const int replicates = std::max(2, options.replicates);
+int strata_per_side(const AlbedoOptions& options, int replicates) {
   const int per_replicate = std::max(1, (options.samples + replicates - 1) / replicates);
-  const int n = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(per_replicate)))));
+  return std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(per_replicate)))));
+}
+
+}  // namespace
+
+int64_t stratified_sample_count(const AlbedoOptions& options) {
+  const int replicates = std::max(2, options.replicates);
+  const int n = strata_per_side(options, replicates);
+  return static_cast<int64_t>(replicates) * n * n;
+}
+
+Estimate stratified_estimate(const AlbedoOptions& options, uint64_t stream, const SampleContribution& contribution) {
+  const int replicates = std::max(2, options.replicates);
+  const int n = strata_per_side(options, replicates);
   Rgb sum, sum_sq;
   for (int rep = 0; rep < replicates; ++rep) {
     Pcg32 rng(options.seed + 0x9e3779b97f4a7c15ULL * static_cast<uint64_t>(rep + 1), stream);
@@ -48,13 +57,9 @@ Estimate estimate(const AlbedoOptions& options, uint64_t stream, const Contribut
   return e;
 }
 
-Rgb weight_or_zero(const std::optional<BsdfSample>& s) { return s ? s->weight : Rgb{}; }
-
-}  // namespace
-
 Estimate directional_albedo(const Bxdf& bxdf, const Vec3& wo, const AlbedoOptions& options) {
   if (!above_horizon(wo)) return Estimate{};  // no light leaves towards or below the horizon: E = 0
-  return estimate(options, 1, [&](Point2 u, double uc, Pcg32&) { return weight_or_zero(bxdf.sample(wo, u, uc)); });
+  return stratified_estimate(options, 1, [&](Point2 u, double uc, Pcg32&) { return weight_or_zero(bxdf.sample(wo, u, uc)); });
 }
 
 Estimate directional_albedo(const Bxdf& bxdf, double mu, const AlbedoOptions& options) {
@@ -62,7 +67,7 @@ Estimate directional_albedo(const Bxdf& bxdf, double mu, const AlbedoOptions& op
   mu = std::fmin(mu, 1.0);
   // Each sample also draws the azimuth of wo: for an isotropic model every azimuth gives the same weight
   // distribution, so this adds no variance; for an anisotropic one it averages over the azimuth.
-  return estimate(options, 2, [&](Point2 u, double uc, Pcg32& rng) {
+  return stratified_estimate(options, 2, [&](Point2 u, double uc, Pcg32& rng) {
     const Vec3 wo = direction_from(mu, 2.0 * kPi * rng.uniform());
     return weight_or_zero(bxdf.sample(wo, u, uc));
   });
@@ -80,7 +85,7 @@ AlbedoTable albedo_table(const Bxdf& bxdf, int n_mu, const AlbedoOptions& option
   // (not from the table) so that its error is the estimator's, not the table's midpoint-rule error.
   AlbedoOptions avg = options;
   avg.samples = options.samples * 4;
-  table.average = estimate(avg, 3, [&](Point2 u, double uc, Pcg32& rng) {
+  table.average = stratified_estimate(avg, 3, [&](Point2 u, double uc, Pcg32& rng) {
     const double mu = std::sqrt(1.0 - rng.uniform());  // 1 − ξ ∈ (0, 1]: μ > 0
     const Vec3 wo = direction_from(mu, 2.0 * kPi * rng.uniform());
     return weight_or_zero(bxdf.sample(wo, u, uc));
@@ -117,7 +122,7 @@ SplitSumTable split_sum_table(const ModelSpec& spec, int n_mu, int n_roughness, 
     const std::unique_ptr<Bxdf> bxdf = make_bxdf(with_roughness(white, t.roughness[j]));
     for (int i = 0; i < n_mu; ++i) {
       // One estimator for both integrals: the red channel carries the scale part, green the bias part.
-      const Estimate e = estimate(options, 4, [&](Point2 u, double uc, Pcg32& rng) {
+      const Estimate e = stratified_estimate(options, 4, [&](Point2 u, double uc, Pcg32& rng) {
         const Vec3 wo = direction_from(t.mu[i], 2.0 * kPi * rng.uniform());
         const auto s = bxdf->sample(wo, u, uc);
         if (!s) return Rgb{};

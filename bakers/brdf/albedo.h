@@ -3,10 +3,12 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "bakers/brdf/bxdf.h"
 #include "bakers/brdf/model_spec.h"
+#include "bakers/math/rng.h"
 
 namespace kiln::brdf {
 
@@ -21,6 +23,15 @@ struct Estimate {
   Rgb std_error;      // standard error of value, from the spread of the replicates
   int64_t samples = 0;
 };
+
+// The estimator behind every function here: `options.replicates` independent sets of n×n jittered strata of the
+// lobe's 2-D sample u (n×n ≥ samples / replicates), each set averaged; the spread of the set means gives the
+// standard error. `contribution` maps one sample (u, the lobe-selection sample uc, the set's generator for any
+// further dimensions) to the value to average. `stream` separates the random streams of different integrals.
+using SampleContribution = std::function<Rgb(Point2 u, double uc, Pcg32& rng)>;
+Estimate stratified_estimate(const AlbedoOptions& options, uint64_t stream, const SampleContribution& contribution);
+// The samples stratified_estimate takes for these options: whole replicates of n×n strata.
+int64_t stratified_sample_count(const AlbedoOptions& options);
 
 // E for the fixed outgoing direction wo (wo.z > 0), by the model's own importance sampling, stratified.
 Estimate directional_albedo(const Bxdf& bxdf, const Vec3& wo, const AlbedoOptions& options = {});

@@ -57,39 +57,21 @@ Vec3 direction_from(double mu, double phi) {
 
 // The estimator of brdf/albedo.cpp (independent replicates of n×n jittered strata; their spread gives the standard
 // error), for the integrals that library offers only as whole tables: one split-sum entry, the average albedo.
-template <typename Contribution>
-Estimate stratified(uint64_t samples, uint64_t seed, uint64_t stream, Contribution&& contribution) {
-  const uint64_t per_replicate = std::max<uint64_t>(1, (samples + kReplicates - 1) / kReplicates);
-  const int n = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(per_replicate)))));
-  Rgb sum, sum_sq;
-  for (int rep = 0; rep < kReplicates; ++rep) {
-    Pcg32 rng(seed + 0x9e3779b97f4a7c15ULL * static_cast<uint64_t>(rep + 1), stream);
-    Rgb acc;
-    for (int i = 0; i < n; ++i) {
-      for (int j = 0; j < n; ++j) {
-        const Point2 u{(i + rng.uniform()) / n, (j + rng.uniform()) / n};
-        const double uc = rng.uniform();
-        acc += contribution(u, uc, rng);
-      }
-    }
-    const Rgb mean = acc / static_cast<double>(n) / static_cast<double>(n);
-    sum += mean;
-    sum_sq += mean * mean;
-  }
-  Estimate e;
-  e.value = sum / kReplicates;
-  const Rgb var = (sum_sq / kReplicates - e.value * e.value) * (static_cast<double>(kReplicates) / (kReplicates - 1));
-  const auto se = [](double v) { return std::sqrt(std::fmax(0.0, v) / kReplicates); };
-  e.std_error = Rgb{se(var.r), se(var.g), se(var.b)};
-  e.samples = static_cast<int64_t>(kReplicates) * n * n;
-  return e;
+// One stratified estimate of `samples` samples: the albedo library's estimator, so both count and combine alike.
+Estimate stratified(uint64_t samples, uint64_t seed, uint64_t stream, const brdf::SampleContribution& contribution) {
+  brdf::AlbedoOptions o;
+  o.samples = static_cast<int>(samples);
+  o.replicates = kReplicates;
+  o.seed = seed;
+  return brdf::stratified_estimate(o, stream, contribution);
 }
 
-// Samples an estimate of `requested` samples really takes: whole replicates of n×n strata (as albedo.cpp).
+// Samples an estimate of `requested` samples really takes: whole replicates of n×n strata.
 uint64_t taken(uint64_t requested) {
-  const uint64_t per_replicate = std::max<uint64_t>(1, (requested + kReplicates - 1) / kReplicates);
-  const auto n = static_cast<uint64_t>(std::ceil(std::sqrt(static_cast<double>(per_replicate))));
-  return kReplicates * n * n;
+  brdf::AlbedoOptions o;
+  o.samples = static_cast<int>(requested);
+  o.replicates = kReplicates;
+  return static_cast<uint64_t>(brdf::stratified_sample_count(o));
 }
 // Samples taken for `requested` in blocks of at most kMaxBlock.
 uint64_t taken_in_blocks(uint64_t requested) {
