@@ -5,6 +5,8 @@
 
 #include <boost/asio.hpp>
 
+#include <sys/stat.h>
+
 #include <atomic>
 #include <deque>
 #include <filesystem>
@@ -369,7 +371,11 @@ Server::Server(Service& service) : impl_(std::make_unique<Impl>(service)) {
     boost::system::error_code ec;
     unix_socket::acceptor a(impl_->io);
     a.open(unix_socket(), ec);
+    // Whoever can open the socket file may talk to kilnd without a token, so it is created for its owner only
+    // (mode 0600; widen it with chmod/chgrp deliberately). umask, not chmod after bind, leaves no window.
+    const mode_t old_mask = ::umask(0077);
     if (!ec) a.bind(unix_socket::endpoint(c.socket), ec);
+    ::umask(old_mask);
     if (!ec) a.listen(asio::socket_base::max_listen_connections, ec);
     if (ec) throw std::runtime_error("--socket " + c.socket + ": cannot listen (" + ec.message() + ")");
     impl_->unix_path = c.socket;

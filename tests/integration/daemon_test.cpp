@@ -119,9 +119,12 @@ TEST(Daemon, WrongOrMissingTokenIsRefusedOnTcp) {
   } catch (const client::ServerError& e) {
     EXPECT_EQ(e.code(), v1::Error::UNAUTHENTICATED);
   }
-  // The Unix socket's permissions decide: no token needed.
+  // The Unix socket's permissions decide: no token needed, and the socket is its owner's alone.
   Client u(d.unix_address());
   EXPECT_NO_THROW(u.hello(""));
+  const auto perms = std::filesystem::status(d.dir() / "kilnd.sock").permissions();
+  EXPECT_EQ(perms & (std::filesystem::perms::group_all | std::filesystem::perms::others_all),
+            std::filesystem::perms::none);
 }
 
 TEST(Daemon, BadStreamsAreDroppedAndOthersStillServed) {
