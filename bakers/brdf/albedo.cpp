@@ -93,6 +93,21 @@ AlbedoTable albedo_table(const Bxdf& bxdf, int n_mu, const AlbedoOptions& option
   return table;
 }
 
+SplitSumEntry split_sum_entry(const Bxdf& white_lobe, double mu, const AlbedoOptions& options) {
+  // One estimator for all three integrals: red carries the scale part, green the bias part, blue their sum.
+  const Estimate e = stratified_estimate(options, 4, [&](Point2 u, double uc, Pcg32& rng) {
+    // The azimuth of wo is drawn too: it averages an anisotropic lobe and costs an isotropic one nothing.
+    const Vec3 wo = direction_from(mu, 2.0 * kPi * rng.uniform());
+    const auto s = white_lobe.sample(wo, u, uc);
+    if (!s) return Rgb{};
+    const double c = std::pow(1.0 - std::fmax(0.0, dot(wo, normalize(wo + s->wi))), 5.0);
+    const double w = s->weight.average();
+    return Rgb{w * (1.0 - c), w * c, w};
+  });
+  return SplitSumEntry{e.value.r,     e.value.g,     e.value.b, e.std_error.r,
+                       e.std_error.g, e.std_error.b, e.samples};
+}
+
 ModelSpec without_fresnel(ModelSpec spec) {
   spec.fresnel = FresnelMode::none;
   spec.albedo = Rgb{1.0};
@@ -121,19 +136,11 @@ SplitSumTable split_sum_table(const ModelSpec& spec, int n_mu, int n_roughness, 
   for (int j = 0; j < n_roughness; ++j) {
     const std::unique_ptr<Bxdf> bxdf = make_bxdf(with_roughness(white, t.roughness[j]));
     for (int i = 0; i < n_mu; ++i) {
-      // One estimator for both integrals: the red channel carries the scale part, green the bias part.
-      const Estimate e = stratified_estimate(options, 4, [&](Point2 u, double uc, Pcg32& rng) {
-        const Vec3 wo = direction_from(t.mu[i], 2.0 * kPi * rng.uniform());
-        const auto s = bxdf->sample(wo, u, uc);
-        if (!s) return Rgb{};
-        const double c = std::pow(1.0 - std::fmax(0.0, dot(wo, normalize(wo + s->wi))), 5.0);
-        const double w = s->weight.average();
-        return Rgb{w * (1.0 - c), w * c, 0.0};
-      });
-      t.scale.push_back(e.value.r);
-      t.bias.push_back(e.value.g);
-      t.scale_error.push_back(e.std_error.r);
-      t.bias_error.push_back(e.std_error.g);
+      const SplitSumEntry e = split_sum_entry(*bxdf, t.mu[i], options);
+      t.scale.push_back(e.scale);
+      t.bias.push_back(e.bias);
+      t.scale_error.push_back(e.scale_error);
+      t.bias_error.push_back(e.bias_error);
     }
   }
   return t;

@@ -45,6 +45,16 @@ struct AlbedoTable {
 };
 AlbedoTable albedo_table(const Bxdf& bxdf, int n_mu, const AlbedoOptions& options = {});
 
+// One split-sum entry of a white lobe without Fresnel at μ = cos θ_o (azimuth of wo averaged): with Schlick's weight
+// c = (1 − wo·wh)^5, scale = ∫ f (1 − c) cos θ_i dω_i, bias = ∫ f c cos θ_i dω_i, and energy = scale + bias, the
+// lobe's directional albedo, all from the same samples.
+struct SplitSumEntry {
+  double scale = 0, bias = 0, energy = 0;
+  double scale_error = 0, bias_error = 0, energy_error = 0;  // standard errors
+  int64_t samples = 0;
+};
+SplitSumEntry split_sum_entry(const Bxdf& white_lobe, double mu, const AlbedoOptions& options = {});
+
 // Split-sum table over (μ = n·v, roughness) with texel centres on both axes. For each entry the model is built
 // white and without its Fresnel term, and its albedo is split by Schlick's weight c = (1 − wo·wh)^5:
 //   scale = ∫ f (1 − c) cos θ_i dω_i,  bias = ∫ f c cos θ_i dω_i,  so that E ≈ f0 · scale + bias.
