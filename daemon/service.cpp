@@ -101,6 +101,13 @@ v1::JobEvent event_of(const store::JobRecord& r) {
   p.state = r.state;
   p.fraction = r.state == store::JobState::kSucceeded ? 1.0 : 0.0;
   p.message = r.error;
+  // A finished job's cost comes from its report (for a cache hit, the original bake's).
+  v1::JobResult result;
+  if (r.state == store::JobState::kSucceeded && result.ParseFromString(r.result)) {
+    p.samples = result.report().samples();
+    p.error_estimate = result.report().error_estimate();
+    if (result.report().cache_hit()) p.message = "answered from the result cache";
+  }
   v1::JobEvent e = event_of(r.id, p);
   if (r.started && r.finished) e.set_elapsed_seconds(*r.finished - *r.started);
   return e;
