@@ -1,0 +1,225 @@
+#include "bakers/envmap/cubemap.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "bakers/math/constants.h"
+
+namespace kiln::envmap {
+namespace {
+
+// a + t (b − a) rather than a (1 − t) + b t: exact when a == b, so that filtering a constant returns it bit for bit.
+Rgb lerp_exact(double t, const Rgb& a, const Rgb& b) { return a + (b - a) * t; }
+
+// Solid angle of the rectangle [0, a] × [0, b] on the plane at distance 1 (signed by the signs of a and b).
+double corner_area(double a, double b) { return std::atan2(a * b, std::sqrt(a * a + b * b + 1.0)); }
+
+int clamp_index(double v, int n) { return std::clamp(static_cast<int>(std::floor(v)), 0, n - 1); }
+
+}  // namespace
+
+Vec3 face_uv_to_direction(int face, double u, double v) {
+  const double a = 2.0 * u - 1.0, b = 2.0 * v - 1.0;
+  switch (face) {
+    case 0: return {1.0, -b, -a};
+    case 1: return {-1.0, -b, a};
+    case 2: return {a, 1.0, b};
+    case 3: return {a, -1.0, -b};
+    case 4: return {a, -b, 1.0};
+    case 5: return {-a, -b, -1.0};
+    default: throw std::invalid_argument("face_uv_to_direction: face must be 0..5");
+  }
+}
+
+Vec3 texel_direction(int face, int x, int y, int size) {
+  return normalize(face_uv_to_direction(face, (x + 0.5) / size, (y + 0.5) / size));
+}
+
+FaceUv direction_to_face_uv(const Vec3& d) {
+  const double ax = std::fabs(d.x), ay = std::fabs(d.y), az = std::fabs(d.z);
+  FaceUv r;
+  double sc, tc, ma;
+  if (ax >= ay && ax >= az) {
+    // The zero vector has no major axis (ma = 0 would divide by zero): it reads as the centre of +X.
+    if (ax == 0.0) return FaceUv{0, 0.5, 0.5};
+    ma = ax;
+    if (d.x >= 0) r.face = 0, sc = -d.z, tc = -d.y;
+    else r.face = 1, sc = d.z, tc = -d.y;
+  } else if (ay >= az) {
+    ma = ay;
+    if (d.y >= 0) r.face = 2, sc = d.x, tc = d.z;
+    else r.face = 3, sc = d.x, tc = -d.z;
+  } else {
+    ma = az;
+    if (d.z >= 0) r.face = 4, sc = d.x, tc = -d.y;
+    else r.face = 5, sc = -d.x, tc = -d.y;
+  }
+  r.u = 0.5 * (sc / ma + 1.0);
+  r.v = 0.5 * (tc / ma + 1.0);
+  return r;
+}
+
+double face_rect_solid_angle(double a0, double b0, double a1, double b1) {
+  return corner_area(a1, b1) - corner_area(a0, b1) - corner_area(a1, b0) + corner_area(a0, b0);
+}
+
+double texel_solid_angle(int x, int y, int size) {
+  const double a0 = 2.0 * x / size - 1.0, a1 = 2.0 * (x + 1) / size - 1.0;
+  const double b0 = 2.0 * y / size - 1.0, b1 = 2.0 * (y + 1) / size - 1.0;
+  return face_rect_solid_angle(a0, b0, a1, b1);
+}
+
+Cubemap::Cubemap(int size, Rgb fill) : size_(size) {
+  if (size < 1) throw std::invalid_argument("Cubemap: size must be at least 1");
+  for (auto& f : faces_) f.assign(static_cast<size_t>(size) * size, fill);
+}
+
+Rgb Cubemap::texel_extended(int face, int x, int y) const {
+  const int n = size_;
+  const bool x_in = x >= 0 && x < n, y_in = y >= 0 && y < n;
+  if (x_in && y_in) return at(face, x, y);
+  const int xc = std::clamp(x, 0, n - 1), yc = std::clamp(y, 0, n - 1);
+  if (!x_in && !y_in) {
+    // Beyond a cube corner: only three texels touch the corner (this face's corner texel and one across each edge),
+    // so the fourth tap is their mean. This is symmetric in the three faces, which keeps bilinear sampling continuous
+    // across both edges that end at the corner.
+    return (at(face, xc, yc) + texel_extended(face, x, yc) + texel_extended(face, xc, y)) / 3.0;
+  }
+  // One texel beyond one edge: extend this face's plane to that texel's centre (half a texel beyond the edge); its
+  // direction falls into the neighbouring face, inside the texel that touches the edge at the same place (the
+  // projection moves it by less than half a texel along the edge, and keeps it within the first texel across).
+  const Vec3 d = face_uv_to_direction(face, (x + 0.5) / n, (y + 0.5) / n);
+  const FaceUv f = direction_to_face_uv(d);
+  return at(f.face, clamp_index(f.u * n, n), clamp_index(f.v * n, n));
+}
+
+Rgb Cubemap::sample_bilinear(const Vec3& dir) const {
+  const FaceUv f = direction_to_face_uv(dir);
+  const double px = f.u * size_ - 0.5, py = f.v * size_ - 0.5;
+  const double fx0 = std::floor(px), fy0 = std::floor(py);
+  const double tx = px - fx0, ty = py - fy0;
+  // px, py ∈ [−½, size − ½], so the taps lie in [−1, size]: at most one texel beyond an edge.
+  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  const Rgb top = lerp_exact(tx, texel_extended(f.face, x0, y0), texel_extended(f.face, x0 + 1, y0));
+  const Rgb bottom = lerp_exact(tx, texel_extended(f.face, x0, y0 + 1), texel_extended(f.face, x0 + 1, y0 + 1));
+  return lerp_exact(ty, top, bottom);
+}
+
+Rgb Cubemap::sample_nearest(const Vec3& dir) const {
+  const FaceUv f = direction_to_face_uv(dir);
+  return at(f.face, clamp_index(f.u * size_, size_), clamp_index(f.v * size_, size_));
+}
+
+Rgb Cubemap::integral() const {
+  Rgb sum;
+  for (int y = 0; y < size_; ++y) {
+    for (int x = 0; x < size_; ++x) {
+      const double w = texel_solid_angle(x, y, size_);
+      for (int f = 0; f < kFaceCount; ++f) sum += at(f, x, y) * w;
+    }
+  }
+  return sum;
+}
+
+void direction_to_equirect_uv(const Vec3& dir, double& u, double& v) {
+  const double len = length(dir);
+  // The zero vector has no direction: it reads as the image centre.
+  if (len == 0.0) {
+    u = v = 0.5;
+    return;
+  }
+  // The poles have no longitude (atan2(0, ±0) would give 0 or π depending on the sign of zero): u = ½ there.
+  u = (dir.x == 0.0 && dir.z == 0.0) ? 0.5 : 0.5 + std::atan2(dir.x, -dir.z) * kInv2Pi;
+  v = std::acos(std::clamp(dir.y / len, -1.0, 1.0)) * kInvPi;
+}
+
+Vec3 equirect_uv_to_direction(double u, double v) {
+  const double phi = 2.0 * kPi * (u - 0.5), theta = kPi * v;
+  const double s = std::sin(theta);
+  return {s * std::sin(phi), std::cos(theta), -s * std::cos(phi)};
+}
+
+Rgb sample_equirect_bilinear(const RgbImage& img, const Vec3& dir) {
+  double u, v;
+  direction_to_equirect_uv(dir, u, v);
+  const double px = u * img.width - 0.5, py = v * img.height - 0.5;
+  const double fx0 = std::floor(px), fy0 = std::floor(py);
+  const double tx = px - fx0, ty = py - fy0;
+  const auto wrap = [w = img.width](long long x) { return static_cast<int>(((x % w) + w) % w); };
+  const int x0 = wrap(static_cast<long long>(fx0)), x1 = wrap(static_cast<long long>(fx0) + 1);
+  const int y0 = std::clamp(static_cast<int>(fy0), 0, img.height - 1);
+  const int y1 = std::clamp(static_cast<int>(fy0) + 1, 0, img.height - 1);
+  return lerp_exact(ty, lerp_exact(tx, img.at(x0, y0), img.at(x1, y0)), lerp_exact(tx, img.at(x0, y1), img.at(x1, y1)));
+}
+
+Cubemap resample_equirect_to_cube(const RgbImage& equirect, int size, int supersampling) {
+  if (equirect.width < 1 || equirect.height < 1 ||
+      equirect.pixels.size() != static_cast<size_t>(equirect.width) * equirect.height)
+    throw std::invalid_argument("resample_equirect_to_cube: empty or inconsistent equirectangular image");
+  if (size < 1) throw std::invalid_argument("resample_equirect_to_cube: size must be at least 1");
+  // A cube texel at a face centre spans 2/size radians; a source pixel 2π/W. Sub-texels of about half a source pixel
+  // need k ≥ 2W / (π size).
+  const int k = supersampling > 0
+                    ? supersampling
+                    : std::clamp(static_cast<int>(std::ceil(2.0 * equirect.width / (kPi * size))), 2, 32);
+  Cubemap cube(size);
+  const double texel = 2.0 / size, sub = texel / k;
+  tbb::parallel_for(tbb::blocked_range<int>(0, kFaceCount * size), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<double> weights(static_cast<size_t>(k) * k);
+    std::vector<Rgb> values(weights.size());
+    for (int row = rows.begin(); row != rows.end(); ++row) {
+      const int face = row / size, y = row % size;
+      for (int x = 0; x < size; ++x) {
+        const double a0 = -1.0 + x * texel, b0 = -1.0 + y * texel;
+        double wsum = 0;
+        for (int j = 0; j < k; ++j) {
+          for (int i = 0; i < k; ++i) {
+            const double sa0 = a0 + i * sub, sb0 = b0 + j * sub;
+            const double w = face_rect_solid_angle(sa0, sb0, sa0 + sub, sb0 + sub);
+            const Vec3 d = face_uv_to_direction(face, 0.5 * (sa0 + 0.5 * sub + 1.0), 0.5 * (sb0 + 0.5 * sub + 1.0));
+            weights[j * k + i] = w;
+            values[j * k + i] = sample_equirect_bilinear(equirect, d);
+            wsum += w;
+          }
+        }
+        // The weighted mean written as L0 + Σ w (L − L0) / Σ w: exactly L0 when all samples are equal.
+        Rgb delta;
+        for (size_t s = 1; s < values.size(); ++s) delta += (values[s] - values[0]) * weights[s];
+        cube.at(face, x, y) = values[0] + delta / wsum;
+      }
+    }
+  });
+  return cube;
+}
+
+Cubemap downsample_2x(const Cubemap& cube) {
+  const int n = cube.size();
+  if (n < 2 || n % 2 != 0) throw std::invalid_argument("downsample_2x: the cube's size must be even");
+  const int h = n / 2;
+  Cubemap out(h);
+  tbb::parallel_for(tbb::blocked_range<int>(0, kFaceCount * h), [&](const tbb::blocked_range<int>& rows) {
+    for (int row = rows.begin(); row != rows.end(); ++row) {
+      const int face = row / h, y = row % h;
+      for (int x = 0; x < h; ++x) {
+        const Rgb l0 = cube.at(face, 2 * x, 2 * y);
+        Rgb delta;
+        double wsum = 0;
+        for (int j = 0; j < 2; ++j) {
+          for (int i = 0; i < 2; ++i) {
+            const double w = texel_solid_angle(2 * x + i, 2 * y + j, n);
+            delta += (cube.at(face, 2 * x + i, 2 * y + j) - l0) * w;
+            wsum += w;
+          }
+        }
+        out.at(face, x, y) = l0 + delta / wsum;
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace kiln::envmap
