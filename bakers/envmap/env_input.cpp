@@ -1,0 +1,281 @@
+#include "bakers/envmap/env_input.h"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "bakers/image/color.h"
+
+namespace kiln::envmap {
+namespace {
+
+constexpr const char* kAccepted = "OpenEXR, Radiance HDR, PNG or JPEG";
+
+struct Format {
+  const char* name;          // reported in EnvironmentInput::format
+  const char* virtual_name;  // picks OpenImageIO's plugin; nothing touches the file system through it
+  bool is_float;             // default colour space: lin_rec709 if true, srgb_texture otherwise
+};
+
+bool starts_with(const std::string& bytes, const char* magic, size_t n) {
+  return bytes.size() >= n && std::memcmp(bytes.data(), magic, n) == 0;
+}
+
+// Content sniffing: the formats are chosen by their signatures, never by a name.
+const Format* detect(const std::string& bytes) {
+  static const Format exr{"openexr", "kiln-env.exr", true};
+  static const Format hdr{"hdr", "kiln-env.hdr", true};
+  static const Format png{"png", "kiln-env.png", false};
+  static const Format jpeg{"jpeg", "kiln-env.jpg", false};
+  if (starts_with(bytes, "\x76\x2f\x31\x01", 4)) return &exr;
+  if (starts_with(bytes, "#?", 2)) return &hdr;  // "#?RADIANCE" or "#?RGBE"
+  if (starts_with(bytes, "\x89PNG\r\n\x1a\n", 8)) return &png;
+  if (starts_with(bytes, "\xff\xd8\xff", 3)) return &jpeg;
+  return nullptr;
+}
+
+std::string hex_prefix(const std::string& bytes) {
+  std::string out;
+  char buf[4];
+  for (size_t i = 0; i < std::min<size_t>(bytes.size(), 8); ++i) {
+    std::snprintf(buf, sizeof buf, "%s%02x", i ? " " : "", static_cast<unsigned char>(bytes[i]));
+    out += buf;
+  }
+  return out.empty() ? "nothing" : out;
+}
+
+std::string dims(int64_t w, int64_t h) { return std::to_string(w) + "x" + std::to_string(h); }
+
+// A temporary copy of the bytes for plugins that cannot read from memory; removed when it goes out of scope.
+struct TempFile {
+  std::string path;
+  TempFile(const std::string& bytes, const char* suffix) {
+    const char* dir = std::getenv("TMPDIR");
+    std::string templ = std::string(dir && *dir ? dir : "/tmp") + "/kiln-env-XXXXXX" + suffix;
+    std::vector<char> buf(templ.begin(), templ.end());
+    buf.push_back('\0');
+    const int fd = mkstemps(buf.data(), static_cast<int>(std::strlen(suffix)));
+    if (fd < 0) throw std::runtime_error("decode_environment: could not create a temporary file in " + templ);
+    path.assign(buf.data());
+    size_t done = 0;
+    while (done < bytes.size()) {
+      const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+      if (n <= 0) {
+        ::close(fd);
+        std::remove(path.c_str());
+        throw std::runtime_error("decode_environment: could not write the temporary file " + path);
+      }
+      done += static_cast<size_t>(n);
+    }
+    ::close(fd);
+  }
+  ~TempFile() { std::remove(path.c_str()); }
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+};
+
+void check_options(const EnvDecodeOptions& o) {
+  if (!std::isfinite(o.intensity) || !(o.intensity > 0.0) || o.intensity > kMaxEnvIntensity) {
+    throw std::invalid_argument("decode_environment: intensity " + std::to_string(o.intensity) +
+                                " is out of range; it must be a finite number in (0, 1e6] (1 keeps the image as is)");
+  }
+  if (!std::isfinite(o.rotation_degrees)) {
+    throw std::invalid_argument("decode_environment: rotation_degrees must be a finite number of degrees about +Y");
+  }
+}
+
+void check_color_space(const image::ColorConfig& cfg, const std::string& space) {
+  if (cfg.has_space(space)) return;
+  std::string known;
+  for (const auto& s : cfg.spaces()) known += (known.empty() ? "" : ", ") + s;
+  throw std::invalid_argument("decode_environment: colour space '" + space + "' is not in " + cfg.source() +
+                              "; declare one of: " + known);
+}
+
+void check_size(int w, int h, int depth, const Format& f) {
+  if (w < 1 || h < 1 || depth != 1) {
+    throw std::runtime_error(std::string("decode_environment: the ") + f.name + " header describes an empty or " +
+                             "volumetric image (" + dims(w, h) + ", depth " + std::to_string(depth) +
+                             "); an environment is a flat equirectangular image");
+  }
+  if (w > kMaxEnvDimension || h > kMaxEnvDimension || int64_t{w} * h > kMaxEnvPixels) {
+    throw std::runtime_error(std::string("decode_environment: the ") + f.name + " image is " + dims(w, h) +
+                             ", larger than the limits (each side at most " + std::to_string(kMaxEnvDimension) +
+                             ", at most " + std::to_string(kMaxEnvPixels) +
+                             " pixels, e.g. 8192x4096); downscale it before uploading");
+  }
+  if (std::abs(int64_t{w} - 2 * int64_t{h}) > 1) {
+    throw std::runtime_error(std::string("decode_environment: the ") + f.name + " image is " + dims(w, h) +
+                             ", not an equirectangular (2:1) environment: width must be twice the height (±1), e.g. " +
+                             dims(2 * int64_t{h}, h) + " or " + dims(w, std::max(1, w / 2)) +
+                             "; crop or resample it, or upload six cube faces instead");
+  }
+}
+
+// Rule step 1 (see the header): NaN and ±Inf replaced before the colour conversion, counted per texel.
+void sanitize_non_finite(std::vector<float>& rgb, SanitizeReport& report) {
+  float largest = -std::numeric_limits<float>::infinity();
+  for (float v : rgb) {
+    if (std::isfinite(v)) largest = std::max(largest, v);
+  }
+  if (!std::isfinite(largest)) largest = 0.0f;
+  for (size_t p = 0; p < rgb.size(); p += 3) {
+    bool nan = false, inf = false;
+    for (int c = 0; c < 3; ++c) {
+      float& v = rgb[p + c];
+      if (std::isnan(v)) nan = true, v = 0.0f;
+      else if (std::isinf(v)) inf = true, v = v > 0 ? largest : 0.0f;
+    }
+    report.nan += nan;
+    report.inf += inf;
+  }
+}
+
+}  // namespace
+
+EnvironmentInput decode_environment(const std::string& bytes, const EnvDecodeOptions& options) {
+  check_options(options);
+  const Format* format = detect(bytes);
+  if (!format) {
+    throw std::runtime_error("decode_environment: the " + std::to_string(bytes.size()) +
+                             " bytes are not an image kiln reads (they start with " + hex_prefix(bytes) +
+                             "); upload an equirectangular " + kAccepted + " file");
+  }
+  const image::ColorConfig& cfg = image::ColorConfig::active();
+  const std::string space =
+      !options.color_space.empty() ? options.color_space : (format->is_float ? "lin_rec709" : "srgb_texture");
+  check_color_space(cfg, space);
+
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  // With the proxy given, create() looks at the bytes in memory rather than for a file of that name.
+  std::unique_ptr<OIIO::ImageInput> in =
+      OIIO::ImageInput::create(format->virtual_name, false, nullptr, &proxy);
+  if (!in) {
+    // Either the reader is missing or (usually) it rejected the start of the bytes.
+    throw std::runtime_error("decode_environment: could not open the " + std::to_string(bytes.size()) + "-byte " +
+                             format->name + " image (truncated or corrupt?): " + OIIO::geterror() +
+                             "; re-export the file and upload it again");
+  }
+  std::unique_ptr<TempFile> temp;
+  std::string open_name = format->virtual_name;
+  if (in->supports("ioproxy")) {
+    in->set_ioproxy(&proxy);
+  } else {
+    temp = std::make_unique<TempFile>(bytes, std::strrchr(format->virtual_name, '.'));
+    open_name = temp->path;
+  }
+  OIIO::ImageSpec spec;
+  if (!in->open(open_name, spec)) {
+    throw std::runtime_error("decode_environment: could not read the header of the " + std::to_string(bytes.size()) +
+                             "-byte " + format->name + " image (truncated or corrupt?): " + in->geterror() +
+                             "; re-export the file and upload it again");
+  }
+  check_size(spec.width, spec.height, std::max(1, spec.depth), *format);
+  const int w = spec.width, h = spec.height;
+  const int nch = spec.nchannels;
+  if (nch < 1) throw std::runtime_error(std::string("decode_environment: the ") + format->name + " image has no channels");
+  const int take = nch >= 3 ? 3 : 1;  // RGB, or the grey channel (alpha and the rest are dropped)
+  const size_t pixels = static_cast<size_t>(w) * static_cast<size_t>(h);
+  std::vector<float> data(pixels * take);
+  if (!in->read_image(0, 0, 0, take, OIIO::TypeDesc::FLOAT, data.data())) {
+    throw std::runtime_error("decode_environment: could not read the pixels of the " + dims(w, h) + " " +
+                             format->name + " image (truncated or corrupt?): " + in->geterror() +
+                             "; re-export the file and upload it again");
+  }
+  in->close();
+  if (take == 1) {
+    std::vector<float> rgb(pixels * 3);
+    for (size_t p = 0; p < pixels; ++p) rgb[3 * p] = rgb[3 * p + 1] = rgb[3 * p + 2] = data[p];
+    data = std::move(rgb);
+  }
+
+  EnvironmentInput env;
+  env.format = format->name;
+  env.width = w;
+  env.height = h;
+  env.color_space = space;
+  env.working_space = cfg.working_space();
+  env.rotation_degrees = options.rotation_degrees;
+  env.intensity = options.intensity;
+
+  sanitize_non_finite(data, env.sanitized);
+  if (space != env.working_space) cfg.convert(data.data(), pixels, 3, space, env.working_space);
+
+  env.image = RgbImage(w, h);
+  for (size_t p = 0; p < pixels; ++p) {
+    bool nan = false, negative = false;
+    double c[3];
+    for (int k = 0; k < 3; ++k) {
+      const double v = data[3 * p + k];
+      if (!std::isfinite(v)) nan = true, c[k] = 0.0;  // rule step 2: cannot happen with kiln's config
+      else if (v < 0.0) negative = true, c[k] = 0.0;
+      else c[k] = v * options.intensity;
+    }
+    env.sanitized.nan += nan;
+    env.sanitized.negative += negative;
+    env.image.pixels[p] = Rgb(c[0], c[1], c[2]);
+  }
+  return env;
+}
+
+namespace {
+// R_y(−α)·d: where the input is looked up for the rotated environment's direction d.
+Vec3 unrotate(const Vec3& d, double degrees) {
+  const double a = std::fmod(degrees, 360.0) * (M_PI / 180.0);
+  const double c = std::cos(a), s = std::sin(a);
+  return {d.x * c - d.z * s, d.y, d.x * s + d.z * c};
+}
+}  // namespace
+
+Rgb sample_environment(const EnvironmentInput& env, const Vec3& dir) {
+  return sample_equirect_bilinear(env.image, unrotate(dir, env.rotation_degrees));
+}
+
+RgbImage rotated_equirect(const EnvironmentInput& env) {
+  const RgbImage& src = env.image;
+  const int w = src.width, h = src.height;
+  if (w < 1 || h < 1) throw std::invalid_argument("rotated_equirect: the environment is empty");
+  // out(x) = in(x + shift), in columns, wrapping around in longitude.
+  double shift = std::fmod(env.rotation_degrees / 360.0 * w, static_cast<double>(w));
+  if (shift < 0) shift += w;
+  const double whole = std::round(shift);
+  RgbImage out(w, h);
+  if (std::fabs(shift - whole) < 1e-9 * std::max(1, w)) {
+    const int k = static_cast<int>(whole) % w;
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) out.at(x, y) = src.at((x + k) % w, y);
+    }
+    return out;
+  }
+  const int k0 = static_cast<int>(std::floor(shift));
+  const double t = shift - k0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const Rgb& a = src.at((x + k0) % w, y);
+      const Rgb& b = src.at((x + k0 + 1) % w, y);
+      out.at(x, y) = a + (b - a) * t;
+    }
+  }
+  return out;
+}
+
+Cubemap environment_to_cube(const EnvironmentInput& env, int size) {
+  if (size < 1) throw std::invalid_argument("environment_to_cube: size must be at least 1, got " + std::to_string(size));
+  if (env.image.width < 1 || env.image.height < 1) throw std::invalid_argument("environment_to_cube: empty environment");
+  if (std::fmod(env.rotation_degrees, 360.0) == 0.0) return resample_equirect_to_cube(env.image, size);
+  return resample_equirect_to_cube(rotated_equirect(env), size);
+}
+
+}  // namespace kiln::envmap
