@@ -630,20 +630,25 @@ void print_result(Context& ctx, const v1::JobResult& r) {
       << "\n";
 }
 
-int cmd_result(Context& ctx, const Flags& f) {
-  const std::string id = single_id(f, "kiln result");
-  v1::JobResult r;
+// The result of job `id`, or a Failure that says why not; `unfinished_hint` ends the message for an unfinished job.
+v1::JobResult request_result(Context& ctx, const std::string& id, const std::string& unfinished_hint) {
   try {
-    r = connected(ctx).result(id);
+    return connected(ctx).result(id);
   } catch (const ServerError& e) {
     if (e.code() == v1::Error::FAILED_PRECONDITION) {
       throw Failure(kExitJobFailed, "job " + id + " has not finished (" + e.message() + "); `kiln watch " + id +
-                                        "` waits for it");
+                                        "` waits for it" + unfinished_hint);
     }
     job_request_failed(ctx, e, id, "give the result of job");
   } catch (const ConnectionError& e) {
     connection_lost(ctx, e, "asking for the result of job " + id);
   }
+  return {};  // not reached: the handlers above throw
+}
+
+int cmd_result(Context& ctx, const Flags& f) {
+  const std::string id = single_id(f, "kiln result");
+  const v1::JobResult r = request_result(ctx, id, "");
   if (f.has("--json")) {
     ctx.out << result_json(r) << std::flush;
   } else {
@@ -659,18 +664,7 @@ int cmd_fetch(Context& ctx, const Flags& f) {
   const auto out = f.get("--out");
   if (!out) throw UsageError("--out: missing; fetch writes the outputs into a folder: add --out DIR");
   const fs::path dir = prepare_out_dir(*out);
-  v1::JobResult r;
-  try {
-    r = connected(ctx).result(id);
-  } catch (const ServerError& e) {
-    if (e.code() == v1::Error::FAILED_PRECONDITION) {
-      throw Failure(kExitJobFailed, "job " + id + " has not finished (" + e.message() + "); `kiln watch " + id +
-                                        "` waits for it, or `kiln submit --out` next time");
-    }
-    job_request_failed(ctx, e, id, "give the result of job");
-  } catch (const ConnectionError& e) {
-    connection_lost(ctx, e, "asking for the result of job " + id);
-  }
+  const v1::JobResult r = request_result(ctx, id, ", or `kiln submit --out` next time");
   if (r.state() != v1::JOB_STATE_SUCCEEDED) {
     throw Failure(kExitJobFailed, "job " + id + " " + state_name(r.state()) +
                                       (r.error().message().empty() ? "" : ": " + r.error().message()) +
