@@ -14,27 +14,16 @@
 #include <vector>
 
 #include "daemon/store/sha256.h"
+#include "tests/support/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace kiln::store;
 
 namespace {
 
-class TempDir {
+class TempDir : public kiln::test::TempDir {
  public:
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "kiln-blob-test-XXXXXX").string();
-    if (!::mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+  TempDir() : kiln::test::TempDir("kiln-blob-test") {}
 };
 
 std::string pattern(size_t n, unsigned seed) {

@@ -18,28 +18,17 @@
 #include <thread>
 
 #include "daemon/store/sha256.h"
+#include "tests/support/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace kiln::store;
 
 namespace {
 
-class TempDir {
+class TempDir : public kiln::test::TempDir {
  public:
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "kiln-jobdb-test-XXXXXX").string();
-    if (!::mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-  fs::path db() const { return path_ / "jobs.db"; }
-
- private:
-  fs::path path_;
+  TempDir() : kiln::test::TempDir("kiln-jobdb-test") {}
+  fs::path db() const { return path() / "jobs.db"; }
 };
 
 NewJob job(std::string name, int32_t priority = 0, std::string spec_key = "key-default") {
