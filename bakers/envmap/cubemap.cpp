@@ -196,6 +196,16 @@ Cubemap resample_equirect_to_cube(const RgbImage& equirect, int size, int supers
   return cube;
 }
 
+Cubemap cubemap_from(int size, const std::function<Rgb(const Vec3&)>& radiance) {
+  Cubemap c(size);
+  for (int f = 0; f < kFaceCount; ++f) {
+    for (int y = 0; y < size; ++y) {
+      for (int x = 0; x < size; ++x) c.at(f, x, y) = radiance(texel_direction(f, x, y, size));
+    }
+  }
+  return c;
+}
+
 Cubemap downsample_2x(const Cubemap& cube) {
   const int n = cube.size();
   if (n < 2 || n % 2 != 0) throw std::invalid_argument("downsample_2x: the cube's size must be even");

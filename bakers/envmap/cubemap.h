@@ -32,6 +32,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <string_view>
 #include <vector>
 
@@ -135,6 +136,9 @@ Rgb sample_equirect_bilinear(const RgbImage& equirect, const Vec3& dir);
 // constant image gives that constant. Runs in parallel with TBB. Throws std::invalid_argument on an empty image or
 // size < 1.
 Cubemap resample_equirect_to_cube(const RgbImage& equirect, int size, int supersampling = 0);
+
+// A cube of `size` whose texels hold radiance(direction of the texel centre): procedural skies and test scenes.
+Cubemap cubemap_from(int size, const std::function<Rgb(const Vec3&)>& radiance);
 
 // The cube of half the size (size must be even) whose texels are the solid-angle-weighted means of their 2 × 2
 // children, so that integral() is preserved (up to rounding) and a constant stays that constant.

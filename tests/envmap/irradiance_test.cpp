@@ -12,15 +12,6 @@
 namespace kiln::envmap {
 namespace {
 
-template <class F>
-Cubemap cube_from(int n, F&& radiance) {
-  Cubemap c(n);
-  for (int f = 0; f < kFaceCount; ++f)
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x) c.at(f, x, y) = radiance(texel_direction(f, x, y, n));
-  return c;
-}
-
 TEST(Irradiance, ConstantEnvironmentGivesPiTimesL) {
   const Rgb l{0.5, 2.0, 1000.0};
   for (int src : {1, 3, 16}) {
@@ -41,7 +32,7 @@ TEST(Irradiance, ConstantEnvironmentGivesPiTimesL) {
 TEST(Irradiance, StepEnvironmentMatchesTheAnalyticIrradiance) {
   double previous = 0;
   for (int src : {16, 32, 64}) {
-    const Cubemap sky = cube_from(src, [](const Vec3& d) { return d.y > 0 ? Rgb{1.0} : Rgb{0.0}; });
+    const Cubemap sky = cubemap_from(src, [](const Vec3& d) { return d.y > 0 ? Rgb{1.0} : Rgb{0.0}; });
     const int out = 8;
     const Cubemap e = irradiance_cubemap(sky, out);
     double worst = 0;
@@ -67,7 +58,7 @@ TEST(Irradiance, AgreesWithTheFunkHeckeIrradianceOfABandLimitedSky) {
   // L = 1 + 0.5 y + 0.3 x z (bands 0–2): E(n) = π + (2π/3) 0.5 n_y + (π/4) 0.3 n_x n_z exactly; and the SH path
   // must agree with the convolution to the sum of both discretisation errors.
   const int src = 32;
-  const Cubemap sky = cube_from(src, [](const Vec3& d) { return Rgb{1.0 + 0.5 * d.y + 0.3 * d.x * d.z}; });
+  const Cubemap sky = cubemap_from(src, [](const Vec3& d) { return Rgb{1.0 + 0.5 * d.y + 0.3 * d.x * d.z}; });
   const int out = 6;
   const Cubemap e = irradiance_cubemap(sky, out);
   const ShCoefficients sh = sh_radiance_to_irradiance(project_sh(sky));
@@ -83,7 +74,7 @@ TEST(Irradiance, AgreesWithTheFunkHeckeIrradianceOfABandLimitedSky) {
 }
 
 TEST(Irradiance, CubemapTexelsAreTheConvolutionAtTheirCentres) {
-  const Cubemap sky = cube_from(6, [](const Vec3& d) { return Rgb{std::exp(3.0 * d.x), 1.0 + d.z * d.z, 0.0}; });
+  const Cubemap sky = cubemap_from(6, [](const Vec3& d) { return Rgb{std::exp(3.0 * d.x), 1.0 + d.z * d.z, 0.0}; });
   const Cubemap e = irradiance_cubemap(sky, 3);
   for (int f = 0; f < kFaceCount; ++f)
     for (int y = 0; y < 3; ++y)

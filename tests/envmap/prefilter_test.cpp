@@ -12,15 +12,6 @@
 namespace kiln::envmap {
 namespace {
 
-template <class F>
-Cubemap cube_from(int n, F&& radiance) {
-  Cubemap c(n);
-  for (int f = 0; f < kFaceCount; ++f)
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x) c.at(f, x, y) = radiance(texel_direction(f, x, y, n));
-  return c;
-}
-
 // A smooth, strictly positive environment (degree ≤ 2 in the direction, different per channel).
 Rgb smooth_env(const Vec3& d) {
   return {1.0 + 0.5 * d.x + 0.3 * d.y * d.y, 0.8 + 0.4 * d.y, 1.0 + 0.3 * d.z + 0.2 * d.x * d.y};
@@ -98,7 +89,7 @@ TEST(Prefilter, ConstantEnvironmentStaysConstantAtEveryLevel) {
 // (ρ = 0.25, α = 1/16, about 7° wide in l against 5.6° texels) is resolved.
 TEST(Prefilter, MatchesBruteForceConvolution) {
   for (auto env : {&smooth_env, &spot_env}) {
-    const Cubemap src = cube_from(16, env);
+    const Cubemap src = cubemap_from(16, env);
     const auto coarse = prefilter_specular(src, 16, {5, 64});
     const auto fine = prefilter_specular(src, 16, {5, 1024});
     // Level 0 is the source itself (the mirror).
@@ -133,7 +124,7 @@ double neighbour_median(const Cubemap& c, int f, int x, int y) {
 // tolerance of the level above is 15 % max on each texel, but neighbours' errors are strongly correlated because
 // every texel uses the same rotated sample pattern; measured excess ≤ the printed value).
 TEST(Prefilter, BrightSpotMakesNoIsolatedOutliers) {
-  const Cubemap src = cube_from(16, &spot_env);
+  const Cubemap src = cubemap_from(16, &spot_env);
   const auto chain = prefilter_specular(src, 16, {5, 64});
   for (size_t k = 1; k < chain.size(); ++k) {
     const Cubemap& out = chain[k].cube;
@@ -160,7 +151,7 @@ TEST(Prefilter, BrightSpotMakesNoIsolatedOutliers) {
 // each within the max tolerance of test (3)). Level 0 is the source: exact.
 TEST(Prefilter, SeamlessAcrossCubeEdges) {
   for (auto env : {&smooth_env, &spot_env}) {
-    const Cubemap src = cube_from(16, env);
+    const Cubemap src = cubemap_from(16, env);
     const auto chain = prefilter_specular(src, 16, {5, 64});
     for (size_t k = 0; k < chain.size(); ++k) {
       const Cubemap& out = chain[k].cube;

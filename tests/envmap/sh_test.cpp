@@ -18,19 +18,10 @@ Vec3 random_unit(Pcg32& rng) {
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
-template <class F>
-Cubemap cube_from(int n, F&& radiance) {
-  Cubemap c(n);
-  for (int f = 0; f < kFaceCount; ++f)
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x) c.at(f, x, y) = radiance(texel_direction(f, x, y, n));
-  return c;
-}
-
 // 1 above the horizon (y > 0), 0 below. For even n the horizon runs along texel edges of the side faces, so no texel
 // straddles it and the cube represents the step exactly.
 Cubemap step_cube(int n) {
-  return cube_from(n, [](const Vec3& d) { return d.y > 0 ? Rgb{1.0} : Rgb{0.0}; });
+  return cubemap_from(n, [](const Vec3& d) { return d.y > 0 ? Rgb{1.0} : Rgb{0.0}; });
 }
 
 TEST(Sh, BasisConstantsMatchTheirPublishedValues) {
@@ -112,7 +103,7 @@ TEST(Sh, BasisFunctionsProjectToUnitVectors) {
   for (int n : {16, 32, 64}) {
     double worst = 0;
     for (int j = 0; j < kShCount; ++j) {
-      const ShCoefficients c = project_sh(cube_from(n, [j](const Vec3& d) { return Rgb{sh_basis(d)[j]}; }));
+      const ShCoefficients c = project_sh(cubemap_from(n, [j](const Vec3& d) { return Rgb{sh_basis(d)[j]}; }));
       for (int i = 0; i < kShCount; ++i) worst = std::fmax(worst, std::fabs(c[i].r - (i == j ? 1.0 : 0.0)));
     }
     std::printf("n = %d: max |<Y_i, Y_j> - delta_ij| = %.3e\n", n, worst);
@@ -125,7 +116,7 @@ TEST(Sh, BandLimitedEnvironmentGivesTheFunkHeckeIrradiance) {
   // (Funk–Hecke), an analytic reference independent of the basis constants.
   const int n = 64;
   const ShCoefficients e = sh_radiance_to_irradiance(
-      project_sh(cube_from(n, [](const Vec3& d) { return Rgb{1.0 + 0.5 * d.y + 0.3 * d.x * d.z}; })));
+      project_sh(cubemap_from(n, [](const Vec3& d) { return Rgb{1.0 + 0.5 * d.y + 0.3 * d.x * d.z}; })));
   Pcg32 rng(3);
   for (int k = 0; k < 1000; ++k) {
     const Vec3 nrm = random_unit(rng);
