@@ -53,6 +53,23 @@ void check_cancel(const material::BakeControl& control) {
 
 }  // namespace
 
+const char* to_string(EnvLobe lobe) {
+  switch (lobe) {
+    case EnvLobe::ggx: return "ggx";
+    case EnvLobe::beckmann: return "beckmann";
+    case EnvLobe::cook_torrance: return "cook_torrance";
+    case EnvLobe::schlick: return "schlick";
+  }
+  return "unknown";
+}
+
+std::optional<EnvLobe> env_lobe_from_string(const std::string& name) {
+  for (EnvLobe l : {EnvLobe::ggx, EnvLobe::beckmann, EnvLobe::cook_torrance, EnvLobe::schlick}) {
+    if (name == to_string(l)) return l;
+  }
+  return std::nullopt;
+}
+
 std::optional<std::string> validate(const EnvironmentBakeInput& in) {
   auto range = [](const char* field, double v, double lo, double hi) -> std::optional<std::string> {
     if (std::isfinite(v) && v >= lo && v <= hi) return std::nullopt;
@@ -67,7 +84,9 @@ std::optional<std::string> validate(const EnvironmentBakeInput& in) {
   }
   if (auto e = range("irradiance_size", in.irradiance_size, 1, 256)) return e;
   if (auto e = range("dfg_size", in.dfg_size, 2, 1024)) return e;
-  if (auto e = range("samples", in.samples, 4, 65536)) return e;
+  if (in.samples != 0) {
+    if (auto e = range("samples", in.samples, 4, 65536)) return e;
+  }
   if (auto e = range("dfg_samples", in.dfg_samples, 16, 1 << 20)) return e;
   if (in.constant) {
     for (int c = 0; c < 3; ++c) {
@@ -114,12 +133,12 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const mat
   const int levels = in.levels == 0 ? default_levels(in.size) : in.levels;
   PrefilterOptions options;
   options.levels = levels;
-  options.samples = in.samples;
+  options.samples = in.samples == 0 ? 64 : in.samples;  // TODO(issue 4): from target_error
   const std::vector<PrefilteredLevel> chain = prefilter_specular(source, in.size, options);
   for (const PrefilteredLevel& l : chain) {
     result.level_roughness.push_back(l.roughness);
     result.level_error.push_back(l.error_estimate);
-    result.samples += static_cast<uint64_t>(in.samples) * 6 * l.cube.size() * l.cube.size();
+    result.samples += static_cast<uint64_t>(options.samples) * 6 * l.cube.size() * l.cube.size();
   }
   progress(0.6, "specular");
 
