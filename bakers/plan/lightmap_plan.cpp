@@ -1,0 +1,406 @@
+#include "bakers/plan/lightmap_plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+#include "bakers/brdf/albedo.h"
+#include "bakers/brdf/describe.h"
+#include "bakers/brdf/material.h"
+#include "bakers/math/constants.h"
+#include "bakers/math/sampling.h"
+
+namespace kiln::plan {
+namespace {
+
+using brdf::format_number;
+
+constexpr double kBudgetShare = 0.25;  // of the target error, per pruning (see the header)
+constexpr int kMuSteps = 16;           // directions at which albedos are evaluated, μ = (i + 0.5)/16
+constexpr int kAlbedoSamples = 1024;   // per directional albedo: E to ~1e-3, ample against target/4 ≥ 2.5e-5·...
+constexpr int kOverlapSamples = 4096;  // per δ estimate (bounded integrand: standard error ≤ 0.5/√4096 ≈ 0.008)
+
+double luminance(const Rgb& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
+
+bool microfacet(brdf::Model m) {
+  return m == brdf::Model::ggx || m == brdf::Model::beckmann || m == brdf::Model::cook_torrance;
+}
+
+struct TextureStats {
+  Rgb max{0.0}, average{0.0};
+  bool uniform = true;
+};
+
+TextureStats texture_stats(const scene::Texture& t, double tolerance) {
+  TextureStats s;
+  if (t.texels.empty()) return s;
+  Rgb lo = t.texels[0], hi = t.texels[0], sum{0.0};
+  for (const Rgb& c : t.texels) {
+    lo = {std::min(lo.r, c.r), std::min(lo.g, c.g), std::min(lo.b, c.b)};
+    hi = {std::max(hi.r, c.r), std::max(hi.g, c.g), std::max(hi.b, c.b)};
+    sum += c;
+  }
+  s.max = hi;
+  s.average = sum / static_cast<double>(t.texels.size());
+  // Uniform: every channel spans less than the tolerance relative to its maximum.
+  for (int k = 0; k < 3; ++k) {
+    if (hi[k] - lo[k] > tolerance * hi[k]) s.uniform = false;
+  }
+  return s;
+}
+
+// δ = ½∫|p_s − p_d| = 1 − ∫min(p_s, p_d), with p_s = f_s cos/E_s and p_d = cos/π; under cosine sampling
+// ∫min(p_s, p_d) = E[min(π f_s/E_s, 1)]. Averaged over μ_o with weight 2μ dμ (cosine-weighted outgoing directions)
+// and, for anisotropic lobes, over two azimuths.
+double lobe_distance(const brdf::Bxdf& lobe, bool anisotropic, double* average_albedo) {
+  const int azimuths = anisotropic ? 2 : 1;
+  double distance = 0, albedo = 0, weight = 0;
+  brdf::AlbedoOptions options;
+  options.samples = kAlbedoSamples;
+  for (int i = 0; i < kMuSteps; ++i) {
+    const double mu = (i + 0.5) / kMuSteps;
+    for (int a = 0; a < azimuths; ++a) {
+      const double phi = a * kPi / 2;
+      const double s = std::sqrt(std::max(0.0, 1 - mu * mu));
+      const Vec3 wo{s * std::cos(phi), s * std::sin(phi), mu};
+      const double e_s = brdf::directional_albedo(lobe, wo, options).value.average();
+      double overlap = 1.0;
+      if (e_s > 0) {  // a lobe that reflects nothing has no shape to compare (δ counts 0: it changes nothing)
+        brdf::AlbedoOptions o;
+        o.samples = kOverlapSamples;
+        overlap = brdf::stratified_estimate(o, 7 + i * 2 + a, [&](Point2 u, double, Pcg32&) {
+                    const Vec3 wi = sample_cosine_hemisphere(u);
+                    const double ratio = kPi * lobe.eval(wo, wi).average() / e_s;
+                    return Rgb{std::min(ratio, 1.0)};
+                  }).value.r;
+      }
+      distance += 2 * mu * (1 - overlap);
+      albedo += 2 * mu * e_s;
+      weight += 2 * mu;
+    }
+  }
+  *average_albedo = albedo / weight;
+  return distance / weight;
+}
+
+MaterialAnalysis analyse(const scene::SceneMaterial& m, const std::vector<scene::Texture>& textures,
+                         double tolerance) {
+  MaterialAnalysis a;
+  a.name = m.name;
+  Rgb tint = m.base_color;
+  if (m.base_color_texture && *m.base_color_texture >= 0 &&
+      *m.base_color_texture < static_cast<int>(textures.size())) {
+    const TextureStats t = texture_stats(textures[*m.base_color_texture], tolerance);
+    tint = tint * t.max;
+    a.textured = !t.uniform;
+  }
+  const brdf::Material material(m.bsdf);
+  const auto specular = brdf::make_bxdf(m.bsdf.specular);
+  const double w_s = m.bsdf.combine == brdf::Combine::weights ? m.bsdf.specular_weight : 1.0;
+  const brdf::ModelSpec& s = m.bsdf.specular;
+  a.anisotropic = (microfacet(s.model) && s.alpha_x != s.alpha_y) ||
+                  ((s.model == brdf::Model::schlick || s.model == brdf::Model::schlick_double) && s.layer.p != 1.0);
+
+  // ρ(μ) = w_s E_s(μ) + tint (E(μ) − w_s E_s(μ)): the diffuse part of the material is linear in the base colour.
+  brdf::AlbedoOptions options;
+  options.samples = kAlbedoSamples;
+  for (int i = 0; i < kMuSteps; ++i) {
+    const double mu = (i + 0.5) / kMuSteps;
+    const Rgb e = brdf::directional_albedo(material, mu, options).value;
+    const Rgb e_s = brdf::directional_albedo(*specular, mu, options).value * w_s;
+    for (int k = 0; k < 3; ++k) a.albedo_max = std::max(a.albedo_max, e_s[k] + tint[k] * (e[k] - e_s[k]));
+  }
+  double e_avg = 0;
+  a.lobe_distance = lobe_distance(*specular, a.anisotropic, &e_avg);
+  a.specular_albedo = w_s * e_avg;
+  return a;
+}
+
+bool has_power(const scene::Light& l) {
+  if (!(l.color.max() > 0)) return false;
+  if (l.type == scene::LightType::rect) return length(cross(l.u_axis, l.v_axis)) > 0;
+  if (l.type == scene::LightType::disk) return l.radius > 0;
+  return true;
+}
+
+std::string count_of(int n, const char* what) {
+  return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
+}
+
+struct SceneFacts {
+  int lights[5] = {0, 0, 0, 0, 0};  // by LightType
+  int sun_discs = 0;                 // directional lights with an angular diameter
+  int emissive_triangles = 0;
+  std::vector<bool> used;            // per material
+  std::vector<int> triangles;        // per material
+  double env_max_over_mean = 1;      // of the environment image's luminance
+};
+
+SceneFacts gather(const scene::Scene& scene) {
+  SceneFacts f;
+  for (const scene::Light& l : scene.lights) {
+    if (!has_power(l)) continue;
+    ++f.lights[static_cast<int>(l.type)];
+    if (l.type == scene::LightType::directional && l.angular_diameter > 0) ++f.sun_discs;
+  }
+  const size_t n_materials = std::max<size_t>(scene.materials.size(), 1);
+  f.used.assign(n_materials, false);
+  f.triangles.assign(n_materials, 0);
+  for (const scene::Instance& inst : scene.instances) {
+    if (inst.mesh < 0 || inst.mesh >= static_cast<int>(scene.meshes.size())) continue;
+    const scene::Mesh& mesh = scene.meshes[inst.mesh];
+    const size_t n = mesh.indices.size() / 3;
+    for (size_t t = 0; t < n; ++t) {
+      size_t m = mesh.material.empty() ? 0 : mesh.material[std::min(t, mesh.material.size() - 1)];
+      if (m >= n_materials) m = 0;  // out of range: material 0, as scene validation reports
+      f.used[m] = true;
+      ++f.triangles[m];
+    }
+  }
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    if (scene.materials[m].emission.max() > 0) f.emissive_triangles += f.triangles[m];
+  }
+  const scene::Environment& env = scene.environment;
+  if (!env.constant && !env.equirect.empty()) {
+    // Solid-angle weighted mean (rows weighted by sin θ) against the brightest texel.
+    double sum = 0, weight = 0, peak = 0;
+    for (int y = 0; y < env.height; ++y) {
+      const double w = std::sin(kPi * (y + 0.5) / env.height);
+      for (int x = 0; x < env.width; ++x) {
+        const double l = luminance(env.equirect[static_cast<size_t>(y) * env.width + x]);
+        sum += w * l;
+        weight += w;
+        peak = std::max(peak, l);
+      }
+    }
+    const double mean = weight > 0 ? sum / weight : 0;
+    f.env_max_over_mean = mean > 0 ? peak / mean : 1;  // a black image: nothing to importance-sample
+  }
+  return f;
+}
+
+void check_options(const LightmapPlanOptions& o) {
+  if (!(o.target_error > 0 && o.target_error <= 1)) {
+    throw std::invalid_argument("target_error: must be in (0, 1], got " + format_number(o.target_error));
+  }
+  if (o.max_bounces < 0 || o.max_bounces > 1024) {
+    throw std::invalid_argument("max_bounces: must be in [0, 1024], got " + std::to_string(o.max_bounces));
+  }
+  if (auto e = check_forced_names(o.force_effects, lightmap_effect_names())) throw std::invalid_argument(*e);
+}
+
+// The flags of the plan from its decisions.
+void apply(LightmapPlan& p) {
+  p.point_lights = p.enabled("point_lights");
+  p.spot_lights = p.enabled("spot_lights");
+  p.directional_lights = p.enabled("directional_lights");
+  p.area_lights = p.enabled("area_lights");
+  p.emissive_triangles = p.enabled("emissive_triangles");
+  p.environment_sampling = p.enabled("environment_sampling");
+  p.environment_importance_map = p.environment_sampling && p.enabled("environment_importance_map");
+  p.multiple_importance_sampling = p.enabled("multiple_importance_sampling");
+  if (!p.enabled("indirect_bounces")) p.bounces = 0;
+  p.specular_interreflection = p.bounces > 0 && p.enabled("specular_interreflection");
+  p.anisotropy = p.enabled("anisotropy");
+  p.textures = p.enabled("textures");
+  p.russian_roulette = p.enabled("russian_roulette") && p.bounces > p.russian_roulette_depth;
+}
+
+}  // namespace
+
+bool LightmapPlan::enabled(const std::string& effect) const {
+  for (const Decision& d : decisions) {
+    if (d.effect == effect) return d.enabled;
+  }
+  return false;
+}
+
+std::vector<std::string> lightmap_effect_names() {
+  return {"point_lights",         "spot_lights",
+          "directional_lights",   "area_lights",
+          "emissive_triangles",   "environment_sampling",
+          "environment_importance_map", "multiple_importance_sampling",
+          "indirect_bounces",     "specular_interreflection",
+          "anisotropy",           "textures",
+          "russian_roulette"};
+}
+
+LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions& options) {
+  check_options(options);
+  const double budget = kBudgetShare * options.target_error;
+  const SceneFacts facts = gather(scene);
+  const auto& forced = options.force_effects;
+  LightmapPlan p;
+
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    MaterialAnalysis a = analyse(scene.materials[m], scene.textures, budget);
+    a.used = facts.used[m];
+    a.glossy = a.used && 2 * a.specular_albedo * a.lobe_distance > budget;
+    if (a.used) p.albedo_max = std::max(p.albedo_max, a.albedo_max);
+    p.materials.push_back(a);
+  }
+
+  auto lights = [&](const char* effect, scene::LightType type, const char* what) {
+    const int n = facts.lights[static_cast<int>(type)];
+    p.decisions.push_back(decide(effect, n > 0,
+                                 n > 0 ? "the scene has " + count_of(n, what) + " with non-zero power"
+                                       : std::string("the scene has no ") + what + " with non-zero power",
+                                 forced));
+  };
+  lights("point_lights", scene::LightType::point, "point light");
+  lights("spot_lights", scene::LightType::spot, "spot light");
+  lights("directional_lights", scene::LightType::directional, "directional light");
+  {
+    const int n = facts.lights[static_cast<int>(scene::LightType::rect)] +
+                  facts.lights[static_cast<int>(scene::LightType::disk)];
+    p.decisions.push_back(decide("area_lights", n > 0,
+                                 n > 0 ? "the scene has " + count_of(n, "rectangle or disk light")
+                                       : "the scene has no rectangle or disk light with non-zero power",
+                                 forced));
+  }
+  p.decisions.push_back(decide("emissive_triangles", facts.emissive_triangles > 0,
+                               facts.emissive_triangles > 0
+                                   ? count_of(facts.emissive_triangles, "triangle") + " of emissive materials"
+                                   : "no material emits light",
+                               forced));
+
+  const scene::Environment& env = scene.environment;
+  const bool has_env = env.constant ? env.constant->max() > 0 : !env.equirect.empty();
+  p.decisions.push_back(decide("environment_sampling", has_env,
+                               has_env ? (env.constant ? "a constant environment " + brdf::format_rgb(*env.constant)
+                                                       : "an environment image " + std::to_string(env.width) + "x" +
+                                                             std::to_string(env.height))
+                                       : "no environment (or a black one)",
+                               forced));
+  {
+    bool want = false;
+    std::string why;
+    if (!has_env) {
+      why = "no environment";
+    } else if (env.constant) {
+      why = "a constant environment: cosine sampling already has zero variance for irradiance";
+    } else if (facts.env_max_over_mean <= 2) {
+      why = "the brightest texel is " + format_number(facts.env_max_over_mean) +
+            " x the mean radiance (<= 2): importance weights would vary by at most 2 x, cosine sampling suffices";
+    } else {
+      want = true;
+      why = "the brightest texel is " + format_number(facts.env_max_over_mean) + " x the mean radiance";
+    }
+    p.decisions.push_back(decide("environment_importance_map", want, why, forced));
+  }
+  {
+    const int hittable = facts.lights[static_cast<int>(scene::LightType::rect)] +
+                         facts.lights[static_cast<int>(scene::LightType::disk)] + facts.emissive_triangles +
+                         facts.sun_discs + (has_env ? 1 : 0);
+    p.decisions.push_back(decide("multiple_importance_sampling", hittable > 0,
+                                 hittable > 0 ? "some lights can be hit by sampled rays (area, emissive, sun disc or "
+                                                "environment): light and cosine sampling are combined"
+                                              : "only delta lights (points, spots, delta suns): light sampling alone",
+                                 forced));
+  }
+
+  // Bounces: the smallest k with ρ_max^(k+1) ≤ budget.
+  {
+    std::string why;
+    const double rho = p.albedo_max;
+    if (!(rho > 0)) {
+      p.bounces = 0;
+      why = "no used material reflects light (rho_max = 0)";
+    } else if (rho >= 1) {
+      p.bounces = options.max_bounces;
+      why = "rho_max = " + format_number(rho) + " >= 1: light does not decay; capped at " +
+            std::to_string(options.max_bounces) + " bounces";
+    } else {
+      const int needed = std::max(0, static_cast<int>(std::ceil(std::log(budget) / std::log(rho))) - 1);
+      p.bounces = std::min(needed, options.max_bounces);
+      why = "rho_max = " + format_number(rho) + ": " + std::to_string(p.bounces) + " bounces leave at most rho^" +
+            std::to_string(p.bounces + 1) + " = " + format_number(std::pow(rho, p.bounces + 1)) +
+            " of the light unsimulated (budget " + format_number(budget) + " = target/4)";
+      if (needed > options.max_bounces) why += "; capped by max_bounces, above the budget";
+    }
+    p.decisions.push_back(decide("indirect_bounces", p.bounces > 0, why, forced));
+  }
+  {
+    int glossy = 0, used = 0;
+    std::string worst;
+    double worst_impact = -1;
+    for (const MaterialAnalysis& a : p.materials) {
+      if (!a.used) continue;
+      ++used;
+      glossy += a.glossy;
+      const double impact = 2 * a.specular_albedo * a.lobe_distance;
+      if (impact > worst_impact) {
+        worst_impact = impact;
+        worst = a.name + " (2 E_s delta = " + format_number(impact) + ")";
+      }
+    }
+    std::string why = std::to_string(glossy) + " of " + std::to_string(used) +
+                      " used materials have a specular lobe that changes reflected light by more than the budget " +
+                      format_number(budget);
+    if (used) why += "; the largest: " + worst;
+    if (p.bounces == 0) why = "no bounces: no material's lobe affects irradiance";
+    p.decisions.push_back(decide("specular_interreflection", p.bounces > 0 && glossy > 0, why, forced));
+  }
+  {
+    int n = 0;
+    for (const MaterialAnalysis& a : p.materials) n += a.used && a.glossy && a.anisotropic;
+    p.decisions.push_back(decide("anisotropy", n > 0 && p.bounces > 0,
+                                 n > 0 ? count_of(n, "glossy material") + " with anisotropic lobes"
+                                       : "no simulated specular lobe is anisotropic",
+                                 forced));
+  }
+  {
+    int n = 0;
+    for (const MaterialAnalysis& a : p.materials) n += a.used && a.textured;
+    std::string why = n > 0 ? count_of(n, "used material") + " with a non-uniform base-colour texture"
+                            : "no used material has a non-uniform base-colour texture";
+    if (n > 0 && p.bounces == 0) why = "no bounces: base colours do not affect irradiance";
+    p.decisions.push_back(decide("textures", n > 0 && p.bounces > 0, why, forced));
+  }
+  p.decisions.push_back(decide("russian_roulette", p.bounces > p.russian_roulette_depth,
+                               p.bounces > p.russian_roulette_depth
+                                   ? "paths beyond " + std::to_string(p.russian_roulette_depth) +
+                                         " bounces continue with the probability of their throughput (unbiased)"
+                                   : "at most " + std::to_string(p.russian_roulette_depth) + " bounces",
+                               forced));
+  // A forced bounce count: forcing indirect_bounces on when the planner chose 0 simulates the cap.
+  if (p.enabled("indirect_bounces") && p.bounces == 0) p.bounces = std::max(1, options.max_bounces);
+  // Materials follow a forced specular_interreflection.
+  if (auto it = forced.find("specular_interreflection"); it != forced.end()) {
+    for (MaterialAnalysis& a : p.materials) a.glossy = it->second && a.used && a.specular_albedo > 0;
+  }
+  apply(p);
+  return p;
+}
+
+LightmapPlan full_plan(const scene::Scene& scene, const LightmapPlanOptions& options) {
+  LightmapPlanOptions o = options;
+  o.force_effects.clear();
+  check_options(o);
+  LightmapPlan planned = plan_lightmap(scene, o);
+  LightmapPlan p = planned;
+  p.bounces = options.max_bounces;
+  for (Decision& d : p.decisions) {
+    // Light strategies stay as the scene has them (a light that is absent cannot be sampled); everything else is on.
+    static const char* kPresence[] = {"point_lights", "spot_lights", "directional_lights", "area_lights",
+                                      "emissive_triangles", "environment_sampling"};
+    bool presence = false;
+    for (const char* e : kPresence) presence |= d.effect == e;
+    if (presence) continue;
+    d.enabled = true;
+    d.reason = "full simulation: everything on";
+  }
+  if (!p.environment_sampling || scene.environment.constant) {  // no image: nothing to build a map of
+    for (Decision& d : p.decisions) {
+      if (d.effect == "environment_importance_map") d.enabled = false;
+    }
+  }
+  for (MaterialAnalysis& a : p.materials) a.glossy = a.used && a.specular_albedo > 0;
+  apply(p);
+  p.russian_roulette = p.bounces > p.russian_roulette_depth;
+  return p;
+}
+
+}  // namespace kiln::plan
