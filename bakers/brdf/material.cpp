@@ -57,14 +57,16 @@ Material::Material(const MaterialSpec& spec) : spec_(spec) {
 
 Rgb Material::specular_albedo(double mu) const { return lookup(e_specular_, mu); }
 
-Rgb Material::eval(const Vec3& wo, const Vec3& wi) const {
+Rgb Material::eval(const Vec3& wo, const Vec3& wi) const { return eval(wo, wi, Rgb{1.0}); }
+
+Rgb Material::eval(const Vec3& wo, const Vec3& wi, const Rgb& tint) const {
   if (!valid_reflection_pair(wo, wi)) return Rgb{};
   if (spec_.combine == Combine::weights) {
     const double s = spec_.specular_weight;
-    return diffuse_->eval(wo, wi) * (1.0 - s) + specular_->eval(wo, wi) * s;
+    return tint * diffuse_->eval(wo, wi) * (1.0 - s) + specular_->eval(wo, wi) * s;
   }
   const Rgb through = (Rgb{1.0} - lookup(e_specular_, wi.z)) * (Rgb{1.0} - lookup(e_specular_, wo.z));
-  return specular_->eval(wo, wi) + through * diffuse_->eval(wo, wi);
+  return specular_->eval(wo, wi) + through * tint * diffuse_->eval(wo, wi);
 }
 
 double Material::specular_probability(double mu_o) const {
@@ -85,6 +87,10 @@ double Material::specular_probability(double mu_o) const {
 }
 
 std::optional<BsdfSample> Material::sample(const Vec3& wo, Point2 u, double uc) const {
+  return sample(wo, u, uc, Rgb{1.0});
+}
+
+std::optional<BsdfSample> Material::sample(const Vec3& wo, Point2 u, double uc, const Rgb& tint) const {
   if (!above_horizon(wo)) return std::nullopt;
   const double p = specular_probability(wo.z);
   std::optional<BsdfSample> s;
@@ -95,7 +101,7 @@ std::optional<BsdfSample> Material::sample(const Vec3& wo, Point2 u, double uc) 
     s = diffuse_->sample(wo, u, std::min((uc - p) / (1.0 - p), 0x1.fffffffffffffp-1));
   }
   if (!s) return std::nullopt;
-  return make_sample(s->wi, eval(wo, s->wi), pdf(wo, s->wi));
+  return make_sample(s->wi, eval(wo, s->wi, tint), pdf(wo, s->wi));
 }
 
 double Material::pdf(const Vec3& wo, const Vec3& wi) const {

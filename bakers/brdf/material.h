@@ -39,6 +39,13 @@ class Material final : public Bxdf {
   std::optional<BsdfSample> sample(const Vec3& wo, Point2 u, double uc) const override;
   double pdf(const Vec3& wo, const Vec3& wi) const override;
   std::string describe() const override;
+
+  // The same with the diffuse lobe multiplied by `tint` (a base colour, or a texture read at the shading point):
+  // both combinations are linear in the diffuse term, so the tinted material keeps its energy bound for tint ≤ 1.
+  // The sampling probabilities are the untinted material's; the pdf does not depend on the tint.
+  Rgb eval(const Vec3& wo, const Vec3& wi, const Rgb& tint) const;
+  std::optional<BsdfSample> sample(const Vec3& wo, Point2 u, double uc, const Rgb& tint) const;
+
   bool reciprocal() const override { return diffuse_->reciprocal() && specular_->reciprocal(); }
 
   // The specular lobe's directional albedo E_s(μ) as tabulated (per channel), for tests and reports.

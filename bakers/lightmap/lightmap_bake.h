@@ -1,0 +1,87 @@
+// The lightmap bake, assembled: a scene in; per lightmap the irradiance, validity and estimated-error images (and on
+// request radiance, ambient occlusion and a directional term), a preview and a report out. Plain C++ types: the
+// daemon translates its messages into LightmapBakeInput.
+//
+// Outputs (names fixed), for each lightmap NAME (a mesh's name, or an atlas named by instances):
+//   NAME_irradiance.exr   RGB float32, scene-linear, irradiance E in W·m⁻², dilated by `padding` texels
+//   NAME_validity.exr     1 valid, 0 invalid, before dilation
+//   NAME_error.exr        the estimated relative error per texel
+//   NAME_radiance.exr     ρE/π (on request)        NAME_ao.exr  ambient occlusion (on request)
+//   NAME_sh.exr           order-1 SH of incoming radiance, 4 RGB coefficients as 12 channels (on request)
+//   NAME_preview.png      the irradiance through OpenColorIO's display transform
+//   report.json           plan, samples, rays, time, error estimate, error-versus-time curve, scene problems, memory
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "bakers/envmap/env_input.h"
+#include "bakers/material/material_bake.h"  // BakeControl, BakeOutput, BakeCancelled (shared by the bakers)
+#include "bakers/plan/decision.h"
+#include "bakers/scene/scene.h"
+
+namespace kiln::lightmap {
+
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-1";
+
+// A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
+struct EncodedTexture {
+  std::string name;
+  std::string bytes;
+  std::string color_space;  // empty: srgb_texture for 8-bit formats, lin_rec709 for float ones
+};
+
+struct LightmapBakeInput {
+  // The scene. Its `textures` must be empty when `textures` below is given (they are decoded into it); its
+  // environment is filled from `environment_image` when that is not empty.
+  scene::Scene scene;
+  std::vector<EncodedTexture> textures;
+  std::string environment_image;           // an encoded equirectangular image, or empty
+  envmap::EnvDecodeOptions environment_decode;
+
+  int resolution = 256;                    // texels on a side of every lightmap, [4, 8192]
+  std::map<std::string, int> resolutions;  // per lightmap name, overriding `resolution`
+  int padding = 4;                         // texels of dilation, [0, 64]
+
+  double target_error = 0.01;              // relative standard error per texel the adaptive sampling aims at
+  uint64_t min_samples = 16;               // per texel before any texel may stop, [1, max_samples]
+  uint64_t max_samples = 4096;             // per texel, [1, 1 << 20]
+  double time_limit_seconds = 0;           // stop after this long (the current pass completes); 0: none
+  uint64_t seed = 1;                       // the same input and seed give the same bytes
+
+  int max_bounces = 64;                    // cap on the planner's bounce count, [0, 1024]
+  std::map<std::string, bool> force_effects;
+
+  bool radiance = false;     // NAME_radiance.exr
+  bool ao = false;           // NAME_ao.exr
+  bool directional = false;  // NAME_sh.exr
+  bool preview = true;       // NAME_preview.png
+};
+
+// One point of the error-versus-time curve: after a pass, the estimate over all valid texels.
+struct ErrorPoint {
+  double seconds = 0;
+  uint64_t samples = 0;
+  double error = 0;  // RMS over valid texels of the estimated relative standard error
+};
+
+struct LightmapBakeResult {
+  std::vector<material::BakeOutput> outputs;
+  std::vector<plan::Decision> plan;
+  std::vector<ErrorPoint> curve;
+  uint64_t samples = 0, rays = 0;
+  double seconds = 0;
+  double error_estimate = 0;      // the last point of the curve
+  std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people
+};
+
+// nullopt if valid, else "field: problem, got value".
+std::optional<std::string> validate(const LightmapBakeInput& input);
+
+// Throws std::invalid_argument (naming the field), std::runtime_error (undecodable textures or environment, a
+// scene with nothing to bake) or material::BakeCancelled.
+LightmapBakeResult bake_lightmaps(const LightmapBakeInput& input, const material::BakeControl& control = {});
+
+}  // namespace kiln::lightmap
