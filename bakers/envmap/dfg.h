@@ -3,8 +3,9 @@
 // (Kulla & Conty 2017; Fdez-Agüera 2019: multiply the specular term by 1 + f0 (1/E − 1)).
 //
 // Roughness axis: perceptual roughness ρ ∈ [0, 1], the one mapping every kiln environment output uses:
-//   microfacet lobes (GGX, Beckmann, Cook–Torrance's):  α = ρ²;
-//   Schlick's lobe, whose Z(t) is GGX with α² = r:       r = ρ⁴ (so that α = ρ² again).
+//   microfacet lobes (GGX, Beckmann, Cook–Torrance's, and the environment bake's "schlick" lobe, which is the
+//   microfacet model with Schlick's rational Beckmann D, lobe.h):  α (or m) = ρ²;
+//   Schlick's own BRDF (Model::schlick), whose Z(t) is GGX with α² = r:  r = ρ⁴ (so that α = ρ² again).
 #pragma once
 
 #include <vector>

@@ -16,6 +16,9 @@
 #include <stdexcept>
 #include <vector>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "bakers/image/color.h"
 
 namespace kiln::envmap {
@@ -104,23 +107,29 @@ void check_color_space(const image::ColorConfig& cfg, const std::string& space) 
                               "; declare one of: " + known);
 }
 
-void check_size(int w, int h, int depth, const Format& f) {
+enum class Shape { equirect, square };
+
+void check_size(int w, int h, int depth, const Format& f, const std::string& who, Shape shape) {
   if (w < 1 || h < 1 || depth != 1) {
-    throw std::runtime_error(std::string("decode_environment: the ") + f.name + " header describes an empty or " +
-                             "volumetric image (" + dims(w, h) + ", depth " + std::to_string(depth) +
-                             "); an environment is a flat equirectangular image");
+    throw std::runtime_error(who + ": the " + f.name + " header describes an empty or volumetric image (" +
+                             dims(w, h) + ", depth " + std::to_string(depth) + "); an environment is a flat image");
   }
   if (w > kMaxEnvDimension || h > kMaxEnvDimension || int64_t{w} * h > kMaxEnvPixels) {
-    throw std::runtime_error(std::string("decode_environment: the ") + f.name + " image is " + dims(w, h) +
+    throw std::runtime_error(who + ": the " + f.name + " image is " + dims(w, h) +
                              ", larger than the limits (each side at most " + std::to_string(kMaxEnvDimension) +
                              ", at most " + std::to_string(kMaxEnvPixels) +
                              " pixels, e.g. 8192x4096); downscale it before uploading");
   }
-  if (std::abs(int64_t{w} - 2 * int64_t{h}) > 1) {
-    throw std::runtime_error(std::string("decode_environment: the ") + f.name + " image is " + dims(w, h) +
+  if (shape == Shape::equirect && std::abs(int64_t{w} - 2 * int64_t{h}) > 1) {
+    throw std::runtime_error(who + ": the " + f.name + " image is " + dims(w, h) +
                              ", not an equirectangular (2:1) environment: width must be twice the height (±1), e.g. " +
                              dims(2 * int64_t{h}, h) + " or " + dims(w, std::max(1, w / 2)) +
                              "; crop or resample it, or upload six cube faces instead");
+  }
+  if (shape == Shape::square && w != h) {
+    throw std::runtime_error(who + ": the " + f.name + " image is " + dims(w, h) +
+                             ", not square: a cube face must be N x N (e.g. " + dims(std::min(w, h), std::min(w, h)) +
+                             "); crop or resample it");
   }
 }
 
@@ -145,13 +154,16 @@ void sanitize_non_finite(std::vector<float>& rgb, SanitizeReport& report) {
 
 }  // namespace
 
-EnvironmentInput decode_environment(const std::string& bytes, const EnvDecodeOptions& options) {
-  check_options(options);
+namespace {
+
+// Decodes, sanitises and converts one image (see the header); `who` starts every message.
+EnvironmentInput decode_image(const std::string& bytes, const EnvDecodeOptions& options, const std::string& who,
+                              Shape shape, bool header_only = false) {
   const Format* format = detect(bytes);
   if (!format) {
-    throw std::runtime_error("decode_environment: the " + std::to_string(bytes.size()) +
-                             " bytes are not an image kiln reads (they start with " + hex_prefix(bytes) +
-                             "); upload an equirectangular " + kAccepted + " file");
+    throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
+                             " bytes are not an image kiln reads (they start with " + hex_prefix(bytes) + "); upload " +
+                             (shape == Shape::equirect ? "an equirectangular " : "a square ") + kAccepted + " file");
   }
   const image::ColorConfig& cfg = image::ColorConfig::active();
   const std::string space =
@@ -164,7 +176,7 @@ EnvironmentInput decode_environment(const std::string& bytes, const EnvDecodeOpt
       OIIO::ImageInput::create(format->virtual_name, false, nullptr, &proxy);
   if (!in) {
     // Either the reader is missing or (usually) it rejected the start of the bytes.
-    throw std::runtime_error("decode_environment: could not open the " + std::to_string(bytes.size()) + "-byte " +
+    throw std::runtime_error(who + ": could not open the " + std::to_string(bytes.size()) + "-byte " +
                              format->name + " image (truncated or corrupt?): " + OIIO::geterror() +
                              "; re-export the file and upload it again");
   }
@@ -178,19 +190,26 @@ EnvironmentInput decode_environment(const std::string& bytes, const EnvDecodeOpt
   }
   OIIO::ImageSpec spec;
   if (!in->open(open_name, spec)) {
-    throw std::runtime_error("decode_environment: could not read the header of the " + std::to_string(bytes.size()) +
+    throw std::runtime_error(who + ": could not read the header of the " + std::to_string(bytes.size()) +
                              "-byte " + format->name + " image (truncated or corrupt?): " + in->geterror() +
                              "; re-export the file and upload it again");
   }
-  check_size(spec.width, spec.height, std::max(1, spec.depth), *format);
+  check_size(spec.width, spec.height, std::max(1, spec.depth), *format, who, shape);
   const int w = spec.width, h = spec.height;
+  if (header_only) {
+    EnvironmentInput header;
+    header.format = format->name;
+    header.width = w;
+    header.height = h;
+    return header;
+  }
   const int nch = spec.nchannels;
-  if (nch < 1) throw std::runtime_error(std::string("decode_environment: the ") + format->name + " image has no channels");
+  if (nch < 1) throw std::runtime_error(who + ": the " + format->name + " image has no channels");
   const int take = nch >= 3 ? 3 : 1;  // RGB, or the grey channel (alpha and the rest are dropped)
   const size_t pixels = static_cast<size_t>(w) * static_cast<size_t>(h);
   std::vector<float> data(pixels * take);
   if (!in->read_image(0, 0, 0, take, OIIO::TypeDesc::FLOAT, data.data())) {
-    throw std::runtime_error("decode_environment: could not read the pixels of the " + dims(w, h) + " " +
+    throw std::runtime_error(who + ": could not read the pixels of the " + dims(w, h) + " " +
                              format->name + " image (truncated or corrupt?): " + in->geterror() +
                              "; re-export the file and upload it again");
   }
@@ -228,6 +247,76 @@ EnvironmentInput decode_environment(const std::string& bytes, const EnvDecodeOpt
     env.image.pixels[p] = Rgb(c[0], c[1], c[2]);
   }
   return env;
+}
+
+}  // namespace
+
+EnvironmentInput decode_environment(const std::string& bytes, const EnvDecodeOptions& options) {
+  check_options(options);
+  return decode_image(bytes, options, "decode_environment", Shape::equirect);
+}
+
+EnvImageHeader probe_environment(const std::string& bytes) {
+  const EnvironmentInput h = decode_image(bytes, {}, "decode_environment", Shape::equirect, true);
+  return {h.format, h.width, h.height};
+}
+
+namespace {
+const char* kSignedFace[kFaceCount] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+std::string face_who(int f) { return "decode_cube_faces: face " + std::to_string(f) + " (" + kSignedFace[f] + ")"; }
+void check_face_count(const std::vector<std::string>& faces) {
+  if (faces.size() != static_cast<size_t>(kFaceCount)) {
+    throw std::invalid_argument("decode_cube_faces: " + std::to_string(faces.size()) +
+                                " face images given; a cube needs exactly 6, in the order +X, -X, +Y, -Y, +Z, -Z");
+  }
+}
+void check_face_size(int f, int w, int h, int size0) {
+  if (f > 0 && w != size0) {
+    throw std::runtime_error(face_who(f) + ": the image is " + dims(w, h) + " but face 0 (+X) is " +
+                             dims(size0, size0) + "; all six faces must have the same size");
+  }
+}
+}  // namespace
+
+EnvImageHeader probe_cube_faces(const std::vector<std::string>& faces) {
+  check_face_count(faces);
+  EnvImageHeader out;
+  for (int f = 0; f < kFaceCount; ++f) {
+    const EnvironmentInput h = decode_image(faces[f], {}, face_who(f), Shape::square, true);
+    check_face_size(f, h.width, h.height, out.width);
+    if (f == 0) out = {h.format, h.width, h.height};
+  }
+  return out;
+}
+
+CubeFacesInput decode_cube_faces(const std::vector<std::string>& faces, const EnvDecodeOptions& options) {
+  check_options(options);
+  check_face_count(faces);
+  CubeFacesInput out;
+  for (int f = 0; f < kFaceCount; ++f) {
+    const std::string who = face_who(f);
+    EnvironmentInput img = decode_image(faces[f], options, who, Shape::square);
+    check_face_size(f, img.width, img.height, out.face_size);
+    if (f == 0) {
+      out.face_size = img.width;
+      out.format = img.format;
+      out.color_space = img.color_space;
+      out.working_space = img.working_space;
+      out.cube = Cubemap(img.width);
+    } else if (img.format != out.format && out.format.find(img.format) == std::string::npos) {
+      out.format += "+" + img.format;
+    }
+    out.sanitized.nan += img.sanitized.nan;
+    out.sanitized.inf += img.sanitized.inf;
+    out.sanitized.negative += img.sanitized.negative;
+    // Row y of the picture (first row on top) is row t = (y + ½)/N of the face: the order glTexImage2D and KTX
+    // store (cubemap.h), so pixels copy straight across.
+    for (int y = 0; y < img.height; ++y)
+      for (int x = 0; x < img.width; ++x) out.cube.at(f, x, y) = img.image.at(x, y);
+  }
+  out.rotation_degrees = options.rotation_degrees;
+  out.intensity = options.intensity;
+  return out;
 }
 
 namespace {
@@ -276,6 +365,48 @@ Cubemap environment_to_cube(const EnvironmentInput& env, int size) {
   if (env.image.width < 1 || env.image.height < 1) throw std::invalid_argument("environment_to_cube: empty environment");
   if (std::fmod(env.rotation_degrees, 360.0) == 0.0) return resample_equirect_to_cube(env.image, size);
   return resample_equirect_to_cube(rotated_equirect(env), size);
+}
+
+Cubemap faces_to_cube(const CubeFacesInput& faces, int size) {
+  if (size < 1) throw std::invalid_argument("faces_to_cube: size must be at least 1, got " + std::to_string(size));
+  if (faces.cube.size() < 1) throw std::invalid_argument("faces_to_cube: no faces");
+  const Cubemap& src = faces.cube;
+  const bool unrotated = std::fmod(faces.rotation_degrees, 360.0) == 0.0;
+  // Same size, no rotation: the faces themselves.
+  if (unrotated && size == src.size()) return src;
+  // Area-correct down by powers of two when possible (a constant stays exact); otherwise supersampled: each output
+  // texel is the solid-angle-weighted mean of k × k sub-texels read bilinearly (seamlessly) from the rotated source,
+  // k = clamp(ceil(2 N_src / size), 2, 32) so that sub-texels are no wider than half a source texel.
+  if (unrotated && size < src.size() && src.size() % size == 0 && ((src.size() / size) & (src.size() / size - 1)) == 0) {
+    Cubemap c = src;
+    while (c.size() > size) c = downsample_2x(c);
+    return c;
+  }
+  const int k = std::clamp((2 * src.size() + size - 1) / size, 2, 32);
+  Cubemap cube(size);
+  const double texel = 2.0 / size, sub = texel / k;
+  tbb::parallel_for(tbb::blocked_range<int>(0, kFaceCount * size), [&](const tbb::blocked_range<int>& rows) {
+    for (int row = rows.begin(); row != rows.end(); ++row) {
+      const int face = row / size, y = row % size;
+      for (int x = 0; x < size; ++x) {
+        Rgb first, delta;
+        double wsum = 0;
+        for (int j = 0; j < k; ++j)
+          for (int i = 0; i < k; ++i) {
+            const double sa0 = -1.0 + x * texel + i * sub, sb0 = -1.0 + y * texel + j * sub;
+            const double w = face_rect_solid_angle(sa0, sb0, sa0 + sub, sb0 + sub);
+            const Vec3 d = face_uv_to_direction(face, 0.5 * (sa0 + 0.5 * sub + 1.0), 0.5 * (sb0 + 0.5 * sub + 1.0));
+            const Rgb v = src.sample_bilinear(unrotate(d, faces.rotation_degrees));
+            // The weighted mean as L0 + Σ w (L − L0) / Σ w: exactly L0 when all samples are equal.
+            if (i == 0 && j == 0) first = v;
+            delta += (v - first) * w;
+            wsum += w;
+          }
+        cube.at(face, x, y) = first + delta / wsum;
+      }
+    }
+  });
+  return cube;
 }
 
 }  // namespace kiln::envmap

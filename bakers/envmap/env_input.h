@@ -1,4 +1,4 @@
-// Decoding an uploaded environment (an equirectangular image) into the working space, with the documented rule for
+// Decoding an uploaded environment (an equirectangular image, or six cube faces) into the working space, with the documented rule for
 // texels that are not usable radiance, and the rotation and intensity the job asks for.
 //
 // ## Formats
@@ -30,11 +30,19 @@
 // towards −Z is seen towards −X. In the equirectangular image this is a shift of the columns: out(u) = in(u + α/360°).
 // The rotation is applied when sampling (sample_environment, environment_to_cube); `image` stays unrotated.
 // intensity multiplies every value of `image` (applied at decode time); it must be finite and in (0, 1e6].
+//
+// ## Six faces
+// Six square images of the same size N, in the KTX/GL face order +X, −X, +Y, −Y, +Z, −Z, each oriented as
+// cubemap.h says (first row of the picture = row t ≈ 0, stored first, as KTX stores it). Each is decoded with the same
+// formats, limits (but square instead of 2:1), colour rules and sanitising as an equirectangular image; the
+// sanitised counts are summed over the faces. Errors name the face ("face 2 (+Y)"). Rotation about +Y and intensity
+// apply as above (the rotation when resampling: faces_to_cube).
 #pragma once
 
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "bakers/envmap/cubemap.h"
 
@@ -86,5 +94,34 @@ RgbImage rotated_equirect(const EnvironmentInput& env);
 // The environment resampled into a cube of `size` (resample_equirect_to_cube of rotated_equirect). Throws
 // std::invalid_argument for size < 1 or an empty environment.
 Cubemap environment_to_cube(const EnvironmentInput& env, int size);
+
+struct CubeFacesInput {
+  Cubemap cube;               // the six faces as given, working space, intensity applied, NOT rotated
+  SanitizeReport sanitized;   // summed over the faces
+  std::string format;         // of face 0 ("+"-joined if the faces differ)
+  int face_size = 0;          // N
+  std::string color_space;    // declared (the same rule for every face: options, else the format's default)
+  std::string working_space;
+  double rotation_degrees = 0.0;
+  double intensity = 1.0;
+};
+
+// The format and size from the header alone (nothing else is read or allocated), with the same checks and errors as
+// decode_environment / decode_cube_faces (count, shape, limits, equal sizes): for estimating a bake's memory first.
+struct EnvImageHeader {
+  std::string format;
+  int width = 0, height = 0;  // of the equirectangular image, or of one face
+};
+EnvImageHeader probe_environment(const std::string& bytes);
+EnvImageHeader probe_cube_faces(const std::vector<std::string>& faces);
+
+// Decodes six faces. Throws std::invalid_argument for bad options or a count other than 6, and std::runtime_error
+// naming the face for undecodable, non-square, over-large or differently sized faces.
+CubeFacesInput decode_cube_faces(const std::vector<std::string>& faces, const EnvDecodeOptions& options = {});
+
+// The (rotated) faces as a cube of `size`: the faces themselves (same size, no rotation), else area-correct
+// (downsample_2x by powers of two, or supersampled with exact sub-texel solid angles, reading the source bilinearly
+// and seamlessly at R_y(−α)·d). A constant stays exactly constant. Throws std::invalid_argument for size < 1.
+Cubemap faces_to_cube(const CubeFacesInput& faces, int size);
 
 }  // namespace kiln::envmap

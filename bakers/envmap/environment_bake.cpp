@@ -1,7 +1,10 @@
 #include "bakers/envmap/environment_bake.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <iterator>
 #include <sstream>
 
 #include "bakers/brdf/describe.h"
@@ -9,6 +12,8 @@
 #include "bakers/envmap/dfg.h"
 #include "bakers/envmap/irradiance.h"
 #include "bakers/envmap/prefilter.h"
+#include "bakers/envmap/preview.h"
+#include "bakers/envmap/sun.h"
 #include "bakers/envmap/sh.h"
 #include "bakers/image/exr.h"
 #include "bakers/image/ktx2.h"
@@ -51,24 +56,64 @@ void check_cancel(const material::BakeControl& control) {
   if (control.cancel && control.cancel->load()) throw material::BakeCancelled();
 }
 
+// The effects force_effects may name.
+constexpr const char* kForcibleEffects[] = {"sun_light"};
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\', out += c;
+    else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else out += c;
+  }
+  return out + "\"";
+}
+std::string json_number(double v) { return std::isfinite(v) ? format_number(v) : "null"; }
+std::string json_bool(bool b) { return b ? "true" : "false"; }
+
+std::string report_json(const EnvironmentBakeInput& in, const EnvironmentBakeResult& r, int levels,
+                        const std::string& color_space) {
+  std::ostringstream j;
+  j << "{\n  \"baker\": " << json_string(kEnvironmentBakerVersion) << ",\n  \"size\": " << in.size
+    << ",\n  \"lobe\": " << json_string(to_string(in.lobe)) << ",\n  \"roughness_mapping\": "
+    << json_string("rho_k = k/(levels-1), alpha = rho^2 (Schlick's rational Beckmann: m = rho^2)")
+    << ",\n  \"target_error\": " << json_number(in.target_error) << ",\n  \"seed\": " << in.seed
+    << ",\n  \"levels\": [";
+  for (int k = 0; k < levels; ++k) {
+    const EnvironmentLevelReport& l = r.levels[k];
+    j << (k ? ",\n    " : "\n    ") << "{\"level\": " << k << ", \"size\": " << l.size
+      << ", \"roughness\": " << json_number(l.roughness) << ", \"samples\": " << l.samples
+      << ", \"error_estimate\": " << json_number(l.error_estimate) << ", \"noise_estimate\": "
+      << json_number(l.noise_estimate) << ", \"checked_error\": " << json_number(l.checked_error)
+      << ", \"seconds\": " << json_number(l.seconds) << "}";
+  }
+  j << "\n  ],\n  \"samples\": {\"total\": " << r.samples << ", \"per_level\": [";
+  for (size_t k = 0; k < r.level_samples.size(); ++k) j << (k ? ", " : "") << r.level_samples[k];
+  j << "], \"dfg_per_entry\": " << in.dfg_samples << "},\n  \"time\": {\"total_seconds\": " << json_number(r.seconds)
+    << ", \"stages\": {";
+  for (size_t i = 0; i < r.stage_seconds.size(); ++i)
+    j << (i ? ", " : "") << json_string(r.stage_seconds[i].first) << ": " << json_number(r.stage_seconds[i].second);
+  j << "}},\n  \"plan\": [";
+  for (size_t i = 0; i < r.plan_entries.size(); ++i) {
+    const EnvironmentPlanEntry& e = r.plan_entries[i];
+    j << (i ? ",\n    " : "\n    ") << "{\"effect\": " << json_string(e.effect) << ", \"enabled\": "
+      << json_bool(e.enabled) << ", \"forced\": " << json_bool(e.forced) << ", \"reason\": " << json_string(e.reason)
+      << "}";
+  }
+  j << "\n  ],\n  \"sun\": {\"found\": " << json_bool(r.sun_found) << ", \"texels\": " << r.sun_texels
+    << ", \"power_fraction\": " << json_number(r.sun_power_fraction) << "},\n  \"conventions\": {\"up\": \"+Y\", "
+    << "\"cubemap\": " << json_string(std::string(kCubemapConvention)) << ", \"equirect\": "
+    << json_string(std::string(kEquirectConvention)) << "},\n  \"color_space\": " << json_string(color_space)
+    << ",\n  \"memory\": {\"estimated_peak_bytes\": " << r.memory_bytes << ", \"bound_bytes\": "
+    << kMaxEnvironmentMemory << "},\n  \"sanitized\": {\"nan\": " << r.sanitized.nan << ", \"inf\": "
+    << r.sanitized.inf << ", \"negative\": " << r.sanitized.negative << "}\n}\n";
+  return j.str();
+}
+
 }  // namespace
-
-const char* to_string(EnvLobe lobe) {
-  switch (lobe) {
-    case EnvLobe::ggx: return "ggx";
-    case EnvLobe::beckmann: return "beckmann";
-    case EnvLobe::cook_torrance: return "cook_torrance";
-    case EnvLobe::schlick: return "schlick";
-  }
-  return "unknown";
-}
-
-std::optional<EnvLobe> env_lobe_from_string(const std::string& name) {
-  for (EnvLobe l : {EnvLobe::ggx, EnvLobe::beckmann, EnvLobe::cook_torrance, EnvLobe::schlick}) {
-    if (name == to_string(l)) return l;
-  }
-  return std::nullopt;
-}
 
 std::optional<std::string> validate(const EnvironmentBakeInput& in) {
   auto range = [](const char* field, double v, double lo, double hi) -> std::optional<std::string> {
@@ -88,77 +133,169 @@ std::optional<std::string> validate(const EnvironmentBakeInput& in) {
     if (auto e = range("samples", in.samples, 4, 65536)) return e;
   }
   if (auto e = range("dfg_samples", in.dfg_samples, 16, 1 << 20)) return e;
+  if (auto e = range("target_error", in.target_error, 1e-4, 1.0)) return e;
   if (in.constant) {
     for (int c = 0; c < 3; ++c) {
       if (auto e = range("constant", (*in.constant)[c], 0.0, 1e6)) return e;
     }
+  } else if (!in.faces.empty()) {
+    if (in.faces.size() != 6) {
+      return "faces: a cube needs exactly 6 face images (+X, -X, +Y, -Y, +Z, -Z), got " + std::to_string(in.faces.size());
+    }
   } else if (in.image.empty()) {
-    return "image: no environment given (an image, or a constant colour)";
+    return "image: no environment given (an image, six faces, or a constant colour)";
+  }
+  for (const auto& [name, on] : in.force_effects) {
+    if (std::find(std::begin(kForcibleEffects), std::end(kForcibleEffects), name) == std::end(kForcibleEffects)) {
+      std::string known;
+      for (const char* k : kForcibleEffects) known += (known.empty() ? "" : ", ") + std::string(k);
+      return "force_effects: unknown effect '" + name + "'; the effects that can be forced are: " + known;
+    }
   }
   return std::nullopt;
+}
+
+uint64_t estimate_environment_memory(const EnvironmentBakeInput& in, int width, int height, bool faces) {
+  const double n2 = 6.0 * in.size * in.size;
+  const double cube = n2 * sizeof(Rgb);        // C
+  const double chain_texels = n2 * 4.0 / 3.0;  // T
+  double source = cube;
+  if (faces) source += 6.0 * width * width * sizeof(Rgb) + double(width) * width * 36.0;
+  else source += double(width) * height * 60.0;
+  const double split = 10.0 / 3.0 * cube;
+  const double chain = 11.0 / 3.0 * cube;
+  const double output = 4.0 / 3.0 * cube + chain_texels * 48.0 + 12.0 * in.size * in.size;
+  const double small = 6.0 * kIrradianceSourceSize * kIrradianceSourceSize * sizeof(Rgb) * 2 +
+                       6.0 * in.irradiance_size * in.irradiance_size * sizeof(Rgb) * 2 +
+                       double(in.dfg_size) * in.dfg_size * (sizeof(DfgEntry) + 12.0) + (1 << 20);
+  return static_cast<uint64_t>(std::max({source, split, chain, output}) + small);
 }
 
 EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const material::BakeControl& control) {
   if (auto problem = validate(in)) throw std::invalid_argument(*problem);
   const auto t0 = std::chrono::steady_clock::now();
+  auto stage_t0 = t0;
   EnvironmentBakeResult result;
   auto progress = [&](double fraction, const std::string& stage) {
+    const auto now = std::chrono::steady_clock::now();
+    result.stage_seconds.push_back({stage, std::chrono::duration<double>(now - stage_t0).count()});
+    stage_t0 = now;
     check_cancel(control);
     if (!control.progress) return;
     material::BakeProgress p;
     p.fraction = fraction;
     p.samples = result.samples;
     p.stage = stage;
+    for (double e : result.level_error) p.error_estimate = std::max(p.error_estimate, e);
     control.progress(p);
   };
+  auto plan = [&](const std::string& effect, bool enabled, bool forced, const std::string& reason) {
+    result.plan_entries.push_back({effect, enabled, forced, reason});
+    result.plan.push_back(effect + ": " + (enabled ? "on" : "off") + (forced ? " (forced)" : "") + " - " + reason);
+  };
+
+  // 0. Memory, from the headers alone.
+  const bool from_faces = !in.constant && !in.faces.empty();
+  EnvImageHeader header;
+  if (!in.constant) header = from_faces ? probe_cube_faces(in.faces) : probe_environment(in.image);
+  result.memory_bytes = estimate_environment_memory(in, header.width, header.height, from_faces);
+  if (result.memory_bytes > kMaxEnvironmentMemory) {
+    const std::string what = in.constant ? std::string("a constant") :
+                             from_faces ? "faces (6 x " + std::to_string(header.width) + "^2)" :
+                                          "image (" + std::to_string(header.width) + "x" + std::to_string(header.height) + ")";
+    throw std::invalid_argument("size, " + std::string(from_faces ? "faces" : "image") + ": baking " + what +
+                                " to a " + std::to_string(in.size) + "^2 cube needs about " +
+                                format_number(result.memory_bytes / double(1 << 30)) +
+                                " GiB of working memory, more than the 4 GiB bound; lower size or upload a smaller "
+                                "environment");
+  }
 
   // 1. The source cube in the working space.
-  Cubemap source(in.size);
+  Cubemap source;
   std::string color_space = "lin_rec709";
   if (in.constant) {
     source = Cubemap(in.size, *in.constant);
-    result.plan.push_back("source: a constant environment " + brdf::format_rgb(*in.constant));
+    plan("source", true, false, "a constant environment " + brdf::format_rgb(*in.constant));
+  } else if (from_faces) {
+    CubeFacesInput faces = decode_cube_faces(in.faces, in.decode);
+    result.sanitized = faces.sanitized;
+    color_space = faces.working_space;
+    source = faces_to_cube(faces, in.size);
+    plan("source", true, false, "six " + faces.format + " faces " + std::to_string(faces.face_size) + "^2 in " +
+                                    faces.color_space + ", rotated " + format_number(in.decode.rotation_degrees) +
+                                    " deg about +Y, intensity " + format_number(in.decode.intensity) +
+                                    ", resampled to a " + std::to_string(in.size) + "^2 cube");
   } else {
     const EnvironmentInput env = decode_environment(in.image, in.decode);
     result.sanitized = env.sanitized;
     color_space = env.working_space;
     source = environment_to_cube(env, in.size);
-    result.plan.push_back("source: " + env.format + " " + std::to_string(env.width) + "x" +
-                          std::to_string(env.height) + " in " + env.color_space + ", resampled to a " +
-                          std::to_string(in.size) + "^2 cube");
+    plan("source", true, false, "equirectangular " + env.format + " " + std::to_string(env.width) + "x" +
+                                    std::to_string(env.height) + " in " + env.color_space + ", rotated " +
+                                    format_number(in.decode.rotation_degrees) + " deg about +Y, intensity " +
+                                    format_number(in.decode.intensity) + ", resampled to a " +
+                                    std::to_string(in.size) + "^2 cube");
   }
   progress(0.1, "source");
 
-  // 2. The specular chain.
+  // 2. The sun as an explicit light (sun.h); the source is not needed after the split (sky + sun = source).
+  const auto forced = in.force_effects.find("sun_light");
+  const SunMode mode = forced == in.force_effects.end() ? SunMode::automatic
+                       : forced->second                 ? SunMode::forced_on
+                                                        : SunMode::forced_off;
+  SunSplit split = split_sun(source, mode);
+  source = Cubemap();
+  result.sun_found = split.enabled;
+  result.sun_texels = static_cast<int>(split.sun.size());
+  result.sun_power_fraction = split.enabled ? split.power_fraction : 0.0;
+  if (!split.enabled) split.sun.clear();
+  plan("sun_light", split.enabled, mode != SunMode::automatic, split.reason);
+  progress(0.15, "sun");
+
+  // 3. The specular chain.
   const int levels = in.levels == 0 ? default_levels(in.size) : in.levels;
   PrefilterOptions options;
   options.levels = levels;
-  options.samples = in.samples == 0 ? 64 : in.samples;  // TODO(issue 4): from target_error
-  const std::vector<PrefilteredLevel> chain = prefilter_specular(source, in.size, options);
+  options.samples = in.samples;
+  options.target_error = in.target_error;
+  options.distribution = lobe_distribution(in.lobe);
+  options.seed = in.seed;
+  options.cancel = control.cancel;
+  plan("lobe", true, false, lobe_description(in.lobe));
+  plan("samples", true, false,
+       in.samples == 0 ? "per level, the smallest tried N whose error against brute force on a checked subset of "
+                         "texels meets target_error " + format_number(in.target_error) +
+                         " (from 64, scaled by the 1/sqrt(N) law; within [16, 65536])"
+                       : "fixed by the job: " + std::to_string(in.samples) + " per texel (rounded up to a multiple of 4)");
+  std::vector<PrefilteredLevel> chain = prefilter_specular(split.sky, split.sun, in.size, options);
   for (const PrefilteredLevel& l : chain) {
     result.level_roughness.push_back(l.roughness);
     result.level_error.push_back(l.error_estimate);
-    result.samples += static_cast<uint64_t>(options.samples) * 6 * l.cube.size() * l.cube.size();
+    result.level_samples.push_back(l.samples);
+    result.levels.push_back({l.cube.size(), l.roughness, l.samples, l.error_estimate, l.noise_estimate,
+                             l.checked_error, l.seconds});
+    result.samples += static_cast<uint64_t>(l.samples) * 6 * l.cube.size() * l.cube.size() +
+                      static_cast<uint64_t>(l.pilot_samples) * l.checked_texels;
   }
   progress(0.6, "specular");
 
-  // 3. Diffuse: the irradiance cube by convolution of a downsampled source, and the SH of the full source.
-  Cubemap small = source;
-  while (small.size() > kIrradianceSourceSize) small = downsample_2x(small);
-  const Cubemap irradiance = irradiance_cubemap(small, in.irradiance_size);
-  const ShCoefficients sh = sh_radiance_to_irradiance(project_sh(source));
+  // 4. Diffuse: the irradiance cube by convolution of a downsampled sky plus the exact sun; the SH of the full sky
+  //    plus the sun texels' exact projections.
+  Cubemap irradiance = irradiance_with_sun(split.sky, split.sun, in.irradiance_size, kIrradianceSourceSize);
+  const ShCoefficients sh_radiance = project_sh_with_sun(split.sky, split.sun);
+  const ShCoefficients sh = sh_radiance_to_irradiance(sh_radiance);
+  split = SunSplit();  // the sky and its sun are no longer needed
   progress(0.7, "irradiance");
 
-  // 4. The DFG table of the GGX lobe.
-  brdf::ModelSpec ggx;
-  ggx.model = brdf::Model::ggx;
+  // 5. The DFG table of the same lobe.
   brdf::AlbedoOptions dfg_options;
   dfg_options.samples = in.dfg_samples;
-  const DfgTable dfg = compute_dfg(ggx, in.dfg_size, in.dfg_size, dfg_options);
+  dfg_options.seed = in.seed;
+  const DfgTable dfg = compute_dfg(lobe_model(in.lobe), in.dfg_size, in.dfg_size, dfg_options);
   result.samples += static_cast<uint64_t>(in.dfg_size) * in.dfg_size * in.dfg_samples;
-  progress(0.9, "dfg");
+  progress(0.85, "dfg");
 
-  // 5. Outputs.
+  // 6. Outputs.
   image::Ktx2Image ktx;
   ktx.width = ktx.height = in.size;
   ktx.faces = 6;
@@ -174,15 +311,18 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const mat
       for (const Rgb& c : cube.face(f)) px.insert(px.end(), {float(c.r), float(c.g), float(c.b), 1.0f});
       result.outputs.push_back({"specular_L" + std::to_string(k) + "_" + std::string(kFaceNames[f]) + ".exr",
                                 "image/x-exr", color_space,
-                                image::encode_exr(face_image(cube, f, "specular prefiltered, level " +
-                                                                          std::to_string(k) + ", roughness " +
+                                image::encode_exr(face_image(cube, f, "specular prefiltered (" +
+                                                                          std::string(to_string(in.lobe)) +
+                                                                          "), level " + std::to_string(k) +
+                                                                          ", roughness " +
                                                                           format_number(chain[k].roughness)))});
     }
   }
   ktx.key_values["KTXorientation"] = "rd";
   ktx.key_values["kiln:roughness_per_level"] = roughness.str();
-  ktx.key_values["kiln:roughness_mapping"] = "perceptual roughness rho_k = k/(levels-1), GGX alpha = rho^2";
-  ktx.key_values["kiln:lobe"] = "ggx, n = v = r, weighted by n.l";
+  ktx.key_values["kiln:roughness_mapping"] = "perceptual roughness rho_k = k/(levels-1), alpha = rho^2";
+  ktx.key_values["kiln:lobe"] = to_string(in.lobe);
+  ktx.key_values["kiln:lobe_description"] = lobe_description(in.lobe);
   ktx.key_values["kiln:cubemap_convention"] = std::string(kCubemapConvention);
   ktx.key_values["kiln:color_space"] = color_space;
   result.outputs.insert(result.outputs.begin(), {"specular.ktx2", "image/ktx2", color_space, image::encode_ktx2(ktx)});
@@ -205,19 +345,18 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const mat
     }
   }
   dfg_image.metadata["kiln:axes"] = "x: mu = n.v = (x + 0.5)/width; y: perceptual roughness (y + 0.5)/height, alpha = rho^2";
+  dfg_image.metadata["kiln:lobe"] = to_string(in.lobe);
   result.outputs.push_back({"dfg.exr", "image/x-exr", "data", image::encode_exr(dfg_image)});
+  if (in.preview) {
+    result.outputs.push_back({"preview.png", "image/png", "", render_preview(chain, irradiance, dfg, color_space)});
+    plan("preview", true, false, "preview.png: spheres at roughness 0, 0.25, 0.5, 0.75, 1 and a diffuse one");
+  } else {
+    plan("preview", false, false, "not asked for");
+  }
+  progress(0.95, "outputs");
 
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::ostringstream json;
-  json << "{\n  \"baker\": \"kiln environment (in progress)\",\n  \"size\": " << in.size << ",\n  \"levels\": [";
-  for (int k = 0; k < levels; ++k) {
-    json << (k ? ", " : "") << "{\"roughness\": " << format_number(chain[k].roughness)
-         << ", \"error_estimate\": " << format_number(chain[k].error_estimate) << "}";
-  }
-  json << "],\n  \"samples\": " << result.samples << ",\n  \"seconds\": " << format_number(result.seconds)
-       << ",\n  \"sanitized\": {\"nan\": " << result.sanitized.nan << ", \"inf\": " << result.sanitized.inf
-       << ", \"negative\": " << result.sanitized.negative << "},\n  \"color_space\": \"" << color_space << "\"\n}\n";
-  result.outputs.push_back({"report.json", "application/json", "", json.str()});
+  result.outputs.push_back({"report.json", "application/json", "", report_json(in, result, levels, color_space)});
   progress(1.0, "done");
   return result;
 }

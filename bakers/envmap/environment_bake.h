@@ -9,7 +9,20 @@
 //   irradiance_{px,...}.exr           the irradiance cube, by direct convolution (not from SH)
 //   sh.txt                            nine RGB irradiance coefficients, with the basis in a header line
 //   dfg.exr                           (μ, ρ) table: scale, bias, energy
-//   report.json                       sizes, samples, time, estimated error per level, conventions, sanitising
+//   preview.png                       (if asked) spheres at several roughnesses, display-transformed (preview.h)
+//   report.json                       samples (total, per level), time (total, per stage), estimated error per
+//                                     level, the plan (effects with enabled/forced/reason), conventions, colour
+//                                     space, memory, sanitised counts
+//
+// ## Memory (estimated before anything large is allocated; refused above kMaxEnvironmentMemory)
+// With C = 6 N² · 24 bytes (one cube of doubles at the output size N) and T = 6 N² · 4/3 texels in the chain:
+//   source stage    equirect W·H·60 bytes (decoded floats 12, image 24, rotated copy 24) + C;
+//                   or faces: 6 M²·24 (the faces as a cube) + M²·36 (one face decoding) + C
+//   split stage     3.33 C (source, sky, and the per-texel luminance, solid angle and order of the sun rule)
+//   chain stage     3.67 C (sky, its mip chain 4/3 C, the chain 4/3 C)
+//   output stage    4/3 C + T·48 (KTX floats 16 and bytes 8, EXR bytes ≤ 12, ... per texel) + 12 N² per face
+// plus the irradiance, DFG and preview (small), and the peak is the largest stage. 4 GiB admits every size up to
+// 2048 with equirect images up to ~61 M pixels (e.g. 11000 × 5500); env_input's own limit is 2^26 = 67 M pixels.
 #pragma once
 
 #include <map>
@@ -18,14 +31,10 @@
 #include <vector>
 
 #include "bakers/envmap/env_input.h"
+#include "bakers/envmap/lobe.h"  // EnvLobe
 #include "bakers/material/material_bake.h"  // BakeControl, BakeOutput, BakeCancelled (shared by the bakers)
 
 namespace kiln::envmap {
-
-// The specular lobe of the prefiltered chain and of the DFG table (issue 4: "selectable from the BRDF library").
-enum class EnvLobe { ggx, beckmann, cook_torrance, schlick };
-const char* to_string(EnvLobe lobe);
-std::optional<EnvLobe> env_lobe_from_string(const std::string& name);
 
 inline constexpr const char* kEnvironmentBakerVersion = "kiln-environment-1";
 
@@ -47,24 +56,59 @@ struct EnvironmentBakeInput {
   bool preview = true;           // also write preview.png (a sphere at several roughnesses, display-transformed)
   uint64_t seed = 1;             // the same input and seed give the same bytes
   // Effects forced on (true) or off (false) whatever the planner decides, by the names the report's plan uses
-  // (e.g. "sun_light"). Unknown names are an error.
+  // Forcible: "sun_light" (on: use the sun split whenever a texel passes the threshold, and say so when none does;
+  // off: the sun stays in the importance-sampled map; sun.h). Unknown names are an error.
   std::map<std::string, bool> force_effects;
+};
+
+inline constexpr uint64_t kMaxEnvironmentMemory = uint64_t{4} << 30;  // 4 GiB
+
+// One decision of the bake's plan: effects "source", "sun_light", "lobe", "samples", "preview".
+struct EnvironmentPlanEntry {
+  std::string effect;
+  bool enabled = false;
+  bool forced = false;  // set by force_effects
+  std::string reason;
+};
+
+struct EnvironmentLevelReport {
+  int size = 0;
+  double roughness = 0;
+  int samples = 0;             // per texel (0 for level 0)
+  double error_estimate = 0;   // relative RMS, noise and filtering bias (prefilter.h)
+  double noise_estimate = 0;
+  double checked_error = 0;
+  double seconds = 0;
 };
 
 struct EnvironmentBakeResult {
   std::vector<material::BakeOutput> outputs;
   std::vector<double> level_roughness, level_error;
+  std::vector<int> level_samples;                 // per texel, per level (0 for level 0)
+  std::vector<EnvironmentLevelReport> levels;
   SanitizeReport sanitized;
   double seconds = 0;
-  uint64_t samples = 0;
-  std::vector<std::string> plan;
+  std::vector<std::pair<std::string, double>> stage_seconds;  // "source", "sun", "specular", ... in order
+  uint64_t samples = 0;                           // prefilter (+ checks) and DFG samples
+  uint64_t memory_bytes = 0;                      // the estimated peak working memory (see above)
+  std::vector<std::string> plan;                  // "effect: on|off[ (forced)] - reason", one per plan entry
+  std::vector<EnvironmentPlanEntry> plan_entries;
+  // The sun split (sun.h).
+  bool sun_found = false;
+  int sun_texels = 0;
+  double sun_power_fraction = 0;
 };
+
+// The peak working memory of a bake (see above) of `input` whose source is W × H (equirect) or six M × M faces
+// (source_is_faces, W = H = M); a constant source has W = H = 0.
+uint64_t estimate_environment_memory(const EnvironmentBakeInput& input, int source_width, int source_height,
+                                     bool source_is_faces);
 
 // nullopt if valid, else "field: problem, got value".
 std::optional<std::string> validate(const EnvironmentBakeInput& input);
 
-// Throws std::invalid_argument (naming the field), std::runtime_error (an undecodable image) or
-// material::BakeCancelled.
+// Throws std::invalid_argument (naming the field; also when the estimated memory exceeds kMaxEnvironmentMemory),
+// std::runtime_error (an undecodable image or face, naming it) or material::BakeCancelled.
 EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& input, const material::BakeControl& control = {});
 
 }  // namespace kiln::envmap

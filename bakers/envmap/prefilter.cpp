@@ -2,14 +2,18 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
+#include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "bakers/brdf/microfacet_distribution.h"
+#include "bakers/envmap/lobe.h"
+#include "bakers/envmap/sun.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/rng.h"
 #include "bakers/math/sampling.h"
@@ -17,7 +21,11 @@
 namespace kiln::envmap {
 namespace {
 
-constexpr int kGroups = 4;  // independent randomised groups for the error estimate
+constexpr int kGroups = 4;          // independent randomised groups for the noise estimate
+constexpr int kPilotSamples = 64;   // the first trial when choosing N
+constexpr int kMaxTrials = 6;       // trials when choosing N
+constexpr double kStepMargin = 1.2; // N is scaled by (e/target)² times this
+constexpr double kReferenceTexelsPerAlpha = 16.0;  // reference mip size ≥ this / α (box filter ≤ 1/16 of the lobe)
 
 double radical_inverse_base2(uint32_t i) {
   i = (i << 16u) | (i >> 16u);
@@ -58,6 +66,229 @@ void for_each_texel(int size, Fn&& fn) {
   });
 }
 
+// Filtered importance sampling of one level: the sample pattern in the local frame (normal +z, v = +z) is the same
+// for every texel, precomputed with its n·l and lod.
+class LevelSampler {
+ public:
+  LevelSampler(const std::vector<Cubemap>& mips, double alpha, brdf::Distribution distribution, int samples,
+               uint64_t seed)
+      : mips_(mips) {
+    const int per_group = (samples + kGroups - 1) / kGroups;
+    const int n_total = per_group * kGroups;
+    const brdf::MicrofacetDistribution dist(distribution, alpha, alpha);
+    const int size0 = mips[0].size();
+    const double omega_p = 4.0 * kPi / (6.0 * size0 * size0);  // solid angle of one level-0 source texel (average)
+    Pcg32 rng(0x9e3779b97f4a7c15ULL ^ seed, 0x6a09e667f3bcc909ULL);
+    const Vec3 v{0, 0, 1};
+    for (int g = 0; g < kGroups; ++g) {
+      const Point2 shift{rng.uniform(), rng.uniform()};
+      for (int i = 0; i < per_group; ++i) {
+        const Vec3 h = dist.sample_wh(v, hammersley(i, per_group, shift));
+        const double vh = dot(v, h);
+        const Vec3 l = h * (2.0 * vh) - v;
+        // Below the horizon (n·l ≤ 0) the weight is zero; vh ≤ 0 would make p(l) singular — neither contributes.
+        if (l.z <= 0.0 || vh <= 0.0) continue;
+        const double pdf_l = dist.pdf_wh(v, h) / (4.0 * vh);
+        // A zero density (numerically, far in the tail) would give an infinite Ω_s: read the coarsest level.
+        const double lod = pdf_l > 0.0 ? 0.5 * std::log2(1.0 / (n_total * pdf_l) / omega_p) + 1.0 : 1e9;
+        pattern_[g].push_back({l, l.z, lod});
+      }
+    }
+  }
+
+  // The estimate at unit n and its relative squared standard error (of the average channel).
+  Rgb eval(const Vec3& n, double* rel_var) const {
+    const Frame frame = Frame::from_normal(n);
+    Rgb sum_all;
+    double w_all = 0.0;
+    std::array<double, kGroups> group_mean{};
+    for (int g = 0; g < kGroups; ++g) {
+      Rgb sum;
+      double w = 0.0;
+      for (const Sample& s : pattern_[g]) {
+        sum += sample_trilinear(mips_, frame.from_local(s.l), s.lod) * s.nl;
+        w += s.nl;
+      }
+      sum_all += sum;
+      w_all += w;
+      // A group with no sample above the horizon (cannot happen for N/4 ≥ 1, guarded anyway) reads 0.
+      group_mean[g] = w > 0.0 ? (sum / w).average() : 0.0;
+    }
+    const Rgb value = w_all > 0.0 ? sum_all / w_all : Rgb{};
+    if (rel_var) {
+      double mean = 0.0;
+      for (double m : group_mean) mean += m / kGroups;
+      double var = 0.0;
+      for (double m : group_mean) var += (m - mean) * (m - mean) / (kGroups - 1);
+      const double denom = std::abs(value.average());
+      // A zero (black) texel has no relative error.
+      *rel_var = denom > 0.0 ? var / kGroups / (denom * denom) : 0.0;
+    }
+    return value;
+  }
+
+ private:
+  struct Sample { Vec3 l; double nl; double lod; };
+  const std::vector<Cubemap>& mips_;
+  std::array<std::vector<Sample>, kGroups> pattern_;
+};
+
+// Brute force over every texel of one cube at a few normals (the reference of the checked subset).
+class BruteForce {
+ public:
+  BruteForce(const Cubemap& src, const SplitSumLobe& lobe) : src_(src), lobe_(lobe) {
+    const int m = src.size();
+    omega_.resize(static_cast<size_t>(m) * m);
+    for (int y = 0; y < m; ++y)
+      for (int x = 0; x < m; ++x) omega_[static_cast<size_t>(y) * m + x] = texel_solid_angle(x, y, m);
+  }
+  Rgb at(const Vec3& n) const {
+    const int m = src_.size();
+    Rgb sum;
+    double w = 0.0;
+    for (int f = 0; f < kFaceCount; ++f)
+      for (int y = 0; y < m; ++y)
+        for (int x = 0; x < m; ++x) {
+          const double wt = lobe_.weight(n, texel_direction(f, x, y, m)) * omega_[static_cast<size_t>(y) * m + x];
+          if (wt == 0.0) continue;
+          sum += src_.at(f, x, y) * wt;
+          w += wt;
+        }
+    // w = 0: no texel centre lies inside the lobe's support (Schlick's compact D narrower than the texels of a
+    // coarse source); the convolution of so narrow a lobe is the reconstructed radiance at n.
+    return w > 0.0 ? sum / w : src_.sample_bilinear(n);
+  }
+
+ private:
+  const Cubemap& src_;
+  const SplitSumLobe& lobe_;
+  std::vector<double> omega_;
+};
+
+double rgb_norm2(const Rgb& c) { return c.r * c.r + c.g * c.g + c.b * c.b; }
+
+struct Checked { int face, x, y; Vec3 n; Rgb reference; };
+
+// The stratified subset of texels that is checked against brute force.
+std::vector<Checked> checked_subset(int size) {
+  std::vector<Checked> out;
+  const int grid = size <= 8 ? size : 4;
+  for (int f = 0; f < kFaceCount; ++f)
+    for (int j = 0; j < grid; ++j)
+      for (int i = 0; i < grid; ++i) {
+        const int x = size <= 8 ? i : static_cast<int>((i + 0.5) * size / grid);
+        const int y = size <= 8 ? j : static_cast<int>((j + 0.5) * size / grid);
+        out.push_back({f, x, y, texel_direction(f, x, y, size), Rgb{}});
+      }
+  return out;
+}
+
+// The relative RMS error of the header over (value, reference) pairs.
+double relative_rms_pairs(size_t n, const std::function<Rgb(size_t)>& value, const std::function<Rgb(size_t)>& ref) {
+  if (n == 0) return 0.0;
+  double mean_sq = 0.0;
+  for (size_t i = 0; i < n; ++i) mean_sq += rgb_norm2(ref(i)) / n;
+  const double floor_sq = kRelativeErrorFloor * kRelativeErrorFloor * mean_sq;
+  // An all-black reference has no relative error (and the estimate there is black too).
+  if (floor_sq == 0.0) return 0.0;
+  double acc = 0.0;
+  for (size_t i = 0; i < n; ++i) acc += rgb_norm2(value(i) - ref(i)) / std::max(rgb_norm2(ref(i)), floor_sq);
+  return std::sqrt(acc / n);
+}
+
+double relative_rms(const std::vector<Checked>& subset, const std::vector<Rgb>& values) {
+  return relative_rms_pairs(subset.size(), [&](size_t i) { return values[i]; },
+                            [&](size_t i) { return subset[i].reference; });
+}
+
+int round_samples(double n) {
+  const double clamped = std::clamp(std::ceil(n), 1.0, static_cast<double>(kMaxSamples));
+  return std::min(kMaxSamples, (static_cast<int>(clamped) + kGroups - 1) / kGroups * kGroups);
+}
+
+PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const std::vector<SunTexel>& sun, int out_size,
+                                 double rho, const PrefilterOptions& opt, uint64_t level_seed) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PrefilteredLevel level;
+  level.roughness = rho;
+  const double alpha = lobe_alpha(rho);
+  const SplitSumLobe lobe(opt.distribution, alpha);
+  const double w_norm = lobe_normalization(opt.distribution, alpha);
+
+  // The checked subset and its reference: brute force over the sky mip of size ≥ min(size0, 16/α), plus the sun.
+  std::vector<Checked> subset = checked_subset(out_size);
+  {
+    const double wanted = std::min<double>(mips[0].size(), std::ceil(kReferenceTexelsPerAlpha / alpha));
+    size_t m = 0;
+    while (m + 1 < mips.size() && mips[m + 1].size() >= wanted) ++m;
+    const BruteForce reference(mips[m], lobe);
+    tbb::parallel_for(size_t{0}, subset.size(), [&](size_t i) {
+      subset[i].reference = reference.at(subset[i].n) + sun_specular_at(sun, lobe, w_norm, subset[i].n);
+    });
+  }
+  level.checked_texels = static_cast<int>(subset.size());
+  std::vector<Rgb> sun_at_subset(subset.size());
+  for (size_t i = 0; i < subset.size(); ++i) sun_at_subset[i] = sun_specular_at(sun, lobe, w_norm, subset[i].n);
+
+  auto check = [&](int samples) {
+    const LevelSampler sampler(mips, alpha, opt.distribution, samples, level_seed);
+    std::vector<Rgb> values(subset.size());
+    tbb::parallel_for(size_t{0}, subset.size(), [&](size_t i) {
+      values[i] = sampler.eval(subset[i].n, nullptr) + sun_at_subset[i];
+    });
+    level.pilot_samples += samples;
+    return relative_rms(subset, values);
+  };
+
+  int samples = round_samples(opt.samples);
+  if (opt.samples == 0) {
+    // Choose N (see the header): scale by the 1/√N law until the target is bracketed between a failing and a
+    // passing N, then bisect geometrically; keep the smallest N that met the target, else the last (capped) one.
+    int n = kPilotSamples, passed = 0, failed = 0;
+    for (int trial = 0; trial < kMaxTrials; ++trial) {
+      if (opt.cancel && opt.cancel->load()) break;
+      const double e = check(n);
+      const double step = (e / opt.target_error) * (e / opt.target_error) * kStepMargin;
+      if (e <= opt.target_error) passed = n;
+      else failed = n;
+      int next;
+      if (passed && failed) {
+        if (passed < failed * 3 / 2) break;  // bracketed within 50 %: good enough
+        next = round_samples(std::sqrt(double(passed) * failed));
+      } else if (passed) {
+        if (n <= kMinAutoSamples) break;
+        next = std::max(kMinAutoSamples, round_samples(n * step));
+        if (next >= n * 3 / 4) break;  // not worth another trial
+      } else {
+        if (n >= kMaxSamples) break;
+        next = std::min(kMaxSamples, std::max(round_samples(n * step), n + kGroups));
+      }
+      if (next == n || next == passed || next == failed) break;
+      n = next;
+    }
+    samples = passed ? passed : n;
+  }
+  level.samples = samples;
+
+  const LevelSampler sampler(mips, alpha, opt.distribution, samples, level_seed);
+  level.cube = Cubemap(out_size);
+  std::vector<double> rel_var(static_cast<size_t>(kFaceCount) * out_size * out_size, 0.0);
+  for_each_texel(out_size, [&](int f, int x, int y, int idx) {
+    if (opt.cancel && opt.cancel->load()) return;  // stop early: the chain is discarded
+    level.cube.at(f, x, y) = sampler.eval(texel_direction(f, x, y, out_size), &rel_var[idx]);
+  });
+  add_sun_specular(level.cube, sun, lobe, w_norm);
+  double acc = 0.0;
+  for (double r : rel_var) acc += r;
+  level.noise_estimate = std::sqrt(acc / rel_var.size());
+  std::vector<Rgb> values(subset.size());
+  for (size_t i = 0; i < subset.size(); ++i) values[i] = level.cube.at(subset[i].face, subset[i].x, subset[i].y);
+  level.checked_error = relative_rms(subset, values);
+  level.error_estimate = std::max(level.checked_error, level.noise_estimate);
+  level.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return level;
+}
+
 }  // namespace
 
 double prefilter_level_roughness(int level, int levels) {
@@ -72,110 +303,64 @@ std::vector<Cubemap> build_source_mips(const Cubemap& source) {
   return mips;
 }
 
-Cubemap prefilter_level(const std::vector<Cubemap>& mips, int out_size, double rho, int samples,
-                        double* error_estimate) {
-  if (mips.empty() || mips[0].size() < 1) throw std::invalid_argument("prefilter_level: empty source");
-  if (out_size < 1 || samples < 1) throw std::invalid_argument("prefilter_level: out_size and samples must be >= 1");
-  const int per_group = (samples + kGroups - 1) / kGroups;
-  const int n_total = per_group * kGroups;
-  Cubemap out(out_size);
-  std::vector<double> rel_var(static_cast<size_t>(kFaceCount) * out_size * out_size, 0.0);
-
-  // ρ = 0: D is a delta; the lobe is the mirror direction itself (no sampling, no error).
-  if (rho <= 0.0) {
-    for_each_texel(out_size, [&](int f, int x, int y, int) {
-      out.at(f, x, y) = mips[0].sample_bilinear(texel_direction(f, x, y, out_size));
-    });
-    if (error_estimate) *error_estimate = 0.0;
-    return out;
-  }
-
-  const double alpha = rho * rho;
-  const brdf::MicrofacetDistribution dist(brdf::Distribution::ggx, alpha, alpha);
-  const int size0 = mips[0].size();
-  const double omega_p = 4.0 * kPi / (6.0 * size0 * size0);  // solid angle of one level-0 source texel (average)
-
-  // The sample pattern in the local frame (normal +z, v = +z) is the same for every texel: precompute l, n·l, lod.
-  struct Sample { Vec3 l; double nl; double lod; };
-  std::array<std::vector<Sample>, kGroups> pattern;
-  Pcg32 rng(0x9e3779b97f4a7c15ULL, 0x6a09e667f3bcc909ULL);
-  const Vec3 v{0, 0, 1};
-  for (int g = 0; g < kGroups; ++g) {
-    const Point2 shift{rng.uniform(), rng.uniform()};
-    for (int i = 0; i < per_group; ++i) {
-      const Vec3 h = dist.sample_wh(v, hammersley(i, per_group, shift));
-      const double vh = dot(v, h);
-      const Vec3 l = h * (2.0 * vh) - v;
-      // Below the horizon (n·l ≤ 0) the weight is zero; vh ≤ 0 would make p(l) singular — neither contributes.
-      if (l.z <= 0.0 || vh <= 0.0) continue;
-      const double pdf_l = dist.pdf_wh(v, h) / (4.0 * vh);
-      // A zero density (numerically, far in the tail) would give an infinite Ω_s: read the coarsest level.
-      const double lod = pdf_l > 0.0 ? 0.5 * std::log2(1.0 / (n_total * pdf_l) / omega_p) + 1.0 : 1e9;
-      pattern[g].push_back({l, l.z, lod});
-    }
-  }
-
-  for_each_texel(out_size, [&](int f, int x, int y, int idx) {
-    const Vec3 n = texel_direction(f, x, y, out_size);
-    const Frame frame = Frame::from_normal(n);
-    Rgb sum_all;
-    double w_all = 0.0;
-    std::array<double, kGroups> group_mean{};
-    for (int g = 0; g < kGroups; ++g) {
-      Rgb sum;
-      double w = 0.0;
-      for (const Sample& s : pattern[g]) {
-        sum += sample_trilinear(mips, frame.from_local(s.l), s.lod) * s.nl;
-        w += s.nl;
-      }
-      sum_all += sum;
-      w_all += w;
-      // A group with no sample above the horizon (cannot happen for N/4 ≥ 1 with GGX, guarded anyway) reads 0.
-      group_mean[g] = w > 0.0 ? (sum / w).average() : 0.0;
-    }
-    const Rgb value = w_all > 0.0 ? sum_all / w_all : Rgb{};
-    out.at(f, x, y) = value;
-    double mean = 0.0;
-    for (double m : group_mean) mean += m / kGroups;
-    double var = 0.0;
-    for (double m : group_mean) var += (m - mean) * (m - mean) / (kGroups - 1);
-    const double se2 = var / kGroups;  // variance of the mean of the groups
-    const double denom = std::abs(value.average());
-    // A zero (black) texel has no relative error; its absolute error is then 0 too unless the groups disagree.
-    rel_var[idx] = denom > 0.0 ? se2 / (denom * denom) : 0.0;
-  });
-  if (error_estimate) {
-    double acc = 0.0;
-    for (double r : rel_var) acc += r;
-    *error_estimate = std::sqrt(acc / rel_var.size());
-  }
-  return out;
-}
-
-std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& source, int out_size, const PrefilterOptions& opt) {
-  if (source.size() < 1) throw std::invalid_argument("prefilter_specular: empty source");
-  if (out_size < 1) throw std::invalid_argument("prefilter_specular: out_size must be >= 1");
-  if (opt.levels < 1) throw std::invalid_argument("prefilter_specular: levels must be >= 1");
-  if (opt.samples < 1) throw std::invalid_argument("prefilter_specular: samples must be >= 1");
-  const std::vector<Cubemap> mips = build_source_mips(source);
+std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& sky, const std::vector<SunTexel>& sun, int out_size,
+                                                 const PrefilterOptions& opt) {
+  if (sky.size() < 1) throw std::invalid_argument("prefilter_specular: empty source");
+  if (out_size < 1) throw std::invalid_argument("prefilter_specular: out_size must be >= 1, got " + std::to_string(out_size));
+  if (opt.levels < 1) throw std::invalid_argument("prefilter_specular: levels must be >= 1, got " + std::to_string(opt.levels));
+  if (opt.samples < 0 || opt.samples > kMaxSamples)
+    throw std::invalid_argument("prefilter_specular: samples must be in [0, 65536], got " + std::to_string(opt.samples));
+  if (!(opt.target_error > 0.0 && opt.target_error <= 1.0))
+    throw std::invalid_argument("prefilter_specular: target_error must be in (0, 1]");
+  const std::vector<Cubemap> mips = build_source_mips(sky);
   std::vector<PrefilteredLevel> chain;
   for (int k = 0; k < opt.levels; ++k) {
-    PrefilteredLevel level;
-    level.roughness = prefilter_level_roughness(k, opt.levels);
+    if (opt.cancel && opt.cancel->load()) break;  // the caller discards the incomplete chain
+    const double rho = prefilter_level_roughness(k, opt.levels);
     const int size = std::max(1, out_size >> k);
-    if (k == 0) {
-      // Mirror: the source's own mip of that size if there is one (area-correct), else bilinear resampling.
+    if (k == 0 || rho <= 0.0) {
+      // Mirror (D a delta): the sky's own mip of that size if there is one (area-correct), else bilinear
+      // resampling; the sun's power deposited back into the texels that contain it.
+      const auto t0 = std::chrono::steady_clock::now();
+      PrefilteredLevel level;
+      level.roughness = rho;
       const auto it = std::find_if(mips.begin(), mips.end(), [&](const Cubemap& c) { return c.size() == size; });
-      level.cube = it != mips.end() ? *it : prefilter_level(mips, size, 0.0, 1);
-    } else {
-      level.cube = prefilter_level(mips, size, level.roughness, opt.samples, &level.error_estimate);
+      if (it != mips.end()) {
+        level.cube = *it;
+      } else {
+        level.cube = Cubemap(size);
+        for_each_texel(size, [&](int f, int x, int y, int) {
+          level.cube.at(f, x, y) = mips[0].sample_bilinear(texel_direction(f, x, y, size));
+        });
+      }
+      deposit_sun(level.cube, sun);
+      level.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      chain.push_back(std::move(level));
+      continue;
     }
-    chain.push_back(std::move(level));
+    chain.push_back(prefilter_level(mips, sun, size, rho, opt, opt.seed + 0x9e3779b97f4a7c15ULL * (k + 1)));
   }
   return chain;
 }
 
+std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& source, int out_size, const PrefilterOptions& opt) {
+  return prefilter_specular(source, {}, out_size, opt);
+}
+
+double relative_rms_error(const Cubemap& value, const Cubemap& reference) {
+  if (value.size() != reference.size()) throw std::invalid_argument("relative_rms_error: the cubes differ in size");
+  const size_t per_face = static_cast<size_t>(value.size()) * value.size();
+  return relative_rms_pairs(
+      kFaceCount * per_face, [&](size_t i) { return value.face(int(i / per_face))[i % per_face]; },
+      [&](size_t i) { return reference.face(int(i / per_face))[i % per_face]; });
+}
+
 Cubemap brute_force_prefilter(const Cubemap& src, int out_size, double roughness, int subdivisions) {
+  return brute_force_prefilter(src, out_size, roughness, brdf::Distribution::ggx, subdivisions);
+}
+
+Cubemap brute_force_prefilter(const Cubemap& src, int out_size, double roughness, brdf::Distribution distribution,
+                              int subdivisions) {
   if (src.size() < 1 || out_size < 1 || subdivisions < 1)
     throw std::invalid_argument("brute_force_prefilter: sizes and subdivisions must be >= 1");
   Cubemap out(out_size);
@@ -186,8 +371,7 @@ Cubemap brute_force_prefilter(const Cubemap& src, int out_size, double roughness
     });
     return out;
   }
-  const double alpha = roughness * roughness;
-  const brdf::MicrofacetDistribution dist(brdf::Distribution::ggx, alpha, alpha);
+  const SplitSumLobe lobe(distribution, lobe_alpha(roughness));
   const int ns = src.size(), k = subdivisions;
   // Every (sub-)texel's direction, solid angle and radiance, once.
   struct Texel { Vec3 l; double omega; Rgb radiance; };
@@ -211,19 +395,17 @@ Cubemap brute_force_prefilter(const Cubemap& src, int out_size, double roughness
       }
   for_each_texel(out_size, [&](int f, int x, int y, int) {
     const Vec3 n = texel_direction(f, x, y, out_size);
-    const Frame frame = Frame::from_normal(n);
     Rgb sum;
     double w = 0.0;
     for (const Texel& t : texels) {
-      const double nl = dot(n, t.l);
-      if (nl <= 0.0) continue;  // below the horizon of n: zero weight (also excludes l = −n, where h is undefined)
-      const Vec3 h = normalize(n + t.l);
-      const double weight = dist.D(frame.to_local(h)) * nl * t.omega;
+      const double weight = lobe.weight(n, t.l) * t.omega;  // 0 below the horizon of n
+      if (weight == 0.0) continue;
       sum += t.radiance * weight;
       w += weight;
     }
-    // Every n has source texels with n·l > 0 and D > 0 for α > 0, so w > 0; guarded for safety.
-    out.at(f, x, y) = w > 0.0 ? sum / w : Rgb{};
+    // w = 0: no (sub-)texel centre inside the lobe's support (Schlick's compact D narrower than the texels); the
+    // convolution of so narrow a lobe is the reconstructed radiance at n.
+    out.at(f, x, y) = w > 0.0 ? sum / w : src.sample_bilinear(n);
   });
   return out;
 }

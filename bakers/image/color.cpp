@@ -101,4 +101,49 @@ void ColorConfig::convert(float* data, std::size_t pixels, int channels, const s
   cpu->apply(image);
 }
 
+std::string ColorConfig::convert_to_display(float* data, std::size_t pixels, int channels, const std::string& from,
+                                            const std::string& display, const std::string& view) const {
+  if (channels != 3 && channels != 4) {
+    throw std::invalid_argument("display conversion needs 3 or 4 channels, got " + std::to_string(channels));
+  }
+  if (!has_space(from)) {
+    std::string known;
+    for (const std::string& s : spaces()) known += (known.empty() ? "" : ", ") + s;
+    throw std::invalid_argument("colour space '" + from + "' is not in " + source_ + "; known: " + known);
+  }
+  const OCIO::ConstConfigRcPtr& config = impl_->config;
+  const std::string d = display.empty() ? config->getDefaultDisplay() : display;
+  bool display_known = false;
+  for (int i = 0; i < config->getNumDisplays(); ++i) display_known |= d == config->getDisplay(i);
+  if (!display_known) {
+    throw std::invalid_argument("display '" + d + "' is not in " + source_ + "; use one of its displays");
+  }
+  const std::string v = view.empty() ? config->getDefaultView(d.c_str()) : view;
+  bool view_known = false;
+  for (int i = 0; i < config->getNumViews(d.c_str()); ++i) view_known |= v == config->getView(d.c_str(), i);
+  if (!view_known) {
+    throw std::invalid_argument("view '" + v + "' of display '" + d + "' is not in " + source_ +
+                                "; use one of that display's views");
+  }
+  if (pixels == 0) return d + "/" + v;
+  OCIO::ConstCPUProcessorRcPtr cpu;
+  {
+    std::lock_guard lock(impl_->mutex);
+    // Keyed apart from convert()'s (from, to) pairs: a NUL cannot appear in a space name.
+    auto& slot = impl_->processors[{from, std::string(1, '\0') + d + "/" + v}];
+    if (!slot) {
+      OCIO::DisplayViewTransformRcPtr transform = OCIO::DisplayViewTransform::Create();
+      transform->setSrc(from.c_str());
+      transform->setDisplay(d.c_str());
+      transform->setView(v.c_str());
+      slot = config->getProcessor(transform)->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
+                                                                       OCIO::OPTIMIZATION_DEFAULT);
+    }
+    cpu = slot;
+  }
+  OCIO::PackedImageDesc image(data, static_cast<long>(pixels), 1, channels);
+  cpu->apply(image);
+  return d + "/" + v;
+}
+
 }  // namespace kiln::image

@@ -34,6 +34,15 @@ class ColorConfig {
   // config; known: ...").
   void convert(float* data, std::size_t pixels, int channels, const std::string& from, const std::string& to) const;
 
+  // Converts `pixels` interleaved pixels of `channels` (3 or 4) from a colour space to what a display shows, through
+  // the config's display/view transform (OpenColorIO's DisplayViewTransform), in place. An empty `display` is the
+  // config's default display and an empty `view` that display's default view (kiln's config: display "sRGB", view
+  // "Standard" = srgb_display: clamp to [0, 1], then the sRGB curve). Returns "display/view" as used; with
+  // pixels = 0 it only checks the names (data may be null). Throws std::invalid_argument naming an unknown space,
+  // display or view.
+  std::string convert_to_display(float* data, std::size_t pixels, int channels, const std::string& from,
+                                 const std::string& display = "", const std::string& view = "") const;
+
  private:
   struct Impl;
   explicit ColorConfig(std::unique_ptr<Impl> impl, std::string source);

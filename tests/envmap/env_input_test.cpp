@@ -304,5 +304,124 @@ TEST(EnvInput, RadianceHdrIsDecodedAsLinear) {
   EXPECT_NEAR(env.image.at(2, 1).g, 3.0, 3.0 / 128);
 }
 
+// ---- Six-face input --------------------------------------------------------------------------------------------
+
+// A smooth function of the direction (degree 2, positive, different per channel).
+Rgb face_fn(const Vec3& d) { return {1.0 + 0.5 * d.x + 0.3 * d.y * d.y, 0.8 + 0.4 * d.y, 1.0 + 0.3 * d.z + 0.2 * d.x * d.y}; }
+
+// The six faces of `cube` as EXR images (first row of the picture = row t ≈ 0, cubemap.h).
+std::vector<std::string> encode_faces(const Cubemap& cube) {
+  std::vector<std::string> faces;
+  for (int f = 0; f < kFaceCount; ++f) {
+    image::FloatImage img;
+    img.width = img.height = cube.size();
+    img.channels = 3;
+    img.channel_names = {"R", "G", "B"};
+    for (int y = 0; y < cube.size(); ++y)
+      for (int x = 0; x < cube.size(); ++x) {
+        const Rgb& c = cube.at(f, x, y);
+        img.pixels.insert(img.pixels.end(), {float(c.r), float(c.g), float(c.b)});
+      }
+    faces.push_back(image::encode_exr(img));
+  }
+  return faces;
+}
+
+// Faces holding a known function decode to that function's cube (to float rounding, 1e-6 relative), and to the
+// same cube as the equirectangular image of the function within the resampling tolerance: the equirect path averages
+// each cube texel over its area (supersampled), the faces hold the value at the texel centre, and for a degree-2
+// function the two differ by ≈ h²/24 · |∇²f| ≤ (2/32)²/24 · 2 ≈ 3e-4 plus the equirect's own bilinear
+// reconstruction (512 × 256: ~(π/256)²/8 · 2 ≈ 4e-5): held to 2e-3 relative.
+TEST(EnvInput, SixFacesOfAFunctionMatchTheEquirectOfThatFunction) {
+  const Cubemap expected = cubemap_from(32, &face_fn);
+  const CubeFacesInput faces = decode_cube_faces(encode_faces(expected));
+  EXPECT_EQ(faces.face_size, 32);
+  EXPECT_EQ(faces.format, "openexr");
+  EXPECT_EQ(faces.sanitized.total(), 0);
+  const Cubemap from_faces = faces_to_cube(faces, 32);
+  image::FloatImage eq;
+  eq.width = 512;
+  eq.height = 256;
+  eq.channels = 3;
+  for (int y = 0; y < eq.height; ++y)
+    for (int x = 0; x < eq.width; ++x) {
+      const Rgb c = face_fn(equirect_uv_to_direction((x + 0.5) / eq.width, (y + 0.5) / eq.height));
+      eq.pixels.insert(eq.pixels.end(), {float(c.r), float(c.g), float(c.b)});
+    }
+  const Cubemap from_equirect = environment_to_cube(decode_environment(image::encode_exr(eq)), 32);
+  for (int f = 0; f < kFaceCount; ++f)
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 32; ++x) {
+        const Rgb a = from_faces.at(f, x, y), b = expected.at(f, x, y), c = from_equirect.at(f, x, y);
+        ASSERT_NEAR(a.g, b.g, 1e-6 * b.g) << f << " " << x << " " << y;
+        ASSERT_NEAR(a.r, c.r, 2e-3 * c.r) << f << " " << x << " " << y;
+        ASSERT_NEAR(a.g, c.g, 2e-3 * c.g) << f << " " << x << " " << y;
+        ASSERT_NEAR(a.b, c.b, 2e-3 * c.b) << f << " " << x << " " << y;
+      }
+  // Downsampling by a power of two is area-correct: the mean of each 2 × 2 block, weighted by solid angle.
+  const Cubemap half = faces_to_cube(faces, 16);
+  const Cubemap ref = downsample_2x(from_faces);
+  for (int f = 0; f < kFaceCount; ++f) EXPECT_EQ(half.face(f), ref.face(f));
+}
+
+// Rotation about +Y applies to faces as to an equirect image: rotating by 90° moves what was seen towards −Z to −X.
+// Tolerance: the rotated faces are resampled (bilinear in the source, supersampled), ≤ 2e-3 for this smooth
+// function as above.
+TEST(EnvInput, SixFacesAreRotatedAndScaled) {
+  EnvDecodeOptions o;
+  o.rotation_degrees = 90.0;
+  o.intensity = 2.0;
+  const CubeFacesInput faces = decode_cube_faces(encode_faces(cubemap_from(32, &face_fn)), o);
+  const Cubemap cube = faces_to_cube(faces, 32);
+  // R_y(−90°) maps d to the lookup direction (d.x c − d.z s, d.y, d.x s + d.z c) with c = 0, s = 1: (−d.z, d.y, d.x).
+  const Cubemap expected = cubemap_from(32, [](const Vec3& d) { return face_fn({-d.z, d.y, d.x}) * 2.0; });
+  for (int f = 0; f < kFaceCount; ++f)
+    for (int y = 0; y < 32; y += 3)
+      for (int x = 0; x < 32; x += 3)
+        ASSERT_NEAR(cube.at(f, x, y).b, expected.at(f, x, y).b, 2e-3 * expected.at(f, x, y).b) << f;
+}
+
+TEST(EnvInput, BadFacesAreClearErrorsNamingTheFace) {
+  const std::vector<std::string> good = encode_faces(Cubemap(8, Rgb{1.0}));
+  std::string msg = error_of([&] { decode_cube_faces({good.begin(), good.begin() + 5}); });
+  EXPECT_NE(msg.find("5 face images"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("exactly 6"), std::string::npos) << msg;
+  auto with = [&](int face, std::string bytes) {
+    std::vector<std::string> f = good;
+    f[face] = std::move(bytes);
+    return f;
+  };
+  msg = error_of([&] { decode_cube_faces(with(3, image::encode_exr(make_float(8, 6, 3)))); });
+  EXPECT_NE(msg.find("face 3 (-Y)"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not square"), std::string::npos) << msg;
+  msg = error_of([&] { decode_cube_faces(with(4, image::encode_exr(make_float(4, 4, 3)))); });
+  EXPECT_NE(msg.find("face 4 (+Z)"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("same size"), std::string::npos) << msg;
+  msg = error_of([&] { decode_cube_faces(with(2, "hello")); });
+  EXPECT_NE(msg.find("face 2 (+Y)"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not an image"), std::string::npos) << msg;
+  // The header probe gives the same errors before any pixel is read.
+  msg = error_of([&] { probe_cube_faces(with(4, image::encode_exr(make_float(4, 4, 3)))); });
+  EXPECT_NE(msg.find("face 4 (+Z)"), std::string::npos) << msg;
+  // An 8-bit face is sRGB like an 8-bit equirect; mixed formats are accepted (same size).
+  const CubeFacesInput mixed = decode_cube_faces(with(5, make_png(8, 8, 3, 255)));
+  EXPECT_NEAR(mixed.cube.at(5, 3, 3).g, 1.0, 1e-6);  // sRGB 1.0 is linear 1.0
+  EXPECT_NE(mixed.format.find("png"), std::string::npos);
+}
+
+TEST(EnvInput, FaceTexelsAreSanitisedAndCounted) {
+  Cubemap c(4, Rgb{1.0});
+  c.at(1, 2, 2) = Rgb{std::nan(""), 1.0, 1.0};
+  c.at(4, 0, 0) = Rgb{INFINITY, 1.0, 1.0};
+  c.at(5, 1, 3) = Rgb{-1.0, 1.0, 1.0};
+  const CubeFacesInput f = decode_cube_faces(encode_faces(c));
+  EXPECT_EQ(f.sanitized.nan, 1);
+  EXPECT_EQ(f.sanitized.inf, 1);
+  EXPECT_EQ(f.sanitized.negative, 1);
+  EXPECT_EQ(f.cube.at(1, 2, 2).r, 0.0);
+  EXPECT_EQ(f.cube.at(4, 0, 0).r, 1.0);  // +Inf → the largest finite value of that face
+  EXPECT_EQ(f.cube.at(5, 1, 3).r, 0.0);
+}
+
 }  // namespace
 }  // namespace kiln::envmap

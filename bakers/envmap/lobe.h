@@ -1,0 +1,62 @@
+// The specular lobe of an environment bake: which distribution of normals D the prefiltered chain convolves with
+// and the DFG table integrates, the one roughness mapping, and the lobe's normalisation.
+//
+// ## Lobes (EnvLobe) and their D (bakers/brdf/microfacet_distribution)
+//   ggx            GGX / Trowbridge–Reitz, α = ρ²
+//   beckmann       Beckmann, α (= m) = ρ²
+//   cook_torrance  Cook–Torrance's own D, which is Beckmann's (bakers/brdf: Model::cook_torrance defaults to
+//                  Distribution::beckmann), α = ρ²; the prefiltered chain equals beckmann's, the DFG table differs
+//                  (V-groove masking instead of Smith's).
+//   schlick        Schlick's rational approximation of Beckmann (survey eq 20, Distribution::schlick_beckmann) with
+//                  m = ρ². Note: Schlick's own BRDF's Z(t) = r/(1 + r t² − t²)² is exactly GGX with α² = r, so
+//                  with dfg.h's r = ρ⁴ it would give the GGX chain bit for bit; the rational Beckmann is the D that
+//                  is Schlick's and not already offered. Its DFG table uses the microfacet model with that D and
+//                  Smith masking from Beckmann's Λ (the pairing bakers/brdf documents).
+// ρ is the perceptual roughness of a level: ρ_k = k/(L − 1) for level k of L (prefilter.h).
+//
+// ## Normalisation
+// The split-sum lobe with n = v = r is D(h)(n·l) with h = (n + l)/|n + l|. Its integral over the sphere,
+//     W(α) = ∫_{n·l>0} D(h) (n·l) dω_l = 4 ∫_{θ_h<π/4} D(h) (n·h) (2(n·h)² − 1) dω_h,
+// does not depend on n (the lobes are isotropic). Written with the sampler's inverse CDF of D(h)(n·h) in ξ
+// (θ_h grows with ξ): W = 4 ∫_0^ξ* (2 cos²θ_h(ξ) − 1) dξ, ξ* where θ_h = π/4, integrated by Gauss–Legendre.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "bakers/brdf/microfacet_distribution.h"
+#include "bakers/brdf/model_spec.h"
+
+namespace kiln::envmap {
+
+enum class EnvLobe { ggx, beckmann, cook_torrance, schlick };
+const char* to_string(EnvLobe lobe);
+std::optional<EnvLobe> env_lobe_from_string(const std::string& name);
+// "ggx|beckmann|cook_torrance|schlick", for error messages.
+std::string env_lobe_names();
+
+// The distribution of normals of the lobe (see above).
+brdf::Distribution lobe_distribution(EnvLobe lobe);
+// The BRDF model whose white (Fresnel-free) split-sum table dfg.exr holds; roughness set by lobe_at_roughness.
+brdf::ModelSpec lobe_model(EnvLobe lobe);
+// α (or m) of perceptual roughness ρ: ρ² for every lobe.
+inline double lobe_alpha(double rho) { return rho * rho; }
+// One line for metadata and reports: the D, the mapping and the weighting.
+std::string lobe_description(EnvLobe lobe);
+
+// W(α) above, for alpha > 0 (Gauss–Legendre in u = −ln(1 − ξ); tests/envmap/lobe_test.cpp checks it against
+// quadrature over the sphere).
+double lobe_normalization(brdf::Distribution distribution, double alpha);
+
+// D(h)(n·l) of the lobe around unit n for unit l (0 for n·l ≤ 0, which also excludes l = −n, where h is undefined).
+class SplitSumLobe {
+ public:
+  SplitSumLobe(brdf::Distribution distribution, double alpha);
+  double weight(const Vec3& n, const Vec3& l) const;
+  const brdf::MicrofacetDistribution& distribution() const { return dist_; }
+
+ private:
+  brdf::MicrofacetDistribution dist_;
+};
+
+}  // namespace kiln::envmap
