@@ -233,6 +233,7 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
   l->set_max_query_digests(kMaxQueryDigests);
   l->set_heartbeat_seconds(kHeartbeatSeconds);
   r->add_job_types("material");
+  r->add_job_types("environment");
 }
 
 void Service::blob_query(const v1::Request& req, v1::Response& resp) {
@@ -291,8 +292,9 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   if (sub.idempotency_key().size() > kMaxIdempotencyKeyBytes) {
     fail(v1::Error::INVALID_ARGUMENT, "at most 128 bytes", "idempotency_key");
   }
-  const BakeRequest bake = translate(sub.job());  // throws InvalidField with the path
-  const std::string key = cache_key(bake, kBakerVersion);
+  // Throws InvalidField with the path; input blobs must be stored already. Their bytes are read by the worker.
+  const BakeRequest bake = translate(sub.job(), blobs_.get());
+  const std::string key = cache_key(bake, baker_version(bake));
 
   std::lock_guard lock(submit_mutex_);
   store::NewJob job;
@@ -302,6 +304,8 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   job.spec_key = key;
   job.priority = sub.priority();
   if (!sub.idempotency_key().empty()) job.idempotency_key = sub.idempotency_key();
+  // Pinned against the retention limit while the job waits or runs.
+  for (const BlobRef& input : bake.inputs) job.input_digests.push_back(input.sha256);
   if (auto cached = db_->find_succeeded_by_spec_key(key)) {
     // The result cache: the new job is recorded as succeeded at once, reporting the stored outputs.
     v1::JobResult result;
@@ -429,8 +433,15 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
   r->set_submitted_unix(record->submitted);
   if (record->finished) r->set_finished_unix(*record->finished);
   if (record->state == store::JobState::kFailed) {
-    r->mutable_error()->set_code(v1::Error::INTERNAL);
-    r->mutable_error()->set_message(record->error);
+    // The workers record a failure the job's input caused as "FIELD: problem" with FIELD a path under "job."
+    // (translate.h's InvalidField); anything else is the server's fault.
+    const std::string& text = record->error;
+    const auto colon = text.find(": ");
+    const bool input = text.rfind("job.", 0) == 0 && colon != std::string::npos &&
+                       text.find(' ') > colon;
+    r->mutable_error()->set_code(input ? v1::Error::INVALID_ARGUMENT : v1::Error::INTERNAL);
+    r->mutable_error()->set_message(text);
+    if (input) r->mutable_error()->set_field(text.substr(0, colon));
   }
 }
 

@@ -6,10 +6,17 @@
 #include <stdexcept>
 #include <string>
 
+#include <cstdint>
+#include <vector>
+
+#include "bakers/envmap/environment_bake.h"
 #include "bakers/material/material_bake.h"
 
 namespace kiln::v1 {
 class JobSpec;
+}
+namespace kiln::store {
+class BlobStore;
 }
 
 namespace kiln::daemon {
@@ -25,15 +32,41 @@ class InvalidField : public std::invalid_argument {
   std::string field_;
 };
 
-// The bake a job spec asks for. Only the material bake exists so far; later bakers add their inputs here.
-struct BakeRequest {
-  std::string type;  // "material"
-  std::string name;  // the spec's name, for people
-  material::MaterialBakeInput material;
+// An uploaded blob a job reads, and the field that names it ("job.environment.faces.digests[2]").
+struct BlobRef {
+  std::string field;
+  std::string sha256;
+  uint64_t size = 0;
 };
 
-// Validates the whole spec and translates it. Throws InvalidField.
-BakeRequest translate(const kiln::v1::JobSpec& spec);
+// The largest input blob a job may refer to (an environment image or face): decoding needs it whole in memory.
+inline constexpr uint64_t kMaxInputBlobBytes = uint64_t{512} << 20;
+
+// The bake a job spec asks for: `type` says which input is filled in.
+struct BakeRequest {
+  std::string type;  // "material" or "environment"
+  std::string name;  // the spec's name, for people
+  material::MaterialBakeInput material;
+  // Its image or faces are empty until load_inputs reads them from the store.
+  envmap::EnvironmentBakeInput environment;
+  std::vector<BlobRef> inputs;  // the blobs the job reads, in the order of its fields
+};
+
+// Validates the whole spec and translates it. Throws InvalidField. With `blobs`, the input blobs the spec names
+// must be stored whole there (else InvalidField naming the digest's field); without, only their form is checked.
+BakeRequest translate(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs = nullptr);
+
+// Reads the request's input blobs from the store into its input (environment.image or environment.faces).
+// Throws InvalidField if one is no longer stored, store::StoreError if one fails verification.
+void load_inputs(BakeRequest& request, store::BlobStore& blobs);
+
+// A bake's complaint about its input, as the field of the job at fault: the baker's "field: problem" for a
+// std::invalid_argument, the image (or faces) for any other error, which the bakers raise for bytes that do not
+// decode. The message is the baker's, for people.
+InvalidField input_error(const BakeRequest& request, const std::exception& e);
+
+// The version of the baker that runs `request`, for its cache key and report.
+const char* baker_version(const BakeRequest& request);
 
 // The canonical text of a translated request: every setting, defaults applied, numbers in round-trip precision,
 // the name left out. Two specs that ask for the same bake have the same text.
@@ -42,7 +75,8 @@ std::string canonical_text(const BakeRequest& request);
 // The result-cache key: SHA-256 of the canonical text and the baker version.
 std::string cache_key(const BakeRequest& request, const std::string& baker_version);
 
-// The version of the bakers' numerics; part of every cache key, so a new version never serves old results.
+// The version of the material baker's numerics (baker_version gives each job's); part of every cache key, so a
+// new version never serves old results.
 extern const char* const kBakerVersion;
 
 }  // namespace kiln::daemon

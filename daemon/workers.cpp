@@ -2,6 +2,7 @@
 
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <chrono>
 #include <iostream>
 
@@ -49,11 +50,80 @@ void Workers::run(std::stop_token stop) {
 namespace {
 
 std::string describe_output(const material::BakeOutput& o) {
-  if (o.name == "albedo.exr") return "directional albedo E(mu) with standard errors, and the white-furnace E";
-  if (o.name == "split_sum.exr") return "split-sum scale and bias on f0 over (mu, roughness), with standard errors";
-  if (o.name == "brdf.merl") return "the BRDF tabulated in the MERL binary layout (90 x 90 x 180 x RGB doubles)";
-  if (o.name == "report.json") return "the bake report: samples, time, errors, validation, plan";
+  const std::string& n = o.name;
+  if (n == "albedo.exr") return "directional albedo E(mu) with standard errors, and the white-furnace E";
+  if (n == "split_sum.exr") return "split-sum scale and bias on f0 over (mu, roughness), with standard errors";
+  if (n == "brdf.merl") return "the BRDF tabulated in the MERL binary layout (90 x 90 x 180 x RGB doubles)";
+  if (n == "report.json") return "the bake report: samples, time, errors, validation, plan";
+  if (n == "specular.ktx2") return "the prefiltered specular cube, every level and face, RGBA16F";
+  if (n.rfind("specular_L", 0) == 0) return "one face of one level of the prefiltered specular cube, RGB float";
+  if (n.rfind("irradiance_", 0) == 0) return "one face of the irradiance cube E(n), RGB float";
+  if (n == "sh.txt") return "nine RGB irradiance coefficients (order-2 spherical harmonics)";
+  if (n == "dfg.exr") return "the DFG table: split-sum scale, bias and energy over (mu, roughness)";
+  if (n == "preview.png") return "a preview: spheres of several roughnesses lit by the environment";
   return {};
+}
+
+// What any bake hands back to the worker.
+struct Baked {
+  std::vector<material::BakeOutput> outputs;
+  uint64_t samples = 0;
+  double seconds = 0;
+  double error_estimate = 0;
+  std::vector<v1::PlanDecision> plan;
+};
+
+Baked bake_material(const BakeRequest& request, const material::BakeControl& control) {
+  material::MaterialBakeResult r = material::bake_material(request.material, control);
+  Baked b;
+  b.outputs = std::move(r.outputs);
+  b.samples = r.samples + r.validation_samples;
+  b.seconds = r.seconds;
+  b.error_estimate = r.max_error_estimate;
+  for (const std::string& line : r.plan) {
+    v1::PlanDecision& d = b.plan.emplace_back();
+    d.set_effect("material");
+    d.set_enabled(true);
+    d.set_reason(line);
+  }
+  return b;
+}
+
+Baked bake_environment(const BakeRequest& request, const material::BakeControl& control) {
+  envmap::EnvironmentBakeResult r;
+  try {
+    r = envmap::bake_environment(request.environment, control);
+  } catch (const material::BakeCancelled&) {
+    throw;
+  } catch (const std::invalid_argument& e) {
+    // A setting the baker refuses: the job's input is at fault, named by its field.
+    throw input_error(request, e);
+  } catch (const std::runtime_error& e) {
+    // The baker's contract: bytes that do not decode (environment_bake.h). Anything else (bad_alloc, a logic
+    // error) is the server's and stays so.
+    throw input_error(request, e);
+  }
+  Baked b;
+  b.outputs = std::move(r.outputs);
+  b.samples = r.samples;
+  b.seconds = r.seconds;
+  for (double e : r.level_error) b.error_estimate = std::max(b.error_estimate, e);
+  for (const envmap::EnvironmentPlanEntry& e : r.plan_entries) {
+    v1::PlanDecision& d = b.plan.emplace_back();
+    d.set_effect(e.effect);
+    d.set_enabled(e.enabled);
+    d.set_forced(e.forced);
+    d.set_reason(e.reason);
+  }
+  if (r.sanitized.total() > 0) {
+    v1::PlanDecision& d = b.plan.emplace_back();
+    d.set_effect("sanitize");
+    d.set_enabled(true);
+    d.set_reason("texels that are not usable radiance were replaced: " + std::to_string(r.sanitized.nan) +
+                 " NaN (by 0), " + std::to_string(r.sanitized.inf) + " infinite (+Inf by the largest finite value, "
+                 "-Inf by 0), " + std::to_string(r.sanitized.negative) + " negative (by 0)");
+  }
+  return b;
 }
 
 }  // namespace
@@ -75,7 +145,8 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
   try {
     v1::JobSpec spec;
     if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
-    const BakeRequest request = translate(spec);
+    BakeRequest request = translate(spec);
+    load_inputs(request, blobs_);
     material::BakeControl control;
     control.cancel = cancel.get();
     // Watchers need a few updates a second, not one per table entry.
@@ -89,9 +160,11 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
       if (p.error_estimate > 0) progress.error_estimate = p.error_estimate;
       queue_.publish(id, progress);
     };
-    material::MaterialBakeResult baked;
+    Baked baked;
     tbb::task_arena arena(threads_per_job_);
-    arena.execute([&] { baked = material::bake_material(request.material, control); });
+    arena.execute([&] {
+      baked = request.type == "environment" ? bake_environment(request, control) : bake_material(request, control);
+    });
 
     v1::JobResult result;
     result.set_job_id(id);
@@ -113,16 +186,11 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
       if (o.name == "report.json") result.mutable_report()->set_json(o.bytes);
     }
     v1::BakeReport* report = result.mutable_report();
-    report->set_samples(baked.samples + baked.validation_samples);
+    report->set_samples(baked.samples);
     report->set_seconds(baked.seconds);
-    report->set_error_estimate(baked.max_error_estimate);
-    report->set_baker_version(kBakerVersion);
-    for (const std::string& line : baked.plan) {
-      v1::PlanDecision* d = report->add_plan();
-      d->set_effect("material");
-      d->set_enabled(true);
-      d->set_reason(line);
-    }
+    report->set_error_estimate(baked.error_estimate);
+    report->set_baker_version(baker_version(request));
+    for (const v1::PlanDecision& d : baked.plan) *report->add_plan() = d;
     std::string bytes;
     result.SerializeToString(&bytes);
     db_.mark_succeeded(id, bytes, digests);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job: set up and build, start kilnd (loopback only, a store under out/, a freshly generated token), submit
 # the bundled example jobs (client/examples/*.textproto) with the kiln client, write each job's outputs into
-# out/<example>/, say where they are and what they cost, and stop the daemon.
+# out/<example>/, bake a generated HDR sky (out/sky.exr, uploaded by `kiln bake env`) into out/sky_env/, say where
+# they are and what they cost, and stop the daemon.
 set -euo pipefail
 top="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="$top/build"
@@ -38,6 +39,13 @@ for job in "$top"/client/examples/*.textproto; do
   "$build/bin/kiln" --server "$address" --token-file "$token_file" submit "$job" --wait --out "$out/$name" || status=1
 done
 
+# An environment for image-based lighting: a synthetic HDR sky (a sun 10^4 times the zenith) uploaded and baked.
+echo
+echo "kiln: generating an HDR sky (out/sky.exr) and baking it for image-based lighting"
+"$build/bin/kiln-sky" --width 256 --out "$out/sky.exr" || status=1
+"$build/bin/kiln" --server "$address" --token-file "$token_file" bake env "$out/sky.exr" --size 128 \
+  --out "$out/sky_env" || status=1
+
 # A second run of the same jobs is answered from the result cache: that is what makes a CI asset build fast.
 echo
 echo "kiln: submitting the first example again (a cache hit, no bake)"
@@ -47,5 +55,6 @@ first="$(ls "$top"/client/examples/*.textproto | head -n 1)"
 echo
 "$build/bin/kiln" --server "$address" --token-file "$token_file" status || true
 echo
-echo "kiln: outputs are in $out/<example>/ (EXR tables, MERL where asked, report.json)"
+echo "kiln: outputs are in $out/<example>/ (EXR tables, MERL where asked, report.json) and $out/sky_env/ (the"
+echo "     prefiltered specular cube as KTX2 and EXR faces, irradiance, SH, DFG table, preview.png, report.json)"
 exit $status

@@ -239,6 +239,32 @@ std::string default_name(const Flags& f, const std::string& model_name) {
 
 }  // namespace
 
+void add_forced_effects(const Flags& f, v1::JobSpec& spec) {
+  for (const std::string& force : f.all("--force")) {
+    const auto eq = force.find('=');
+    const std::string effect = force.substr(0, eq), value = eq == std::string::npos ? "" : force.substr(eq + 1);
+    if (effect.empty() || (value != "on" && value != "off")) {
+      throw UsageError("--force: expected EFFECT=on or EFFECT=off, got '" + force + "'");
+    }
+    if (effect.size() > 64) throw UsageError("--force: effect names are at most 64 bytes, got '" + effect + "'");
+    if (spec.force_effects().count(effect)) throw UsageError("--force: effect '" + effect + "' given twice");
+    (*spec.mutable_force_effects())[effect] = value == "on";
+  }
+  if (spec.force_effects_size() > 64) throw UsageError("--force: at most 64 effects");
+}
+
+void set_name(const Flags& f, v1::JobSpec& spec, const std::string& fallback) {
+  if (auto v = f.get("--name")) {
+    if (v->size() > kMaxNameBytes) {
+      throw UsageError("--name: at most " + std::to_string(kMaxNameBytes) + " bytes, got " +
+                       std::to_string(v->size()));
+    }
+    spec.set_name(*v);
+  } else {
+    spec.set_name(fallback.size() > kMaxNameBytes ? fallback.substr(0, kMaxNameBytes - 3) + "..." : fallback);
+  }
+}
+
 std::vector<FlagSpec> bake_material_flag_specs() {
   std::vector<FlagSpec> specs = global_flag_specs();
   for (const char* flag : {"--model", "--name", "--out", "--priority", "--idempotency-key"}) specs.push_back({flag});
@@ -328,27 +354,8 @@ v1::JobSpec material_spec_from_flags(const Flags& f) {
     spec.clear_quality();
   }
 
-  for (const std::string& force : f.all("--force")) {
-    const auto eq = force.find('=');
-    const std::string effect = force.substr(0, eq), value = eq == std::string::npos ? "" : force.substr(eq + 1);
-    if (effect.empty() || (value != "on" && value != "off")) {
-      throw UsageError("--force: expected EFFECT=on or EFFECT=off, got '" + force + "'");
-    }
-    if (effect.size() > 64) throw UsageError("--force: effect names are at most 64 bytes, got '" + effect + "'");
-    if (spec.force_effects().count(effect)) throw UsageError("--force: effect '" + effect + "' given twice");
-    (*spec.mutable_force_effects())[effect] = value == "on";
-  }
-  if (spec.force_effects_size() > 64) throw UsageError("--force: at most 64 effects");
-
-  if (auto v = f.get("--name")) {
-    if (v->size() > kMaxNameBytes) {
-      throw UsageError("--name: at most " + std::to_string(kMaxNameBytes) + " bytes, got " +
-                       std::to_string(v->size()));
-    }
-    spec.set_name(*v);
-  } else {
-    spec.set_name(default_name(f, model_name));
-  }
+  add_forced_effects(f, spec);
+  set_name(f, spec, default_name(f, model_name));
   return spec;
 }
 
@@ -365,6 +372,20 @@ std::string flag_for_field(const std::string& field_path) {
   if (std::find(parts.begin(), parts.end(), "force_effects") != parts.end()) return "--force";
   if (parts.size() == 2 && parts[1] == "name") return "--name";
   if (parts.size() == 2 && parts[1] == "material") return "--model";  // no model given
+  if (parts.size() >= 2 && parts[1] == "environment") {
+    // `kiln bake env`: the image is the command's argument, not a flag.
+    static const std::pair<const char*, const char*> kEnvironment[] = {
+        {"faces", "--faces"},           {"constant", "--constant"},       {"color_space", "--color-space"},
+        {"rotation_degrees", "--rotation"}, {"intensity", "--intensity"}, {"lobe", "--lobe"},
+        {"size", "--size"},             {"levels", "--levels"},           {"irradiance_size", "--irradiance-size"},
+        {"dfg_size", "--dfg-size"},     {"dfg_samples", "--dfg-samples"}, {"preview", "--no-preview"},
+    };
+    if (parts.size() == 2) return "";
+    for (const auto& [field, flag] : kEnvironment) {
+      if (parts[2] == field) return flag;
+    }
+    return "";
+  }
   std::string last = parts.back();
   // A colour channel: the colour's flag ("albedo.r" is red, but "schlick.r" is roughness).
   if ((last == "r" || last == "g" || last == "b") && parts.size() >= 2) {

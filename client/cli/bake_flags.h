@@ -29,6 +29,11 @@ v1::JobSpec material_spec_from_flags(const std::vector<std::string>& args);
 // "" when no flag sets it.
 std::string flag_for_field(const std::string& field_path);
 
+// Shared by the bake commands: --force EFFECT=on|off (repeatable) into spec.force_effects, and --name (else
+// `default_name`, shortened to the protocol's 256 bytes). Throw UsageError naming the flag.
+void add_forced_effects(const Flags& flags, v1::JobSpec& spec);
+void set_name(const Flags& flags, v1::JobSpec& spec, const std::string& default_name);
+
 extern const char* const kBakeMaterialHelp;
 
 }  // namespace kiln::cli

@@ -19,6 +19,7 @@
 
 #include "client/cli/args.h"
 #include "client/cli/bake_flags.h"
+#include "client/cli/env_flags.h"
 #include "client/cli/format.h"
 #include "client/cli/job_file.h"
 #include "client/cli/progress.h"
@@ -50,6 +51,9 @@ commands:
                         submit a job file (a kiln.v1.JobSpec in protobuf text format; see client/examples/)
   bake material --model MODEL [parameters] --out DIR
                         bake one material described by flags, wait, write its outputs and report.json into DIR
+  bake env IMAGE | --constant R,G,B | --faces PX NX PY NY PZ NZ [options] [--out DIR]
+                        upload an HDR environment and bake it for image-based lighting (specular cube chain,
+                        irradiance, SH, DFG table); with --out, wait and write the outputs into DIR
   watch ID              follow a job until it ends, showing its progress
   result ID [--json]    a finished job's outcome: cost, planner decisions, outputs with their digests
   fetch ID --out DIR    write a finished job's outputs and report.json into DIR
@@ -88,6 +92,8 @@ Submits the job in JOB.textproto (a kiln.v1.JobSpec in protobuf text format; "-"
                          of a new one (a retried CI step does not bake twice)
 
 Errors in the file are reported with its line and column, including fields the server refuses.
+Images a job reads (environment { image { sha256: ... size: ... } }) are blobs the server must already hold;
+`kiln bake env IMAGE` uploads a local file and submits in one step.
 Examples: client/examples/*.textproto. See `kiln --help` for --server, --token-file and the exit status.
 )";
 
@@ -546,27 +552,10 @@ int cmd_submit(Context& ctx, const Flags& f) {
   return conclude(ctx, final, id, dir, reply.cache_hit());
 }
 
-int cmd_bake(Context& ctx, const Flags& f) {
-  if (f.positional.empty()) {
-    throw UsageError("missing job type: `kiln bake material ...` (see `kiln bake material --help`)");
-  }
-  if (f.positional[0] != "material") {
-    throw UsageError("unknown job type '" + f.positional[0] +
-                     "': `kiln bake` bakes material (see `kiln bake material --help`)");
-  }
-  if (f.positional.size() > 1) {
-    throw UsageError("unexpected argument '" + f.positional[1] + "' (see `kiln bake material --help`)");
-  }
-  const v1::JobSpec spec = material_spec_from_flags(f);
-  const std::int32_t priority = priority_of(f);
-  const std::string key = idempotency_key_of(f);
-  const auto out = f.get("--out");
-  if (!out) throw UsageError("--out: missing; bake writes its outputs into a folder: add --out DIR");
-  const fs::path dir = prepare_out_dir(*out);
-
-  const v1::SubmitReply reply = submit(ctx, spec, priority, key, [](const std::string& field) {
-    return flag_for_field(field);
-  });
+// Submits `spec`, follows it with Ctrl-C cancelling it on the server, and concludes (writing into `dir` if given).
+int bake_and_follow(Context& ctx, const v1::JobSpec& spec, const Flags& f, const std::optional<fs::path>& dir,
+                    const std::function<std::string(const std::string&)>& where) {
+  const v1::SubmitReply reply = submit(ctx, spec, priority_of(f), idempotency_key_of(f), where);
   const std::string& id = reply.job_id();
   ctx.err << "kiln: submitted job " << id << (reply.cache_hit() ? " (a cache hit: already done)" : "") << "\n";
   std::signal(SIGINT, on_interrupt);
@@ -588,10 +577,87 @@ int cmd_bake(Context& ctx, const Flags& f) {
       final.set_state(state);
       return conclude(ctx, final, id, dir, reply.cache_hit());
     }
-    throw Failure(kExitJobFailed, "job " + id + " cancelled (Ctrl-C); nothing was written to " + dir.string());
+    throw Failure(kExitJobFailed, "job " + id + " cancelled (Ctrl-C)" +
+                                      (dir ? "; nothing was written to " + dir->string() : std::string()));
   }
   std::signal(SIGINT, SIG_DFL);
   return conclude(ctx, final, id, dir, reply.cache_hit());
+}
+
+int cmd_bake_env(Context& ctx, const Flags& f) {
+  EnvironmentBake bake = environment_bake_from_flags(f);
+  priority_of(f);
+  idempotency_key_of(f);  // usage errors before any upload
+  std::optional<fs::path> dir;
+  if (auto out = f.get("--out")) dir = prepare_out_dir(*out);
+  for (const std::string& file : bake.files) {
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec)) {
+      throw UsageError(file + ": no such file (the environment to bake: an equirectangular EXR, HDR, PNG or JPEG)");
+    }
+  }
+  std::vector<v1::Digest> digests;
+  {
+    ProgressPrinter printer(ctx.err, ctx.terminal.progress_in_place, ctx.terminal.columns);
+    for (const std::string& file : bake.files) {
+      const std::string label = fs::path(file).filename().string();
+      try {
+        digests.push_back(connected(ctx).upload_file(
+            file, [&](std::uint64_t done, std::uint64_t total) { printer.transfer("upload " + label, done, total, now()); }));
+      } catch (const ServerError& e) {
+        printer.finish();
+        throw Failure(kExitServer, "kilnd at " + ctx.server + " refused the upload of " + file + ": " + said(e));
+      } catch (const ConnectionError& e) {
+        printer.finish();
+        connection_lost(ctx, e, "uploading " + file);
+      } catch (const std::runtime_error& e) {
+        printer.finish();
+        throw Failure(kExitUsage, e.what());
+      }
+    }
+    printer.finish();
+  }
+  if (!bake.files.empty()) set_input_digests(bake, digests);
+
+  // The server names the image's field; the user named a file.
+  auto where = [&](const std::string& field) -> std::string {
+    for (std::size_t i = 0; i < bake.files.size(); ++i) {
+      const std::string face = "job.environment.faces.digests[" + std::to_string(i) + "]";
+      if (field.rfind("job.environment.image", 0) == 0 || field.rfind(face, 0) == 0) return bake.files[i];
+    }
+    return flag_for_field(field);
+  };
+  if (!dir && !f.has("--wait")) {
+    const v1::SubmitReply reply = submit(ctx, bake.spec, priority_of(f), idempotency_key_of(f), where);
+    ctx.out << reply.job_id() << "\n" << std::flush;
+    ctx.err << "kiln: submitted job " << reply.job_id() << " (" << state_name(reply.state())
+            << (reply.cache_hit() ? ", a cache hit: already done" : "") << "); follow it with `kiln watch "
+            << reply.job_id() << "`, write its outputs with `kiln fetch " << reply.job_id() << " --out DIR`\n";
+    return kExitOk;
+  }
+  return bake_and_follow(ctx, bake.spec, f, dir, where);
+}
+
+int cmd_bake(Context& ctx, const Flags& f) {
+  if (f.positional.empty()) {
+    throw UsageError("missing job type: `kiln bake material ...` or `kiln bake env ...` (see `kiln bake material "
+                     "--help`, `kiln bake env --help`)");
+  }
+  if (f.positional[0] == "env" || f.positional[0] == "environment") return cmd_bake_env(ctx, f);
+  if (f.positional[0] != "material") {
+    throw UsageError("unknown job type '" + f.positional[0] +
+                     "': `kiln bake` bakes material or env (see `kiln bake material --help`, `kiln bake env --help`)");
+  }
+  if (f.positional.size() > 1) {
+    throw UsageError("unexpected argument '" + f.positional[1] + "' (see `kiln bake material --help`)");
+  }
+  const v1::JobSpec spec = material_spec_from_flags(f);
+  priority_of(f);
+  idempotency_key_of(f);
+  const auto out = f.get("--out");
+  if (!out) throw UsageError("--out: missing; bake writes its outputs into a folder: add --out DIR");
+  const fs::path dir = prepare_out_dir(*out);
+  return bake_and_follow(ctx, spec, f, dir, [](const std::string& field) { return flag_for_field(field); });
 }
 
 int cmd_watch(Context& ctx, const Flags& f) {
@@ -757,12 +823,12 @@ int cmd_jobs(Context& ctx, const Flags& f) {
   for (const auto& j : list.jobs()) id_width = std::max(id_width, j.job_id().size());
   std::ostream& out = ctx.out;
   out << std::left << std::setw(static_cast<int>(id_width)) << "ID" << "  " << std::setw(10) << "STATE"
-      << std::setw(10) << "TYPE" << std::right << std::setw(4) << "PRI" << "  " << std::left << std::setw(20)
+      << std::setw(13) << "TYPE" << std::right << std::setw(4) << "PRI" << "  " << std::left << std::setw(20)
       << "SUBMITTED" << std::right << std::setw(12) << "BAKING" << "  " << std::left << std::setw(6) << "CACHE"
       << "NAME\n";
   for (const auto& j : list.jobs()) {
     out << std::left << std::setw(static_cast<int>(id_width)) << j.job_id() << "  " << std::setw(10)
-        << state_name(j.state()) << std::setw(10) << (j.type().empty() ? "-" : j.type()) << std::right
+        << state_name(j.state()) << std::setw(13) << (j.type().empty() ? "-" : j.type()) << std::right
         << std::setw(4) << j.priority() << "  " << std::left << std::setw(20) << format_time(j.submitted_unix())
         << std::right << std::setw(12) << format_duration(j.seconds()) << "  " << std::left << std::setw(6)
         << (j.cache_hit() ? "hit" : "-") << j.name() << "\n";
@@ -846,24 +912,37 @@ int run(const std::vector<std::string>& args, Context& ctx) {
     }
     const Command* c = find_command(words[0]);
     if (!c) throw UsageError("no command '" + words[0] + "': expected one of " + command_names());
-    ctx.out << c->help;
+    const bool env = words[0] == "bake" && words.size() > 1 && (words[1] == "env" || words[1] == "environment");
+    ctx.out << (env ? kBakeEnvHelp : c->help);
     return kExitOk;
   }
   const Command* command = find_command(name);
   if (!command) {
     throw UsageError("unknown command '" + name + "': expected one of " + command_names() + " (see `kiln --help`)");
   }
+  // `kiln bake TYPE`: the type is the first word that is not a flag (global flags' values skipped).
+  const bool bake_env = name == "bake" && [&] {
+    for (std::size_t i = 0; i < rest.size(); ++i) {
+      if (rest[i] == "--server" || rest[i] == "--token-file") {
+        ++i;
+        continue;
+      }
+      if (!rest[i].empty() && rest[i][0] != '-') return rest[i] == "env" || rest[i] == "environment";
+    }
+    return false;
+  }();
   // --help wins over everything else on the line, so that a half-typed command can still ask for its help.
   for (const auto& a : rest) {
     if (a == "--") break;
     if (a == "--help" || a == "-h") {
-      ctx.out << command->help;
+      ctx.out << (bake_env ? kBakeEnvHelp : command->help);
       return kExitOk;
     }
   }
-  const std::string full = name == "bake" ? "kiln bake material" : "kiln " + name;
-  const Flags flags =
-      parse_flags(rest, name == "bake" ? bake_material_flag_specs() : with_globals(command->flags), full);
+  const std::string full = name == "bake" ? (bake_env ? "kiln bake env" : "kiln bake material") : "kiln " + name;
+  const Flags flags = parse_flags(
+      rest, name == "bake" ? (bake_env ? bake_env_flag_specs() : bake_material_flag_specs()) : with_globals(command->flags),
+      full);
 
   if (auto s = flags.get("--server")) {
     ctx.server = *s;

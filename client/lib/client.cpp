@@ -8,6 +8,11 @@
 #include <boost/asio/write.hpp>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <charconv>
 #include <utility>
 
@@ -286,6 +291,23 @@ v1::BlobQueryReply Client::query_blobs(const std::vector<v1::Digest>& digests) {
   for (const auto& d : digests) *request.mutable_blob_query()->add_digests() = d;
   if (digests.empty()) request.mutable_blob_query();
   return impl.call(request, v1::Response::kBlobQuery).blob_query();
+}
+
+v1::Digest Client::upload_file(const std::string& path, const ProgressFn& progress) {
+  std::error_code ec;
+  const std::uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec) throw std::runtime_error("cannot read " + path + ": " + ec.message());
+  if (size > limits().max_blob_bytes()) {
+    throw std::runtime_error(path + " is " + std::to_string(size) + " bytes, more than the server's limit of " +
+                             std::to_string(limits().max_blob_bytes()) + " bytes per blob");
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes(static_cast<std::size_t>(size), '\0');
+  if (!in || !in.read(bytes.data(), static_cast<std::streamsize>(size)) || in.peek() != EOF) {
+    throw std::runtime_error("cannot read " + path + " whole: " + (in.bad() ? std::strerror(errno)
+                                                                             : "it changed while being read"));
+  }
+  return upload_blob(bytes, progress);
 }
 
 v1::Digest Client::upload_blob(std::string_view bytes, const ProgressFn& progress) {

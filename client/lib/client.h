@@ -84,6 +84,9 @@ class Client {
   // Stores `bytes` on the server unless it already has them, resuming a broken upload from the server's offset, in
   // chunks of at most Limits.max_chunk_bytes. Returns their digest, by which jobs refer to them.
   v1::Digest upload_blob(std::string_view bytes, const ProgressFn& progress = {});
+  // The same for a local file, read whole (an environment image, a face). Throws std::runtime_error naming the
+  // file if it cannot be read or is larger than Limits.max_blob_bytes (checked before it is read).
+  v1::Digest upload_file(const std::string& path, const ProgressFn& progress = {});
 
   v1::SubmitReply submit(const v1::JobSpec& job, std::int32_t priority = 0, const std::string& idempotency_key = {});
   // Follows a job until it ends, calling on_event for each event (the first is the job's current state), and

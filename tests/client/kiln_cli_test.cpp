@@ -28,6 +28,7 @@
 
 #include "client/cli/args.h"
 #include "client/cli/bake_flags.h"
+#include "client/cli/env_flags.h"
 #include "client/cli/format.h"
 #include "client/cli/job_file.h"
 #include "client/cli/progress.h"
@@ -54,14 +55,18 @@ std::vector<std::string> words(const std::string& s) {
 
 v1::JobSpec from_flags(const std::string& s) { return material_spec_from_flags(words(s)); }
 
-std::string usage_error(const std::string& s) {
+// The UsageError `f` throws, or "(no error)".
+template <typename F>
+std::string usage_error_of(F f) {
   try {
-    from_flags(s);
+    f();
   } catch (const UsageError& e) {
     return e.what();
   }
   return "(no error)";
 }
+
+std::string usage_error(const std::string& s) { return usage_error_of([&] { from_flags(s); }); }
 
 v1::JobSpec from_text(const std::string& text) {
   v1::JobSpec spec;
@@ -69,14 +74,7 @@ v1::JobSpec from_text(const std::string& text) {
   return spec;
 }
 
-std::string text_error(const std::string& text) {
-  try {
-    from_text(text);
-  } catch (const UsageError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+std::string text_error(const std::string& text) { return usage_error_of([&] { from_text(text); }); }
 
 // The daemon's translation layer accepts the spec (the same checks a real submit meets).
 ::testing::AssertionResult daemon_accepts(const v1::JobSpec& spec) {
@@ -277,6 +275,103 @@ TEST(KilnCliBakeFlags, ServerFieldsMapBackToFlags) {
   for (const auto& [field, flag] : cases) EXPECT_EQ(flag_for_field(field), flag) << field;
 }
 
+// ---- `kiln bake env` -----------------------------------------------------------------------------------------
+
+EnvironmentBake env_from(const std::string& s) { return environment_bake_from_flags(words("env " + s)); }
+
+std::string env_usage_error(const std::string& s) { return usage_error_of([&] { env_from(s); }); }
+
+TEST(KilnCliBakeEnv, EveryFlagMaps) {
+  const EnvironmentBake b = env_from(
+      "sky.exr --color-space srgb_texture --rotation -90 --intensity 2.5 --lobe cook-torrance --size 64 --levels 3 "
+      "--irradiance-size 16 --dfg-size 32 --dfg-samples 64 --samples 256 --target-error 0.02 --seed 7 --no-preview "
+      "--force sun_light=off --out out/sky");
+  EXPECT_EQ(b.files, std::vector<std::string>{"sky.exr"});
+  const v1::EnvironmentJob& e = b.spec.environment();
+  EXPECT_TRUE(e.has_image());
+  EXPECT_EQ(e.color_space(), "srgb_texture");
+  EXPECT_EQ(e.rotation_degrees(), -90);
+  EXPECT_EQ(e.intensity(), 2.5);
+  EXPECT_EQ(e.lobe(), v1::ENVIRONMENT_LOBE_COOK_TORRANCE);
+  EXPECT_EQ(e.size(), 64u);
+  EXPECT_EQ(e.levels(), 3u);
+  EXPECT_EQ(e.irradiance_size(), 16u);
+  EXPECT_EQ(e.dfg_size(), 32u);
+  EXPECT_EQ(e.dfg_samples(), 64u);
+  EXPECT_TRUE(e.has_preview());
+  EXPECT_FALSE(e.preview());
+  EXPECT_EQ(b.spec.quality().samples(), 256u);
+  EXPECT_EQ(b.spec.quality().target_error(), 0.02);
+  EXPECT_EQ(b.spec.quality().seed(), 7u);
+  EXPECT_FALSE(b.spec.force_effects().at("sun_light"));
+  EXPECT_EQ(b.spec.name().rfind("environment sky.exr color-space=srgb_texture", 0), 0u) << b.spec.name();
+
+  // The uploaded digests go where the server looks for them; the translation layer then accepts the job.
+  EnvironmentBake with_digest = b;
+  v1::Digest d;
+  d.set_sha256(proto::sha256_hex("sky"));
+  d.set_size(3);
+  set_input_digests(with_digest, {d});
+  EXPECT_EQ(with_digest.spec.environment().image().sha256(), d.sha256());
+  EXPECT_TRUE(daemon_accepts(with_digest.spec));
+
+  EnvironmentBake faces = env_from("--faces px.exr nx.exr py.exr ny.exr pz.exr nz.exr --wait");
+  EXPECT_EQ(faces.files.size(), 6u);
+  EXPECT_EQ(faces.files[3], "ny.exr");
+  set_input_digests(faces, std::vector<v1::Digest>(6, d));
+  EXPECT_EQ(faces.spec.environment().faces().digests_size(), 6);
+  EXPECT_TRUE(daemon_accepts(faces.spec));
+
+  const EnvironmentBake constant = env_from("--constant 0.5");
+  EXPECT_TRUE(constant.files.empty());
+  EXPECT_EQ(constant.spec.environment().constant().g(), 0.5);
+  EXPECT_FALSE(constant.spec.has_quality());  // nothing asked: the server's defaults
+  EXPECT_TRUE(daemon_accepts(constant.spec));
+  EXPECT_EQ(env_from("--constant 1,2,3 --lobe cook_torrance").spec.environment().lobe(),
+            v1::ENVIRONMENT_LOBE_COOK_TORRANCE);  // the job-file spelling too
+}
+
+TEST(KilnCliBakeEnv, BadFlagsGetOneLineNamingTheFlag) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"", "missing environment"},
+      {"a.exr b.exr", "unexpected argument 'b.exr'"},
+      {"--constant 1 sky.exr", "--constant: give one environment"},
+      {"--constant 1 --faces a b c d e f", "--constant: give one environment"},
+      {"--faces a b c", "--faces: expected six files"},
+      {"--constant 1,2", "--constant: expected one value or three"},
+      {"--constant -1", "--constant: must be in [0, 1e+06], got -1"},
+      {"--constant 1 --intensity 2", "--intensity: applies to an image"},
+      {"--constant 1 --rotation 2", "--rotation: applies to an image"},
+      {"sky.exr --size 100", "--size: must be a power of two"},
+      {"sky.exr --size 4096", "--size: must be a whole number in [4, 2048]"},
+      {"sky.exr --rotation 400", "--rotation: must be in [-360, 360]"},
+      {"sky.exr --intensity 0", "--intensity: must be in (0, 1e+06]"},
+      {"sky.exr --lobe phong", "--lobe: expected one of ggx, beckmann, cook-torrance, schlick, got 'phong'"},
+      {"sky.exr --samples 2", "--samples: must be a whole number in [4, 65536]"},
+      {"sky.exr --target-error 0", "--target-error: must be in [1e-04, 1], got 0"},
+      {"sky.exr --force sun", "--force: expected EFFECT=on or EFFECT=off"},
+      {"sky.exr --alpha 0.3", "unknown option --alpha for `kiln bake env`"},
+  };
+  for (const auto& [flags, message] : cases) {
+    EXPECT_NE(env_usage_error(flags).find(message), std::string::npos) << flags << " -> " << env_usage_error(flags);
+  }
+}
+
+TEST(KilnCliBakeEnv, ServerFieldsMapBackToFlags) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"job.environment.size", "--size"},
+      {"job.environment.levels", "--levels"},
+      {"job.environment.rotation_degrees", "--rotation"},
+      {"job.environment.color_space", "--color-space"},
+      {"job.environment.constant.g", "--constant"},
+      {"job.environment.faces.digests[2].sha256", "--faces"},
+      {"job.environment.dfg_samples", "--dfg-samples"},
+      {"job.environment.image", ""},  // the command's argument: `kiln bake env` names the file itself
+      {"job.environment", ""},
+  };
+  for (const auto& [field, flag] : cases) EXPECT_EQ(flag_for_field(field), flag) << field;
+}
+
 // ---- Job files -------------------------------------------------------------------------------------------------
 
 std::string read(const fs::path& p) {
@@ -284,15 +379,16 @@ std::string read(const fs::path& p) {
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-// The flags a job file's comments give as its equivalent ("kiln bake material ... \" continued on "#" lines).
+// The flags a job file's comments give as its equivalent: the first "kiln bake material ..." or "kiln bake env ..."
+// (continued with "\" on "#" lines), the job type's word first.
 std::string flags_in_comment(const std::string& text) {
   std::istringstream in(text);
   std::string flags;
   bool continuing = false;
   for (std::string line; std::getline(in, line);) {
-    const auto at = line.find("kiln bake material ");
+    const auto at = line.find("kiln bake ");
     if (!continuing && at == std::string::npos) continue;
-    std::string part = continuing ? line.substr(line.find_first_not_of("# ")) : line.substr(at + 19);
+    std::string part = continuing ? line.substr(line.find_first_not_of("# ")) : line.substr(at + 10);
     continuing = !part.empty() && part.back() == '\\';
     if (continuing) part.pop_back();
     flags += part + " ";
@@ -302,7 +398,7 @@ std::string flags_in_comment(const std::string& text) {
 }
 
 TEST(KilnCliJobFiles, ExamplesParseMatchTheirFlagsAndPassTheDaemonsChecks) {
-  int count = 0;
+  int count = 0, environment = 0;
   for (const auto& entry : fs::directory_iterator(kExamples)) {
     if (entry.path().extension() != ".textproto") continue;
     ++count;
@@ -313,16 +409,27 @@ TEST(KilnCliJobFiles, ExamplesParseMatchTheirFlagsAndPassTheDaemonsChecks) {
     EXPECT_FALSE(spec.name().empty());
     EXPECT_TRUE(daemon_accepts(spec));
     // The command in the file's comment asks for the same bake (names aside, which are not part of the job).
-    const std::string flags = flags_in_comment(text);
-    ASSERT_FALSE(flags.empty()) << "no `kiln bake material` line in the comments";
-    v1::JobSpec from_comment = from_flags(flags);
+    const std::vector<std::string> flags = words(flags_in_comment(text));
+    ASSERT_FALSE(flags.empty()) << "no `kiln bake material|env ... --out DIR` line in the comments";
+    v1::JobSpec from_comment;
+    if (flags[0] == "env") {
+      ++environment;
+      const EnvironmentBake bake = environment_bake_from_flags(flags);
+      EXPECT_TRUE(bake.files.empty()) << "job files name no local files";
+      from_comment = bake.spec;
+    } else {
+      ASSERT_EQ(flags[0], "material");
+      from_comment = material_spec_from_flags(std::vector<std::string>(flags.begin() + 1, flags.end()));
+    }
     from_comment.clear_name();
     spec.clear_name();
     EXPECT_TRUE(MessageDifferencer::Equals(spec, from_comment))
-        << "file:\n" << spec.DebugString() << "flags " << flags << ":\n" << from_comment.DebugString();
+        << "file:\n" << spec.DebugString() << "flags:\n" << from_comment.DebugString();
   }
-  // A GGX dielectric, an Oren-Nayar clay, a Cook-Torrance glass with MERL, a Schlick brushed metal.
-  EXPECT_EQ(count, 4);
+  // A GGX dielectric, an Oren-Nayar clay, a Cook-Torrance glass with MERL, a Schlick brushed metal; a constant
+  // environment.
+  EXPECT_EQ(count, 5);
+  EXPECT_EQ(environment, 1);
 }
 
 TEST(KilnCliJobFiles, ParseErrorsGiveFileLineAndColumn) {

@@ -294,6 +294,30 @@ class AgainstKilnd(unittest.TestCase):
                 call("no-such-job")
             self.assertEqual(caught.exception.code, pb.Error.NOT_FOUND, str(caught.exception))
 
+    def test_environment_job_bakes_and_a_bad_image_fails_naming_it(self):
+        small = dict(size=16, irradiance_size=8, dfg_size=8, dfg_samples=64, preview=False, samples=16)
+        sub = self.c.submit(kiln.environment_job(constant=(0.5, 1.0, 2.0), name="py env", **small))
+        self.assertEqual(self.c.watch(sub.job_id).state, pb.JOB_STATE_SUCCEEDED, DAEMON.log())
+        result = self.c.result(sub.job_id)
+        names = {o.name for o in result.outputs}
+        self.assertTrue({"specular.ktx2", "specular_L2_nz.exr", "irradiance_px.exr", "sh.txt", "dfg.exr",
+                         "report.json"} <= names, names)
+        self.assertNotIn("preview.png", names)
+        for output in result.outputs:
+            self.assertEqual(sha256(self.c.fetch(output.digest)), output.digest.sha256)
+        # An upload that is not an image: the job fails with the decoder's message, naming the image's field.
+        with tempfile.NamedTemporaryFile(suffix=".exr") as f:
+            f.write(b"this is not an image at all")
+            f.flush()
+            digest = self.c.upload_file(f.name)
+        bad = self.c.submit(kiln.environment_job(digest, **small))
+        final = self.c.watch(bad.job_id)
+        self.assertEqual(final.state, pb.JOB_STATE_FAILED)
+        error = self.c.result(bad.job_id).error
+        self.assertEqual(error.code, pb.Error.INVALID_ARGUMENT, error.message)
+        self.assertEqual(error.field, "job.environment.image")
+        self.assertIn("not an image", error.message)
+
     def test_unreachable_server_is_a_connection_error(self):
         listener = socket.socket()
         listener.bind(("127.0.0.1", 0))
@@ -479,6 +503,33 @@ class JobSpecs(unittest.TestCase):
             kiln.material_job("ggx", alhpa=0.3)
         with self.assertRaisesRegex(ValueError, "job.material.ggx.fresnel"):
             kiln.material_job("ggx", fresnel="shlick")
+
+    def test_environment_job_from_keywords(self):
+        digest = kiln.digest_of(b"an image")
+        job = kiln.environment_job(digest, name="sky", lobe="cook_torrance", size=64, levels=3, rotation_degrees=90,
+                                   intensity=2, color_space="lin_rec709", preview=False, samples=64, seed=2,
+                                   force_effects={"sun_light": False})
+        env = job.environment
+        self.assertEqual(env.image, digest)
+        self.assertEqual(env.lobe, pb.ENVIRONMENT_LOBE_COOK_TORRANCE)
+        self.assertEqual((env.size, env.levels, env.rotation_degrees, env.intensity), (64, 3, 90.0, 2.0))
+        self.assertTrue(env.HasField("preview") and not env.preview)
+        self.assertFalse(env.HasField("dfg_size"))  # unset: the server's default
+        self.assertEqual((job.quality.samples, job.quality.seed), (64, 2))
+        self.assertEqual(dict(job.force_effects), {"sun_light": False})
+        faces = kiln.environment_job(faces=[(digest.sha256, digest.size)] * 6)
+        self.assertEqual(len(faces.environment.faces.digests), 6)
+        grey = kiln.environment_job(constant=0.25)
+        self.assertEqual((grey.environment.constant.r, grey.environment.constant.b), (0.25, 0.25))
+        self.assertEqual(kiln.parse_job("environment { constant { r: 0.25 g: 0.25 b: 0.25 } }"), grey)
+        with self.assertRaisesRegex(ValueError, "exactly one"):
+            kiln.environment_job(digest, constant=1.0)
+        with self.assertRaisesRegex(ValueError, "exactly one"):
+            kiln.environment_job()
+        with self.assertRaisesRegex(ValueError, "six faces"):
+            kiln.environment_job(faces=[digest] * 5)
+        with self.assertRaisesRegex(ValueError, "job.environment.lobe"):
+            kiln.environment_job(digest, lobe="phong")
 
     def test_job_files_in_text_format(self):
         path = os.path.join(REPO, "client", "examples", "ggx_dielectric.textproto")

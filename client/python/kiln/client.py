@@ -145,7 +145,8 @@ def _enum_value(enum_type, value, path):
         return value
     if isinstance(value, str):
         name = value.strip().upper().replace("-", "_")
-        prefix = enum_type.name.upper() + "_"  # Fresnel -> FRESNEL_SCHLICK, Masking -> MASKING_V_GROOVE
+        # Fresnel -> FRESNEL_SCHLICK, Masking -> MASKING_V_GROOVE, EnvironmentLobe -> ENVIRONMENT_LOBE_GGX
+        prefix = "".join("_" + c if c.isupper() and i else c for i, c in enumerate(enum_type.name)).upper() + "_"
         for candidate in (name, prefix + name):
             if candidate in enum_type.values_by_name:
                 return enum_type.values_by_name[candidate].number
@@ -234,13 +235,52 @@ def material_job(model, *, name="", table_mu=None, table_roughness=None, merl=No
     spec = pb.JobSpec(name=name)
     _set_model(spec.material, model, params, "job.material")
     _fill(spec.material, {"table_mu": table_mu, "table_roughness": table_roughness, "merl": merl}, "job.material")
-    quality = {"samples": samples, "target_error": target_error, "time_limit_seconds": time_limit_seconds,
-               "seed": seed}
+    _set_quality_and_effects(spec, {"samples": samples, "target_error": target_error,
+                                    "time_limit_seconds": time_limit_seconds, "seed": seed}, force_effects)
+    return spec
+
+
+def _set_quality_and_effects(spec, quality, force_effects):
     if any(v is not None for v in quality.values()):
         spec.quality.SetInParent()
         _fill(spec.quality, quality, "job.quality")
     for effect, enabled in (force_effects or {}).items():
         spec.force_effects[effect] = bool(enabled)
+
+
+def environment_job(image=None, *, faces=None, constant=None, name="", samples=None, target_error=None, seed=None,
+                    force_effects=None, **settings):
+    """A kiln.pb.JobSpec for an environment bake (image-based lighting), from keyword arguments.
+
+    The environment is exactly one of: `image`, the Digest of an uploaded equirectangular image (what
+    Client.upload_file returns, a kiln.pb.Digest or (sha256, size)); `faces`, six such digests in the order
+    +X, -X, +Y, -Y, +Z, -Z; `constant`, a radiance (a number, (r, g, b) or a kiln.pb.Color). The other keywords are
+    EnvironmentJob's fields (kiln.proto): color_space, rotation_degrees, intensity, lobe ("ggx", "beckmann",
+    "cook_torrance", "schlick"), size, levels, irradiance_size, dfg_size, dfg_samples, preview. samples,
+    target_error and seed go into the job's quality. None leaves a field to its default.
+
+        with kiln.Client(...) as c:
+            job = kiln.environment_job(c.upload_file("sky.exr"), size=128, lobe="ggx")
+            c.run(job, out_dir="out/sky_env")
+    """
+    given = [k for k, v in (("image", image), ("faces", faces), ("constant", constant)) if v is not None]
+    if len(given) != 1:
+        raise ValueError("job.environment: give exactly one of image, faces or constant, got %s"
+                         % (", ".join(given) or "none"))
+    spec = pb.JobSpec(name=name)
+    env = spec.environment
+    if image is not None:
+        env.image.CopyFrom(_as_digest(image))
+    elif faces is not None:
+        faces = list(faces)
+        if len(faces) != 6:
+            raise ValueError("job.environment.faces: exactly six faces (+X, -X, +Y, -Y, +Z, -Z), got %d" % len(faces))
+        for face in faces:
+            env.faces.digests.add().CopyFrom(_as_digest(face))
+    else:
+        _set_color(env.constant, constant, "job.environment.constant")
+    _fill(env, settings, "job.environment")
+    _set_quality_and_effects(spec, {"samples": samples, "target_error": target_error, "seed": seed}, force_effects)
     return spec
 
 
