@@ -91,6 +91,10 @@ struct Instance {
   int mesh = 0;                 // into Scene::meshes
   Transform to_world;
   std::string lightmap;         // the lightmap it bakes into: empty = "<mesh name>"; instances may share an atlas
+  // Where this instance's lightmap UVs land in its lightmap: uv' = (s_u·u + o_u, s_v·v + o_v), as
+  // {s_u, s_v, o_u, o_v} (Unity's lightmapScaleOffset). Instances sharing an atlas (or several instances of one mesh
+  // baking into the same lightmap) need disjoint rectangles, else their texels overlap (scene_check reports it).
+  std::array<double, 4> lightmap_scale_offset{1, 1, 0, 0};
   bool bake = true;             // false: it casts shadows and bounces light but gets no lightmap
 };
 

@@ -1,0 +1,397 @@
+#include "bakers/scene/tracer.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "bakers/scene/scene_check.h"
+
+namespace kiln::scene {
+namespace {
+
+const char* error_name(RTCError code) {
+  switch (code) {
+    case RTC_ERROR_NONE: return "no error";
+    case RTC_ERROR_UNKNOWN: return "unknown error";
+    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
+    case RTC_ERROR_CANCELLED: return "cancelled";
+  }
+  return "unrecognised error";
+}
+
+// One Embree geometry: an instance's triangles in world space.
+// The attributes a hit interpolates, copied from the scene's mesh (shared by its instances).
+struct MeshAttributes {
+  std::vector<Vec3> normals;
+  std::vector<Point2> uv, lightmap_uv;
+};
+
+struct Geometry {
+  int instance = 0, mesh = 0;
+  const MeshAttributes* source = nullptr;
+  const float* vertices = nullptr;  // Embree's buffer, xyz per vertex, world space
+  const uint32_t* indices = nullptr;
+  double normal_matrix[9];          // the inverse transpose of the instance's 3×3 part, row-major
+  double mirror = 1;                // sign of its determinant: −1 flips the winding's normal back outwards
+  std::array<double, 4> lightmap_st{1, 1, 0, 0};
+};
+
+Vec3 vertex(const Geometry& g, uint32_t i) {
+  const float* v = g.vertices + 3 * static_cast<size_t>(i);
+  return {v[0], v[1], v[2]};
+}
+
+void init_ray(RTCRay& r, const Ray& ray) {
+  r.org_x = static_cast<float>(ray.origin.x);
+  r.org_y = static_cast<float>(ray.origin.y);
+  r.org_z = static_cast<float>(ray.origin.z);
+  r.tnear = 0.0f;  // spawned origins are lifted off their surface instead (ray_offset.h)
+  r.dir_x = static_cast<float>(ray.direction.x);
+  r.dir_y = static_cast<float>(ray.direction.y);
+  r.dir_z = static_cast<float>(ray.direction.z);
+  r.time = 0.0f;
+  r.tfar = static_cast<float>(ray.tmax);
+  r.mask = 0xffffffffu;
+  r.id = 0;
+  r.flags = 0;
+}
+
+void init_ray_hit(RTCRayHit& rh, const Ray& ray) {
+  init_ray(rh.ray, ray);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+}
+
+}  // namespace
+
+struct Tracer::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  std::vector<Geometry> geometries;  // by Embree geometry ID
+  std::vector<MeshAttributes> meshes;
+  size_t triangles = 0;
+  Vec3 lower{INFINITY, INFINITY, INFINITY}, upper{-INFINITY, -INFINITY, -INFINITY};
+  std::mutex error_mutex;
+  std::string error;  // Embree's last message, from its error callback
+
+  // Embree calls this on the failing thread; C callbacks must not throw, so the message waits for check().
+  static void on_error(void* user, RTCError code, const char* message) {
+    auto* self = static_cast<Impl*>(user);
+    std::lock_guard<std::mutex> lock(self->error_mutex);
+    self->error = std::string(error_name(code)) + (message ? std::string(": ") + message : std::string());
+  }
+
+  void check(const char* doing) {
+    const RTCError code = rtcGetDeviceError(device);
+    if (code == RTC_ERROR_NONE) return;
+    std::lock_guard<std::mutex> lock(error_mutex);
+    throw std::runtime_error(std::string("Embree failed while ") + doing + ": " +
+                             (error.empty() ? error_name(code) : error) +
+                             (code == RTC_ERROR_OUT_OF_MEMORY ? " (the scene is too large for this machine's memory)"
+                                                              : ""));
+  }
+
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  Hit complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u, float v) const;
+};
+
+namespace {
+
+// The instance's 3×3 part M; returns M^-T (row-major) and sign(det M).
+double inverse_transpose(const Transform& t, double out[9]) {
+  const double a = t.m[0], b = t.m[1], c = t.m[2], d = t.m[4], e = t.m[5], f = t.m[6], g = t.m[8], h = t.m[9],
+               i = t.m[10];
+  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  // M^-T = cofactor(M) / det.
+  const double cof[9] = {e * i - f * h, -(d * i - f * g), d * h - e * g,  //
+                         -(b * i - c * h), a * i - c * g, -(a * h - b * g),  //
+                         b * f - c * e, -(a * f - c * d), a * e - b * d};
+  for (int k = 0; k < 9; ++k) out[k] = cof[k] / det;
+  return det < 0 ? -1.0 : 1.0;
+}
+
+std::string where(const Scene& scene, size_t instance, int mesh) {
+  const std::string& name = scene.meshes[mesh].name;
+  return "instance " + std::to_string(instance) + " (mesh " + std::to_string(mesh) +
+         (name.empty() ? std::string() : " '" + name + "'") + ")";
+}
+
+}  // namespace
+
+Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::make_unique<Impl>()) {
+  Impl& im = *impl_;
+  // Clean input only: check_scene makes it so; say what is wrong otherwise rather than trace garbage.
+  const std::string advice = "; run scene::check_scene on the scene first and trace its cleaned scene";
+  for (size_t k = 0; k < scene.instances.size(); ++k) {
+    const Instance& inst = scene.instances[k];
+    if (inst.mesh < 0 || static_cast<size_t>(inst.mesh) >= scene.meshes.size())
+      throw std::invalid_argument("tracer: instance " + std::to_string(k) + " refers to mesh " +
+                                  std::to_string(inst.mesh) + " of " + std::to_string(scene.meshes.size()) + advice);
+    if (!usable_transform(inst.to_world))
+      throw std::invalid_argument("tracer: " + where(scene, k, inst.mesh) + " has a singular or non-finite transform" +
+                                  advice);
+  }
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    const size_t nv = mesh.positions.size();
+    const std::string label = "tracer: mesh " + std::to_string(m) + " '" + mesh.name + "'";
+    if (mesh.indices.size() % 3 != 0)
+      throw std::invalid_argument(label + " has " + std::to_string(mesh.indices.size()) +
+                                  " indices, not a multiple of 3" + advice);
+    if (!mesh.normals.empty() && mesh.normals.size() != nv)
+      throw std::invalid_argument(label + ": normals and positions differ in size" + advice);
+    if ((!mesh.uv.empty() && mesh.uv.size() != nv) || (!mesh.lightmap_uv.empty() && mesh.lightmap_uv.size() != nv))
+      throw std::invalid_argument(label + ": UVs and positions differ in size" + advice);
+    for (size_t i = 0; i < mesh.indices.size(); ++i) {
+      const uint32_t v = mesh.indices[i];
+      if (v >= nv)
+        throw std::invalid_argument(label + " triangle " + std::to_string(i / 3) + ": index " + std::to_string(v) +
+                                    " out of range for " + std::to_string(nv) + " vertices" + advice);
+      if (!is_finite(mesh.positions[v]))
+        throw std::invalid_argument(label + " triangle " + std::to_string(i / 3) + ": vertex " + std::to_string(v) +
+                                    " is not finite" + advice);
+    }
+  }
+
+  im.device = rtcNewDevice(nullptr);
+  if (!im.device)
+    throw std::runtime_error(std::string("Embree could not create a device: ") + error_name(rtcGetDeviceError(nullptr)) +
+                             " (Embree needs an SSE2-capable x86-64 CPU)");
+  rtcSetDeviceErrorFunction(im.device, &Impl::on_error, &im);
+  im.scene = rtcNewScene(im.device);
+  rtcSetSceneFlags(im.scene, options.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_HIGH);
+  im.check("creating the scene");
+  im.meshes.resize(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m)
+    im.meshes[m] = {scene.meshes[m].normals, scene.meshes[m].uv, scene.meshes[m].lightmap_uv};
+
+  for (size_t k = 0; k < scene.instances.size(); ++k) {
+    const Instance& inst = scene.instances[k];
+    const Mesh& mesh = scene.meshes[inst.mesh];
+    const size_t nt = mesh.indices.size() / 3, nv = mesh.positions.size();
+    if (nt == 0) continue;
+    RTCGeometry geom = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
+    auto* vb = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+    auto* ib = static_cast<uint32_t*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
+    if (!vb || !ib) {
+      rtcReleaseGeometry(geom);
+      im.check("allocating the geometry buffers");
+      throw std::runtime_error("Embree returned no geometry buffer for " + where(scene, k, inst.mesh));
+    }
+    // World positions in double, rounded to float once (the float vertices are what the offsets bound).
+    std::vector<uint8_t> used(nv, 0);
+    for (uint32_t i : mesh.indices) used[i] = 1;
+    for (size_t v = 0; v < nv; ++v) {
+      // Unreferenced vertices are never read by Embree's triangles but still must be finite floats for its bounds.
+      const Vec3 w = used[v] ? inst.to_world.point(mesh.positions[v]) : inst.to_world.point(mesh.positions[mesh.indices[0]]);
+      const float f[3] = {static_cast<float>(w.x), static_cast<float>(w.y), static_cast<float>(w.z)};
+      if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
+        rtcReleaseGeometry(geom);
+        throw std::invalid_argument("tracer: " + where(scene, k, inst.mesh) + ": vertex " + std::to_string(v) +
+                                    " lands at (" + std::to_string(w.x) + ", " + std::to_string(w.y) + ", " +
+                                    std::to_string(w.z) +
+                                    ") in world space, beyond single precision; scale the scene down");
+      }
+      std::copy(f, f + 3, vb + 3 * v);
+      if (used[v]) {
+        im.lower = {std::min(im.lower.x, double(f[0])), std::min(im.lower.y, double(f[1])),
+                    std::min(im.lower.z, double(f[2]))};
+        im.upper = {std::max(im.upper.x, double(f[0])), std::max(im.upper.y, double(f[1])),
+                    std::max(im.upper.z, double(f[2]))};
+      }
+    }
+    std::copy(mesh.indices.begin(), mesh.indices.end(), ib);
+    rtcCommitGeometry(geom);
+    const unsigned id = rtcAttachGeometry(im.scene, geom);
+    rtcReleaseGeometry(geom);  // the scene holds it
+    im.check("adding a geometry");
+
+    Geometry g;
+    g.instance = static_cast<int>(k);
+    g.mesh = inst.mesh;
+    g.source = &im.meshes[inst.mesh];
+    g.vertices = vb;
+    g.indices = ib;
+    g.mirror = inverse_transpose(inst.to_world, g.normal_matrix);
+    g.lightmap_st = inst.lightmap_scale_offset;
+    if (im.geometries.size() <= id) im.geometries.resize(id + 1);
+    im.geometries[id] = g;
+    im.triangles += nt;
+  }
+  rtcCommitScene(im.scene);
+  im.check("building the acceleration structure");
+}
+
+Tracer::~Tracer() = default;
+Tracer::Tracer(Tracer&&) noexcept = default;
+Tracer& Tracer::operator=(Tracer&&) noexcept = default;
+
+size_t Tracer::triangle_count() const { return impl_->triangles; }
+Vec3 Tracer::bounds_lower() const { return impl_->lower; }
+Vec3 Tracer::bounds_upper() const { return impl_->upper; }
+
+Hit Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv) const {
+  const Geometry& g = geometries[geom_id];
+  const MeshAttributes& mesh = *g.source;
+  const uint32_t i0 = g.indices[3 * prim_id], i1 = g.indices[3 * prim_id + 1], i2 = g.indices[3 * prim_id + 2];
+  const Vec3 p0 = vertex(g, i0), p1 = vertex(g, i1), p2 = vertex(g, i2);
+  Hit h;
+  h.t = t;
+  h.instance = g.instance;
+  h.mesh = g.mesh;
+  h.triangle = static_cast<int>(prim_id);
+  h.u = hu;
+  h.v = hv;
+  const double w = 1.0 - h.u - h.v;
+  h.p = p0 * w + p1 * h.u + p2 * h.v;
+  const Vec3 c = cross(p1 - p0, p2 - p0);
+  const double len = length(c);
+  // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
+  // anyway, face the ray.
+  h.ng = len > 0 ? c * (g.mirror / len) : -normalize(ray.direction);
+  h.front_face = dot(ray.direction, h.ng) < 0;
+  h.ns = h.ng;
+  if (!mesh.normals.empty()) {
+    const Vec3 n = mesh.normals[i0] * w + mesh.normals[i1] * h.u + mesh.normals[i2] * h.v;
+    const double* M = g.normal_matrix;
+    const Vec3 nw{M[0] * n.x + M[1] * n.y + M[2] * n.z, M[3] * n.x + M[4] * n.y + M[5] * n.z,
+                  M[6] * n.x + M[7] * n.y + M[8] * n.z};
+    const double nl = length(nw);
+    // Opposite vertex normals can interpolate to zero inside the triangle: the geometric normal stands in.
+    if (nl > 0 && std::isfinite(nl)) h.ns = dot(nw, h.ng) < 0 ? nw / -nl : nw / nl;
+  }
+  if (!mesh.lightmap_uv.empty()) {
+    const Point2 &a = mesh.lightmap_uv[i0], &b = mesh.lightmap_uv[i1], &d = mesh.lightmap_uv[i2];
+    const Point2 q{a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
+    h.lightmap_uv = {g.lightmap_st[0] * q.x + g.lightmap_st[2], g.lightmap_st[1] * q.y + g.lightmap_st[3]};
+  }
+  if (!mesh.uv.empty()) {
+    const Point2 &a = mesh.uv[i0], &b = mesh.uv[i1], &d = mesh.uv[i2];
+    h.uv = {a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
+  }
+  h.offset = self_intersection_offset(p0, p1, p2, h.p);
+  return h;
+}
+
+namespace {
+// One closest-hit query with its own context (what makes concurrent queries safe); false on a miss.
+bool intersect1(RTCScene scene, const Ray& ray, RTCRayHit& rh) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  init_ray_hit(rh, ray);
+  rtcIntersect1(scene, &context, &rh);
+  return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+}
+
+
+HitId make_id(const RTCRayHit& rh, const std::vector<Geometry>& geometries) {
+  const Geometry& g = geometries[rh.hit.geomID];
+  HitId id;
+  id.t = rh.ray.tfar;
+  id.instance = g.instance;
+  id.triangle = static_cast<int>(rh.hit.primID);
+  id.u = rh.hit.u;
+  id.v = rh.hit.v;
+  // Embree's Ng is (p1 − p0) × (p2 − p0) up to Embree's sign convention, which we do not rely on: recompute it.
+  const Vec3 p0 = vertex(g, g.indices[3 * rh.hit.primID]), p1 = vertex(g, g.indices[3 * rh.hit.primID + 1]),
+             p2 = vertex(g, g.indices[3 * rh.hit.primID + 2]);
+  const Vec3 ng = cross(p1 - p0, p2 - p0) * g.mirror;
+  id.front_face = ng.x * rh.ray.dir_x + ng.y * rh.ray.dir_y + ng.z * rh.ray.dir_z < 0;
+  return id;
+}
+}  // namespace
+
+std::optional<Hit> Tracer::intersect(const Ray& ray) const {
+  RTCRayHit rh;
+  if (!intersect1(impl_->scene, ray, rh)) return std::nullopt;
+  return impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v);
+}
+
+std::optional<HitId> Tracer::intersect_id(const Ray& ray) const {
+  RTCRayHit rh;
+  if (!intersect1(impl_->scene, ray, rh)) return std::nullopt;
+  return make_id(rh, impl_->geometries);
+}
+
+Hit Tracer::complete(const Ray& ray, const HitId& id) const {
+  // Geometry IDs follow the instances that have triangles, in order; find the one of this instance.
+  const auto& gs = impl_->geometries;
+  const auto it = std::lower_bound(gs.begin(), gs.end(), id.instance,
+                                   [](const Geometry& g, int instance) { return g.instance < instance; });
+  if (it == gs.end() || it->instance != id.instance)
+    throw std::invalid_argument("tracer: HitId of instance " + std::to_string(id.instance) + " which has no triangles");
+  return impl_->complete(ray, static_cast<unsigned>(it - gs.begin()), static_cast<unsigned>(id.triangle),
+                         static_cast<float>(id.t), static_cast<float>(id.u), static_cast<float>(id.v));
+}
+
+bool Tracer::occluded(const Ray& ray) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay r;
+  init_ray(r, ray);
+  rtcOccluded1(impl_->scene, &context, &r);
+  return r.tfar < 0;  // Embree sets tfar to −inf when it finds any hit
+}
+
+namespace {
+// Traces `rays` as Embree streams (flagged incoherent) of up to 256 rays, a chunk small enough to stay in L1/L2:
+// init(embree_ray, ray) fills one, trace(context, buffer, n) traces a chunk, collect(i, embree_ray) reads one back.
+template <class EmbreeRay, class Init, class Trace, class Collect>
+void trace_stream(std::span<const Ray> rays, size_t out_size, const char* query, Init init, Trace trace,
+                  Collect collect) {
+  if (out_size != rays.size())
+    throw std::invalid_argument(std::string("tracer: ") + query + " of " + std::to_string(rays.size()) +
+                                " rays into " + std::to_string(out_size) + " results");
+  constexpr size_t kChunk = 256;
+  EmbreeRay buffer[kChunk];
+  for (size_t start = 0; start < rays.size(); start += kChunk) {
+    const size_t n = std::min(kChunk, rays.size() - start);
+    for (size_t i = 0; i < n; ++i) init(buffer[i], rays[start + i]);
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    trace(&context, buffer, static_cast<unsigned>(n));
+    for (size_t i = 0; i < n; ++i) collect(start + i, buffer[i]);
+  }
+}
+}  // namespace
+
+void Tracer::intersect(std::span<const Ray> rays, std::span<std::optional<HitId>> out) const {
+  RTCScene scene = impl_->scene;
+  const std::vector<Geometry>& geometries = impl_->geometries;
+  trace_stream<RTCRayHit>(
+      rays, out.size(), "intersect", init_ray_hit,
+      [scene](RTCIntersectContext* c, RTCRayHit* b, unsigned n) { rtcIntersect1M(scene, c, b, n, sizeof(RTCRayHit)); },
+      [&](size_t i, const RTCRayHit& rh) {
+        out[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::nullopt
+                                                          : std::optional<HitId>(make_id(rh, geometries));
+      });
+}
+
+void Tracer::occluded(std::span<const Ray> rays, std::span<uint8_t> out) const {
+  RTCScene scene = impl_->scene;
+  trace_stream<RTCRay>(
+      rays, out.size(), "occluded", init_ray,
+      [scene](RTCIntersectContext* c, RTCRay* b, unsigned n) { rtcOccluded1M(scene, c, b, n, sizeof(RTCRay)); },
+      [&](size_t i, const RTCRay& r) { out[i] = r.tfar < 0 ? 1 : 0; });
+}
+
+}  // namespace kiln::scene

@@ -1,0 +1,95 @@
+// Ray tracing a cleaned scene (scene_check.h) with Embree. Embree stays behind this header (pimpl).
+//
+// Geometry: one Embree triangle geometry per instance, its vertices transformed to world space in double and rounded
+// to float once, in a single-level BVH built with RTC_BUILD_QUALITY_HIGH. Flattening instead of Embree's instancing
+// because (1) lightmap scenes are mostly unique geometry, so instancing saves little memory, (2) one level of BVH
+// traces faster than two (no per-instance ray transform, no overlapping instance boxes for the SAH to work around),
+// and (3) the float error of a hit is then that of one float triangle in world space, which ray_offset.h bounds
+// exactly; with instancing the ray is transformed in float too and the bound would have to include that.
+// RTC_SCENE_FLAG_ROBUST by default: watertight edges, so light does not leak through the seams of closed rooms.
+//
+// Thread safety: every query is const and uses its own RTCIntersectContext; any number of threads may trace at once.
+// The Tracer keeps what it needs (world-space float vertices, indices, normals, UVs): the Scene may go away.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+
+#include "bakers/math/sampling.h"
+#include "bakers/math/vec3.h"
+#include "bakers/scene/ray_offset.h"
+#include "bakers/scene/scene.h"
+
+namespace kiln::scene {
+
+// What a closest-hit query finds, in world space. Barycentrics: p = (1 − u − v)·p0 + u·p1 + v·p2 over the triangle's
+// indices in order.
+struct Hit {
+  double t = 0;            // along the ray, in units of |direction|
+  int instance = 0;        // into scene.instances
+  int mesh = 0;            // into scene.meshes
+  int triangle = 0;        // into that mesh's triangles
+  double u = 0, v = 0;
+  Vec3 p;                  // the hit point, interpolated in double from the float vertices Embree traced
+  Vec3 ng;                 // unit geometric normal on the front side ((p1 − p0) × (p2 − p0), mirrored instances kept
+                           // outward: the normal transformed by the inverse transpose)
+  Vec3 ns;                 // unit shading normal: interpolated vertex normals transformed by the inverse transpose,
+                           // on ng's side (flipped if the mesh's normals disagree with its winding); ng without them
+  Point2 lightmap_uv;      // in the instance's lightmap (lightmap_scale_offset applied); (0,0) without lightmap UVs
+  Point2 uv;               // texture UV set 0; (0,0) without
+  bool front_face = true;  // the ray arrived from ng's side
+  double offset = 0;       // lift off the surface that clears its float error (ray_offset.h)
+
+  SurfacePoint surface() const { return {p, ng, offset}; }
+};
+
+// The least a closest-hit query can report: for queries that need the distance or the triangle only.
+struct HitId {
+  double t = 0;
+  int instance = 0, triangle = 0;
+  double u = 0, v = 0;
+  bool front_face = true;
+};
+
+struct TracerOptions {
+  bool robust = true;  // RTC_SCENE_FLAG_ROBUST (watertight); false trades that for ~speed
+};
+
+class Tracer {
+ public:
+  // `scene` must be clean (check_scene's output): throws std::invalid_argument naming the mesh, instance and
+  // triangle otherwise; std::runtime_error with Embree's message if Embree fails (e.g. out of memory).
+  explicit Tracer(const Scene& scene, const TracerOptions& options = {});
+  ~Tracer();
+  Tracer(Tracer&&) noexcept;
+  Tracer& operator=(Tracer&&) noexcept;
+  Tracer(const Tracer&) = delete;
+  Tracer& operator=(const Tracer&) = delete;
+
+  std::optional<Hit> intersect(const Ray& ray) const;
+  std::optional<HitId> intersect_id(const Ray& ray) const;
+  // True if anything lies on the ray within (0, tmax].
+  bool occluded(const Ray& ray) const;
+  bool occluded(const Vec3& origin, const Vec3& direction, double tmax) const {
+    return occluded(Ray{origin, direction, tmax});
+  }
+  // Streams (Embree's rtcIntersect1M / rtcOccluded1M, flagged incoherent); `out` has the size of `rays`.
+  void intersect(std::span<const Ray> rays, std::span<std::optional<HitId>> out) const;
+  void occluded(std::span<const Ray> rays, std::span<uint8_t> out) const;
+
+  // The full hit record for a HitId of the ray it came from.
+  Hit complete(const Ray& ray, const HitId& id) const;
+
+  size_t triangle_count() const;
+  // World-space bounds of everything traced (empty: lower > upper).
+  Vec3 bounds_lower() const;
+  Vec3 bounds_upper() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kiln::scene
