@@ -53,6 +53,9 @@ struct LightmapBakeInput {
 
   int max_bounces = 64;                    // cap on the planner's bounce count, [0, 1024]
   std::map<std::string, bool> force_effects;
+  // Ignore the planner: simulate every effect the scene has with max_bounces bounces (plan::full_plan). The
+  // reference the planner's equivalence tests and benchmarks compare against; force_effects must then be empty.
+  bool full_simulation = false;
 
   bool radiance = false;     // NAME_radiance.exr
   bool ao = false;           // NAME_ao.exr

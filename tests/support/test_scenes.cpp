@@ -89,7 +89,7 @@ int add_box(scene::Scene& s, const std::string& name, Vec3 lo, Vec3 hi, uint32_t
 }
 
 int add_sphere(scene::Scene& s, const std::string& name, Vec3 centre, double radius, int rings, uint32_t material,
-               bool inward) {
+               bool inward, bool smooth) {
   scene::Mesh mesh;
   mesh.name = name;
   const int segments = 2 * rings;
@@ -98,7 +98,7 @@ int add_sphere(scene::Scene& s, const std::string& name, Vec3 centre, double rad
       const double theta = kPi * j / rings, phi = 2 * kPi * i / segments;
       const Vec3 d{std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi)};
       mesh.positions.push_back(centre + d * radius);
-      mesh.normals.push_back(inward ? -d : d);
+      if (smooth) mesh.normals.push_back(inward ? -d : d);
       const double u = static_cast<double>(i) / segments, v = static_cast<double>(j) / rings;
       mesh.lightmap_uv.push_back({kMargin + (1 - 2 * kMargin) * u, kMargin + (1 - 2 * kMargin) * v});
       mesh.uv.push_back({u, v});

@@ -18,9 +18,10 @@ int add_quad(scene::Scene& s, const std::string& name, Vec3 p0, Vec3 p1, Vec3 p2
 // faces in a 3 × 2 grid with margins). Returns the mesh index.
 int add_box(scene::Scene& s, const std::string& name, Vec3 lo, Vec3 hi, uint32_t material, bool inward = false);
 
-// Appends a UV sphere (lat-long lightmap UVs, `rings` × 2·`rings` quads), normals outward or inward.
+// Appends a UV sphere (lat-long lightmap UVs, `rings` × 2·`rings` quads), facing outward or inward, with the
+// sphere's vertex normals (smooth) or none (each facet its geometric normal).
 int add_sphere(scene::Scene& s, const std::string& name, Vec3 centre, double radius, int rings, uint32_t material,
-               bool inward = false);
+               bool inward = false, bool smooth = true);
 
 // Multiplies every position of every mesh and every light position, size and distance by `scale` and then adds
 // `offset` (directions, radiances and intensities unchanged; point and spot intensities scaled by scale² so that

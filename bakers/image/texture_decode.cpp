@@ -1,0 +1,99 @@
+#include "bakers/image/texture_decode.h"
+
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include "bakers/image/color.h"
+#include "bakers/image/oiio_memory.h"
+
+namespace kiln::image {
+namespace {
+
+struct Format {
+  const char* name;
+  const char* virtual_name;  // picks OpenImageIO's plugin; the bytes come from memory
+  bool is_float;
+};
+
+const Format* detect(const std::string& b) {
+  static const Format png{"png", "kiln-texture.png", false}, jpeg{"jpeg", "kiln-texture.jpg", false},
+      exr{"openexr", "kiln-texture.exr", true}, hdr{"hdr", "kiln-texture.hdr", true};
+  auto starts = [&](const char* magic, size_t n) { return b.size() >= n && std::memcmp(b.data(), magic, n) == 0; };
+  if (starts("\x89PNG\r\n\x1a\n", 8)) return &png;
+  if (starts("\xff\xd8\xff", 3)) return &jpeg;
+  if (starts("\x76\x2f\x31\x01", 4)) return &exr;
+  if (starts("#?", 2)) return &hdr;
+  return nullptr;
+}
+
+}  // namespace
+
+DecodedTexture decode_texture(const std::string& bytes, const std::string& color_space, const std::string& name) {
+  const std::string who = "texture " + name;
+  const Format* format = detect(bytes);
+  if (!format) {
+    throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
+                             " bytes are not an image kiln reads; upload a PNG, JPEG, OpenEXR or Radiance HDR file");
+  }
+  const ColorConfig& config = ColorConfig::active();
+  const std::string space = !color_space.empty() ? color_space : (format->is_float ? "lin_rec709" : "srgb_texture");
+  if (!config.has_space(space)) {
+    throw std::invalid_argument(who + ": colour space '" + space + "' is not in the active OpenColorIO config");
+  }
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  std::unique_ptr<OIIO::ImageInput> in = detail::open_from_memory(format->virtual_name, proxy);
+  if (!in) {
+    throw std::runtime_error(who + ": could not read the " + std::string(format->name) +
+                             " header (truncated or corrupt?): " + OIIO::geterror());
+  }
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.width < 1 || spec.height < 1 || spec.width > kMaxTextureDimension || spec.height > kMaxTextureDimension ||
+      spec.depth > 1) {
+    throw std::runtime_error(who + ": " + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
+                             " pixels; textures may be at most " + std::to_string(kMaxTextureDimension) + " on a side");
+  }
+  if (spec.nchannels < 1) throw std::runtime_error(who + ": the image has no channels");
+  const int take = spec.nchannels >= 3 ? 3 : 1;
+  const size_t pixels = static_cast<size_t>(spec.width) * spec.height;
+  std::vector<float> data(pixels * take);
+  if (!in->read_image(0, 0, 0, take, OIIO::TypeDesc::FLOAT, data.data())) {
+    throw std::runtime_error(who + ": could not read the pixels (truncated or corrupt?): " + in->geterror());
+  }
+  in->close();
+  std::vector<float> rgb(pixels * 3);
+  for (size_t p = 0; p < pixels; ++p) {
+    for (int c = 0; c < 3; ++c) rgb[3 * p + c] = data[p * take + (take == 3 ? c : 0)];
+  }
+  DecodedTexture out;
+  out.width = spec.width;
+  out.height = spec.height;
+  out.format = format->name;
+  // Non-finite values first: OpenColorIO's transforms do not define them.
+  for (size_t p = 0; p < pixels; ++p) {
+    bool bad = false;
+    for (int c = 0; c < 3; ++c) {
+      float& v = rgb[3 * p + c];
+      if (!std::isfinite(v)) v = 0.0f, bad = true;
+    }
+    out.replaced += bad;
+  }
+  const std::string working = config.working_space();
+  if (space != working) config.convert(rgb.data(), pixels, 3, space, working);
+  out.texels.resize(pixels);
+  for (size_t p = 0; p < pixels; ++p) {
+    bool negative = false, above = false;
+    double v[3];
+    for (int c = 0; c < 3; ++c) {
+      v[c] = rgb[3 * p + c];
+      if (!(v[c] >= 0)) v[c] = 0, negative = true;  // NaN made by the conversion too
+      if (v[c] > 1) v[c] = 1, above = true;
+    }
+    out.replaced += negative;
+    out.clamped += above;
+    out.texels[p] = Rgb{v[0], v[1], v[2]};
+  }
+  return out;
+}
+
+}  // namespace kiln::image

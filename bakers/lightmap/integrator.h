@@ -1,0 +1,82 @@
+// Light transport for lightmaps: one-sample estimates of the irradiance E = ∫ L(ω) cos θ dω arriving at a texel's
+// sample point, by path tracing with next-event estimation at every vertex, combined with cosine/BSDF sampling by
+// multiple importance sampling (balance heuristic), as the plan (bakers/plan/lightmap_plan.h) allows.
+//
+// At the texel (the receiver, a white Lambertian "sensor" with f = 1/π scaled by π, i.e. weight cos θ):
+//   - light sampling: one light chosen by power, one point on it; unoccluded: Li cos θ / (pmf · pdf) × w_light;
+//   - cosine sampling: one direction ω ~ cos θ/π; the radiance arriving along it, times π, × w_bsdf for what the ray
+//     sees of a light (emissive triangle, rect or disk light, sun disc, environment), unweighted for the light
+//     reflected by the surface it hits (estimated by the same two strategies at that vertex, recursively, up to
+//     plan.bounces reflections, with Russian roulette after plan.russian_roulette_depth).
+// Delta lights (points, spots, delta suns) are reached only by light sampling (w = 1). Everything returned is finite:
+// a non-finite contribution (a bug, or an input the scene check missed) is dropped and counted, never accumulated.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "bakers/brdf/material.h"
+#include "bakers/math/rgb.h"
+#include "bakers/math/rng.h"
+#include "bakers/math/vec3.h"
+#include "bakers/plan/lightmap_plan.h"
+#include "bakers/scene/scene.h"
+
+namespace kiln::scene {
+class Tracer;
+class SceneLights;
+}  // namespace kiln::scene
+
+namespace kiln::lightmap {
+
+// A scene material as the transport evaluates it, after the plan's substitutions (a specular lobe the planner pruned
+// is a Lambertian lobe of the same average albedo; an anisotropic one the plan does not evaluate is isotropic).
+struct ShadingMaterial {
+  std::unique_ptr<brdf::Material> bsdf;
+  Rgb base_color{1.0};
+  int texture = -1;    // into Scene::textures, or -1 (also when the plan does not sample textures)
+  Rgb texture_average{1.0};  // used instead of the texture when the plan says so
+  Rgb emission{0.0};
+  bool two_sided = false;
+  bool emissive() const { return emission.max() > 0; }
+};
+
+// Builds the shading materials for every scene material under the plan.
+std::vector<ShadingMaterial> shading_materials(const scene::Scene& scene, const plan::LightmapPlan& plan);
+
+struct TransportContext {
+  const scene::Scene* scene = nullptr;  // the cleaned scene the tracer was built from
+  const scene::Tracer* tracer = nullptr;
+  const scene::SceneLights* lights = nullptr;  // built with the plan's light-sampling decisions
+  const plan::LightmapPlan* plan = nullptr;
+  const std::vector<ShadingMaterial>* materials = nullptr;
+  double ao_distance = 0;  // > 0: a cosine ray that travels this far counts as unoccluded
+  // Filled by index_lights():
+  std::vector<int> analytic_lights;  // indices into `lights` of rect and disk lights (not scene geometry)
+  int emissive_light = -1;           // index of the emissive triangles in `lights`, −1 if none
+};
+
+// Fills the context's light indices from ctx.lights.
+void index_lights(TransportContext& ctx);
+
+// The point a texel sample stands on.
+struct Receiver {
+  Vec3 p;         // world position (already moved out of geometry by the leak pass)
+  Vec3 ng;        // geometric normal, unit, on the side the lightmap faces
+  Vec3 ns;        // shading normal, unit, same hemisphere as ng
+  double offset;  // lift off the surface that clears its float error (scene/ray_offset.h)
+};
+
+struct IrradianceEstimate {
+  Rgb E;                        // irradiance, W/m²
+  Rgb sh[4];                    // order-1 SH of incoming radiance: Y00, Y1-1, Y10, Y11 (real, orthonormal)
+  double ao = 0;                // 1 if the cosine ray escaped ao_distance, else 0
+  uint32_t rays = 0;
+  bool dropped = false;         // a non-finite contribution was discarded
+};
+
+// One sample of every estimate at `r`, with `rng` supplying the random numbers.
+IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, Pcg32& rng);
+
+}  // namespace kiln::lightmap

@@ -1,0 +1,138 @@
+#include "bakers/lightmap/leaks.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "bakers/brdf/describe.h"
+#include "bakers/math/constants.h"
+#include "bakers/scene/ray_offset.h"
+
+namespace kiln::lightmap {
+namespace {
+
+void check(const LeakOptions& o) {
+  const auto fail = [](const std::string& field, const std::string& want, double got) {
+    throw std::invalid_argument("leak handling: " + field + " must be " + want + ", got " +
+                                brdf::format_number(got));
+  };
+  if (o.rings < 1 || o.rings > 64) fail("rings", "in [1, 64]", o.rings);
+  if (o.sectors < 1 || o.sectors > 64) fail("sectors", "in [1, 64]", o.sectors);
+  if (!(o.max_backface_fraction >= 0 && o.max_backface_fraction < 1)) {
+    fail("max_backface_fraction", "in [0, 1)", o.max_backface_fraction);
+  }
+  if (!(o.probe_distance_texels > 0)) fail("probe_distance_texels", "> 0", o.probe_distance_texels);
+  if (!(o.move_distance_texels >= 0) || !std::isfinite(o.move_distance_texels)) {
+    fail("move_distance_texels", "finite and >= 0", o.move_distance_texels);
+  }
+  if (!(o.push_texels > 0) || !std::isfinite(o.push_texels)) fail("push_texels", "finite and > 0", o.push_texels);
+  if (!(o.origin_offset_texels >= 0) || !std::isfinite(o.origin_offset_texels)) {
+    fail("origin_offset_texels", "finite and >= 0", o.origin_offset_texels);
+  }
+  if (o.max_move_attempts < 0) fail("max_move_attempts", ">= 0", o.max_move_attempts);
+}
+
+struct BackHit {
+  double t;
+  Vec3 point, front_normal;
+};
+
+struct Probe {
+  double backface_fraction = 0;
+  std::vector<BackHit> back_hits;  // nearer than the move distance, nearest first
+};
+
+Probe probe(const Vec3& p, const Vec3& n, double s, double ray_offset, const RayQuery& rays, const LeakOptions& o,
+            double move_distance, uint32_t& traced) {
+  // Above the surface by the larger of the float tracer's bound and a fraction of the texel (leaks.h).
+  const scene::SurfacePoint surface{p, n, std::max(ray_offset, o.origin_offset_texels * s)};
+  const double tmax = o.probe_distance_texels * s;
+  const Frame frame = Frame::from_normal(n);
+  Probe result;
+  int back = 0;
+  for (int i = 0; i < o.rings; ++i) {
+    // Uniform over the hemisphere: cos θ is uniform on [0, 1]; cell centres.
+    const double cos_theta = (i + 0.5) / o.rings;
+    const double sin_theta = std::sqrt(std::max(0.0, 1.0 - cos_theta * cos_theta));
+    for (int j = 0; j < o.sectors; ++j) {
+      const double phi = 2.0 * kPi * (j + 0.5 + 0.5 * (i % 2)) / o.sectors;
+      const Vec3 dir = frame.from_local({sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta});
+      ++traced;
+      const Vec3 origin = scene::offset_ray_origin(surface, dir);
+      const std::optional<HitInfo> hit = rays.intersect(origin, dir, tmax);
+      if (!hit || hit->front_face) continue;
+      ++back;
+      if (hit->t <= move_distance) {
+        result.back_hits.push_back({hit->t, origin + dir * hit->t, hit->geometric_normal});
+      }
+    }
+  }
+  result.backface_fraction = static_cast<double>(back) / (o.rings * o.sectors);
+  std::sort(result.back_hits.begin(), result.back_hits.end(),
+            [](const BackHit& a, const BackHit& b) { return a.t < b.t; });
+  return result;
+}
+
+}  // namespace
+
+LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const LeakOptions& options) {
+  check(options);
+  const double s = sample.texel_world_size;
+  const double move_distance = options.move_distance_texels * s;
+  LeakResult result;
+  result.position = sample.position;
+  const Probe first =
+      probe(sample.position, sample.geometric_normal, s, sample.ray_offset, rays, options, move_distance, result.rays);
+  result.backface_fraction = first.backface_fraction;
+  if (first.backface_fraction <= options.max_backface_fraction) return result;  // clear
+
+  const int attempts = std::min<int>(options.max_move_attempts, static_cast<int>(first.back_hits.size()));
+  for (int a = 0; a < attempts; ++a) {
+    const BackHit& h = first.back_hits[a];
+    const Vec3 candidate = h.point + h.front_normal * (options.push_texels * s);
+    const Probe there =
+        probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, 0.0, result.rays);
+    if (there.backface_fraction <= options.max_backface_fraction) {
+      result.verdict = LeakVerdict::moved;
+      result.position = candidate;
+      return result;
+    }
+  }
+  result.verdict = LeakVerdict::invalid;
+  return result;
+}
+
+LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOptions& options) {
+  check(options);
+  LeakReport report;
+  const size_t n = texels.samples.size();
+  std::vector<LeakResult> results(n);
+  tbb::parallel_for(size_t{0}, n, [&](size_t j) { results[j] = resolve_leak(texels.samples[j], rays, options); });
+
+  const size_t valid_before = texels.valid_count();
+  std::vector<uint8_t> keep(n, 1);
+  for (size_t j = 0; j < n; ++j) {
+    report.rays += results[j].rays;
+    switch (results[j].verdict) {
+      case LeakVerdict::clear: break;
+      case LeakVerdict::moved:
+        texels.samples[j].position = results[j].position;
+        ++report.moved;
+        break;
+      case LeakVerdict::invalid:
+        keep[j] = 0;
+        ++report.invalidated;
+        break;
+    }
+  }
+  report.samples = n;
+  if (report.invalidated > 0) texels.retain(keep);
+  report.texels_invalidated = valid_before - texels.valid_count();
+  return report;
+}
+
+}  // namespace kiln::lightmap

@@ -1,0 +1,91 @@
+// One lightmap's estimates as they accumulate: per texel the sum of the irradiance estimates (RGB), the sum of the
+// squares of their luminance and their count, so that the transport can tell where the estimated relative error is
+// still above its target; then resolved into the output images NAME_irradiance.exr (RGB, W·m⁻², dilated),
+// NAME_validity.exr (1 valid, 0 invalid, before dilation) and NAME_error.exr (estimated relative error).
+//
+// The error of a texel: its n estimates X_1..X_n are independent and unbiased (one per pass, each the weighted
+// average over the texel's sample points); with Y = luminance, the sample variance s² = (Σ Y² − n Ȳ²)/(n − 1) and
+// the standard error of the mean s/√n, the relative error is s/√n / max(Ȳ, floor). The floor (≥ 0, in W·m⁻²) keeps
+// nearly black texels from demanding endless samples; with floor 0, a texel whose estimates are all 0 has error 0.
+// A texel with fewer than two estimates has no error estimate (relative_error is +∞; the error image says 1).
+//
+// Texel layout and UV convention as in texels.h (row-major, top row first).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "bakers/image/exr.h"
+#include "bakers/material/material_bake.h"
+#include "bakers/math/rgb.h"
+
+namespace kiln::lightmap {
+
+class LightmapImage {
+ public:
+  // validity: width·height bytes (non-zero: valid), e.g. LightmapTexels::validity() after leak handling.
+  // Throws std::invalid_argument when the sizes disagree or are not positive.
+  LightmapImage(std::string name, int width, int height, std::vector<uint8_t> validity);
+
+  const std::string& name() const { return name_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  size_t texel_count() const { return validity_.size(); }
+  bool valid(size_t texel) const { return validity_[texel] != 0; }
+  const std::vector<uint8_t>& validity() const { return validity_; }
+
+  // Adds one independent, unbiased estimate of the texel's irradiance (W·m⁻²). An estimate with a NaN, infinite or
+  // negative channel, or for an invalid texel, is refused (returns false): it must never reach a texel, and the
+  // caller counts it for the report. Different texels may be added to from different threads at once; one texel
+  // from one thread at a time.
+  bool add(size_t texel, const Rgb& estimate);
+
+  uint32_t count(size_t texel) const { return count_[texel]; }
+  // The mean of the estimates; black without any.
+  Rgb mean(size_t texel) const;
+  // See the header comment; 0 for invalid texels.
+  double relative_error(size_t texel, double floor = 0) const;
+
+  struct ErrorSummary {
+    size_t valid = 0;        // valid texels
+    size_t estimated = 0;    // valid texels with ≥ 2 estimates (the others have no error estimate)
+    double rms = 0;          // root mean square of their relative errors
+    double max = 0;          // the largest
+    size_t above_target = 0; // how many are above `target` (plus the valid ones without an estimate)
+    uint64_t estimates = 0;  // estimates added over all texels
+  };
+  ErrorSummary error_summary(double target, double floor = 0) const;
+
+  // The resolved images. Irradiance: the means (invalid texels 0), then dilated by `padding` texels (dilate.h).
+  // Validity: 1/0, before dilation. Error: relative_error (invalid 0, unestimated 1). One channel except irradiance.
+  // Every value is finite (means beyond the float range are clamped to its largest value).
+  image::FloatImage irradiance_image(int padding) const;
+  image::FloatImage validity_image() const;
+  image::FloatImage error_image(double floor = 0) const;
+
+  // Memory held per texel: sum (3 doubles), luminance square sum (double), count (uint32), validity (byte).
+  static constexpr size_t kBytesPerTexel = 3 * sizeof(double) + sizeof(double) + sizeof(uint32_t) + sizeof(uint8_t);
+
+ private:
+  std::string name_;
+  int width_ = 0, height_ = 0;
+  std::vector<uint8_t> validity_;
+  std::vector<Rgb> sum_;
+  std::vector<double> sum_y2_;
+  std::vector<uint32_t> count_;
+};
+
+struct LightmapOutputOptions {
+  int padding = 2;                         // texels of dilation in NAME_irradiance.exr, [0, 64]
+  double error_floor = 0;                  // see LightmapImage; W·m⁻²
+  std::string color_space = "lin_rec709";  // the working space the irradiance is in (recorded in the metadata)
+};
+
+// The three files, named NAME_irradiance.exr, NAME_validity.exr, NAME_error.exr, as 32-bit float EXR (ZIP) with
+// metadata: kiln:content, kiln:units, kiln:colorspace, kiln:lightmap, kiln:resolution ("WxH"), kiln:uv_convention,
+// and kiln:padding / kiln:error_floor where they apply. Throws std::invalid_argument for a padding out of range or a
+// negative or non-finite floor.
+std::vector<material::BakeOutput> encode_lightmap(const LightmapImage& image, const LightmapOutputOptions& options);
+
+}  // namespace kiln::lightmap

@@ -1,0 +1,532 @@
+#include "bakers/lightmap/texels.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "bakers/scene/scene_check.h"
+
+namespace kiln::lightmap {
+namespace {
+
+constexpr double cross2(Point2 a, Point2 b) { return a.x * b.y - a.y * b.x; }
+constexpr Point2 sub(Point2 a, Point2 b) { return {a.x - b.x, a.y - b.y}; }
+
+// A convex polygon of at most 7 vertices: a triangle clipped by four half-planes gains at most one vertex per plane.
+struct Polygon {
+  std::array<Point2, 7> v;
+  int n = 0;
+};
+
+// Sutherland–Hodgman against one axis-aligned half-plane: keeps coord(p) ≥ bound (sign = +1) or ≤ bound (sign = −1).
+template <int kAxis>
+void clip_half_plane(const Polygon& in, Polygon& out, double bound, double sign) {
+  const auto coord = [](Point2 p) { return kAxis == 0 ? p.x : p.y; };
+  out.n = 0;
+  Point2 a = in.v[in.n - 1];
+  double da = sign * (coord(a) - bound);
+  for (int i = 0; i < in.n; ++i) {
+    const Point2 b = in.v[i];
+    const double db = sign * (coord(b) - bound);
+    if ((da >= 0) != (db >= 0)) {
+      // The edge a→b crosses the boundary; da − db ≠ 0 since they have different signs. The crossing's own
+      // coordinate is set exactly to the bound so that points on the texel border are exactly on it.
+      const double t = da / (da - db);
+      Point2 p{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)};
+      (kAxis == 0 ? p.x : p.y) = bound;
+      out.v[out.n++] = p;
+    }
+    if (db >= 0) out.v[out.n++] = b;
+    a = b;
+    da = db;
+  }
+}
+
+// The triangle (in coordinates relative to the texel's corner) clipped to the unit square. Sides the triangle does
+// not cross are skipped: most small triangles cross one or two.
+Polygon clip_to_unit_square(Point2 a, Point2 b, Point2 c) {
+  Polygon p, q;
+  p.v[0] = a, p.v[1] = b, p.v[2] = c, p.n = 3;
+  const double lo_x = std::min({a.x, b.x, c.x}), hi_x = std::max({a.x, b.x, c.x});
+  const double lo_y = std::min({a.y, b.y, c.y}), hi_y = std::max({a.y, b.y, c.y});
+  if (lo_x < 0) clip_half_plane<0>(p, q, 0.0, +1.0), std::swap(p, q);
+  if (p.n > 0 && hi_x > 1) clip_half_plane<0>(p, q, 1.0, -1.0), std::swap(p, q);
+  if (p.n > 0 && lo_y < 0) clip_half_plane<1>(p, q, 0.0, +1.0), std::swap(p, q);
+  if (p.n > 0 && hi_y > 1) clip_half_plane<1>(p, q, 1.0, -1.0), std::swap(p, q);
+  return p;
+}
+
+double area(const Polygon& p) {
+  double twice = 0;
+  for (int i = 0; i < p.n; ++i) twice += cross2(p.v[i], p.v[(i + 1) % p.n]);
+  return 0.5 * std::fabs(twice);
+}
+
+// Barycentrics (b0, b1, b2) of q in triangle (a, b, c) with twice-signed-area d = (b − a) × (c − a) ≠ 0; works for
+// either winding.
+std::array<double, 3> barycentric(Point2 q, Point2 a, Point2 b, Point2 c, double d) {
+  const double b1 = cross2(sub(q, a), sub(c, a)) / d;
+  const double b2 = cross2(sub(b, a), sub(q, a)) / d;
+  return {1.0 - b1 - b2, b1, b2};
+}
+
+// Snaps barycentrics computed for a point of the triangle onto it: rounding can leave one a few ulps below 0.
+std::array<double, 3> clamp_barycentric(std::array<double, 3> b) {
+  for (double& x : b) x = std::clamp(x, 0.0, 1.0);
+  // They summed to 1, so the largest was ≥ 1/3 and stays ≥ 1/3 after clamping: the sum is never 0.
+  const double sum = b[0] + b[1] + b[2];
+  for (double& x : b) x /= sum;
+  return b;
+}
+
+bool finite(Point2 p) { return std::isfinite(p.x) && std::isfinite(p.y); }
+
+// The linear part of an instance transform, as needed for normals: M^{-T} n ∝ sign(det M) · cof(M) n, where
+// cof(M) = det(M) M^{-T} is the cofactor matrix (defined even when M is singular, where det = 0 flags it).
+struct NormalTransform {
+  std::array<double, 9> cof{};
+  double det = 0;
+
+  explicit NormalTransform(const scene::Transform& t) {
+    const auto& m = t.m;
+    const double a = m[0], b = m[1], c = m[2], d = m[4], e = m[5], f = m[6], g = m[8], h = m[9], i = m[10];
+    cof = {e * i - f * h, f * g - d * i, d * h - e * g,  //
+           c * h - b * i, a * i - c * g, b * g - a * h,  //
+           b * f - c * e, c * d - a * f, a * e - b * d};
+    det = a * cof[0] + b * cof[1] + c * cof[2];
+  }
+  // Unnormalised normal direction on the front side (the sign of det flips mirrored instances back).
+  Vec3 apply(const Vec3& n) const {
+    const double s = det < 0 ? -1.0 : 1.0;
+    return Vec3{cof[0] * n.x + cof[1] * n.y + cof[2] * n.z, cof[3] * n.x + cof[4] * n.y + cof[5] * n.z,
+                cof[6] * n.x + cof[7] * n.y + cof[8] * n.z} *
+           s;
+  }
+};
+
+// What the samples of one triangle share, computed once per triangle.
+struct WorldTriangle {
+  std::array<Vec3, 3> p;   // world positions
+  Vec3 ng;                 // unit front normal
+  std::array<Vec3, 3> n;   // unit vertex normals (world), when normals_ok
+  TriangleRef ref;
+  float texel_size = 0;
+  float ray_offset = 0;
+  bool normals_ok = false;
+
+  TexelSample sample(const std::array<double, 3>& b, double weight) const {
+    TexelSample s;
+    s.position = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+    s.geometric_normal = ng;
+    s.shading_normal = ng;
+    if (normals_ok) {
+      const Vec3 v = n[0] * b[0] + n[1] * b[1] + n[2] * b[2];
+      const double len = length(v);
+      // Opposite vertex normals can cancel; the geometric normal is then the only direction there is.
+      if (len > 0 && is_finite(v / len)) s.shading_normal = v / len;
+    }
+    s.barycentric = {b[1], b[2]};
+    s.weight = weight;
+    s.triangle = ref;
+    s.texel_world_size = texel_size;
+    s.ray_offset = ray_offset;
+    return s;
+  }
+};
+
+// A sample before it is placed: compact, so that sorting by texel moves little memory. `world` indexes the block's
+// WorldTriangles until the blocks are joined, then all of them.
+struct Fragment {
+  uint32_t texel;
+  uint32_t world;
+  double b1, b2;  // barycentrics, clamped onto the triangle
+  double weight;
+};
+
+// One instance's share of the work: its mesh and the per-instance constants.
+struct InstanceJob {
+  uint32_t instance = 0, mesh = 0;
+  size_t first_triangle = 0;  // position of its first triangle in the global sequence
+  size_t triangles = 0;
+  NormalTransform normal_transform{scene::Transform{}};
+  bool normals_usable = false;  // one normal per position
+  std::array<double, 4> scale_offset{1, 1, 0, 0};  // Instance::lightmap_scale_offset
+  const std::vector<uint8_t>* mask = nullptr;       // RasterOptions::bake_mask for this mesh, if any
+};
+
+struct BlockResult {
+  std::vector<Fragment> fragments;
+  std::vector<WorldTriangle> triangles;  // of the triangles that covered a texel
+  RasterReport report;
+};
+
+void note_skip(RasterReport& report, const TriangleRef& ref, SkipReason reason) {
+  ++report.skipped[static_cast<int>(reason)];
+  if (report.skipped_examples.size() < RasterReport::kMaxSkippedExamples) {
+    report.skipped_examples.push_back({ref, reason});
+  }
+}
+
+class Rasterizer {
+ public:
+  Rasterizer(const scene::Scene& scene, const RasterOptions& options)
+      : scene_(scene), w_(options.width), h_(options.height), k_(options.samples_per_axis) {}
+
+  void triangle(const InstanceJob& job, uint32_t t, BlockResult& out) const {
+    const scene::Mesh& mesh = scene_.meshes[job.mesh];
+    const scene::Transform& to_world = scene_.instances[job.instance].to_world;
+    const TriangleRef ref{job.instance, job.mesh, t};
+    RasterReport& report = out.report;
+    if (job.mask && t < job.mask->size() && !(*job.mask)[t]) {
+      ++report.masked;
+      return;
+    }
+
+    std::array<uint32_t, 3> idx;
+    for (int i = 0; i < 3; ++i) {
+      idx[i] = mesh.indices[3 * static_cast<size_t>(t) + i];
+      if (idx[i] >= mesh.positions.size()) return note_skip(report, ref, SkipReason::index_out_of_range);
+    }
+    std::array<Point2, 3> uv;  // texel space
+    std::array<Vec3, 3> p;     // world space
+    for (int i = 0; i < 3; ++i) {
+      const Point2 l = mesh.lightmap_uv[idx[i]];
+      const auto& so = job.scale_offset;
+      uv[i] = {(so[0] * l.x + so[2]) * w_, (so[1] * l.y + so[3]) * h_};
+      p[i] = to_world.point(mesh.positions[idx[i]]);
+      if (!finite(uv[i]) || !is_finite(p[i])) return note_skip(report, ref, SkipReason::non_finite_vertex);
+    }
+    const double d = cross2(sub(uv[1], uv[0]), sub(uv[2], uv[0]));  // twice the signed texel-space area
+    if (!(0.5 * std::fabs(d) > kMinCoverage)) return note_skip(report, ref, SkipReason::degenerate_uv);
+
+    // Front-side world normal; a zero (or underflowing) cross product has no direction.
+    const Vec3 cross_w = cross(p[1] - p[0], p[2] - p[0]) * (job.normal_transform.det < 0 ? -1.0 : 1.0);
+    const double twice_world_area = length(cross_w);
+    if (!(twice_world_area > 0) || !std::isfinite(twice_world_area)) {
+      return note_skip(report, ref, SkipReason::degenerate_world);
+    }
+    WorldTriangle world;
+    world.p = p;
+    world.ng = cross_w / twice_world_area;
+    if (!is_finite(world.ng)) return note_skip(report, ref, SkipReason::degenerate_world);
+    world.ref = ref;
+    // Both areas are positive and finite here; the ratio can still overflow a float for absurd UV layouts.
+    const double texel_size = std::sqrt(twice_world_area / std::fabs(d));
+    world.texel_size =
+        static_cast<float>(std::min(texel_size, static_cast<double>(std::numeric_limits<float>::max())));
+    // The tracer's bound for this triangle as it holds it (world vertices rounded to float once). Any point of the
+    // triangle has coordinates no larger than its vertices', so one value serves all its samples.
+    const auto to_float = [](const Vec3& v) {
+      return Vec3{static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
+    };
+    world.ray_offset = static_cast<float>(
+        scene::self_intersection_offset(to_float(p[0]), to_float(p[1]), to_float(p[2]), to_float(p[0])));
+    world.normals_ok = job.normals_usable;
+    for (int i = 0; i < 3 && world.normals_ok; ++i) {
+      const Vec3 n = job.normal_transform.apply(mesh.normals[idx[i]]);
+      const double len = length(n);
+      world.normals_ok = len > 0 && std::isfinite(len) && is_finite(n / len);
+      if (world.normals_ok) world.n[i] = n / len;
+    }
+    if (!world.normals_ok) ++report.unusable_normals;
+
+    for (const Point2& q : uv) {
+      if (q.x < 0 || q.x > w_ || q.y < 0 || q.y > h_) {
+        ++report.outside_unit_square;
+        break;
+      }
+    }
+
+    // Texels the triangle's bounding box touches, clamped to the lightmap.
+    const double lo_x = std::min({uv[0].x, uv[1].x, uv[2].x}), hi_x = std::max({uv[0].x, uv[1].x, uv[2].x});
+    const double lo_y = std::min({uv[0].y, uv[1].y, uv[2].y}), hi_y = std::max({uv[0].y, uv[1].y, uv[2].y});
+    // (Clamped to [−1, size + 1] before the conversion: UVs far outside must not overflow an int.)
+    const auto clamp_to = [](double v, int size) { return std::clamp(v, -1.0, size + 1.0); };
+    const int x0 = std::max(0, static_cast<int>(std::floor(clamp_to(lo_x, w_))));
+    const int y0 = std::max(0, static_cast<int>(std::floor(clamp_to(lo_y, h_))));
+    const int x1 = std::min(w_ - 1, static_cast<int>(std::ceil(clamp_to(hi_x, w_))) - 1);
+    const int y1 = std::min(h_ - 1, static_cast<int>(std::ceil(clamp_to(hi_y, h_))) - 1);
+
+    const uint32_t world_index = static_cast<uint32_t>(out.triangles.size());
+    const auto emit = [&](int x, int y, const std::array<double, 3>& b_raw, double weight) {
+      const std::array<double, 3> b = clamp_barycentric(b_raw);
+      out.fragments.push_back({static_cast<uint32_t>(static_cast<size_t>(y) * w_ + x), world_index, b[1], b[2],
+                               weight});
+    };
+
+    bool covered_any = false;
+    const double inv_k = 1.0 / k_;
+    const double orientation = d > 0 ? 1.0 : -1.0;  // UV charts may be mirrored: either winding is fine
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        // Relative to the texel's corner: small coordinates keep the clip and the barycentrics accurate.
+        const Point2 corner{static_cast<double>(x), static_cast<double>(y)};
+        const Point2 a = sub(uv[0], corner), b = sub(uv[1], corner), c = sub(uv[2], corner);
+        // The edge functions at the texel's corners settle most texels without a clip: all corners outside one
+        // edge (≤ 0: an edge contact has no area) is no coverage, all inside every edge is the whole texel.
+        bool outside = false, whole = true;
+        for (int e = 0; e < 3 && !outside; ++e) {
+          const Point2 from = e == 0 ? a : e == 1 ? b : c, to = e == 0 ? b : e == 1 ? c : a;
+          const Point2 edge = sub(to, from);
+          int inside_corners = 0, outside_corners = 0;
+          for (const Point2 q : {Point2{0, 0}, Point2{1, 0}, Point2{0, 1}, Point2{1, 1}}) {
+            const double f = orientation * cross2(edge, sub(q, from));
+            inside_corners += f >= 0 ? 1 : 0;
+            outside_corners += f <= 0 ? 1 : 0;
+          }
+          outside = outside_corners == 4;
+          whole = whole && inside_corners == 4;
+        }
+        if (outside) continue;
+        Polygon clipped;
+        double covered = 1.0;
+        if (!whole) {
+          clipped = clip_to_unit_square(a, b, c);
+          covered = area(clipped);
+          if (!(covered > kMinCoverage)) continue;
+        }
+        covered_any = true;
+
+        // The pattern points inside the triangle share its coverage equally.
+        std::array<std::array<double, 3>, 16 * 16> inside;
+        int n_inside = 0;
+        for (int j = 0; j < k_; ++j) {
+          for (int i = 0; i < k_; ++i) {
+            const Point2 q{(i + 0.5) * inv_k, (j + 0.5) * inv_k};
+            const auto bary = barycentric(q, a, b, c, d);
+            if (bary[0] >= 0 && bary[1] >= 0 && bary[2] >= 0) inside[n_inside++] = bary;
+          }
+        }
+        if (n_inside > 0) {
+          for (int m = 0; m < n_inside; ++m) emit(x, y, inside[m], covered / n_inside);
+        } else {
+          // A sliver between the pattern points: the mean of the clipped polygon's vertices is in the covered
+          // region (a convex combination of its vertices). (A whole texel always holds the pattern's points, so the
+          // clip was made; it is made here should rounding ever say otherwise.)
+          if (whole) clipped = clip_to_unit_square(a, b, c);
+          Point2 mean{0, 0};
+          for (int m = 0; m < clipped.n; ++m) mean = {mean.x + clipped.v[m].x, mean.y + clipped.v[m].y};
+          mean = {mean.x / clipped.n, mean.y / clipped.n};
+          emit(x, y, barycentric(mean, a, b, c, d), covered);
+        }
+      }
+    }
+    if (covered_any) {
+      ++report.rasterized;
+      out.triangles.push_back(world);
+    }
+  }
+
+ private:
+  const scene::Scene& scene_;
+  int w_, h_, k_;
+};
+
+void merge(RasterReport& into, const RasterReport& from) {
+  into.rasterized += from.rasterized;
+  into.masked += from.masked;
+  for (int r = 0; r < kSkipReasonCount; ++r) into.skipped[r] += from.skipped[r];
+  for (const auto& e : from.skipped_examples) {
+    if (into.skipped_examples.size() < RasterReport::kMaxSkippedExamples) into.skipped_examples.push_back(e);
+  }
+  into.outside_unit_square += from.outside_unit_square;
+  into.unusable_normals += from.unusable_normals;
+}
+
+void check_options(const RasterOptions& o) {
+  const auto range = [](const char* field, int v, int lo, int hi) {
+    if (v < lo || v > hi) {
+      throw std::invalid_argument(std::string("lightmap rasterization: ") + field + " must be in [" +
+                                  std::to_string(lo) + ", " + std::to_string(hi) + "], got " + std::to_string(v));
+    }
+  };
+  range("width", o.width, 1, 16384);
+  range("height", o.height, 1, 16384);
+  range("samples_per_axis", o.samples_per_axis, 1, 16);
+}
+
+}  // namespace
+
+const char* to_string(SkipReason reason) {
+  switch (reason) {
+    case SkipReason::no_mesh: return "the instance's mesh index does not exist";
+    case SkipReason::no_lightmap_uv: return "the mesh has no lightmap UVs (or not one per vertex)";
+    case SkipReason::index_out_of_range: return "a vertex index is out of range";
+    case SkipReason::non_finite_vertex: return "a position or lightmap UV is NaN or infinite";
+    case SkipReason::degenerate_uv: return "zero area in lightmap UV space";
+    case SkipReason::degenerate_world: return "zero area in world space";
+  }
+  return "unknown";
+}
+
+size_t RasterReport::skipped_total() const {
+  size_t n = 0;
+  for (size_t s : skipped) n += s;
+  return n;
+}
+
+std::vector<uint8_t> LightmapTexels::validity() const {
+  std::vector<uint8_t> v(texel_count());
+  for (size_t i = 0; i < v.size(); ++i) v[i] = valid(i) ? 1 : 0;
+  return v;
+}
+
+size_t LightmapTexels::valid_count() const {
+  size_t n = 0;
+  for (size_t i = 0; i < texel_count(); ++i) n += valid(i) ? 1 : 0;
+  return n;
+}
+
+void LightmapTexels::retain(const std::vector<uint8_t>& keep) {
+  if (keep.size() != samples.size()) {
+    throw std::invalid_argument("LightmapTexels::retain: keep has " + std::to_string(keep.size()) +
+                                " entries for " + std::to_string(samples.size()) + " samples");
+  }
+  std::vector<TexelSample> kept;
+  std::vector<uint32_t> new_first(first.size(), 0);
+  for (size_t texel = 0; texel < texel_count(); ++texel) {
+    new_first[texel] = static_cast<uint32_t>(kept.size());
+    for (uint32_t j = first[texel]; j < first[texel + 1]; ++j) {
+      if (keep[j]) kept.push_back(samples[j]);
+    }
+  }
+  new_first[texel_count()] = static_cast<uint32_t>(kept.size());
+  samples = std::move(kept);
+  first = std::move(new_first);
+}
+
+std::vector<std::string> lightmap_names(const scene::Scene& scene) {
+  std::vector<std::string> names;
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    if (!scene.instances[i].bake) continue;
+    const std::string name = scene::resolved_lightmap_name(scene, scene.instances[i]);
+    if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+  }
+  return names;
+}
+
+size_t raster_bytes_per_fragment() { return sizeof(Fragment); }
+size_t raster_bytes_per_triangle() { return sizeof(WorldTriangle); }
+
+LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options) {
+  check_options(options);
+  LightmapTexels out;
+  out.width = options.width;
+  out.height = options.height;
+  RasterReport& report = out.report;
+
+  // The instances of this lightmap, and their triangles as one global sequence.
+  std::vector<InstanceJob> jobs;
+  size_t total = 0;
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const scene::Instance& inst = scene.instances[i];
+    if (!inst.bake || scene::resolved_lightmap_name(scene, inst) != name) continue;
+    ++report.instances;
+    const TriangleRef whole{static_cast<uint32_t>(i), static_cast<uint32_t>(std::max(inst.mesh, 0)), 0};
+    if (inst.mesh < 0 || static_cast<size_t>(inst.mesh) >= scene.meshes.size()) {
+      note_skip(report, whole, SkipReason::no_mesh);
+      continue;
+    }
+    const scene::Mesh& mesh = scene.meshes[inst.mesh];
+    const size_t triangles = mesh.indices.size() / 3;
+    report.triangles += triangles;
+    if (mesh.lightmap_uv.empty() || mesh.lightmap_uv.size() != mesh.positions.size()) {
+      // Counted per triangle, reported once for the instance.
+      report.skipped[static_cast<int>(SkipReason::no_lightmap_uv)] += triangles;
+      if (report.skipped_examples.size() < RasterReport::kMaxSkippedExamples) {
+        report.skipped_examples.push_back({whole, SkipReason::no_lightmap_uv});
+      }
+      continue;
+    }
+    if (mesh.indices.size() % 3 != 0) {
+      // The trailing indices form no triangle; the whole ones still bake.
+      note_skip(report, {whole.instance, whole.mesh, static_cast<uint32_t>(triangles)},
+                SkipReason::index_out_of_range);
+    }
+    InstanceJob job;
+    job.instance = static_cast<uint32_t>(i);
+    job.mesh = static_cast<uint32_t>(inst.mesh);
+    job.first_triangle = total;
+    job.triangles = triangles;
+    job.normal_transform = NormalTransform(inst.to_world);
+    job.normals_usable = mesh.normals.size() == mesh.positions.size();
+    job.scale_offset = inst.lightmap_scale_offset;
+    if (options.bake_mask && static_cast<size_t>(inst.mesh) < options.bake_mask->size()) {
+      job.mask = &(*options.bake_mask)[inst.mesh];
+    }
+    jobs.push_back(job);
+    total += triangles;
+  }
+
+  // Fixed blocks of the global sequence, concatenated in order: the result does not depend on the thread count.
+  constexpr size_t kBlock = 2048;
+  const size_t blocks = (total + kBlock - 1) / kBlock;
+  std::vector<BlockResult> results(blocks);
+  const Rasterizer rasterizer(scene, options);
+  tbb::parallel_for(size_t{0}, blocks, [&](size_t block) {
+    const size_t begin = block * kBlock, end = std::min(total, begin + kBlock);
+    BlockResult& result = results[block];
+    // The instance holding `begin`, then walk forward.
+    size_t j = static_cast<size_t>(
+        std::upper_bound(jobs.begin(), jobs.end(), begin,
+                         [](size_t g, const InstanceJob& job) { return g < job.first_triangle; }) -
+        jobs.begin() - 1);
+    for (size_t g = begin; g < end; ++g) {
+      while (g >= jobs[j].first_triangle + jobs[j].triangles) ++j;
+      rasterizer.triangle(jobs[j], static_cast<uint32_t>(g - jobs[j].first_triangle), result);
+    }
+  });
+
+  // Counting sort of the fragments by texel, stable (scene order within a texel); the blocks' triangles are joined
+  // and the fragments renumbered to match.
+  const size_t texels = out.texel_count();
+  std::vector<uint64_t> count(texels + 1, 0);
+  uint64_t fragments = 0;
+  std::vector<WorldTriangle> world;
+  for (BlockResult& r : results) {
+    merge(report, r.report);
+    for (Fragment& f : r.fragments) {
+      ++count[f.texel + 1];
+      f.world += static_cast<uint32_t>(world.size());
+    }
+    fragments += r.fragments.size();
+    world.insert(world.end(), r.triangles.begin(), r.triangles.end());
+    r.triangles = {};
+  }
+  if (fragments > std::numeric_limits<uint32_t>::max()) {
+    throw std::invalid_argument("lightmap '" + name + "': " + std::to_string(fragments) +
+                                " sample points exceed the limit of 2^32 - 1; lower the resolution or "
+                                "samples_per_axis");
+  }
+  for (size_t i = 0; i < texels; ++i) count[i + 1] += count[i];
+  out.first.assign(count.begin(), count.end());
+  std::vector<Fragment> sorted(fragments);
+  std::vector<uint64_t> cursor(count.begin(), count.end() - 1);
+  for (BlockResult& r : results) {
+    for (const Fragment& f : r.fragments) sorted[cursor[f.texel]++] = f;
+    r.fragments = {};
+  }
+  // The samples, each written once, in parallel.
+  out.samples.resize(fragments);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, fragments, 4096), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t j = range.begin(); j != range.end(); ++j) {
+      const Fragment& f = sorted[j];
+      out.samples[j] = world[f.world].sample({1.0 - f.b1 - f.b2, f.b1, f.b2}, f.weight);
+    }
+  });
+
+  // Overlapping charts: more than the whole texel covered. 1e-9 is far above the rounding of summing the clipped
+  // areas of the few triangles sharing a texel (~10⁻¹⁵) and far below any real overlap worth reporting.
+  for (size_t t = 0; t < texels; ++t) {
+    double sum = 0;
+    for (const TexelSample& s : out.at(t)) sum += s.weight;
+    if (sum > 1.0 + 1e-9) ++report.overlapping_texels;
+  }
+  return out;
+}
+
+}  // namespace kiln::lightmap

@@ -1,0 +1,21 @@
+#include "bakers/lightmap/tracer_query.h"
+
+namespace kiln::lightmap {
+
+bool TracerRayQuery::two_sided(int instance, int triangle) const {
+  const scene::Mesh& mesh = scene_.meshes[scene_.instances[instance].mesh];
+  const size_t material = mesh.material.empty() ? 0 : mesh.material[triangle];
+  return material < scene_.materials.size() && scene_.materials[material].two_sided;
+}
+
+std::optional<HitInfo> TracerRayQuery::intersect(const Vec3& origin, const Vec3& dir, double tmax) const {
+  const scene::Ray ray{origin, dir, tmax};
+  const std::optional<scene::HitId> id = tracer_.intersect_id(ray);
+  if (!id) return std::nullopt;
+  if (id->front_face || two_sided(id->instance, id->triangle)) return HitInfo{id->t, true, {}};
+  // Only a back-face hit needs its normal (leaks.h pushes points through that face): complete just those.
+  const scene::Hit hit = tracer_.complete(ray, *id);
+  return HitInfo{hit.t, false, hit.ng};
+}
+
+}  // namespace kiln::lightmap

@@ -1,0 +1,25 @@
+// Leak handling's ray query (leaks.h) answered by the Embree tracer (bakers/scene/tracer.h).
+#pragma once
+
+#include "bakers/lightmap/leaks.h"
+#include "bakers/scene/scene.h"
+#include "bakers/scene/tracer.h"
+
+namespace kiln::lightmap {
+
+// front_face is the tracer's (the ray arrived from the side of the front normal), except that surfaces of two-sided
+// materials have no back: every hit on them is a front-face hit. Both references must outlive the query; `scene` is
+// the one the tracer was built from (check_scene's cleaned scene), so that hit triangles index its meshes.
+class TracerRayQuery final : public RayQuery {
+ public:
+  TracerRayQuery(const scene::Tracer& tracer, const scene::Scene& scene) : tracer_(tracer), scene_(scene) {}
+  std::optional<HitInfo> intersect(const Vec3& origin, const Vec3& dir, double tmax) const override;
+
+ private:
+  bool two_sided(int instance, int triangle) const;
+
+  const scene::Tracer& tracer_;
+  const scene::Scene& scene_;
+};
+
+}  // namespace kiln::lightmap
