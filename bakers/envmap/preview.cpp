@@ -21,7 +21,6 @@ using brdf::format_number;
 Rgb lerp_exact(double t, const Rgb& a, const Rgb& b) { return a + (b - a) * t; }
 double lerp_exact(double t, double a, double b) { return a + (b - a) * t; }
 
-double luminance(const Rgb& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
 
 struct Chain {
   std::vector<const Cubemap*> cubes;

@@ -40,7 +40,6 @@ void for_each_texel(Cubemap& out, Fn&& fn) {
 
 }  // namespace
 
-double luminance(const Rgb& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
 
 SunSplit split_sun(const Cubemap& source, SunMode mode) {
   SunSplit s;

@@ -57,8 +57,6 @@ struct SunSplit {
   std::string reason;             // why, in words
 };
 
-double luminance(const Rgb& c);
-
 // Splits `source` by the rule above.
 SunSplit split_sun(const Cubemap& source, SunMode mode = SunMode::automatic);
 

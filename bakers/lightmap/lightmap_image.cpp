@@ -50,7 +50,7 @@ LightmapImage::LightmapImage(std::string name, int width, int height, std::vecto
 bool LightmapImage::add(size_t texel, const Rgb& e) {
   if (!valid(texel) || !e.is_finite() || e.min() < 0) return false;
   sum_[texel] += e;
-  const double y = scene::luminance(e);
+  const double y = luminance(e);
   sum_y2_[texel] += y * y;
   ++count_[texel];
   return true;
@@ -64,7 +64,7 @@ double LightmapImage::relative_error(size_t texel, double floor) const {
   if (!valid(texel)) return 0;
   const uint32_t n = count_[texel];
   if (n < 2) return std::numeric_limits<double>::infinity();
-  const double mean_y = scene::luminance(sum_[texel]) / n;
+  const double mean_y = luminance(sum_[texel]) / n;
   // Σ Y² − n Ȳ² can come out a few ulps negative for estimates that are all equal.
   const double variance = std::max(0.0, (sum_y2_[texel] - n * mean_y * mean_y) / (n - 1));
   const double standard_error = std::sqrt(variance / n);

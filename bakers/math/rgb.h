@@ -33,4 +33,9 @@ struct Rgb {
 constexpr Rgb operator*(double s, const Rgb& c) { return c * s; }
 inline Rgb lerp(double t, const Rgb& a, const Rgb& b) { return a * (1.0 - t) + b * t; }
 
+// Rec. 709 / sRGB luminance (the Y of CIE XYZ for linear Rec. 709 primaries). kiln uses it to steer sampling (light
+// choice, importance maps), to find suns and to expose previews: places where any positive weights stay correct, so
+// a working space other than Rec. 709 changes only efficiency, never an answer.
+inline double luminance(const Rgb& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
+
 }  // namespace kiln

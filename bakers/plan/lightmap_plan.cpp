@@ -22,8 +22,6 @@ constexpr int kMuSteps = 16;           // directions at which albedos are evalua
 constexpr int kAlbedoSamples = 1024;   // per directional albedo: E to ~1e-3, ample against target/4 ≥ 2.5e-5·...
 constexpr int kOverlapSamples = 4096;  // per δ estimate (bounded integrand: standard error ≤ 0.5/√4096 ≈ 0.008)
 
-double luminance(const Rgb& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
-
 bool microfacet(brdf::Model m) {
   return m == brdf::Model::ggx || m == brdf::Model::beckmann || m == brdf::Model::cook_torrance;
 }

@@ -32,9 +32,7 @@
 
 namespace kiln::scene {
 
-// Rec. 709 / sRGB luminance weights. They only steer sampling (light choice, environment importance), where any
-// positive weights keep the estimators unbiased, so a working space other than Rec. 709 costs nothing but variance.
-inline double luminance(const Rgb& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
+using kiln::luminance;  // bakers/math/rgb.h
 
 // Emission as the lights use it: a colour with a non-finite channel emits nothing, negative channels are 0. (The
 // translation layer rejects such input with a message; this keeps hand-built scenes from producing NaN.)

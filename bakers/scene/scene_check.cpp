@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <utility>
 
@@ -181,6 +182,7 @@ const char* to_string(ProblemKind kind) {
     case ProblemKind::bad_lightmap_scale_offset: return "bad_lightmap_scale_offset";
     case ProblemKind::no_materials: return "no_materials";
     case ProblemKind::bad_texture: return "bad_texture";
+    case ProblemKind::bad_material_value: return "bad_material_value";
   }
   return "unknown";
 }
@@ -262,6 +264,30 @@ CheckedScene check_scene(const Scene& in, const CheckOptions& options) {
                                      : " does not exist (" + std::to_string(scene.textures.size()) + " textures)"),
                        "the texture is ignored; the material uses its base colour alone"));
     m.base_color_texture.reset();
+  }
+  // Colours that cannot be a reflectance or a radiance: repaired per channel, so that nothing non-finite reaches the
+  // transport (a NaN channel would otherwise pass "emission > 0" tests that compare the maximum).
+  for (SceneMaterial& m : scene.materials) {
+    auto repair = [&](Rgb& c, double hi, const char* what, const char* rule, bool all_or_nothing) {
+      Rgb fixed = c;
+      // A colour with a non-finite channel says nothing reliable about the others (lights.h's usable_emission).
+      if (all_or_nothing && !c.is_finite()) fixed = Rgb{0.0};
+      double* ch[3] = {&fixed.r, &fixed.g, &fixed.b};
+      for (double* v : ch) {
+        if (!std::isfinite(*v) || *v < 0) *v = 0;
+        if (*v > hi) *v = hi;
+      }
+      if (fixed.r == c.r && fixed.g == c.g && fixed.b == c.b) return;
+      report.add(problem(Severity::warning, ProblemKind::bad_material_value, -1, -1, -1,
+                         "material '" + m.name + "': " + what + " (" + std::to_string(c.r) + ", " +
+                             std::to_string(c.g) + ", " + std::to_string(c.b) + ")",
+                         rule));
+      c = fixed;
+    };
+    repair(m.base_color, 1.0, "base colour is not a reflectance",
+           "NaN and negative channels set to 0, channels above 1 set to 1", false);
+    repair(m.emission, std::numeric_limits<double>::max(), "emission is not a finite, non-negative radiance",
+           "a NaN or infinite channel makes the material emit nothing; negative channels set to 0", true);
   }
   const size_t material_count = scene.materials.size();
 

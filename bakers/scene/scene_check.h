@@ -21,6 +21,8 @@
 //   lightmap scale/offset invalid            instance not baked                             bad_lightmap_scale_offset
 //   no materials                             a grey Lambert material added                  no_materials
 //   material texture index out of range      texture ignored                                bad_texture
+//   base colour not finite or outside [0,1]  NaN → 0, clamped to [0, 1]                     bad_material_value
+//   emission not finite or negative          any NaN/±Inf channel → black, negative → 0       bad_material_value
 //
 // The cleaned scene keeps every mesh and every vertex (so vertex indices keep their meaning; non-finite positions,
 // which nothing references any more, become 0) but only the triangles that can be traced; `source_triangle` maps
@@ -57,8 +59,9 @@ enum class ProblemKind {
   bad_lightmap_scale_offset,
   no_materials,
   bad_texture,
+  bad_material_value,
 };
-inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::bad_texture) + 1;
+inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::bad_material_value) + 1;
 const char* to_string(ProblemKind kind);
 const char* to_string(Severity severity);
 

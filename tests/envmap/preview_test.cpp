@@ -33,7 +33,7 @@ DfgTable constant_dfg(double scale, double bias, int size = 4) {
   return t;
 }
 
-double luminance(const Rgb& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
+double rec709_luminance(const Rgb& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
 
 // How pixel (x, y)'s square lies against the disc of sphere i: 1 wholly inside, −1 wholly outside, 0 straddling.
 int coverage(int i, int x, int y) {
@@ -74,7 +74,7 @@ TEST(Preview, ConstantEnvironmentGivesTheSplitSumValueEverywhere) {
   ASSERT_EQ(png.height, kPreviewHeight);
   ASSERT_EQ(png.channels, 3);
   // Automatic exposure: the background is c everywhere, so its median luminance is Y(c) and k = 0.18 / Y(c).
-  const double k = kPreviewMidGrey / luminance(c);
+  const double k = kPreviewMidGrey / rec709_luminance(c);
   ASSERT_TRUE(png.metadata.count("kiln:exposure"));
   // Printed with round-trip precision; 1e-9 relative is the rounding of Y(c) summed in another order.
   EXPECT_NEAR(std::stod(png.metadata.at("kiln:exposure")), k, 1e-9 * k);

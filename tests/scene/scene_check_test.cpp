@@ -257,6 +257,25 @@ TEST(SceneCheck, MaterialsAndTextures) {
   EXPECT_FALSE(c1.scene.materials[1].base_color_texture.has_value());
 }
 
+// Colours that are not a reflectance or a radiance are repaired and reported, never passed on: a base colour per
+// channel (NaN and negatives → 0, above 1 → 1), an emission as a whole when a channel is not finite.
+TEST(SceneCheck, BadMaterialValuesAreRepairedAndReported) {
+  Scene s;
+  s.meshes.push_back(strip("m", 1));
+  s.materials.resize(4);
+  const double nan = std::nan("");
+  s.materials[0].base_color = Rgb{0.5, nan, 2.0};
+  s.materials[1].emission = Rgb{1.0, nan, 1.0};
+  s.materials[2].emission = Rgb{2.0, -1.0, 3.0};
+  s.materials[3].base_color = Rgb{0.2, 0.3, 0.4};  // fine: untouched
+  const CheckedScene c = check_scene(s);
+  EXPECT_EQ(c.report.count(ProblemKind::bad_material_value), 3);
+  EXPECT_EQ(c.scene.materials[0].base_color, (Rgb{0.5, 0.0, 1.0}));
+  EXPECT_EQ(c.scene.materials[1].emission, Rgb{0.0});
+  EXPECT_EQ(c.scene.materials[2].emission, (Rgb{2.0, 0.0, 3.0}));
+  EXPECT_EQ(c.scene.materials[3].base_color, (Rgb{0.2, 0.3, 0.4}));
+}
+
 // A grid of n×n quads whose lightmap UVs are its positions scaled into [0,1]: adjacent triangles share edges and
 // vertices exactly, which must not count as overlap.
 Mesh grid(int n) {

@@ -1,7 +1,13 @@
 #include "tests/support/test_scenes.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <stdexcept>
 
+#include "bakers/envmap/cubemap.h"
+#include "bakers/image/exr.h"
+#include "bakers/lightmap/texels.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::test {
@@ -142,6 +148,161 @@ void scale_scene(scene::Scene& s, double scale, Vec3 offset) {
     l.radius *= scale;
     if (l.type == scene::LightType::point || l.type == scene::LightType::spot) l.color = l.color * (scale * scale);
   }
+}
+
+// ---- Lightmap test helpers ----
+
+int add_floor(scene::Scene& s, double size, uint32_t material, int n) {
+  const double h = size / 2;
+  return add_quad(s, "floor", {-h, 0, h}, {h, 0, h}, {h, 0, -h}, {-h, 0, -h}, material, n);
+}
+
+std::vector<double> texel_means(const scene::Scene& s, const std::string& name, int resolution,
+                                const std::function<double(const Vec3& p, const Vec3& n)>& f) {
+  lightmap::RasterOptions options;
+  options.width = options.height = resolution;
+  const lightmap::LightmapTexels texels = lightmap::rasterize_lightmap(s, name, options);
+  std::vector<double> out(texels.texel_count(), std::nan(""));
+  for (size_t t = 0; t < texels.texel_count(); ++t) {
+    double sum = 0, weight = 0;
+    for (const lightmap::TexelSample& p : texels.at(t)) {
+      sum += p.weight * f(p.position, p.shading_normal);
+      weight += p.weight;
+    }
+    if (weight > 0) out[t] = sum / weight;
+  }
+  return out;
+}
+
+std::string equirect_exr(int width, int height, const std::function<Rgb(const Vec3& dir)>& radiance) {
+  image::FloatImage img;
+  img.width = width;
+  img.height = height;
+  img.channels = 3;
+  img.channel_names = {"R", "G", "B"};
+  img.pixels.resize(static_cast<size_t>(width) * height * 3);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const Rgb L = radiance(envmap::equirect_uv_to_direction((x + 0.5) / width, (y + 0.5) / height));
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = static_cast<float>(L[c]);
+    }
+  }
+  return image::encode_exr(img);
+}
+
+lightmap::LightmapBakeInput lightmap_input(scene::Scene s, int resolution, double target_error) {
+  lightmap::LightmapBakeInput in;
+  in.scene = std::move(s);
+  in.resolution = resolution;
+  in.target_error = target_error;
+  in.padding = 0;
+  in.preview = false;
+  return in;
+}
+
+const material::BakeOutput& find_output(const lightmap::LightmapBakeResult& result, const std::string& name) {
+  for (const material::BakeOutput& o : result.outputs) {
+    if (o.name == name) return o;
+  }
+  throw std::runtime_error("the bake has no output named " + name);
+}
+
+image::FloatImage exr_output(const lightmap::LightmapBakeResult& result, const std::string& name) {
+  return image::decode_exr(find_output(result, name).bytes);
+}
+
+
+// ---- The bundled Cornell box (client/examples/scenes/cornell_box.py, ported line for line) ----
+
+namespace {
+
+using Face = std::array<Vec3, 4>;  // counter-clockwise seen from the front
+
+Vec3 rotate_y(const Vec3& p, double degrees, const Vec3& centre) {
+  const double a = degrees * kPi / 180, x = p.x - centre.x, z = p.z - centre.z;
+  return {centre.x + std::cos(a) * x + std::sin(a) * z, p.y, centre.z - std::sin(a) * x + std::cos(a) * z};
+}
+
+// Five faces (no bottom) of a box standing on the floor, rotated about its vertical axis (the script's block()).
+std::vector<Face> block(double cx, double cz, double sx, double sy, double sz, double degrees) {
+  const double x0 = cx - sx / 2, x1 = cx + sx / 2, z0 = cz - sz / 2, z1 = cz + sz / 2;
+  std::vector<Face> faces = {
+      Face{Vec3{x0, sy, z1}, Vec3{x1, sy, z1}, Vec3{x1, sy, z0}, Vec3{x0, sy, z0}},  // top, +y
+      Face{Vec3{x0, 0, z1}, Vec3{x1, 0, z1}, Vec3{x1, sy, z1}, Vec3{x0, sy, z1}},    // front, +z
+      Face{Vec3{x1, 0, z0}, Vec3{x0, 0, z0}, Vec3{x0, sy, z0}, Vec3{x1, sy, z0}},    // back, −z
+      Face{Vec3{x0, 0, z0}, Vec3{x0, 0, z1}, Vec3{x0, sy, z1}, Vec3{x0, sy, z0}},    // left, −x
+      Face{Vec3{x1, 0, z1}, Vec3{x1, 0, z0}, Vec3{x1, sy, z0}, Vec3{x1, sy, z1}},    // right, +x
+  };
+  for (Face& f : faces)
+    for (Vec3& p : f) p = rotate_y(p, degrees, {cx, 0, cz});
+  return faces;
+}
+
+double as_float(double v) { return static_cast<float>(v); }  // the glTF's float32 storage
+Vec3 as_float(const Vec3& v) { return {as_float(v.x), as_float(v.y), as_float(v.z)}; }
+
+// The script's atlas() and mesh_arrays(): each face a chart scaled uniformly into a grid cell, margins between.
+scene::Mesh cornell_mesh(const std::string& name, const std::vector<Face>& faces, uint32_t material) {
+  const size_t n = faces.size();
+  const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+  const int rows = static_cast<int>((n + cols - 1) / cols);
+  const double cell_w = (1 - kMargin * (cols + 1)) / cols, cell_h = (1 - kMargin * (rows + 1)) / rows;
+  double scale = INFINITY;
+  for (const Face& f : faces)
+    scale = std::min(scale, std::min(cell_w / length(f[1] - f[0]), cell_h / length(f[2] - f[1])));
+  scene::Mesh mesh;
+  mesh.name = name;
+  for (size_t i = 0; i < n; ++i) {
+    const Face& f = faces[i];
+    const double w = length(f[1] - f[0]), h = length(f[2] - f[1]);
+    const int c = static_cast<int>(i) % cols, r = static_cast<int>(i) / cols;
+    const double u0 = kMargin + c * (cell_w + kMargin) + (cell_w - w * scale) / 2;
+    const double v0 = kMargin + r * (cell_h + kMargin) + (cell_h - h * scale) / 2;
+    const double u1 = u0 + w * scale, v1 = v0 + h * scale;
+    const Vec3 normal = normalize(cross(f[1] - f[0], f[2] - f[0]));
+    const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
+    const double corners[4][2] = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};  // glTF UVs: v = 0 at the top of the image
+    for (int k = 0; k < 4; ++k) {
+      const double s = corners[k][0], t = corners[k][1];
+      mesh.positions.push_back(as_float(f[k]));
+      mesh.normals.push_back(as_float(normal));
+      mesh.uv.push_back({s, t});
+      mesh.lightmap_uv.push_back({as_float(u0 + s * (u1 - u0)), as_float(v0 + t * (v1 - v0))});
+    }
+    mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+    mesh.material.insert(mesh.material.end(), {material, material});
+  }
+  return mesh;
+}
+
+}  // namespace
+
+scene::Scene cornell_box() {
+  scene::Scene s;
+  auto material = [&](const std::string& name, Rgb base_color, Rgb emission = Rgb{0.0}) {
+    scene::SceneMaterial m = lambert_material(name, 1.0, emission);
+    m.base_color = base_color;
+    s.materials.push_back(m);
+    return static_cast<uint32_t>(s.materials.size() - 1);
+  };
+  const uint32_t white = material("white", Rgb{0.73});
+  const uint32_t red = material("red", Rgb{0.63, 0.065, 0.05});
+  const uint32_t green = material("green", Rgb{0.14, 0.45, 0.091});
+  // glTF's emissiveFactor (1, 0.71, 0.24) times KHR_materials_emissive_strength 17.
+  const uint32_t light = material("light", Rgb{0.78}, Rgb{1.0, 0.71, 0.24} * 17.0);
+  auto face = [](Vec3 a, Vec3 b, Vec3 c, Vec3 d) { return std::vector<Face>{Face{a, b, c, d}}; };
+  add_mesh(s, cornell_mesh("floor", face({-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, {-1, 0, -1}), white));
+  add_mesh(s, cornell_mesh("ceiling", face({-1, 2, -1}, {1, 2, -1}, {1, 2, 1}, {-1, 2, 1}), white));
+  add_mesh(s, cornell_mesh("back_wall", face({-1, 0, -1}, {1, 0, -1}, {1, 2, -1}, {-1, 2, -1}), white));
+  add_mesh(s, cornell_mesh("left_wall", face({-1, 0, 1}, {-1, 0, -1}, {-1, 2, -1}, {-1, 2, 1}), red));
+  add_mesh(s, cornell_mesh("right_wall", face({1, 0, -1}, {1, 0, 1}, {1, 2, 1}, {1, 2, -1}), green));
+  add_mesh(s, cornell_mesh("short_block", block(0.33, 0.37, 0.6, 0.6, 0.6, -17), white));
+  add_mesh(s, cornell_mesh("tall_block", block(-0.33, -0.3, 0.6, 1.2, 0.6, 18), white));
+  // Just below the ceiling so that it does not coincide with it; faces down.
+  add_mesh(s, cornell_mesh("light",
+                           face({-0.25, 1.99, -0.25}, {0.25, 1.99, -0.25}, {0.25, 1.99, 0.25}, {-0.25, 1.99, 0.25}),
+                           light));
+  return s;
 }
 
 }  // namespace kiln::test

@@ -1,6 +1,12 @@
 // Scenes with known answers for the lightmap tests: each built in code, with lightmap UVs, in the units given.
 #pragma once
 
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "bakers/image/exr.h"
+#include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/scene/scene.h"
 
 namespace kiln::test {
@@ -27,5 +33,39 @@ int add_sphere(scene::Scene& s, const std::string& name, Vec3 centre, double rad
 // `offset` (directions, radiances and intensities unchanged; point and spot intensities scaled by scale² so that
 // irradiance at scaled distances is unchanged).
 void scale_scene(scene::Scene& s, double scale, Vec3 offset = {});
+
+// ---- Lightmap test helpers (appended for the outputs, lights and robustness tests) ----
+
+// The floor quad of side `size` centred at the origin facing +Y, subdivided n × n, as its own mesh "floor"
+// (add_quad's UV layout: u grows towards +X, v = 0 at z = −size/2). Returns the mesh index.
+int add_floor(scene::Scene& s, double size, uint32_t material, int n = 4);
+
+// Per texel of lightmap `name` at `resolution`², the weighted mean of f(position, normal) over the sample points the
+// baker's rasterizer (bakers/lightmap/texels.h) puts in the texel, with the weights the baker averages its estimates
+// with; NaN for texels no triangle covers. An analytic field evaluated this way is exactly what a noise-free bake
+// of it would store (texels.h is tested on its own), so a test's tolerance is the bake's noise and float storage.
+std::vector<double> texel_means(const scene::Scene& s, const std::string& name, int resolution,
+                                const std::function<double(const Vec3& p, const Vec3& n)>& f);
+
+// An equirectangular W × H OpenEXR (RGB float) whose pixel centres hold radiance(direction) (bakers/envmap/cubemap.h
+// conventions: row 0 the zenith, u = ½ looking along −Z).
+std::string equirect_exr(int width, int height, const std::function<Rgb(const Vec3& dir)>& radiance);
+
+// A bake input for tests: no padding (texels are compared as baked), no preview.
+lightmap::LightmapBakeInput lightmap_input(scene::Scene s, int resolution, double target_error);
+
+// The output named `name` (throws std::runtime_error naming it when absent), and the same decoded as an EXR.
+const material::BakeOutput& find_output(const lightmap::LightmapBakeResult& result, const std::string& name);
+image::FloatImage exr_output(const lightmap::LightmapBakeResult& result, const std::string& name);
+
+// The bundled Cornell-box-like scene exactly as client/examples/scenes/cornell_box.py writes it (keep the two in step):
+// a 2 m box (x in [−1, 1], y in [0, 2], z in [−1, 1]) open towards +z, white floor, ceiling and back wall, red left
+// and green right walls, a short and a tall block (five faces each, rotated −17° and 18°), and a 0.5 m square
+// emissive patch facing down at y = 1.99 emitting 17·(1, 0.71, 0.24). One mesh per object, each with one instance,
+// per-face normals, texture UVs and its own lightmap atlas (each face a chart, margin 1/16); positions and UVs rounded
+// to float as the glTF stores them. Materials are purely Lambertian with the script's base colours (diffuse albedo 1
+// tinted by base_color; the glTF import would add the dielectric specular lobe of metallic-roughness): "white" 0.73,
+// "red" (0.63, 0.065, 0.05), "green" (0.14, 0.45, 0.091), "light" 0.78 with the emission.
+scene::Scene cornell_box();
 
 }  // namespace kiln::test
