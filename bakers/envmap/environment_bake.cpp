@@ -49,6 +49,7 @@ image::FloatImage face_image(const Cubemap& cube, int face, const std::string& w
   img.metadata["kiln:content"] = what;
   img.metadata["kiln:face"] = std::string(kFaceNames[face]);
   img.metadata["kiln:cubemap_convention"] = std::string(kCubemapConvention);
+  img.metadata["kiln:equirect_convention"] = std::string(kEquirectConvention);
   return img;
 }
 
@@ -324,6 +325,7 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const mat
   ktx.key_values["kiln:lobe"] = to_string(in.lobe);
   ktx.key_values["kiln:lobe_description"] = lobe_description(in.lobe);
   ktx.key_values["kiln:cubemap_convention"] = std::string(kCubemapConvention);
+  ktx.key_values["kiln:equirect_convention"] = std::string(kEquirectConvention);
   ktx.key_values["kiln:color_space"] = color_space;
   result.outputs.insert(result.outputs.begin(), {"specular.ktx2", "image/ktx2", color_space, image::encode_ktx2(ktx)});
   for (int f = 0; f < 6; ++f) {
