@@ -192,7 +192,9 @@ TEST(LightmapPlan, LobeDistanceIsZeroForLambertAndFallsWithRoughness) {
     s = quads({glossy("g", alpha, alpha, 0.5)}, {0});
     p = plan_lightmap(s, {});
     const double d = p.materials[0].lobe_distance;
-    if (alpha == 0.01) EXPECT_GT(d, 0.9) << "a near-mirror lobe overlaps a Lambertian one very little";
+    if (alpha == 0.01) {
+      EXPECT_GT(d, 0.9) << "a near-mirror lobe overlaps a Lambertian one very little";
+    }
     EXPECT_LT(d, previous) << "alpha " << alpha;
     previous = d;
   }
