@@ -129,8 +129,12 @@ TEST(EnvironmentService, UploadedExrBakesOutputsVerifyAndTheSecondSubmitIsACache
   if (names.count("preview.png")) expected.insert("preview.png");
   EXPECT_EQ(names, expected);
   for (const v1::Output& o : r.outputs()) {
-    if (o.name() == "specular.ktx2") EXPECT_EQ(o.media_type(), "image/ktx2");
-    if (o.name() == "report.json") EXPECT_EQ(o.media_type(), "application/json");
+    if (o.name() == "specular.ktx2") {
+      EXPECT_EQ(o.media_type(), "image/ktx2");
+    }
+    if (o.name() == "report.json") {
+      EXPECT_EQ(o.media_type(), "application/json");
+    }
     EXPECT_FALSE(o.description().empty()) << o.name();
   }
   EXPECT_EQ(r.report().baker_version(), envmap::kEnvironmentBakerVersion);
