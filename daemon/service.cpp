@@ -234,6 +234,7 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
   l->set_heartbeat_seconds(kHeartbeatSeconds);
   r->add_job_types("material");
   r->add_job_types("environment");
+  r->add_job_types("lightmap");
 }
 
 void Service::blob_query(const v1::Request& req, v1::Response& resp) {

@@ -250,16 +250,7 @@ void translate_environment(const kiln::v1::JobSpec& spec, const store::BlobStore
   };
   if (!e.color_space().empty()) {
     if (constant) image_only("color_space");
-    if (e.color_space().size() > kMaxColorSpaceBytes) {
-      throw InvalidField(path + ".color_space", "at most 64 bytes, got " + std::to_string(e.color_space().size()));
-    }
-    const image::ColorConfig& config = image::ColorConfig::active();
-    if (!config.has_space(e.color_space())) {
-      std::string known;
-      for (const std::string& name : config.spaces()) known += (known.empty() ? "" : ", ") + name;
-      throw InvalidField(path + ".color_space", "'" + e.color_space() + "' is not a colour space or role of " +
-                                                    config.source() + "; known: " + known);
-    }
+    detail::check_color_space(e.color_space(), path + ".color_space");
     in.decode.color_space = e.color_space();
   }
   if (e.has_rotation_degrees()) {
@@ -384,17 +375,40 @@ BlobRef input_blob(const kiln::v1::Digest& d, const std::string& field, const st
   if (!proto::is_valid_sha256_hex(d.sha256())) {
     throw InvalidField(field + ".sha256", "must be 64 lowercase hex digits, got '" + d.sha256().substr(0, 80) + "'");
   }
-  if (d.size() == 0) throw InvalidField(field + ".size", "an image is not empty; got a blob of 0 bytes");
+  if (d.size() == 0) throw InvalidField(field + ".size", "an input (image or mesh) is not empty; got a blob of 0 bytes");
   if (d.size() > kMaxInputBlobBytes) {
-    throw InvalidField(field + ".size", "an input image is at most " + std::to_string(kMaxInputBlobBytes >> 20) +
+    throw InvalidField(field + ".size", "an input blob is at most " + std::to_string(kMaxInputBlobBytes >> 20) +
                                             " MiB, got " + std::to_string(d.size()) +
-                                            " bytes; scale it down (16384 x 8192 RGB half EXR is ~400 MiB)");
+                                            " bytes; scale an image down (16384 x 8192 RGB half EXR is ~400 MiB), "
+                                            "split a mesh");
   }
   if (blobs && !blobs->contains(store::BlobId{d.sha256(), d.size()})) {
     throw InvalidField(field, "blob " + d.sha256() + " (" + std::to_string(d.size()) +
                                   " bytes) is not in the server's store; upload it (BlobPut) before submitting");
   }
   return BlobRef{field, d.sha256(), d.size()};
+}
+
+void check_color_space(const std::string& name, const std::string& field) {
+  if (name.size() > kMaxColorSpaceBytes) {
+    throw InvalidField(field, "at most 64 bytes, got " + std::to_string(name.size()));
+  }
+  const image::ColorConfig& config = image::ColorConfig::active();
+  if (!config.has_space(name)) {
+    std::string known;
+    for (const std::string& space : config.spaces()) known += (known.empty() ? "" : ", ") + space;
+    throw InvalidField(field, "'" + name + "' is not a colour space or role of " + config.source() + "; known: " +
+                                  known);
+  }
+}
+
+std::string read_input(const BlobRef& ref, store::BlobStore& blobs) {
+  const store::BlobId id{ref.sha256, ref.size};
+  if (!blobs.contains(id)) {
+    throw InvalidField(ref.field, "blob " + ref.sha256 + " is no longer in the server's store (removed by its "
+                                  "retention limit); upload it again and resubmit the job");
+  }
+  return blobs.read(id);  // verified against the digest
 }
 
 brdf::ModelSpec brdf_model(const kiln::v1::Brdf& m, const std::string& path) { return model(m, path); }
@@ -444,23 +458,20 @@ BakeRequest translate(const kiln::v1::JobSpec& spec, const store::BlobStore* blo
   switch (spec.job_case()) {
     case kiln::v1::JobSpec::kMaterial: translate_material(spec, r); break;
     case kiln::v1::JobSpec::kEnvironment: translate_environment(spec, blobs, r); break;
-    default: throw InvalidField("job", "no job given: set material or environment");
+    case kiln::v1::JobSpec::kLightmap: detail::translate_lightmap(spec, blobs, r); break;
+    default: throw InvalidField("job", "no job given: set material, environment or lightmap");
   }
   return r;
 }
 
 void load_inputs(BakeRequest& r, store::BlobStore& blobs) {
+  if (r.type == "lightmap") return detail::load_lightmap_inputs(r, blobs);
   if (r.type != "environment") return;
   envmap::EnvironmentBakeInput& in = r.environment;
   in.image.clear();
   in.faces.clear();
   for (const BlobRef& ref : r.inputs) {
-    const store::BlobId id{ref.sha256, ref.size};
-    if (!blobs.contains(id)) {
-      throw InvalidField(ref.field, "blob " + ref.sha256 + " is no longer in the server's store (removed by its "
-                                    "retention limit); upload it again and resubmit the job");
-    }
-    std::string bytes = blobs.read(id);  // verified against the digest
+    std::string bytes = detail::read_input(ref, blobs);
     if (ref.field.find(".faces.") != std::string::npos) {
       in.faces.push_back(std::move(bytes));
     } else {
@@ -482,6 +493,22 @@ InvalidField input_error(const BakeRequest& r, const std::exception& e) {
   }
   // Anything else the bakers raise about their input concerns the bytes they decode.
   std::string field = prefix;
+  if (r.type == "lightmap") {
+    // The lightmap bake names the texture (or the environment) whose bytes do not decode; a scene with nothing to
+    // bake is the whole job's.
+    const std::string text = e.what();
+    for (const BlobRef& ref : r.inputs) {
+      if (ref.field.find(".textures[") != std::string::npos) {
+        const std::size_t i = std::stoul(ref.field.substr(ref.field.find('[') + 1));
+        const std::string& name = r.lightmap.textures.size() > i ? r.lightmap.textures[i].name : std::string();
+        if (!name.empty() && text.find(name) != std::string::npos) return InvalidField(ref.field, text);
+      } else if (ref.field.find(".environment.") != std::string::npos &&
+                 text.find("environment") != std::string::npos) {
+        return InvalidField(ref.field, text);
+      }
+    }
+    return InvalidField(prefix, text);
+  }
   if (!r.inputs.empty()) {
     field = r.inputs.size() == 1 ? r.inputs[0].field : prefix + ".faces";
   }
@@ -489,6 +516,7 @@ InvalidField input_error(const BakeRequest& r, const std::exception& e) {
 }
 
 const char* baker_version(const BakeRequest& r) {
+  if (r.type == "lightmap") return lightmap::kLightmapBakerVersion;
   return r.type == "environment" ? envmap::kEnvironmentBakerVersion : material::kMaterialBakerVersion;
 }
 
@@ -523,6 +551,7 @@ std::string environment_canonical_text(const BakeRequest& r) {
 
 std::string canonical_text(const BakeRequest& r) {
   if (r.type == "environment") return environment_canonical_text(r);
+  if (r.type == "lightmap") return detail::lightmap_canonical_text(r);
   const material::MaterialBakeInput& in = r.material;
   const brdf::ModelSpec& s = in.model;
   std::ostringstream o;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bakers/envmap/environment_bake.h"
+#include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/material/material_bake.h"
 
 namespace kiln::v1 {
@@ -44,11 +45,17 @@ inline constexpr uint64_t kMaxInputBlobBytes = uint64_t{512} << 20;
 
 // The bake a job spec asks for: `type` says which input is filled in.
 struct BakeRequest {
-  std::string type;  // "material" or "environment"
+  std::string type;  // "material", "environment" or "lightmap"
   std::string name;  // the spec's name, for people
   material::MaterialBakeInput material;
   // Its image or faces are empty until load_inputs reads them from the store.
   envmap::EnvironmentBakeInput environment;
+  // Its meshes' geometry, textures' bytes and environment image are empty until load_inputs decodes the mesh blobs
+  // and reads the rest from the store (the baker decodes images).
+  lightmap::LightmapBakeInput lightmap;
+  // Lightmap jobs: SHA-256 of the deterministic serialization of the job's scene part (meshes, instances, materials
+  // after overrides, textures, lights, environment source), part of the cache key with the settings' canonical text.
+  std::string scene_hash;
   std::vector<BlobRef> inputs;  // the blobs the job reads, in the order of its fields
 };
 
@@ -56,8 +63,13 @@ struct BakeRequest {
 // must be stored whole there (else InvalidField naming the digest's field); without, only their form is checked.
 BakeRequest translate(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs = nullptr);
 
-// Reads the request's input blobs from the store into its input (environment.image or environment.faces).
-// Throws InvalidField if one is no longer stored, store::StoreError if one fails verification.
+// The most bytes of input blobs one job may refer to in all (a lightmap job's meshes, textures and environment).
+inline constexpr uint64_t kMaxJobInputBytes = uint64_t{4} << 30;
+
+// Reads the request's input blobs from the store into its input (environment.image or environment.faces; a
+// lightmap job's mesh blobs decoded into its scene, textures and environment image as encoded bytes).
+// Throws InvalidField if one is no longer stored or a mesh blob does not decode, store::StoreError if one fails
+// verification.
 void load_inputs(BakeRequest& request, store::BlobStore& blobs);
 
 // A bake's complaint about its input, as the field of the job at fault: the baker's "field: problem" for a

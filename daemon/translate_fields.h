@@ -31,4 +31,14 @@ brdf::ModelSpec brdf_model(const kiln::v1::Brdf& m, const std::string& path);
 // A diffuse and a specular lobe; a missing specular lobe is none (a weightless one).
 brdf::MaterialSpec material_spec(const kiln::v1::Layered& l, const std::string& path);
 
+// An input blob's bytes, verified against its digest; InvalidField naming its field if the store no longer holds it.
+std::string read_input(const BlobRef& ref, store::BlobStore& blobs);
+
+// The lightmap job (translate_lightmap.cpp): translation into r.lightmap, its blobs' reading, its canonical text.
+void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs, BakeRequest& r);
+void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs);
+std::string lightmap_canonical_text(const BakeRequest& r);
+// A colour space of the active OpenColorIO config (at most 64 bytes), else InvalidField listing the known ones.
+void check_color_space(const std::string& name, const std::string& field);
+
 }  // namespace kiln::daemon::detail

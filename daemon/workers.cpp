@@ -61,6 +61,18 @@ std::string describe_output(const material::BakeOutput& o) {
   if (n == "sh.txt") return "nine RGB irradiance coefficients (order-2 spherical harmonics)";
   if (n == "dfg.exr") return "the DFG table: split-sum scale, bias and energy over (mu, roughness)";
   if (n == "preview.png") return "a preview: spheres of several roughnesses lit by the environment";
+  // Lightmap outputs, NAME_<kind>.<ext> for each lightmap NAME (lightmap_bake.h).
+  auto ends = [&](const char* tail) {
+    const std::string t = tail;
+    return n.size() > t.size() && n.compare(n.size() - t.size(), t.size(), t) == 0;
+  };
+  if (ends("_irradiance.exr")) return "irradiance E (W/m^2) per lightmap texel, RGB float, dilated by the padding";
+  if (ends("_validity.exr")) return "texel validity: 1 valid, 0 invalid (before dilation)";
+  if (ends("_error.exr")) return "the estimated relative standard error of each texel's irradiance";
+  if (ends("_radiance.exr")) return "baked diffuse radiance rho E / pi per texel, RGB float";
+  if (ends("_ao.exr")) return "ambient occlusion per texel";
+  if (ends("_sh.exr")) return "order-1 spherical harmonics of incoming radiance: 4 RGB coefficients (12 channels)";
+  if (ends("_preview.png")) return "the irradiance lightmap through the display transform, for people";
   return {};
 }
 
@@ -68,6 +80,7 @@ std::string describe_output(const material::BakeOutput& o) {
 struct Baked {
   std::vector<material::BakeOutput> outputs;
   uint64_t samples = 0;
+  uint64_t rays = 0;
   double seconds = 0;
   double error_estimate = 0;
   std::vector<v1::PlanDecision> plan;
@@ -89,32 +102,39 @@ Baked bake_material(const BakeRequest& request, const material::BakeControl& con
   return b;
 }
 
-Baked bake_environment(const BakeRequest& request, const material::BakeControl& control) {
-  envmap::EnvironmentBakeResult r;
+// Runs a baker whose bad input is the job's fault: a setting it refuses (std::invalid_argument) or bytes that do not
+// decode (std::runtime_error, the bakers' contract) become InvalidField naming the job's field. Anything else
+// (bad_alloc, a logic error) is the server's and stays so.
+template <class Bake>
+auto blaming_input(const BakeRequest& request, Bake&& bake) {
   try {
-    r = envmap::bake_environment(request.environment, control);
+    return bake();
   } catch (const material::BakeCancelled&) {
     throw;
   } catch (const std::invalid_argument& e) {
-    // A setting the baker refuses: the job's input is at fault, named by its field.
     throw input_error(request, e);
   } catch (const std::runtime_error& e) {
-    // The baker's contract: bytes that do not decode (environment_bake.h). Anything else (bad_alloc, a logic
-    // error) is the server's and stays so.
     throw input_error(request, e);
   }
+}
+
+void add_decision(Baked& b, const std::string& effect, bool enabled, bool forced, const std::string& reason) {
+  v1::PlanDecision& d = b.plan.emplace_back();
+  d.set_effect(effect);
+  d.set_enabled(enabled);
+  d.set_forced(forced);
+  d.set_reason(reason);
+}
+
+Baked bake_environment(const BakeRequest& request, const material::BakeControl& control) {
+  envmap::EnvironmentBakeResult r =
+      blaming_input(request, [&] { return envmap::bake_environment(request.environment, control); });
   Baked b;
   b.outputs = std::move(r.outputs);
   b.samples = r.samples;
   b.seconds = r.seconds;
   for (double e : r.level_error) b.error_estimate = std::max(b.error_estimate, e);
-  for (const envmap::EnvironmentPlanEntry& e : r.plan_entries) {
-    v1::PlanDecision& d = b.plan.emplace_back();
-    d.set_effect(e.effect);
-    d.set_enabled(e.enabled);
-    d.set_forced(e.forced);
-    d.set_reason(e.reason);
-  }
+  for (const envmap::EnvironmentPlanEntry& e : r.plan_entries) add_decision(b, e.effect, e.enabled, e.forced, e.reason);
   if (r.sanitized.total() > 0) {
     v1::PlanDecision& d = b.plan.emplace_back();
     d.set_effect("sanitize");
@@ -123,6 +143,20 @@ Baked bake_environment(const BakeRequest& request, const material::BakeControl& 
                  " NaN (by 0), " + std::to_string(r.sanitized.inf) + " infinite (+Inf by the largest finite value, "
                  "-Inf by 0), " + std::to_string(r.sanitized.negative) + " negative (by 0)");
   }
+  return b;
+}
+
+Baked bake_lightmap(const BakeRequest& request, const material::BakeControl& control) {
+  // The baker's contract (lightmap_bake.h): undecodable textures or environment, a scene with nothing to bake.
+  lightmap::LightmapBakeResult r =
+      blaming_input(request, [&] { return lightmap::bake_lightmaps(request.lightmap, control); });
+  Baked b;
+  b.outputs = std::move(r.outputs);
+  b.samples = r.samples;
+  b.rays = r.rays;
+  b.seconds = r.seconds;
+  b.error_estimate = r.error_estimate;
+  for (const plan::Decision& e : r.plan) add_decision(b, e.effect, e.enabled, e.forced, e.reason);
   return b;
 }
 
@@ -163,7 +197,11 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
     Baked baked;
     tbb::task_arena arena(threads_per_job_);
     arena.execute([&] {
-      baked = request.type == "environment" ? bake_environment(request, control) : bake_material(request, control);
+      if (request.type == "lightmap") {
+        baked = bake_lightmap(request, control);
+      } else {
+        baked = request.type == "environment" ? bake_environment(request, control) : bake_material(request, control);
+      }
     });
 
     v1::JobResult result;
@@ -187,6 +225,7 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
     }
     v1::BakeReport* report = result.mutable_report();
     report->set_samples(baked.samples);
+    report->set_rays(baked.rays);
     report->set_seconds(baked.seconds);
     report->set_error_estimate(baked.error_estimate);
     report->set_baker_version(baker_version(request));

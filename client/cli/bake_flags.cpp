@@ -123,22 +123,7 @@ const char* const kJobFlags[] = {"--albedo",        "--sigma",   "--interreflect
 constexpr double kHalfPi = 1.5707963267948966;
 constexpr std::size_t kMaxNameBytes = 256;  // JobSpec.name
 
-void set_color(const std::string& flag, const std::string& text, v1::Color* c) {
-  std::vector<std::string> parts;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) parts.push_back(item);
-  if (!text.empty() && text.back() == ',') parts.push_back("");
-  if (parts.size() != 1 && parts.size() != 3) {
-    throw UsageError(flag + ": expected one value or three (R,G,B), got '" + text + "'");
-  }
-  double v[3];
-  for (std::size_t i = 0; i < 3; ++i) {
-    v[i] = parse_number_in(flag, parts[parts.size() == 1 ? 0 : i], 0.0, 1.0);
-  }
-  c->set_r(v[0]);
-  c->set_g(v[1]);
-  c->set_b(v[2]);
-}
+void set_color(const std::string& flag, const std::string& text, v1::Color* c) { parse_color(flag, text, 1.0, c); }
 
 template <typename Enum>
 Enum parse_choice(const std::string& flag, const std::string& text,
@@ -238,6 +223,21 @@ std::string default_name(const Flags& f, const std::string& model_name) {
 }
 
 }  // namespace
+
+void parse_color(const std::string& flag, const std::string& text, double hi, v1::Color* c) {
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) parts.push_back(item);
+  if (!text.empty() && text.back() == ',') parts.push_back("");
+  if (parts.size() != 1 && parts.size() != 3) {
+    throw UsageError(flag + ": expected one value or three (R,G,B), got '" + text + "'");
+  }
+  double v[3];
+  for (std::size_t i = 0; i < 3; ++i) v[i] = parse_number_in(flag, parts[parts.size() == 1 ? 0 : i], 0.0, hi);
+  c->set_r(v[0]);
+  c->set_g(v[1]);
+  c->set_b(v[2]);
+}
 
 void add_forced_effects(const Flags& f, v1::JobSpec& spec) {
   for (const std::string& force : f.all("--force")) {

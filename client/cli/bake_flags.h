@@ -8,6 +8,7 @@
 #include "client/cli/args.h"
 
 namespace kiln::v1 {
+class Color;
 class JobSpec;
 }
 
@@ -33,6 +34,9 @@ std::string flag_for_field(const std::string& field_path);
 // `default_name`, shortened to the protocol's 256 bytes). Throw UsageError naming the flag.
 void add_forced_effects(const Flags& flags, v1::JobSpec& spec);
 void set_name(const Flags& flags, v1::JobSpec& spec, const std::string& default_name);
+
+// A colour flag: one value (grey) or three (R,G,B), each in [0, hi]. Throws UsageError naming the flag.
+void parse_color(const std::string& flag, const std::string& text, double hi, v1::Color* c);
 
 extern const char* const kBakeMaterialHelp;
 

@@ -20,6 +20,8 @@
 #include "client/cli/args.h"
 #include "client/cli/bake_flags.h"
 #include "client/cli/env_flags.h"
+#include "client/cli/lightmap_flags.h"
+#include "client/import/scene_import.h"
 #include "client/cli/format.h"
 #include "client/cli/job_file.h"
 #include "client/cli/progress.h"
@@ -54,6 +56,9 @@ commands:
   bake env IMAGE | --constant R,G,B | --faces PX NX PY NY PZ NZ [options] [--out DIR]
                         upload an HDR environment and bake it for image-based lighting (specular cube chain,
                         irradiance, SH, DFG table); with --out, wait and write the outputs into DIR
+  bake lightmap SCENE [--env IMAGE | --env-constant R,G,B] [--resolution N] [--target-error E] [options] --out DIR
+                        import a glTF, OBJ or FBX scene, upload it and bake its lightmaps (irradiance, validity,
+                        error, preview; optionally radiance, AO, SH); with --out, wait and write them into DIR
   watch ID              follow a job until it ends, showing its progress
   result ID [--json]    a finished job's outcome: cost, planner decisions, outputs with their digests
   fetch ID --out DIR    write a finished job's outputs and report.json into DIR
@@ -584,6 +589,20 @@ int bake_and_follow(Context& ctx, const v1::JobSpec& spec, const Flags& f, const
   return conclude(ctx, final, id, dir, reply.cache_hit());
 }
 
+// `kiln bake env|lightmap`: with --out or --wait, submit and follow; without, submit, print the job id and return.
+int submit_then_follow(Context& ctx, const v1::JobSpec& spec, const Flags& f, const std::optional<fs::path>& dir,
+                       const std::function<std::string(const std::string&)>& where) {
+  if (!dir && !f.has("--wait")) {
+    const v1::SubmitReply reply = submit(ctx, spec, priority_of(f), idempotency_key_of(f), where);
+    ctx.out << reply.job_id() << "\n" << std::flush;
+    ctx.err << "kiln: submitted job " << reply.job_id() << " (" << state_name(reply.state())
+            << (reply.cache_hit() ? ", a cache hit: already done" : "") << "); follow it with `kiln watch "
+            << reply.job_id() << "`, write its outputs with `kiln fetch " << reply.job_id() << " --out DIR`\n";
+    return kExitOk;
+  }
+  return bake_and_follow(ctx, spec, f, dir, where);
+}
+
 int cmd_bake_env(Context& ctx, const Flags& f) {
   EnvironmentBake bake = environment_bake_from_flags(f);
   priority_of(f);
@@ -627,15 +646,68 @@ int cmd_bake_env(Context& ctx, const Flags& f) {
     }
     return flag_for_field(field);
   };
-  if (!dir && !f.has("--wait")) {
-    const v1::SubmitReply reply = submit(ctx, bake.spec, priority_of(f), idempotency_key_of(f), where);
-    ctx.out << reply.job_id() << "\n" << std::flush;
-    ctx.err << "kiln: submitted job " << reply.job_id() << " (" << state_name(reply.state())
-            << (reply.cache_hit() ? ", a cache hit: already done" : "") << "); follow it with `kiln watch "
-            << reply.job_id() << "`, write its outputs with `kiln fetch " << reply.job_id() << " --out DIR`\n";
-    return kExitOk;
+  return submit_then_follow(ctx, bake.spec, f, dir, where);
+}
+
+int cmd_bake_lightmap(Context& ctx, const Flags& f) {
+  LightmapBake bake = lightmap_bake_from_flags(f);
+  priority_of(f);
+  idempotency_key_of(f);  // usage errors before any import or upload
+  std::optional<fs::path> dir;
+  if (auto out = f.get("--out")) dir = prepare_out_dir(*out);
+  for (const std::string& file : {bake.scene_file, bake.env_file}) {
+    std::error_code ec;
+    if (!file.empty() && !fs::is_regular_file(file, ec)) {
+      throw UsageError(file + ": no such file (" +
+                       (file == bake.scene_file ? "the scene to bake: glTF, OBJ or FBX"
+                                                : "the environment: an equirectangular EXR, HDR, PNG or JPEG") + ")");
+    }
   }
-  return bake_and_follow(ctx, bake.spec, f, dir, where);
+  client::ImportedScene scene;
+  try {
+    scene = client::import_scene(bake.scene_file);
+  } catch (const std::exception& e) {
+    throw Failure(kExitUsage, e.what());
+  }
+  for (const std::string& w : scene.warnings) ctx.err << "kiln: " << bake.scene_file << ": " << w << "\n";
+  ctx.err << "kiln: " << bake.scene_file << ": " << scene.job.meshes_size() << " meshes, "
+          << scene.job.instances_size() << " instances, " << scene.job.materials_size() << " materials, "
+          << scene.job.textures_size() << " textures, " << scene.job.lights_size() << " lights\n";
+  merge_scene(bake, scene.job);
+  {
+    // Every blob once (the importer keys them by digest); the client asks the server first and sends only what it
+    // lacks.
+    ProgressPrinter printer(ctx.err, ctx.terminal.progress_in_place, ctx.terminal.columns);
+    std::uint64_t total = 0, sent = 0;
+    for (const auto& [sha, bytes] : scene.blobs) total += bytes.size();
+    const std::string label = "upload " + fs::path(bake.scene_file).filename().string();
+    try {
+      for (const auto& [sha, bytes] : scene.blobs) {
+        connected(ctx).upload_blob(bytes, [&](std::uint64_t done, std::uint64_t) {
+          printer.transfer(label, sent + done, total, now());
+        });
+        sent += bytes.size();
+      }
+      if (!bake.env_file.empty()) {
+        const std::string env_label = "upload " + fs::path(bake.env_file).filename().string();
+        *bake.spec.mutable_lightmap()->mutable_environment()->mutable_image() = connected(ctx).upload_file(
+            bake.env_file, [&](std::uint64_t done, std::uint64_t all) { printer.transfer(env_label, done, all, now()); });
+      }
+    } catch (const ServerError& e) {
+      printer.finish();
+      throw Failure(kExitServer, "kilnd at " + ctx.server + " refused the upload of " + bake.scene_file + ": " + said(e));
+    } catch (const ConnectionError& e) {
+      printer.finish();
+      connection_lost(ctx, e, "uploading " + bake.scene_file);
+    } catch (const std::runtime_error& e) {
+      printer.finish();
+      throw Failure(kExitUsage, e.what());
+    }
+    printer.finish();
+  }
+  // The server names a field; the user wrote a flag, a scene file, an image or a job file.
+  auto where = [&](const std::string& field) { return lightmap_field_origin(bake, field); };
+  return submit_then_follow(ctx, bake.spec, f, dir, where);
 }
 
 int cmd_bake(Context& ctx, const Flags& f) {
@@ -644,9 +716,11 @@ int cmd_bake(Context& ctx, const Flags& f) {
                      "--help`, `kiln bake env --help`)");
   }
   if (f.positional[0] == "env" || f.positional[0] == "environment") return cmd_bake_env(ctx, f);
+  if (f.positional[0] == "lightmap") return cmd_bake_lightmap(ctx, f);
   if (f.positional[0] != "material") {
     throw UsageError("unknown job type '" + f.positional[0] +
-                     "': `kiln bake` bakes material or env (see `kiln bake material --help`, `kiln bake env --help`)");
+                     "': `kiln bake` bakes material, env or lightmap (see `kiln bake material --help`, `kiln bake env "
+                     "--help`, `kiln bake lightmap --help`)");
   }
   if (f.positional.size() > 1) {
     throw UsageError("unexpected argument '" + f.positional[1] + "' (see `kiln bake material --help`)");
@@ -913,7 +987,8 @@ int run(const std::vector<std::string>& args, Context& ctx) {
     const Command* c = find_command(words[0]);
     if (!c) throw UsageError("no command '" + words[0] + "': expected one of " + command_names());
     const bool env = words[0] == "bake" && words.size() > 1 && (words[1] == "env" || words[1] == "environment");
-    ctx.out << (env ? kBakeEnvHelp : c->help);
+    const bool lightmap = words[0] == "bake" && words.size() > 1 && words[1] == "lightmap";
+    ctx.out << (env ? kBakeEnvHelp : lightmap ? kBakeLightmapHelp : c->help);
     return kExitOk;
   }
   const Command* command = find_command(name);
@@ -921,28 +996,36 @@ int run(const std::vector<std::string>& args, Context& ctx) {
     throw UsageError("unknown command '" + name + "': expected one of " + command_names() + " (see `kiln --help`)");
   }
   // `kiln bake TYPE`: the type is the first word that is not a flag (global flags' values skipped).
-  const bool bake_env = name == "bake" && [&] {
+  const std::string bake_type = name != "bake" ? "" : [&]() -> std::string {
     for (std::size_t i = 0; i < rest.size(); ++i) {
       if (rest[i] == "--server" || rest[i] == "--token-file") {
         ++i;
         continue;
       }
-      if (!rest[i].empty() && rest[i][0] != '-') return rest[i] == "env" || rest[i] == "environment";
+      if (!rest[i].empty() && rest[i][0] != '-') return rest[i];
     }
-    return false;
+    return "";
   }();
+  const bool bake_env = bake_type == "env" || bake_type == "environment";
+  const bool bake_lightmap = bake_type == "lightmap";
   // --help wins over everything else on the line, so that a half-typed command can still ask for its help.
   for (const auto& a : rest) {
     if (a == "--") break;
     if (a == "--help" || a == "-h") {
-      ctx.out << (bake_env ? kBakeEnvHelp : command->help);
+      ctx.out << (bake_env ? kBakeEnvHelp : bake_lightmap ? kBakeLightmapHelp : command->help);
       return kExitOk;
     }
   }
-  const std::string full = name == "bake" ? (bake_env ? "kiln bake env" : "kiln bake material") : "kiln " + name;
-  const Flags flags = parse_flags(
-      rest, name == "bake" ? (bake_env ? bake_env_flag_specs() : bake_material_flag_specs()) : with_globals(command->flags),
-      full);
+  const std::string full = name == "bake" ? (bake_env        ? "kiln bake env"
+                                             : bake_lightmap ? "kiln bake lightmap"
+                                                             : "kiln bake material")
+                                          : "kiln " + name;
+  const Flags flags = parse_flags(rest,
+                                  name == "bake" ? (bake_env        ? bake_env_flag_specs()
+                                                    : bake_lightmap ? bake_lightmap_flag_specs()
+                                                                    : bake_material_flag_specs())
+                                                 : with_globals(command->flags),
+                                  full);
 
   if (auto s = flags.get("--server")) {
     ctx.server = *s;

@@ -66,20 +66,6 @@ std::uint32_t whole(const Flags& f, const char* flag, std::int64_t lo, std::int6
   return static_cast<std::uint32_t>(parse_whole(flag, *f.get(flag), lo, hi));
 }
 
-void set_constant(const std::string& text, v1::Color* c) {
-  std::vector<std::string> parts;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) parts.push_back(item);
-  if (!text.empty() && text.back() == ',') parts.push_back("");
-  if (parts.size() != 1 && parts.size() != 3) {
-    throw UsageError("--constant: expected one value or three (R,G,B), got '" + text + "'");
-  }
-  double v[3];
-  for (std::size_t i = 0; i < 3; ++i) v[i] = parse_number_in("--constant", parts[parts.size() == 1 ? 0 : i], 0, 1e6);
-  c->set_r(v[0]);
-  c->set_g(v[1]);
-  c->set_b(v[2]);
-}
 
 v1::EnvironmentLobe lobe_of(std::string text) {
   std::replace(text.begin(), text.end(), '_', '-');  // job files spell cook_torrance, flags cook-torrance
@@ -129,7 +115,7 @@ EnvironmentBake environment_bake_from_flags(const Flags& f) {
     if (!bake.files.empty()) {
       throw UsageError("--constant: give one environment, not also the file '" + bake.files[0] + "'");
     }
-    set_constant(*f.get("--constant"), job->mutable_constant());
+    parse_color("--constant", *f.get("--constant"), 1e6, job->mutable_constant());
     for (const char* flag : {"--color-space", "--rotation", "--intensity"}) {
       if (f.has(flag)) {
         throw UsageError(std::string(flag) + ": applies to an image or faces; --constant is already radiance in the "

@@ -31,6 +31,7 @@
 #include "client/cli/env_flags.h"
 #include "client/cli/format.h"
 #include "client/cli/job_file.h"
+#include "client/cli/lightmap_flags.h"
 #include "client/cli/progress.h"
 #include "client/cli/report.h"
 #include "daemon/translate.h"
@@ -741,7 +742,11 @@ TEST(KilnCliBinary, HelpAndUsageErrors) {
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
       {{}, "kiln: missing command: expected one of submit, bake,"},
       {{"bake"}, "kiln: missing job type: `kiln bake material ...`"},
-      {{"bake", "lightmap"}, "kiln: unknown job type 'lightmap'"},
+      {{"bake", "lightmap"}, "kiln: missing scene: `kiln bake lightmap SCENE.gltf --out DIR`"},
+      {{"bake", "texture"}, "kiln: unknown job type 'texture'"},
+      {{"bake", "lightmap", "s.gltf", "--resolution", "3"}, "kiln: --resolution: must be a whole number in [4, 8192], got 3"},
+      {{"bake", "lightmap", "s.gltf", "--env", "a.exr", "--env-constant", "1"}, "kiln: --env-constant: give one environment"},
+      {{"bake", "lightmap", "s.gltf", "--env-rotation", "10"}, "kiln: --env-rotation: turns an --env image"},
       {{"frobnicate"}, "kiln: unknown command 'frobnicate'"},
       {{"--colour", "status"}, "kiln: unknown option --colour before the command"},
       {{"status", "--limit", "3"}, "kiln: unknown option --limit for `kiln status`"},
@@ -1313,6 +1318,63 @@ TEST(KilnCliBinary, CtrlCDuringBakeCancelsTheJob) {
   const std::string err = read(err_file);
   EXPECT_NE(err.find("kiln: job j1 cancelled (Ctrl-C); nothing was written to " + out.string()), std::string::npos)
       << err;
+}
+
+// `kiln bake lightmap`: the flags, a job file and an imported scene merge into one job (flags > job file > scene)
+// that the daemon's translation accepts; a job file giving meshes is refused; server fields map back to their origin.
+TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
+  const fs::path dir = fs::temp_directory_path() / ("kiln-lightmap-flags-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path job = dir / "job.textproto";
+  std::ofstream(job) << "material_overrides { name: \"white\" bsdf { specular { ggx { alpha: 0.2 } } } }\n"
+                        "lights { name: \"sun\" directional { direction { y: -1 } } }\n"
+                        "resolution: 128\npadding: 2\n";
+  LightmapBake bake = lightmap_bake_from_flags(std::vector<std::string>{
+      "lightmap", "scene.gltf", "--job", job.string(), "--resolution", "32", "--env-constant", "0.5",
+      "--env-intensity", "2", "--target-error", "0.05", "--max-samples", "512", "--time-limit", "20", "--ao",
+      "--no-preview", "--force", "environment_sampling=on"});
+  EXPECT_EQ(bake.scene_file, "scene.gltf");
+  v1::LightmapJob imported;
+  v1::Mesh* m = imported.add_meshes();
+  m->set_name("floor");
+  m->mutable_geometry()->set_sha256(std::string(64, 'a'));
+  m->mutable_geometry()->set_size(100);
+  imported.add_materials()->set_name("white");
+  imported.add_lights()->mutable_point();
+  merge_scene(bake, imported);
+  const v1::LightmapJob& j = bake.spec.lightmap();
+  EXPECT_EQ(j.meshes_size(), 1);
+  EXPECT_EQ(j.lights_size(), 2);            // the scene's and the job file's
+  EXPECT_EQ(j.material_overrides_size(), 1);
+  EXPECT_EQ(j.resolution(), 32u);           // the flag over the job file
+  EXPECT_EQ(j.padding(), 2u);               // the job file where no flag is given
+  EXPECT_TRUE(j.ao());
+  EXPECT_FALSE(j.preview());
+  EXPECT_EQ(j.environment().constant().g(), 0.5);
+  EXPECT_EQ(j.environment().intensity(), 2);
+  EXPECT_EQ(bake.spec.quality().samples(), 512u);
+  EXPECT_EQ(bake.spec.quality().time_limit_seconds(), 20);
+  EXPECT_TRUE(bake.spec.force_effects().at("environment_sampling"));
+  const daemon::BakeRequest r = daemon::translate(bake.spec);
+  EXPECT_EQ(r.lightmap.resolution, 32);
+  EXPECT_EQ(r.lightmap.scene.materials[0].bsdf.specular.alpha_x, 0.2);
+  EXPECT_EQ(r.lightmap.scene.lights[1].type, scene::LightType::directional);
+
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.resolution"), "--resolution");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.quality.target_error"), "--target-error");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.environment.intensity"), "--env-intensity");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.meshes[0].geometry"), "scene.gltf");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.lights[0].color.r"), "scene.gltf");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.material_overrides[0].name"), job.string() + ":1:22");  // the column of `name` in the file
+
+  std::ofstream(job) << "meshes { name: \"extra\" }\n";
+  try {
+    lightmap_bake_from_flags(std::vector<std::string>{"lightmap", "scene.gltf", "--job", job.string()});
+    ADD_FAILURE() << "a job file with meshes was taken";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("meshes"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace

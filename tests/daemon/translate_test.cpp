@@ -101,7 +101,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadSpec{"material { schlick_double { bottom { r: 7 } } }", "job.material.schlick_double.bottom.r", "got 7"},
         BadSpec{"material { layered { } }", "job.material.layered", "not supported"},
         BadSpec{"material { }", "job.material", "no model given"},
-        BadSpec{"", "job", "no job given: set material or environment"},
+        BadSpec{"", "job", "no job given: set material, environment or lightmap"},
         BadSpec{"material { ggx { } table_mu: 0 }", "job.material.table_mu", "got 0"},
         BadSpec{"material { ggx { } table_mu: 100000 }", "job.material.table_mu", "got 100000"},
         BadSpec{"material { ggx { } table_roughness: 1 }", "job.material.table_roughness", "got 1"},

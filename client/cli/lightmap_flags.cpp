@@ -1,0 +1,253 @@
+#include "client/cli/lightmap_flags.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "client/cli/bake_flags.h"
+#include "client/cli/job_file.h"
+
+namespace kiln::cli {
+
+const char* const kBakeLightmapHelp = R"(usage: kiln bake lightmap SCENE [options] --out DIR
+
+Bakes the lightmaps of a scene on the server: imports SCENE (glTF 2.0, OBJ or FBX, through Assimp: meshes with their
+lightmap UVs from TEXCOORD_1, else TEXCOORD_0; instances; metallic-roughness materials as GGX over Lambert; base-colour
+textures; emissive materials as area lights; KHR_lights_punctual), uploads its meshes, textures and environment (a
+blob the server already holds is not sent again), submits the job, waits with a progress display and writes every
+output into DIR: NAME_irradiance.exr (irradiance E in W/m^2), NAME_validity.exr, NAME_error.exr, NAME_preview.png for
+each lightmap NAME (a mesh's name), on request NAME_radiance.exr, NAME_ao.exr, NAME_sh.exr, and report.json (plan,
+samples, rays, time, error estimate, error-versus-time curve). What the importer dropped or approximated is printed.
+Ctrl-C cancels the job on the server (a second Ctrl-C leaves it running).
+
+the environment (at most one; none: black):
+  --env IMAGE                  an equirectangular (2:1) OpenEXR, Radiance HDR, PNG or JPEG file
+  --env-constant C | R,G,B     a constant radiance in the working space (lin_rec709), each in [0, 1e6]
+  --env-rotation DEG           turn the image about +Y (right-handed), [-360, 360]; default 0 (image only)
+  --env-intensity X            multiply the environment's radiance, (0, 1e6]; default 1
+the bake:
+  --resolution N               texels on a side of every lightmap, [4, 8192]; default 256
+  --target-error E             relative standard error per texel the adaptive sampling aims at, (0, 1]; default 0.01
+  --max-samples N              most samples per texel, [1, 1048576]; default 4096
+  --time-limit S               stop after S seconds (the current pass completes), (0, 604800]; default none
+  --seed N                     random seed; the same scene, settings and seed give the same bytes
+  --padding N                  texels of dilation around charts, [0, 64]; default 4
+  --max-bounces N              cap on the bounces the planner chooses, [0, 1024]; default 64
+  --radiance                   also write NAME_radiance.exr (rho E / pi)
+  --ao                         also write NAME_ao.exr (ambient occlusion)
+  --directional                also write NAME_sh.exr (order-1 SH of incoming radiance)
+  --no-preview                 do not render NAME_preview.png
+  --job FILE.textproto         a kiln.v1.LightmapJob in protobuf text format merged over the imported scene: its
+                               material_overrides (any material by name, with any model of the BRDF library), lights
+                               (point, spot, directional sun, rect, disk) and environment are added, its settings
+                               used where no flag is given; meshes, instances, materials and textures come from SCENE
+  --force EFFECT=on|off        make the planner simulate or skip an effect, by the name its plan reports (repeatable)
+  --name TEXT                  a name for people in `kiln jobs` (default: the scene file and its flags)
+options:
+  --out DIR                    wait, then write the outputs and report.json into DIR (created if missing)
+  --wait                       wait and print what the bake cost, without writing the outputs
+                               (neither: print the job id and return; `kiln watch ID` follows it)
+  --priority N                 higher runs first, [-100, 100]; default 0
+  --idempotency-key KEY        resubmitting with the same key and spec returns the first job
+  --server HOST:PORT | unix:PATH, --token-file FILE   see `kiln --help`
+
+example:
+  /usr/bin/python3 client/examples/scenes/cornell_box.py out/cornell_box.gltf
+  kiln bake lightmap out/cornell_box.gltf --resolution 64 --target-error 0.05 --out out/cornell_box
+)";
+
+namespace {
+
+const char* const kJobFlags[] = {"--env-constant", "--env-rotation", "--env-intensity", "--resolution",
+                                 "--target-error", "--max-samples",  "--time-limit",    "--seed",
+                                 "--padding",      "--max-bounces"};
+
+
+std::uint32_t whole(const Flags& f, const char* flag, std::int64_t lo, std::int64_t hi) {
+  return static_cast<std::uint32_t>(parse_whole(flag, *f.get(flag), lo, hi));
+}
+
+std::string default_name(const Flags& f, const std::string& scene) {
+  std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
+  if (auto v = f.get("--env")) name += " env=" + std::filesystem::path(*v).filename().string();
+  for (const char* flag : kJobFlags) {
+    if (auto v = f.get(flag)) name += " " + std::string(flag + 2) + "=" + *v;
+  }
+  for (const char* flag : {"--radiance", "--ao", "--directional", "--no-preview"}) {
+    if (f.has(flag)) name += " " + std::string(flag + 2);
+  }
+  if (auto v = f.get("--job")) name += " job=" + std::filesystem::path(*v).filename().string();
+  return name;
+}
+
+// The job file: a LightmapJob in text format, parsed as the `lightmap` of a JobSpec so that errors carry its lines
+// (the wrapper sits on the first line; only that line's columns shift).
+void read_overlay(LightmapBake& bake) {
+  std::ifstream in(bake.job_file, std::ios::binary);
+  if (!in) throw UsageError("--job: cannot read " + bake.job_file);
+  std::ostringstream s;
+  s << in.rdbuf();
+  bake.job_text = s.str();
+  v1::JobSpec wrapped;
+  const std::string wrapper = "lightmap { ";
+  try {
+    parse_job_text(wrapper + bake.job_text + "\n}", bake.job_file, wrapped);
+  } catch (const UsageError& e) {
+    // "FILE:1:COLUMN: ..." counts the wrapper's columns on the first line: take them off.
+    const std::string text = e.what(), head = bake.job_file + ":1:";
+    if (text.rfind(head, 0) != 0) throw;
+    const std::size_t end = text.find(':', head.size());
+    const int column = std::stoi(text.substr(head.size(), end - head.size())) - static_cast<int>(wrapper.size());
+    throw UsageError(head + std::to_string(std::max(column, 1)) + text.substr(end));
+  }
+  bake.overlay = wrapped.lightmap();
+  const v1::LightmapJob& o = bake.overlay;
+  for (const auto& [count, what] : {std::pair{o.meshes_size(), "meshes"}, std::pair{o.instances_size(), "instances"},
+                                    std::pair{o.materials_size(), "materials"},
+                                    std::pair{o.textures_size(), "textures"}}) {
+    if (count > 0) {
+      throw UsageError(bake.job_file + ": gives " + what + "; they come from the scene file (use material_overrides "
+                                       "to change a material, lights to add lights)");
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<FlagSpec> bake_lightmap_flag_specs() {
+  std::vector<FlagSpec> specs = global_flag_specs();
+  for (const char* flag : {"--name", "--out", "--priority", "--idempotency-key", "--env", "--job"}) {
+    specs.push_back({flag});
+  }
+  for (const char* flag : kJobFlags) specs.push_back({flag});
+  for (const char* flag : {"--radiance", "--ao", "--directional", "--no-preview", "--wait"}) {
+    specs.push_back({flag, false});
+  }
+  specs.push_back({"--force", true, true});
+  return specs;
+}
+
+LightmapBake lightmap_bake_from_flags(const std::vector<std::string>& args) {
+  return lightmap_bake_from_flags(parse_flags(args, bake_lightmap_flag_specs(), "kiln bake lightmap"));
+}
+
+LightmapBake lightmap_bake_from_flags(const Flags& f) {
+  LightmapBake bake;
+  const std::vector<std::string> words(f.positional.begin() + (f.positional.empty() ? 0 : 1), f.positional.end());
+  if (words.empty()) {
+    throw UsageError("missing scene: `kiln bake lightmap SCENE.gltf --out DIR` (see `kiln bake lightmap --help`)");
+  }
+  if (words.size() > 1) {
+    throw UsageError("unexpected argument '" + words[1] + "': one scene file (see `kiln bake lightmap --help`)");
+  }
+  bake.scene_file = words[0];
+  if (auto v = f.get("--job")) {
+    bake.job_file = *v;
+    read_overlay(bake);
+  }
+  v1::LightmapJob* job = bake.spec.mutable_lightmap();
+
+  if (f.has("--env") && f.has("--env-constant")) {
+    throw UsageError("--env-constant: give one environment: --env IMAGE or --env-constant R,G,B");
+  }
+  if (f.has("--env-rotation") && !f.has("--env")) {
+    throw UsageError("--env-rotation: turns an --env image; a constant environment has no direction");
+  }
+  v1::SceneEnvironment* env = nullptr;
+  if (auto v = f.get("--env")) {
+    bake.env_file = *v;
+    env = job->mutable_environment();
+    env->mutable_image();  // its digest once uploaded
+  }
+  if (auto v = f.get("--env-constant")) {
+    env = job->mutable_environment();
+    parse_color("--env-constant", *v, 1e6, env->mutable_constant());
+  }
+  if (auto v = f.get("--env-rotation")) env->set_rotation_degrees(parse_number_in("--env-rotation", *v, -360, 360));
+  if (auto v = f.get("--env-intensity")) {
+    if (!env) throw UsageError("--env-intensity: multiplies an environment: add --env IMAGE or --env-constant");
+    env->set_intensity(parse_number_in("--env-intensity", *v, 0, 1e6, true));
+  }
+  if (f.has("--resolution")) job->set_resolution(whole(f, "--resolution", 4, 8192));
+  if (f.has("--padding")) job->set_padding(whole(f, "--padding", 0, 64));
+  if (f.has("--max-bounces")) job->set_max_bounces(whole(f, "--max-bounces", 0, 1024));
+  if (f.has("--radiance")) job->set_radiance(true);
+  if (f.has("--ao")) job->set_ao(true);
+  if (f.has("--directional")) job->set_directional(true);
+  if (f.has("--no-preview")) job->set_preview(false);
+
+  v1::Quality* q = bake.spec.mutable_quality();
+  if (auto v = f.get("--max-samples")) {
+    q->set_samples(static_cast<std::uint64_t>(parse_whole("--max-samples", *v, 1, 1 << 20)));
+  }
+  if (auto v = f.get("--target-error")) q->set_target_error(parse_number_in("--target-error", *v, 0, 1.0, true));
+  if (auto v = f.get("--time-limit")) q->set_time_limit_seconds(parse_number_in("--time-limit", *v, 0, 604800, true));
+  if (auto v = f.get("--seed")) {
+    q->set_seed(static_cast<std::uint64_t>(parse_whole("--seed", *v, 0, std::int64_t{1} << 53)));
+  }
+  if (!q->has_samples() && !q->has_target_error() && !q->has_time_limit_seconds() && q->seed() == 0) {
+    bake.spec.clear_quality();
+  }
+  add_forced_effects(f, bake.spec);
+  set_name(f, bake.spec, default_name(f, bake.scene_file));
+  return bake;
+}
+
+void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
+  v1::LightmapJob merged = imported;
+  bake.imported_lights = imported.lights_size();
+  // The job file: overrides and lights added, environment and settings over the scene's.
+  merged.MergeFrom(bake.overlay);
+  // The flags: their settings over the job file's (an environment from the flags replaces the job file's whole).
+  const v1::LightmapJob& flags = bake.spec.lightmap();
+  if (flags.has_environment()) *merged.mutable_environment() = flags.environment();
+  if (flags.has_resolution()) merged.set_resolution(flags.resolution());
+  if (flags.has_padding()) merged.set_padding(flags.padding());
+  if (flags.has_max_bounces()) merged.set_max_bounces(flags.max_bounces());
+  if (flags.radiance()) merged.set_radiance(true);
+  if (flags.ao()) merged.set_ao(true);
+  if (flags.directional()) merged.set_directional(true);
+  if (flags.has_preview()) merged.set_preview(flags.preview());
+  *bake.spec.mutable_lightmap() = std::move(merged);
+}
+
+std::string lightmap_field_origin(const LightmapBake& bake, const std::string& field) {
+  const std::string prefix = "job.lightmap.";
+  auto starts = [&](const std::string& p) { return field.rfind(prefix + p, 0) == 0; };
+  if (starts("environment.image") && !bake.env_file.empty()) return bake.env_file;
+  static const std::pair<const char*, const char*> kFlags[] = {
+      {"resolution", "--resolution"},   {"padding", "--padding"},         {"max_bounces", "--max-bounces"},
+      {"radiance", "--radiance"},       {"ao", "--ao"},                   {"directional", "--directional"},
+      {"preview", "--no-preview"},      {"environment.constant", "--env-constant"},
+      {"environment.rotation_degrees", "--env-rotation"},                 {"environment.intensity", "--env-intensity"},
+  };
+  for (const auto& [name, flag] : kFlags) {
+    if (field == prefix + name || starts(std::string(name) + ".")) return flag;
+  }
+  if (field.rfind("job.quality.samples", 0) == 0) return "--max-samples";
+  if (field.rfind("job.quality.target_error", 0) == 0) return "--target-error";
+  if (field.rfind("job.quality.time_limit_seconds", 0) == 0) return "--time-limit";
+  if (field.rfind("job.force_effects", 0) == 0) return "--force";
+  if (starts("meshes") || starts("instances") || starts("materials") || starts("textures")) return bake.scene_file;
+  if (starts("lights[")) {
+    const int i = std::stoi(field.substr(prefix.size() + 7));
+    if (i < bake.imported_lights || bake.job_file.empty()) return bake.scene_file;
+  }
+  if (!bake.job_file.empty()) {
+    // The job file's fields, located in its text ("lightmap { " shifts only the first line's columns).
+    const std::string wrapper = "lightmap { ";
+    if (auto at = locate_field(wrapper + bake.job_text + "\n}", field)) {
+      // The wrapper shifts the first line's columns.
+      if (at->rfind("1:", 0) == 0) {
+        const int column = std::stoi(at->substr(2)) - static_cast<int>(wrapper.size());
+        *at = "1:" + std::to_string(std::max(column, 1));
+      }
+      return bake.job_file + ":" + *at;
+    }
+    return bake.job_file;
+  }
+  return bake.scene_file;
+}
+
+}  // namespace kiln::cli

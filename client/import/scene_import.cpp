@@ -1,0 +1,367 @@
+#include "client/import/scene_import.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include <assimp/Importer.hpp>
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <boost/property_tree/json_parser.hpp>
+#include <boost/property_tree/ptree.hpp>
+
+#include "client/import/mesh_blob.h"
+#include "proto/digest.h"
+
+namespace kiln::client {
+namespace {
+
+// The sun's angular diameter (0.53°): directional lights from files have no size of their own.
+constexpr double kSunAngularDiameter = 0.00925;
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + path + ": " + std::strerror(errno));
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string directory_of(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
+}
+
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && std::equal(tail.rbegin(), tail.rend(), s.rbegin(),
+                                               [](char a, char b) { return std::tolower(a) == std::tolower(b); });
+}
+
+// KHR_materials_emissive_strength per material name, from the glTF's JSON (Assimp 5.2 does not read it).
+std::map<std::string, double> emissive_strengths(const std::string& path) {
+  std::map<std::string, double> out;
+  std::string json;
+  if (ends_with(path, ".gltf")) {
+    json = read_file(path);
+  } else if (ends_with(path, ".glb")) {
+    const std::string glb = read_file(path);
+    // GLB: 12-byte header, then chunk 0 (length, type "JSON", data).
+    if (glb.size() < 20 || glb.compare(16, 4, "JSON") != 0) return out;
+    uint32_t length = 0;
+    std::memcpy(&length, glb.data() + 12, 4);
+    if (length > glb.size() - 20) return out;
+    json = glb.substr(20, length);
+  } else {
+    return out;
+  }
+  try {
+    boost::property_tree::ptree tree;
+    std::istringstream in(json);
+    boost::property_tree::read_json(in, tree);
+    const auto materials = tree.get_child_optional("materials");
+    if (!materials) return out;
+    for (const auto& [key, material] : *materials) {
+      const auto strength = material.get_optional<double>("extensions.KHR_materials_emissive_strength.emissiveStrength");
+      if (strength) out[material.get<std::string>("name", "")] = *strength;
+    }
+  } catch (const std::exception&) {
+    // Malformed JSON: Assimp has read the file already or will say what is wrong with it.
+  }
+  return out;
+}
+
+v1::Color color(double r, double g, double b) {
+  v1::Color c;
+  c.set_r(r);
+  c.set_g(g);
+  c.set_b(b);
+  return c;
+}
+
+v1::Vector3 vec(const aiVector3D& v) {
+  v1::Vector3 out;
+  out.set_x(v.x);
+  out.set_y(v.y);
+  out.set_z(v.z);
+  return out;
+}
+
+class Importer {
+ public:
+  explicit Importer(const std::string& path) : path_(path) {}
+
+  ImportedScene run() {
+    Assimp::Importer importer;
+    // FlipUVs: Assimp turns every format's UVs to v = 0 at the bottom; kiln keeps glTF's v = 0 at the top.
+    const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_JoinIdenticalVertices |
+                           aiProcess_FlipUVs | aiProcess_ValidateDataStructure;
+    scene_ = importer.ReadFile(path_, flags);
+    if (!scene_ || !scene_->mRootNode) {
+      throw std::runtime_error("cannot import " + path_ + ": " + importer.GetErrorString());
+    }
+    strengths_ = emissive_strengths(path_);
+    materials();
+    meshes();
+    count_node_uses(scene_->mRootNode);
+    instances(scene_->mRootNode, aiMatrix4x4());
+    lights();
+    if (out_.job.instances_size() == 0) {
+      throw std::runtime_error("cannot import " + path_ + ": it has no triangle meshes");
+    }
+    return std::move(out_);
+  }
+
+ private:
+  std::string add_blob(std::string bytes, v1::Digest* digest) {
+    const std::string sha = proto::sha256_hex(bytes);
+    digest->set_sha256(sha);
+    digest->set_size(bytes.size());
+    out_.blobs.emplace(sha, std::move(bytes));
+    return sha;
+  }
+
+  std::optional<uint32_t> texture(const aiMaterial* m) {
+    aiString file;
+    if (m->GetTexture(aiTextureType_BASE_COLOR, 0, &file) != AI_SUCCESS &&
+        m->GetTexture(aiTextureType_DIFFUSE, 0, &file) != AI_SUCCESS) {
+      return std::nullopt;
+    }
+    const std::string name = file.C_Str();
+    if (auto it = textures_.find(name); it != textures_.end()) return it->second;
+    std::string bytes;
+    if (const aiTexture* embedded = scene_->GetEmbeddedTexture(file.C_Str())) {
+      if (embedded->mHeight != 0) {  // raw texels, not an encoded file: rare, and not worth a second path
+        out_.warnings.push_back("texture " + name + ": embedded as raw texels, not supported; ignored");
+        return std::nullopt;
+      }
+      bytes.assign(reinterpret_cast<const char*>(embedded->pcData), embedded->mWidth);
+    } else {
+      const std::string file_path = directory_of(path_) + "/" + name;
+      try {
+        bytes = read_file(file_path);
+      } catch (const std::exception& e) {
+        out_.warnings.push_back("texture " + name + ": " + e.what() + "; the material uses its base colour alone");
+        return std::nullopt;
+      }
+    }
+    v1::Texture* t = out_.job.add_textures();
+    t->set_name(name.substr(0, 256));
+    t->set_color_space("srgb_texture");
+    add_blob(std::move(bytes), t->mutable_image());
+    const uint32_t index = static_cast<uint32_t>(out_.job.textures_size() - 1);
+    textures_[name] = index;
+    return index;
+  }
+
+  void materials() {
+    const bool gltf = ends_with(path_, ".gltf") || ends_with(path_, ".glb");
+    for (unsigned i = 0; i < scene_->mNumMaterials; ++i) {
+      const aiMaterial* m = scene_->mMaterials[i];
+      v1::SceneMaterial* out = out_.job.add_materials();
+      std::string name = m->GetName().C_Str();
+      if (name.empty()) name = "material_" + std::to_string(i);
+      out->set_name(name.substr(0, 256));
+
+      aiColor4D base(1, 1, 1, 1);
+      float metallic = 0, roughness = 1;
+      aiColor3D specular(0, 0, 0);
+      float shininess = 0;
+      if (gltf) {
+        m->Get(AI_MATKEY_BASE_COLOR, base);
+        m->Get(AI_MATKEY_METALLIC_FACTOR, metallic);
+        m->Get(AI_MATKEY_ROUGHNESS_FACTOR, roughness);
+      } else {
+        aiColor3D diffuse(0.8f, 0.8f, 0.8f);
+        m->Get(AI_MATKEY_COLOR_DIFFUSE, diffuse);
+        base = aiColor4D(diffuse.r, diffuse.g, diffuse.b, 1);
+        m->Get(AI_MATKEY_COLOR_SPECULAR, specular);
+        m->Get(AI_MATKEY_SHININESS, shininess);
+      }
+      auto clamp01 = [](double v) { return std::isfinite(v) ? std::clamp(v, 0.0, 1.0) : 0.0; };
+      *out->mutable_base_color() = color(clamp01(base.r), clamp01(base.g), clamp01(base.b));
+      if (auto t = texture(m)) out->set_base_color_texture(*t);
+
+      v1::Layered* bsdf = out->mutable_bsdf();
+      bsdf->set_combine(v1::COMBINE_LAYERED);
+      v1::Lambert* diffuse = bsdf->mutable_diffuse()->mutable_lambert();
+      v1::Microfacet* ggx = bsdf->mutable_specular()->mutable_ggx();
+      ggx->set_fresnel(v1::FRESNEL_SCHLICK);
+      if (gltf) {
+        metallic = static_cast<float>(clamp01(metallic));
+        const double a = std::max(clamp01(roughness), 0.03);  // α = ρ²; ρ < 0.03 is a mirror beyond the BRDF library's range
+        ggx->set_alpha(a * a);
+        *ggx->mutable_f0() = color(0.04 + (base.r - 0.04) * metallic, 0.04 + (base.g - 0.04) * metallic,
+                                   0.04 + (base.b - 0.04) * metallic);
+        *diffuse->mutable_albedo() = color(1 - metallic, 1 - metallic, 1 - metallic);
+      } else {
+        *diffuse->mutable_albedo() = color(1, 1, 1);
+        if (std::max({specular.r, specular.g, specular.b}) > 0 && shininess > 0) {
+          ggx->set_alpha(std::clamp(std::sqrt(2.0 / (shininess + 2.0)), 0.001, 1.0));
+          *ggx->mutable_f0() = color(clamp01(specular.r), clamp01(specular.g), clamp01(specular.b));
+        } else {
+          ggx->set_alpha(1.0);
+          *ggx->mutable_f0() = color(0, 0, 0);  // no specular lobe
+        }
+      }
+
+      aiColor3D emissive(0, 0, 0);
+      m->Get(AI_MATKEY_COLOR_EMISSIVE, emissive);
+      double strength = 1;
+      if (auto it = strengths_.find(name); it != strengths_.end()) strength = it->second;
+      if (std::max({emissive.r, emissive.g, emissive.b}) > 0) {
+        *out->mutable_emission() = color(emissive.r * strength, emissive.g * strength, emissive.b * strength);
+      }
+      int two_sided = 0;
+      if (m->Get(AI_MATKEY_TWOSIDED, two_sided) == AI_SUCCESS) out->set_two_sided(two_sided != 0);
+    }
+  }
+
+  void meshes() {
+    std::map<std::string, int> seen;
+    for (unsigned i = 0; i < scene_->mNumMeshes; ++i) {
+      const aiMesh* m = scene_->mMeshes[i];
+      mesh_index_.push_back(-1);
+      if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) {
+        out_.warnings.push_back("mesh " + std::string(m->mName.C_Str()) + ": points or lines only; dropped");
+        continue;
+      }
+      MeshArrays a;
+      a.positions.reserve(m->mNumVertices);
+      for (unsigned v = 0; v < m->mNumVertices; ++v) {
+        a.positions.push_back({m->mVertices[v].x, m->mVertices[v].y, m->mVertices[v].z});
+      }
+      if (m->HasNormals()) {
+        for (unsigned v = 0; v < m->mNumVertices; ++v) {
+          a.normals.push_back({m->mNormals[v].x, m->mNormals[v].y, m->mNormals[v].z});
+        }
+      }
+      auto uvs = [&](unsigned set, std::vector<std::array<float, 2>>& into) {
+        for (unsigned v = 0; v < m->mNumVertices; ++v) {
+          into.push_back({m->mTextureCoords[set][v].x, m->mTextureCoords[set][v].y});
+        }
+      };
+      if (m->HasTextureCoords(0)) uvs(0, a.uv);
+      if (m->HasTextureCoords(1)) {
+        uvs(1, a.lightmap_uv);
+      } else if (m->HasTextureCoords(0)) {
+        a.lightmap_uv = a.uv;
+      }
+      std::string base_name = m->mName.length ? m->mName.C_Str() : "mesh_" + std::to_string(i);
+      if (a.lightmap_uv.empty()) {
+        out_.warnings.push_back("mesh " + base_name + ": no UVs for a lightmap; it casts shadows but is not baked");
+      }
+      for (unsigned f = 0; f < m->mNumFaces; ++f) {
+        const aiFace& face = m->mFaces[f];
+        if (face.mNumIndices != 3) continue;  // points and lines left by SortByPType in a mixed mesh
+        a.indices.insert(a.indices.end(), {face.mIndices[0], face.mIndices[1], face.mIndices[2]});
+      }
+      a.materials.assign(a.indices.size() / 3, m->mMaterialIndex);
+      // Assimp splits a mesh by material into pieces of the same name: the pieces keep it as their lightmap.
+      const int n = seen[base_name]++;
+      const std::string name = n == 0 ? base_name : base_name + "#" + std::to_string(n);
+      v1::Mesh* out = out_.job.add_meshes();
+      out->set_name(name.substr(0, 256));
+      add_blob(encode_mesh_blob(a), out->mutable_geometry());
+      mesh_index_.back() = out_.job.meshes_size() - 1;
+      lightmap_of_mesh_.push_back(base_name);
+      has_lightmap_uv_.push_back(!a.lightmap_uv.empty());
+    }
+  }
+
+  void count_node_uses(const aiNode* node) {
+    for (unsigned i = 0; i < node->mNumMeshes; ++i) ++uses_[node->mMeshes[i]];
+    for (unsigned c = 0; c < node->mNumChildren; ++c) count_node_uses(node->mChildren[c]);
+  }
+
+  void instances(const aiNode* node, const aiMatrix4x4& parent) {
+    const aiMatrix4x4 world = parent * node->mTransformation;
+    world_of_node_[node->mName.C_Str()] = world;
+    for (unsigned i = 0; i < node->mNumMeshes; ++i) {
+      const unsigned ai_mesh = node->mMeshes[i];
+      const int mesh = ai_mesh < mesh_index_.size() ? mesh_index_[ai_mesh] : -1;
+      if (mesh < 0) continue;
+      v1::Instance* inst = out_.job.add_instances();
+      inst->set_mesh(static_cast<uint32_t>(mesh));
+      // aiMatrix4x4 is row-major with the translation in the last column: the first three rows are kiln's 3×4.
+      const float rows[12] = {world.a1, world.a2, world.a3, world.a4, world.b1, world.b2,
+                              world.b3, world.b4, world.c1, world.c2, world.c3, world.c4};
+      const bool identity = world.IsIdentity();
+      if (!identity) {
+        for (float v : rows) inst->add_transform(v);
+      }
+      const std::string& lightmap = lightmap_of_mesh_[mesh];
+      if (uses_[ai_mesh] > 1) {
+        // Shared geometry in several places: each placement needs its own texels.
+        inst->set_lightmap((std::string(node->mName.C_Str()) + "/" + lightmap).substr(0, 256));
+      } else {
+        inst->set_lightmap(lightmap.substr(0, 256));
+      }
+      if (!has_lightmap_uv_[mesh]) inst->set_bake(false);
+    }
+    for (unsigned c = 0; c < node->mNumChildren; ++c) instances(node->mChildren[c], world);
+  }
+
+  void lights() {
+    for (unsigned i = 0; i < scene_->mNumLights; ++i) {
+      const aiLight* l = scene_->mLights[i];
+      const std::string name = l->mName.C_Str();
+      aiMatrix4x4 world;
+      if (auto it = world_of_node_.find(name); it != world_of_node_.end()) world = it->second;
+      aiVector3D position = world * l->mPosition;
+      aiMatrix3x3 rotation(world);
+      aiVector3D direction = rotation * l->mDirection;
+      if (direction.Length() > 0) direction.Normalize();
+      v1::Light* out = out_.job.add_lights();
+      out->set_name(name.substr(0, 256));
+      *out->mutable_color() = color(l->mColorDiffuse.r, l->mColorDiffuse.g, l->mColorDiffuse.b);
+      switch (l->mType) {
+        case aiLightSource_POINT:
+          *out->mutable_point()->mutable_position() = vec(position);
+          break;
+        case aiLightSource_SPOT: {
+          v1::SpotLight* s = out->mutable_spot();
+          *s->mutable_position() = vec(position);
+          *s->mutable_direction() = vec(direction);
+          // Assimp stores the cone angles whole (glTF's are half-angles); kiln's are measured from the axis.
+          s->set_inner_cone_angle(std::clamp(l->mAngleInnerCone / 2.0, 0.0, M_PI / 2));
+          s->set_outer_cone_angle(std::clamp(l->mAngleOuterCone / 2.0, 1e-3, M_PI / 2));
+          break;
+        }
+        case aiLightSource_DIRECTIONAL: {
+          v1::DirectionalLight* d = out->mutable_directional();
+          *d->mutable_direction() = vec(direction);
+          d->set_angular_diameter(kSunAngularDiameter);
+          break;
+        }
+        default:
+          out_.warnings.push_back("light " + name + ": type " + std::to_string(static_cast<int>(l->mType)) +
+                                  " is not supported (point, spot and directional are); dropped");
+          out_.job.mutable_lights()->RemoveLast();
+          break;
+      }
+    }
+  }
+
+  std::string path_;
+  const aiScene* scene_ = nullptr;
+  ImportedScene out_;
+  std::map<std::string, double> strengths_;
+  std::map<std::string, uint32_t> textures_;
+  std::vector<int> mesh_index_;                // aiMesh → job mesh, -1 if dropped
+  std::vector<std::string> lightmap_of_mesh_;  // job mesh → its lightmap name
+  std::vector<bool> has_lightmap_uv_;          // job mesh
+  std::map<unsigned, int> uses_;               // aiMesh → nodes referring to it
+  std::map<std::string, aiMatrix4x4> world_of_node_;
+};
+
+}  // namespace
+
+ImportedScene import_scene(const std::string& path) { return Importer(path).run(); }
+
+}  // namespace kiln::client

@@ -1,0 +1,500 @@
+// The lightmap job's part of the translation layer: a kiln.v1.LightmapJob in, a lightmap::LightmapBakeInput out,
+// every field checked against the bounds kiln.proto documents and named by its path when it is not
+// ("job.lightmap.lights[0].spot.outer_cone_angle"). Mesh blobs are decoded later, in the worker (load_inputs).
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "bakers/brdf/describe.h"
+#include "daemon/mesh_blob_decode.h"
+#include "daemon/store/blob_store.h"
+#include "daemon/translate_fields.h"
+#include "proto/digest.h"
+#include "proto/kiln.pb.h"
+
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
+
+namespace kiln::daemon::detail {
+namespace {
+
+using brdf::format_number;
+
+constexpr std::size_t kMaxNameBytes = 256;
+constexpr int kMaxMeshes = 65536;
+constexpr int kMaxInstances = 1 << 20;
+constexpr int kMaxMaterials = 65536;
+constexpr int kMaxTextures = 4096;
+constexpr int kMaxLights = 65536;
+constexpr int kMaxLightmapSettings = 65536;
+constexpr uint64_t kMaxTotalTexels = uint64_t{1} << 24;  // 4096² texels: ~1 GiB of per-texel state in the baker
+constexpr double kMaxCoordinate = 1e9;                    // beyond it float32 geometry has no precision left
+constexpr double kMaxLightColor = 1e12;
+constexpr double kMaxEmission = 1e9;
+constexpr double kMaxEnvRadiance = 1e6;
+constexpr double kMaxTimeLimitSeconds = 7 * 86400;       // the baker's bound
+constexpr uint64_t kDefaultMinSamples = 16;              // the baker's default, capped by max_samples
+constexpr double kHalfPi = 1.5707963267948966;
+
+std::string at(const std::string& path, int i) { return path + "[" + std::to_string(i) + "]"; }
+
+void check_name(const std::string& name, const std::string& field) {
+  if (name.size() > kMaxNameBytes) {
+    throw InvalidField(field, "at most 256 bytes, got " + std::to_string(name.size()));
+  }
+}
+
+void check_count(int n, int most, const std::string& field, const char* what) {
+  if (n > most) {
+    throw InvalidField(field, "at most " + std::to_string(most) + " " + what + ", got " + std::to_string(n));
+  }
+}
+
+Vec3 vector(const kiln::v1::Vector3& v, const std::string& field) {
+  check_range(field + ".x", v.x(), -kMaxCoordinate, kMaxCoordinate, false);
+  check_range(field + ".y", v.y(), -kMaxCoordinate, kMaxCoordinate, false);
+  check_range(field + ".z", v.z(), -kMaxCoordinate, kMaxCoordinate, false);
+  return {v.x(), v.y(), v.z()};
+}
+
+// A direction: finite and non-zero (a zero vector has no direction to normalise).
+Vec3 direction(const kiln::v1::Vector3& v, const std::string& field, bool given) {
+  if (!given) throw InvalidField(field, "required: a non-zero direction");
+  const Vec3 d = vector(v, field);
+  const double length = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+  if (!(length > 0)) throw InvalidField(field, "must be non-zero, got (0, 0, 0)");
+  return {d.x / length, d.y / length, d.z / length};
+}
+
+scene::Light light(const kiln::v1::Light& l, const std::string& path) {
+  scene::Light out;
+  check_name(l.name(), path + ".name");
+  out.name = l.name();
+  if (l.has_color()) out.color = color(l.color(), path + ".color", 0.0, kMaxLightColor);
+  using L = kiln::v1::Light;
+  switch (l.type_case()) {
+    case L::kPoint:
+      out.type = scene::LightType::point;
+      out.position = vector(l.point().position(), path + ".point.position");
+      break;
+    case L::kSpot: {
+      const auto& s = l.spot();
+      const std::string p = path + ".spot";
+      out.type = scene::LightType::spot;
+      out.position = vector(s.position(), p + ".position");
+      out.direction = direction(s.direction(), p + ".direction", s.has_direction());
+      if (s.has_outer_cone_angle()) {
+        check_range(p + ".outer_cone_angle", s.outer_cone_angle(), 0.0, kHalfPi, true);
+        out.outer_cone = s.outer_cone_angle();
+      }
+      if (s.has_inner_cone_angle()) {
+        check_range(p + ".inner_cone_angle", s.inner_cone_angle(), 0.0, out.outer_cone, false);
+        out.inner_cone = s.inner_cone_angle();
+      }
+      break;
+    }
+    case L::kDirectional: {
+      const auto& d = l.directional();
+      const std::string p = path + ".directional";
+      out.type = scene::LightType::directional;
+      out.direction = direction(d.direction(), p + ".direction", d.has_direction());
+      out.angular_diameter = 0.00935;  // the sun's, as kiln.proto documents
+      if (d.has_angular_diameter()) {
+        check_range(p + ".angular_diameter", d.angular_diameter(), 0.0, 0.5, false);
+        out.angular_diameter = d.angular_diameter();
+      }
+      break;
+    }
+    case L::kRect: {
+      const auto& r = l.rect();
+      const std::string p = path + ".rect";
+      out.type = scene::LightType::rect;
+      out.position = vector(r.center(), p + ".center");
+      out.u_axis = vector(r.u(), p + ".u");
+      out.v_axis = vector(r.v(), p + ".v");
+      const Vec3 n = cross(out.u_axis, out.v_axis);
+      const double area = std::sqrt(dot(n, n));
+      // Parallel or zero edges span no area: the light would emit nothing from nowhere.
+      if (!(area > 0) || !std::isfinite(area)) {
+        throw InvalidField(p + ".v", "u and v must span a rectangle (non-zero, not parallel)");
+      }
+      out.direction = n / area;
+      out.two_sided = r.two_sided();
+      break;
+    }
+    case L::kDisk: {
+      const auto& d = l.disk();
+      const std::string p = path + ".disk";
+      out.type = scene::LightType::disk;
+      out.position = vector(d.center(), p + ".center");
+      out.direction = direction(d.normal(), p + ".normal", d.has_normal());
+      check_range(p + ".radius", d.radius(), 0.0, 1e6, true);
+      out.radius = d.radius();
+      out.two_sided = d.two_sided();
+      break;
+    }
+    case L::TYPE_NOT_SET:
+      throw InvalidField(path, "no light type given: set point, spot, directional, rect or disk");
+  }
+  return out;
+}
+
+// A material of the scene; Lambert 0.8 with no specular lobe when it gives no BSDF.
+scene::SceneMaterial material(const kiln::v1::SceneMaterial& m, const std::string& path, int textures) {
+  scene::SceneMaterial out;
+  check_name(m.name(), path + ".name");
+  out.name = m.name();
+  out.bsdf = material_spec(m.bsdf(), path + ".bsdf");
+  if (m.has_base_color()) out.base_color = color(m.base_color(), path + ".base_color", 0.0, 1.0);
+  if (m.has_base_color_texture()) {
+    if (m.base_color_texture() >= static_cast<uint32_t>(textures)) {
+      throw InvalidField(path + ".base_color_texture", "index " + std::to_string(m.base_color_texture()) +
+                                                           " out of range: the job has " + std::to_string(textures) +
+                                                           " textures");
+    }
+    out.base_color_texture = static_cast<int>(m.base_color_texture());
+  }
+  if (m.has_emission()) out.emission = color(m.emission(), path + ".emission", 0.0, kMaxEmission);
+  out.two_sided = m.two_sided();
+  return out;
+}
+
+void environment(const kiln::v1::SceneEnvironment& e, const std::string& path, const store::BlobStore* blobs,
+                 BakeRequest& r) {
+  lightmap::LightmapBakeInput& in = r.lightmap;
+  using E = kiln::v1::SceneEnvironment;
+  double intensity = 1;
+  if (e.has_intensity()) {
+    check_range(path + ".intensity", e.intensity(), 0.0, envmap::kMaxEnvIntensity, true);
+    intensity = e.intensity();
+  }
+  switch (e.source_case()) {
+    case E::kConstant: {
+      const Rgb c = color(e.constant(), path + ".constant", 0.0, kMaxEnvRadiance);
+      if (!e.color_space().empty()) {
+        throw InvalidField(path + ".color_space", "applies to an image; a constant colour is already radiance in "
+                                                  "the working space: leave it out");
+      }
+      if (e.rotation_degrees() != 0) {
+        throw InvalidField(path + ".rotation_degrees", "a constant environment has no direction to rotate: leave "
+                                                       "it out");
+      }
+      in.scene.environment.constant = Rgb{c.r * intensity, c.g * intensity, c.b * intensity};
+      break;
+    }
+    case E::kImage:
+      r.inputs.push_back(input_blob(e.image(), path + ".image", blobs));
+      if (!e.color_space().empty()) check_color_space(e.color_space(), path + ".color_space");
+      check_range(path + ".rotation_degrees", e.rotation_degrees(), -360.0, 360.0, false);
+      in.environment_decode.color_space = e.color_space();
+      in.environment_decode.rotation_degrees = e.rotation_degrees();
+      in.environment_decode.intensity = intensity;
+      break;
+    case E::SOURCE_NOT_SET:
+      throw InvalidField(path, "no environment given: set constant (a colour) or image (an uploaded "
+                               "equirectangular image), or leave the environment out for none");
+  }
+}
+
+// The index in "job.lightmap.meshes[12].geometry".
+std::size_t index_in(const std::string& field) { return std::stoul(field.substr(field.find('[') + 1)); }
+
+}  // namespace
+
+void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs, BakeRequest& r) {
+  r.type = "lightmap";
+  const std::string path = "job.lightmap";
+  const kiln::v1::LightmapJob& j = spec.lightmap();
+  lightmap::LightmapBakeInput& in = r.lightmap;
+  scene::Scene& sc = in.scene;
+
+  check_count(j.meshes_size(), kMaxMeshes, path + ".meshes", "meshes");
+  check_count(j.instances_size(), kMaxInstances, path + ".instances", "instances");
+  check_count(j.materials_size(), kMaxMaterials, path + ".materials", "materials");
+  check_count(j.textures_size(), kMaxTextures, path + ".textures", "textures");
+  check_count(j.lights_size(), kMaxLights, path + ".lights", "lights");
+  check_count(j.material_overrides_size(), kMaxMaterials, path + ".material_overrides", "overrides");
+  check_count(j.lightmaps_size(), kMaxLightmapSettings, path + ".lightmaps", "lightmap settings");
+  if (j.meshes_size() == 0) throw InvalidField(path + ".meshes", "a scene needs at least one mesh");
+
+  // Meshes: names now, geometry decoded by the worker.
+  std::set<std::string> mesh_names;
+  for (int i = 0; i < j.meshes_size(); ++i) {
+    const kiln::v1::Mesh& m = j.meshes(i);
+    const std::string p = at(path + ".meshes", i);
+    check_name(m.name(), p + ".name");
+    if (m.name().empty()) throw InvalidField(p + ".name", "required: a mesh's name names its lightmap");
+    if (!mesh_names.insert(m.name()).second) {
+      throw InvalidField(p + ".name", "'" + m.name() + "' is the name of an earlier mesh; names are unique");
+    }
+    if (!m.has_geometry()) throw InvalidField(p + ".geometry", "required: the mesh blob's digest");
+    r.inputs.push_back(input_blob(m.geometry(), p + ".geometry", blobs));
+    sc.meshes.emplace_back().name = m.name();
+  }
+
+  // Textures: the baker decodes their bytes.
+  for (int i = 0; i < j.textures_size(); ++i) {
+    const kiln::v1::Texture& t = j.textures(i);
+    const std::string p = at(path + ".textures", i);
+    check_name(t.name(), p + ".name");
+    if (!t.color_space().empty()) check_color_space(t.color_space(), p + ".color_space");
+    if (!t.has_image()) throw InvalidField(p + ".image", "required: the image blob's digest");
+    r.inputs.push_back(input_blob(t.image(), p + ".image", blobs));
+    in.textures.push_back({t.name().empty() ? "texture " + std::to_string(i) : t.name(), {}, t.color_space()});
+  }
+
+  // Materials, then the job's overrides by name.
+  std::map<std::string, int> material_index;
+  for (int i = 0; i < j.materials_size(); ++i) {
+    const std::string p = at(path + ".materials", i);
+    sc.materials.push_back(material(j.materials(i), p, j.textures_size()));
+    const std::string& name = j.materials(i).name();
+    if (!name.empty() && !material_index.emplace(name, i).second) {
+      throw InvalidField(p + ".name", "'" + name + "' is the name of an earlier material; names are unique");
+    }
+  }
+  std::set<std::string> overridden;
+  for (int i = 0; i < j.material_overrides_size(); ++i) {
+    const kiln::v1::MaterialOverride& o = j.material_overrides(i);
+    const std::string p = at(path + ".material_overrides", i);
+    check_name(o.name(), p + ".name");
+    const auto it = material_index.find(o.name());
+    if (it == material_index.end()) {
+      std::string known;
+      for (const auto& [name, index] : material_index) {
+        if (known.size() > 400) { known += ", ..."; break; }
+        known += (known.empty() ? "" : ", ") + name;
+      }
+      throw InvalidField(p + ".name", "no material named '" + o.name() + "' in the scene; its materials: " +
+                                          (known.empty() ? "(none named)" : known));
+    }
+    if (!overridden.insert(o.name()).second) {
+      throw InvalidField(p + ".name", "'" + o.name() + "' is overridden twice");
+    }
+    scene::SceneMaterial& m = sc.materials[it->second];
+    if (o.has_bsdf()) m.bsdf = material_spec(o.bsdf(), p + ".bsdf");
+    if (o.has_base_color()) m.base_color = color(o.base_color(), p + ".base_color", 0.0, 1.0);
+    if (o.has_emission()) m.emission = color(o.emission(), p + ".emission", 0.0, kMaxEmission);
+  }
+  if (sc.materials.empty()) {
+    // A scene without materials: every triangle is the documented default, Lambert 0.8.
+    sc.materials.push_back(material(kiln::v1::SceneMaterial(), path + ".materials", 0));
+    sc.materials.back().name = "default";
+  }
+
+  // Instances; none: every mesh once, where it is.
+  std::set<std::string> lightmap_names;
+  for (int i = 0; i < j.instances_size(); ++i) {
+    const kiln::v1::Instance& inst = j.instances(i);
+    const std::string p = at(path + ".instances", i);
+    scene::Instance out;
+    if (inst.mesh() >= static_cast<uint32_t>(j.meshes_size())) {
+      throw InvalidField(p + ".mesh", "index " + std::to_string(inst.mesh()) + " out of range: the job has " +
+                                          std::to_string(j.meshes_size()) + " meshes");
+    }
+    out.mesh = static_cast<int>(inst.mesh());
+    if (inst.transform_size() != 0 && inst.transform_size() != 12) {
+      throw InvalidField(p + ".transform", "0 or 12 values (a row-major 3x4 affine transform), got " +
+                                               std::to_string(inst.transform_size()));
+    }
+    for (int k = 0; k < inst.transform_size(); ++k) {
+      check_range(at(p + ".transform", k), inst.transform(k), -kMaxCoordinate, kMaxCoordinate, false);
+      out.to_world.m[k] = inst.transform(k);
+    }
+    check_name(inst.lightmap(), p + ".lightmap");
+    out.lightmap = inst.lightmap();
+    if (inst.lightmap_scale_offset_size() != 0 && inst.lightmap_scale_offset_size() != 4) {
+      throw InvalidField(p + ".lightmap_scale_offset", "0 or 4 values {s_u, s_v, o_u, o_v}, got " +
+                                                           std::to_string(inst.lightmap_scale_offset_size()));
+    }
+    for (int k = 0; k < inst.lightmap_scale_offset_size(); ++k) {
+      const std::string f = at(p + ".lightmap_scale_offset", k);
+      if (k < 2) {
+        check_range(f, inst.lightmap_scale_offset(k), 0.0, 1.0, true);
+      } else {
+        check_range(f, inst.lightmap_scale_offset(k), 0.0, 1.0, false);
+        if (inst.lightmap_scale_offset(k) >= 1.0) throw InvalidField(f, "an offset is in [0, 1), got 1");
+      }
+      out.lightmap_scale_offset[k] = inst.lightmap_scale_offset(k);
+    }
+    out.bake = !inst.has_bake() || inst.bake();
+    if (out.bake) lightmap_names.insert(out.lightmap.empty() ? j.meshes(out.mesh).name() : out.lightmap);
+    sc.instances.push_back(out);
+  }
+  if (j.instances_size() == 0) {
+    for (int i = 0; i < j.meshes_size(); ++i) {
+      scene::Instance& out = sc.instances.emplace_back();
+      out.mesh = i;
+      lightmap_names.insert(j.meshes(i).name());
+    }
+  }
+
+  // Lights.
+  std::set<std::string> light_names;
+  for (int i = 0; i < j.lights_size(); ++i) {
+    const std::string p = at(path + ".lights", i);
+    sc.lights.push_back(light(j.lights(i), p));
+    const std::string& name = j.lights(i).name();
+    if (!name.empty() && !light_names.insert(name).second) {
+      throw InvalidField(p + ".name", "'" + name + "' is the name of an earlier light; names are unique");
+    }
+  }
+  if (j.has_environment()) environment(j.environment(), path + ".environment", blobs, r);
+
+  // Lightmap settings and the texel budget.
+  if (j.has_resolution()) {
+    check_range(path + ".resolution", j.resolution(), 4, 8192, false);
+    in.resolution = static_cast<int>(j.resolution());
+  }
+  for (int i = 0; i < j.lightmaps_size(); ++i) {
+    const kiln::v1::LightmapSettings& l = j.lightmaps(i);
+    const std::string p = at(path + ".lightmaps", i);
+    check_name(l.name(), p + ".name");
+    if (!lightmap_names.count(l.name())) {
+      throw InvalidField(p + ".name", "no instance bakes into a lightmap named '" + l.name() +
+                                          "' (lightmaps are named by Instance.lightmap, else the mesh's name)");
+    }
+    if (in.resolutions.count(l.name())) throw InvalidField(p + ".name", "'" + l.name() + "' is set twice");
+    int resolution = in.resolution;
+    if (l.has_resolution()) {
+      check_range(p + ".resolution", l.resolution(), 4, 8192, false);
+      resolution = static_cast<int>(l.resolution());
+    }
+    in.resolutions[l.name()] = resolution;
+  }
+  uint64_t texels = 0;
+  for (const std::string& name : lightmap_names) {
+    const auto it = in.resolutions.find(name);
+    const uint64_t n = static_cast<uint64_t>(it == in.resolutions.end() ? in.resolution : it->second);
+    texels += n * n;
+  }
+  if (texels > kMaxTotalTexels) {
+    throw InvalidField(path + ".resolution", std::to_string(lightmap_names.size()) + " lightmaps of " +
+                                                 std::to_string(texels) + " texels in all; at most " +
+                                                 std::to_string(kMaxTotalTexels) +
+                                                 " (4096 x 4096): lower the resolution or bake in several jobs");
+  }
+  if (j.has_padding()) {
+    check_range(path + ".padding", j.padding(), 0, 64, false);
+    in.padding = static_cast<int>(j.padding());
+  }
+  if (j.has_max_bounces()) {
+    check_range(path + ".max_bounces", j.max_bounces(), 0, 1024, false);
+    in.max_bounces = static_cast<int>(j.max_bounces());
+  }
+  in.radiance = j.radiance();
+  in.ao = j.ao();
+  in.directional = j.directional();
+  in.preview = !j.has_preview() || j.preview();
+
+  // Quality.
+  const kiln::v1::Quality& q = spec.quality();
+  if (q.has_samples()) {
+    check_range("job.quality.samples", static_cast<double>(q.samples()), 1, double(1 << 20), false);
+    in.max_samples = q.samples();
+  }
+  in.min_samples = std::min(kDefaultMinSamples, in.max_samples);
+  if (q.has_target_error()) {
+    check_range("job.quality.target_error", q.target_error(), 0.0, 1.0, true);
+    in.target_error = q.target_error();
+  }
+  if (q.has_time_limit_seconds()) {
+    check_range("job.quality.time_limit_seconds", q.time_limit_seconds(), 0.0, kMaxTimeLimitSeconds, true);
+    in.time_limit_seconds = q.time_limit_seconds();
+  }
+  in.seed = q.seed();
+  for (const auto& [effect, on] : spec.force_effects()) {
+    if (effect.empty() || effect.size() > 64) {
+      throw InvalidField("job.force_effects[" + effect.substr(0, 64) + "]",
+                         "effect names are 1 to 64 bytes, got " + std::to_string(effect.size()));
+    }
+    in.force_effects[effect] = on;
+  }
+
+  // The total input: every blob must fit in memory beside the others while the worker bakes.
+  uint64_t total = 0;
+  for (const BlobRef& b : r.inputs) total += b.size;
+  if (total > kMaxJobInputBytes) {
+    throw InvalidField(path, "the job's blobs hold " + std::to_string(total) + " bytes in all; at most " +
+                                 std::to_string(kMaxJobInputBytes >> 30) + " GiB: split the scene into several jobs");
+  }
+
+  // The baker's own validation is the backstop, and knows the effects its planner decides.
+  if (auto problem = lightmap::validate(in)) {
+    const std::string& text = *problem;
+    if (text.rfind("force_effects", 0) == 0) {
+      std::string key;
+      for (const auto& [effect, on] : in.force_effects) {
+        if (text.find("\"" + effect + "\"") != std::string::npos) key = effect;
+      }
+      const auto colon = text.find(':');
+      throw InvalidField("job.force_effects" + (key.empty() ? "" : "[" + key + "]"),
+                         text.substr(text.find_first_not_of(' ', colon + 1)));
+    }
+    const std::string field = text.substr(0, text.find(':'));
+    if (field == "max_samples" || field == "min_samples" || field == "target_error" ||
+        field == "time_limit_seconds") {
+      throw baker_problem("job.quality", text);
+    }
+    throw baker_problem(path, text);
+  }
+
+  // The scene part, serialized deterministically, for the cache key: settings go to the canonical text instead
+  // (with their defaults applied), so that they are cleared here.
+  kiln::v1::LightmapJob scene_part = j;
+  scene_part.clear_resolution();
+  scene_part.clear_lightmaps();
+  scene_part.clear_padding();
+  scene_part.clear_max_bounces();
+  scene_part.clear_radiance();
+  scene_part.clear_ao();
+  scene_part.clear_directional();
+  scene_part.clear_preview();
+  std::string bytes;
+  {
+    google::protobuf::io::StringOutputStream stream(&bytes);
+    google::protobuf::io::CodedOutputStream coded(&stream);
+    coded.SetSerializationDeterministic(true);
+    scene_part.SerializeToCodedStream(&coded);
+  }
+  r.scene_hash = proto::sha256_hex(bytes);
+}
+
+void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs) {
+  lightmap::LightmapBakeInput& in = r.lightmap;
+  for (const BlobRef& ref : r.inputs) {
+    std::string bytes = read_input(ref, blobs);
+    if (ref.field.find(".meshes[") != std::string::npos) {
+      const std::size_t i = index_in(ref.field);
+      in.scene.meshes.at(i) = decode_mesh_blob(bytes, ref.field, in.scene.meshes.at(i).name);
+    } else if (ref.field.find(".textures[") != std::string::npos) {
+      in.textures.at(index_in(ref.field)).bytes = std::move(bytes);
+    } else {
+      in.environment_image = std::move(bytes);
+    }
+  }
+}
+
+std::string lightmap_canonical_text(const BakeRequest& r) {
+  const lightmap::LightmapBakeInput& in = r.lightmap;
+  std::ostringstream o;
+  o << "type=" << r.type << "\nscene=" << r.scene_hash << "\nblobs=";
+  for (const BlobRef& b : r.inputs) o << b.field << ":" << b.sha256 << "/" << b.size << ";";
+  const envmap::EnvDecodeOptions& d = in.environment_decode;
+  o << "\nenvironment_color_space=" << (d.color_space.empty() ? "(format default)" : d.color_space)
+    << "\nenvironment_rotation_degrees=" << format_number(d.rotation_degrees)
+    << "\nenvironment_intensity=" << format_number(d.intensity) << "\nresolution=" << in.resolution
+    << "\nresolutions=";
+  for (const auto& [name, n] : in.resolutions) o << name.size() << ":" << name << "=" << n << ";";
+  o << "\npadding=" << in.padding << "\ntarget_error=" << format_number(in.target_error)
+    << "\nmin_samples=" << in.min_samples << "\nmax_samples=" << in.max_samples
+    << "\ntime_limit_seconds=" << format_number(in.time_limit_seconds) << "\nseed=" << in.seed
+    << "\nmax_bounces=" << in.max_bounces << "\nforce_effects=";
+  for (const auto& [effect, on] : in.force_effects) o << effect << (on ? "+" : "-") << ";";
+  o << "\nradiance=" << in.radiance << "\nao=" << in.ao << "\ndirectional=" << in.directional
+    << "\npreview=" << in.preview << "\n";
+  return o.str();
+}
+
+}  // namespace kiln::daemon::detail

@@ -1,0 +1,189 @@
+// The lightmap job end to end against the real kilnd: `kiln bake lightmap` on the project's generated Cornell box
+// (small and fast: 16² texels per lightmap, target error 0.1) writes valid outputs; the same submit again is a cache
+// hit with the same output digests; a corrupt mesh blob fails the job naming the mesh's field, a bad field is
+// refused at submit naming its path, and the daemon goes on serving.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <string>
+
+#include "bakers/image/exr.h"
+#include "client/lib/client.h"
+#include "proto/digest.h"
+#include "proto/kiln.pb.h"
+#include "tests/integration/daemon_fixture.h"
+
+namespace kiln {
+namespace {
+
+namespace fs = std::filesystem;
+using client::Client;
+using test::Daemon;
+
+Client connect(const Daemon& d) {
+  Client c(d.tcp());
+  c.hello(d.token());
+  return c;
+}
+
+fs::path source_dir() { return fs::path(__FILE__).parent_path().parent_path().parent_path(); }
+
+#ifdef KILN_BIN
+struct CliRun {
+  int status = -1;
+  std::string said;
+};
+
+CliRun kiln(const Daemon& d, const std::string& args) {
+  const fs::path token = d.dir() / "cli-token";
+  if (!fs::exists(token)) std::ofstream(token) << d.token() << "\n";
+  const std::string command =
+      std::string(KILN_BIN) + " --server " + d.tcp() + " --token-file " + token.string() + " " + args + " 2>&1";
+  CliRun r;
+  FILE* p = ::popen(command.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) r.said.append(buf, n);
+  const int status = ::pclose(p);
+  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string job_id(const std::string& said) {
+  std::smatch m;
+  if (!std::regex_search(said, m, std::regex("submitted job ([0-9a-f]+)"))) return "";
+  return m[1];
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST(LightmapService, KilnBakeLightmapWritesValidOutputsAndTheSecondRunIsACacheHit) {
+  Daemon d;
+  const fs::path scene = d.dir() / "cornell_box.gltf", out = d.dir() / "out", again = d.dir() / "again";
+  const std::string gen = "/usr/bin/python3 " + (source_dir() / "client/examples/scenes/cornell_box.py").string() +
+                          " " + scene.string() + " > /dev/null";
+  ASSERT_EQ(std::system(gen.c_str()), 0) << gen;
+  const std::string args = "bake lightmap " + scene.string() + " --resolution 16 --target-error 0.1 --out ";
+  const CliRun first = kiln(d, args + out.string());
+  ASSERT_EQ(first.status, 0) << first.said;
+  EXPECT_NE(first.said.find("8 meshes"), std::string::npos) << "the import summary is printed: " << first.said;
+
+  for (const char* name : {"floor", "ceiling", "back_wall", "left_wall", "right_wall", "short_block", "tall_block",
+                           "light"}) {
+    const std::string n = name;
+    const image::FloatImage irradiance = image::decode_exr(read(out / (n + "_irradiance.exr")));
+    const image::FloatImage validity = image::decode_exr(read(out / (n + "_validity.exr")));
+    const image::FloatImage error = image::decode_exr(read(out / (n + "_error.exr")));
+    EXPECT_TRUE(fs::exists(out / (n + "_preview.png"))) << n;
+    EXPECT_EQ(irradiance.width, 16) << n;
+    EXPECT_EQ(irradiance.height, 16) << n;
+    EXPECT_GE(irradiance.channels, 3) << n;
+    for (float v : irradiance.pixels) ASSERT_TRUE(std::isfinite(v) && v >= 0) << n << ": " << v;
+    for (float v : error.pixels) ASSERT_TRUE(std::isfinite(v)) << n << ": " << v;
+    int valid = 0;
+    for (float v : validity.pixels) {
+      ASSERT_TRUE(v == 0.0f || v == 1.0f) << n << ": validity " << v;
+      valid += v == 1.0f;
+    }
+    EXPECT_GT(valid, 0) << n << ": no valid texel";
+  }
+  // The room is lit by its emissive patch: the floor under it receives light.
+  const image::FloatImage floor = image::decode_exr(read(out / "floor_irradiance.exr"));
+  double sum = 0;
+  for (float v : floor.pixels) sum += v;
+  EXPECT_GT(sum, 0);
+  const std::string report = read(out / "report.json");
+  EXPECT_NE(report.find("\"plan\""), std::string::npos);
+  EXPECT_NE(report.find("\"curve\""), std::string::npos);
+
+  // The same scene again: answered from the result cache, with the same outputs.
+  const CliRun second = kiln(d, args + again.string());
+  ASSERT_EQ(second.status, 0) << second.said;
+  EXPECT_NE(second.said.find("cache hit"), std::string::npos) << second.said;
+  Client c = connect(d);
+  const v1::JobResult a = c.result(job_id(first.said)), b = c.result(job_id(second.said));
+  EXPECT_FALSE(a.report().cache_hit());
+  EXPECT_TRUE(b.report().cache_hit());
+  EXPECT_GT(a.report().rays(), a.report().samples());  // every sample traces at least one ray
+  EXPECT_FALSE(a.report().plan().empty());
+  ASSERT_EQ(a.outputs_size(), b.outputs_size());
+  for (int i = 0; i < a.outputs_size(); ++i) {
+    EXPECT_EQ(a.outputs(i).digest().sha256(), b.outputs(i).digest().sha256()) << a.outputs(i).name();
+    EXPECT_FALSE(a.outputs(i).description().empty()) << a.outputs(i).name();
+  }
+  EXPECT_EQ(read(out / "floor_irradiance.exr"), read(again / "floor_irradiance.exr"));
+}
+#endif
+
+// A small job through the client library: one quad under a constant sky, with the given mesh blob.
+v1::JobSpec quad_job(const v1::Digest& mesh) {
+  v1::JobSpec spec;
+  v1::LightmapJob* j = spec.mutable_lightmap();
+  v1::Mesh* m = j->add_meshes();
+  m->set_name("quad");
+  *m->mutable_geometry() = mesh;
+  j->mutable_environment()->mutable_constant()->set_r(1);
+  j->set_resolution(8);
+  spec.mutable_quality()->set_target_error(0.2);
+  return spec;
+}
+
+TEST(LightmapService, CorruptMeshBlobsAndBadFieldsAreClearErrorsAndTheDaemonGoesOn) {
+  Daemon d;
+  Client c = connect(d);
+  // Right magic, wrong size: accepted at submit (blobs are decoded by the worker), failed naming the mesh.
+  // Header: 1 vertex, 0 triangles, no flags (needs 12 bytes of position), then 4 bytes.
+  std::string bytes = "KILNMSH1";
+  bytes += std::string("\x01\0\0\0", 4) + std::string(8, '\0') + "junk";
+  const v1::Digest corrupt = c.upload_blob(bytes);
+  const v1::SubmitReply reply = c.submit(quad_job(corrupt));
+  const v1::JobEvent final = c.watch(reply.job_id());
+  EXPECT_EQ(final.state(), v1::JOB_STATE_FAILED);
+  const v1::JobResult r = c.result(reply.job_id());
+  EXPECT_EQ(r.error().code(), v1::Error::INVALID_ARGUMENT) << r.error().message();
+  EXPECT_EQ(r.error().field(), "job.lightmap.meshes[0].geometry") << r.error().message();
+  EXPECT_NE(r.error().message().find("header"), std::string::npos) << r.error().message();
+
+  // A field out of range: refused at submit with its path.
+  v1::JobSpec bad = quad_job(corrupt);
+  bad.mutable_lightmap()->set_resolution(3);
+  try {
+    c.submit(bad);
+    ADD_FAILURE() << "the server took a lightmap of 3 texels";
+  } catch (const client::ServerError& e) {
+    EXPECT_EQ(e.code(), v1::Error::INVALID_ARGUMENT);
+    EXPECT_EQ(e.field(), "job.lightmap.resolution") << e.message();
+  }
+  // A mesh the server never received: refused at submit, naming the field.
+  v1::Digest missing;
+  missing.set_sha256(std::string(64, 'a'));
+  missing.set_size(100);
+  try {
+    c.submit(quad_job(missing));
+    ADD_FAILURE() << "the server took a job whose mesh it does not hold";
+  } catch (const client::ServerError& e) {
+    EXPECT_EQ(e.field(), "job.lightmap.meshes[0].geometry") << e.message();
+  }
+  // Still serving: it lists lightmap jobs among its types and reports its status.
+  const v1::ServerStatus status = c.status();
+  EXPECT_GE(status.jobs_failed(), 1u);
+  Client fresh(d.tcp());
+  bool lightmap = false;
+  const v1::HelloReply hello = fresh.hello(d.token());
+  for (const std::string& t : hello.job_types()) lightmap |= t == "lightmap";
+  EXPECT_TRUE(lightmap);
+}
+
+}  // namespace
+}  // namespace kiln
