@@ -53,6 +53,7 @@ struct Walk {
   }
   bool visible(const scene::Ray& ray) {
     ++out.rays;
+    ++out.occlusion_rays;
     return !ctx.tracer->occluded(ray);
   }
 
@@ -172,8 +173,7 @@ struct Walk {
       };
       auto pdf = [&](const Vec3& wi) { return m.bsdf->pdf(wo_local, frame.to_local(wi)); };
       L += beta * next_event(surface, ns, f_cos, pdf);
-
-      const auto s = m.bsdf->sample(wo_local, u2(), rng.uniform(), t);
+      const std::optional<brdf::BsdfSample> s = m.bsdf->sample(wo_local, u2(), rng.uniform(), t);
       if (!s) break;
       const Vec3 wi = frame.from_local(s->wi);
       if (dot(wi, surface.ng) <= 0) break;  // into the surface (the shading normal disagrees with the geometry)
@@ -280,9 +280,10 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   }
   if (!finite(E) || !finite(out.sh[0]) || !finite(out.sh[1]) || !finite(out.sh[2]) || !finite(out.sh[3])) {
     // Never let one bad sample poison a texel: drop it whole, and say so (the report counts them).
-    const uint32_t rays = out.rays;
+    const uint32_t rays = out.rays, occlusion_rays = out.occlusion_rays;
     out = IrradianceEstimate{};
     out.rays = rays;
+    out.occlusion_rays = occlusion_rays;
     out.dropped = true;
     return out;
   }

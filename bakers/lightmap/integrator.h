@@ -73,6 +73,7 @@ struct IrradianceEstimate {
   Rgb sh[4];                    // order-1 SH of incoming radiance: Y00, Y1-1, Y10, Y11 (real, orthonormal)
   double ao = 0;                // 1 if the cosine ray escaped ao_distance, else 0
   uint32_t rays = 0;
+  uint32_t occlusion_rays = 0;  // of `rays`, the shadow (any-hit) queries; the others are closest-hit
   bool dropped = false;         // a non-finite contribution was discarded
 };
 

@@ -75,6 +75,7 @@ struct LightmapBakeResult {
   std::vector<plan::Decision> plan;
   std::vector<ErrorPoint> curve;
   uint64_t samples = 0, rays = 0;
+  uint64_t occlusion_rays = 0;    // of `rays`, the shadow (any-hit) queries; the others are closest-hit
   double seconds = 0;
   double error_estimate = 0;      // the last point of the curve
   std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people

@@ -1,0 +1,258 @@
+// What lightmap accuracy costs in time, and how fast the baker traces: the bundled Cornell box
+// (client/examples/scenes/cornell_box.py, built in code by tests/support/test_scenes.h: 8 lightmaps) baked at
+// increasing sample budgets, at the default target error, and planned against a full simulation; then raw Embree
+// rays of the same kind in the same process, for the baker's ray throughput as a ratio of raw Embree's.
+//
+//   lightmap_bench [--table_out=FILE] [--quick] [--resolution=N]
+//
+// Plain timing with a custom main (one run each: a bake is seconds long, so Google Benchmark's repetition machinery
+// adds nothing), both cores through TBB, in wall-clock seconds (steady_clock) and CPU seconds of the whole process
+// (all threads): the CPU figures are the ones to trust on a shared machine, the wall-clock ones also show idle cores.
+// Default: 32² per lightmap, 4096-estimate reference; --quick: 16², 1024-estimate reference and target 0.05 for the
+// planner line. Most of the time is the reference and the default-target bake (~4000 estimates per texel: this
+// scene's small light makes one estimate's relative standard deviation ~0.5): --quick took 1.5 CPU-minutes (4 minutes
+// of wall-clock on a machine other jobs loaded 4-fold); the default has 4 times the texels and a 4 times longer
+// reference, ~10 CPU-minutes.
+//
+// Budgets: max_samples 4 … 256 with min_samples = max_samples and a target error of 1e-4 that no texel reaches, so
+// the budget binds and every valid texel gets exactly that many estimates. "est. error" is the bake's own estimate
+// (RMS over valid texels of the relative standard error of the mean luminance, report.json's error_estimate); "error
+// vs ref" is the RMS over valid texels of |Y − Y_ref| / Y_ref, Y the luminance of the irradiance.
+//
+// The reference: a bake of 4096 estimates per texel (1024 with --quick) with another seed, computed once at the start
+// of the run (not cached: a stale reference from an older baker would silently measure the wrong thing). Its own
+// error e_ref (~1/√16 or 1/√4 of the 256-sample bake's) is independent of each bake's and adds in quadrature, so
+// "error vs ref" reads sqrt(e² + e_ref²); "(ref removed)" is sqrt(error vs ref² − e_ref²), the bake's own error, to
+// compare with "est. error" (it is meaningful only well above e_ref).
+//
+// Raw Embree: the same number of rays as the bake traced (the same closest-hit / occlusion mix, counted by the bake),
+// incoherent (tests/bench/ray_workload.h: origins throughout the room, directions uniform on the sphere), traced one
+// ray at a time through Tracer::intersect_id and Tracer::occluded (rtcIntersect1 / rtcOccluded1 and nothing else
+// worth counting) on both cores with TBB, over the same Tracer (robust mode, as the baker's). The ratio divides the
+// baker's rays per second of its whole bake (rasterization, leaks, outputs included) by raw Embree's.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <string>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "bakers/lightmap/lightmap_bake.h"
+#include "bakers/scene/scene_check.h"
+#include "bakers/scene/tracer.h"
+#include "tests/bench/ray_workload.h"
+#include "tests/support/test_scenes.h"
+
+namespace kiln::lightmap {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Per lightmap, per texel: the luminance of the irradiance, NaN where invalid.
+using Luminances = std::vector<std::vector<double>>;
+
+double process_cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+struct Run {
+  std::string label;
+  LightmapBakeResult result;
+  Luminances Y;
+  double cpu_seconds = 0;  // of the whole process (all threads) during the bake
+};
+
+Run bake(const std::string& label, LightmapBakeInput in) {
+  const double cpu0 = process_cpu_seconds();
+  Run run{label, bake_lightmaps(in), {}, 0};
+  run.cpu_seconds = process_cpu_seconds() - cpu0;
+  for (const material::BakeOutput& o : run.result.outputs) {
+    const std::string suffix = "_irradiance.exr";
+    if (o.name.size() <= suffix.size() || o.name.compare(o.name.size() - suffix.size(), suffix.size(), suffix) != 0)
+      continue;
+    const std::string name = o.name.substr(0, o.name.size() - suffix.size());
+    const image::FloatImage E = image::decode_exr(o.bytes);
+    const image::FloatImage valid = test::exr_output(run.result, name + "_validity.exr");
+    std::vector<double> Y(static_cast<size_t>(E.width) * E.height, std::nan(""));
+    for (size_t t = 0; t < Y.size(); ++t) {
+      if (valid.pixels[t * valid.channels] > 0.5f) {
+        Y[t] = luminance(Rgb{E.pixels[3 * t], E.pixels[3 * t + 1], E.pixels[3 * t + 2]});
+      }
+    }
+    run.Y.push_back(std::move(Y));
+  }
+  return run;
+}
+
+// RMS over texels valid in both of the relative luminance difference. Every valid texel of the box receives light
+// (directly or by one bounce), so Y_ref > 0; a texel where it is not is skipped rather than divided by.
+double error_vs(const Luminances& a, const Luminances& ref) {
+  double sum = 0;
+  size_t n = 0;
+  for (size_t m = 0; m < std::min(a.size(), ref.size()); ++m) {
+    for (size_t t = 0; t < std::min(a[m].size(), ref[m].size()); ++t) {
+      if (!std::isfinite(a[m][t]) || !std::isfinite(ref[m][t]) || !(ref[m][t] > 0)) continue;
+      const double e = (a[m][t] - ref[m][t]) / ref[m][t];
+      sum += e * e;
+      ++n;
+    }
+  }
+  return n ? std::sqrt(sum / n) : NAN;
+}
+
+struct Timing {
+  double wall = 0, cpu = 0;
+};
+
+// Raw Embree: `closest` closest-hit and `occlusion` any-hit incoherent rays, one at a time, on every TBB thread.
+Timing raw_embree_seconds(const scene::Tracer& tracer, uint64_t closest, uint64_t occlusion) {
+  constexpr size_t kPool = 1 << 20;  // rays generated once and cycled through: generation stays out of the timing
+  const auto c = bench::incoherent_rays(tracer.bounds_lower(), tracer.bounds_upper(), kPool, false, 1);
+  const auto o = bench::incoherent_rays(tracer.bounds_lower(), tracer.bounds_upper(), kPool, true, 2);
+  std::atomic<uint64_t> hits{0};
+  const auto t0 = Clock::now();
+  const double cpu0 = process_cpu_seconds();
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, closest + occlusion, 1024),
+                    [&](const tbb::blocked_range<uint64_t>& r) {
+                      uint64_t h = 0;
+                      for (uint64_t i = r.begin(); i != r.end(); ++i) {
+                        if (i < closest) {
+                          h += tracer.intersect_id(c[i % kPool]).has_value();
+                        } else {
+                          h += tracer.occluded(o[i % kPool]);
+                        }
+                      }
+                      hits.fetch_add(h, std::memory_order_relaxed);
+                    });
+  const Timing s{seconds_since(t0), process_cpu_seconds() - cpu0};
+  if (hits.load() == 0) std::fprintf(stderr, "raw Embree: no ray hit anything (the scene is wrong)\n");
+  return s;
+}
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+}  // namespace
+}  // namespace kiln::lightmap
+
+int main(int argc, char** argv) {
+  using namespace kiln;
+  using namespace kiln::lightmap;
+  bool quick = false;
+  int resolution = 0;
+  std::string table_out, command = "lightmap_bench";
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--quick") == 0) {
+      quick = true;
+      command += " --quick";
+    } else if (std::strncmp(argv[i], "--table_out=", 12) == 0) {
+      table_out = argv[i] + 12;
+    } else if (std::strncmp(argv[i], "--resolution=", 13) == 0) {
+      resolution = std::atoi(argv[i] + 13);
+      command += std::string(" ") + argv[i];
+    } else {
+      std::fprintf(stderr, "usage: lightmap_bench [--table_out=FILE] [--quick] [--resolution=N]\n");
+      return 2;
+    }
+  }
+  if (resolution <= 0) resolution = quick ? 16 : 32;
+  const uint64_t reference_samples = quick ? 1024 : 4096;
+
+  auto input = [&](uint64_t samples, double target, uint64_t seed) {
+    LightmapBakeInput in = test::lightmap_input(test::cornell_box(), resolution, target);
+    in.min_samples = std::min<uint64_t>(samples, in.min_samples);
+    in.max_samples = samples;
+    in.seed = seed;
+    return in;
+  };
+  auto budget = [&](uint64_t samples, uint64_t seed) {
+    LightmapBakeInput in = input(samples, 1e-4, seed);
+    in.min_samples = samples;  // every valid texel gets exactly `samples` estimates
+    return in;
+  };
+
+  std::fprintf(stderr, "reference: %llu estimates per texel at %d^2...\n",
+               static_cast<unsigned long long>(reference_samples), resolution);
+  const Run reference = bake("reference", budget(reference_samples, 987654321));
+
+  std::vector<Run> runs;
+  for (const uint64_t n : {4, 16, 64, 256}) {
+    std::fprintf(stderr, "budget %llu...\n", static_cast<unsigned long long>(n));
+    runs.push_back(bake("max_samples " + std::to_string(n), budget(n, 1)));
+  }
+  std::fprintf(stderr, "default target...\n");
+  runs.push_back(bake("target 0.01 (default)", input(4096, 0.01, 1)));
+  // The planner: the same target, planned and as a full simulation (every effect, max_bounces bounces).
+  const double plan_target = quick ? 0.05 : 0.02;
+  std::fprintf(stderr, "planned vs full simulation...\n");
+  const Run planned = bake("planned, target " + fmt("%.2f", plan_target), input(4096, plan_target, 1));
+  LightmapBakeInput full_in = input(4096, plan_target, 1);
+  full_in.full_simulation = true;
+  const Run full = bake("full simulation, target " + fmt("%.2f", plan_target), full_in);
+
+  // Raw Embree over the same scene and the same Tracer settings, for each bake's ray count and mix.
+  const scene::CheckedScene checked = scene::check_scene(test::cornell_box());
+  const scene::Tracer tracer(checked.scene);
+
+  std::string table;
+  auto line = [&](const std::string& s) { table += s + "\n"; };
+  line("Cornell box (client/examples/scenes/cornell_box.py, 8 lightmaps), " + std::to_string(resolution) + "^2 per "
+       "lightmap; reference: " + std::to_string(reference_samples) + " estimates per texel, its own estimated error " +
+       fmt("%.4f", reference.result.error_estimate) + ", " + fmt("%.1f s", reference.result.seconds) + ".");
+  line("");
+  line("| bake | time (s) | CPU (s) | samples | rays | occl. | Mrays/s | Mrays/cpu_s | est. error | error vs ref | "
+       "(ref removed) | raw Embree Mrays/s | Mrays/cpu_s | ratio (wall) | ratio (CPU) |");
+  line("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+  const double e_ref = reference.result.error_estimate;
+  auto row = [&](const Run& r) {
+    const LightmapBakeResult& b = r.result;
+    const Timing raw_s = raw_embree_seconds(tracer, b.rays - b.occlusion_rays, b.occlusion_rays);
+    const double mrays = b.rays / b.seconds * 1e-6, raw = b.rays / raw_s.wall * 1e-6;
+    const double mrays_cpu = b.rays / r.cpu_seconds * 1e-6, raw_cpu = b.rays / raw_s.cpu * 1e-6;
+    const double e = error_vs(r.Y, reference.Y);
+    line("| " + r.label + " | " + fmt("%.2f", b.seconds) + " | " + fmt("%.2f", r.cpu_seconds) + " | " +
+         std::to_string(b.samples) + " | " + std::to_string(b.rays) + " | " +
+         fmt("%.0f%%", 100.0 * b.occlusion_rays / std::max<uint64_t>(b.rays, 1)) + " | " + fmt("%.2f", mrays) + " | " +
+         fmt("%.2f", mrays_cpu) + " | " + fmt("%.4f", b.error_estimate) + " | " + fmt("%.4f", e) + " | " +
+         fmt("%.4f", std::sqrt(std::max(0.0, e * e - e_ref * e_ref))) + " | " + fmt("%.2f", raw) + " | " +
+         fmt("%.2f", raw_cpu) + " | " + fmt("%.2f", mrays / raw) + " | " + fmt("%.2f", mrays_cpu / raw_cpu) + " |");
+  };
+  for (const Run& r : runs) row(r);
+  row(planned);
+  row(full);
+  line("");
+  line("Planned vs full simulation at target " + fmt("%.2f", plan_target) + ": time " +
+       fmt("%.2f", planned.result.seconds) + " s vs " + fmt("%.2f", full.result.seconds) + " s (" +
+       fmt("%.2fx", full.result.seconds / planned.result.seconds) + "), rays " + std::to_string(planned.result.rays) +
+       " vs " + std::to_string(full.result.rays) + "; error vs reference " + fmt("%.4f", error_vs(planned.Y, reference.Y)) +
+       " vs " + fmt("%.4f", error_vs(full.Y, reference.Y)) + "; planned vs full " +
+       fmt("%.4f", error_vs(planned.Y, full.Y)) + " (RMS relative, both at their estimated errors " +
+       fmt("%.4f", planned.result.error_estimate) + " and " + fmt("%.4f", full.result.error_estimate) + ").");
+  line("");
+  line("Command: " + command + " (" + std::to_string(tbb::this_task_arena::max_concurrency()) + " TBB threads)");
+  std::fputs(table.c_str(), stdout);
+  if (!table_out.empty()) {
+    if (FILE* f = std::fopen(table_out.c_str(), "w")) {
+      std::fputs(table.c_str(), f);
+      std::fclose(f);
+    } else {
+      std::fprintf(stderr, "cannot write %s\n", table_out.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
