@@ -335,35 +335,31 @@ void expect_planned_equals_full(const scene::Scene& s, const std::string& map, d
   EXPECT_LT(planned.result.rays, full.result.rays);
 }
 
-TEST(LightmapBake, PlannedBounceCountEqualsTheFullSimulation) {
-  // Dark walls (ρ = 0.3): the planner needs 5 bounces at target 0.02; the full simulation takes 64 with roulette.
+// A closed room of one material lit by a point light: every texel depends on the bounces.
+scene::Scene room_lit_by_a_point(const scene::SceneMaterial& walls) {
   scene::Scene s;
-  s.materials.push_back(lambert_material("dark", 0.3));
+  s.materials.push_back(walls);
   add_box(s, "room", {-1, 0, -1}, {1, 2, 1}, 0, /*inward=*/true);
   scene::Light l;
   l.type = scene::LightType::point;
   l.position = {0.2, 1.5, 0.1};
   l.color = Rgb{5.0};
   s.lights.push_back(l);
-  expect_planned_equals_full(s, "room", 0.02);
+  return s;
+}
+
+TEST(LightmapBake, PlannedBounceCountEqualsTheFullSimulation) {
+  // Dark walls (ρ = 0.3): the planner needs 5 bounces at target 0.02; the full simulation takes 64 with roulette.
+  expect_planned_equals_full(room_lit_by_a_point(lambert_material("dark", 0.3)), "room", 0.02);
 }
 
 TEST(LightmapBake, PrunedGlossyLobesEqualTheFullSimulation) {
-  // A faint, rough GGX coat the planner replaces by a Lambertian lobe of its albedo, and an environment image
-  // that is nearly uniform (no importance map needed).
-  scene::Scene s;
+  // A faint, rough GGX coat the planner replaces by a Lambertian lobe of its albedo.
   scene::SceneMaterial coat = lambert_material("coat", 0.4);
   coat.bsdf.specular.model = brdf::Model::ggx;
   coat.bsdf.specular.alpha_x = coat.bsdf.specular.alpha_y = 0.9;
   coat.bsdf.specular_weight = 0.01;
-  s.materials.push_back(coat);
-  add_box(s, "room", {-1, 0, -1}, {1, 2, 1}, 0, /*inward=*/true);
-  scene::Light l;
-  l.type = scene::LightType::point;
-  l.position = {0.2, 1.5, 0.1};
-  l.color = Rgb{5.0};
-  s.lights.push_back(l);
-  expect_planned_equals_full(s, "room", 0.05);
+  expect_planned_equals_full(room_lit_by_a_point(coat), "room", 0.05);
 }
 
 TEST(LightmapBake, BadInputIsRefusedByName) {
