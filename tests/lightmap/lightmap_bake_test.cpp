@@ -318,7 +318,8 @@ TEST(LightmapBake, BadGeometryIsSkippedAndNothingIsNaN) {
 // 6. The planner: on scenes built for it, the planned bake equals the full simulation within the estimated noise
 // (6 combined standard errors per texel, plus the planner's bias budget of target/4 per pruning) and does less work
 // (fewer rays: the work is measured in rays, not seconds, so the test does not depend on the machine's load).
-void expect_planned_equals_full(const scene::Scene& s, const std::string& map, double target) {
+void expect_planned_equals_full(const scene::Scene& s, const std::string& map, double target,
+                                const char* pruned_effect = nullptr) {
   LightmapBakeInput planned_in = input(s, 12, target);
   LightmapBakeInput full_in = planned_in;
   full_in.full_simulation = true;
@@ -333,6 +334,17 @@ void expect_planned_equals_full(const scene::Scene& s, const std::string& map, d
     }
   }
   EXPECT_LT(planned.result.rays, full.result.rays);
+  if (pruned_effect) {
+    auto enabled = [&](const Baked& b) {
+      for (const plan::Decision& d : b.result.plan) {
+        if (d.effect == pruned_effect) return d.enabled;
+      }
+      ADD_FAILURE() << "no decision " << pruned_effect;
+      return false;
+    };
+    EXPECT_FALSE(enabled(planned)) << pruned_effect << " should be pruned in this scene";
+    EXPECT_TRUE(enabled(full));
+  }
 }
 
 // A closed room of one material lit by a point light: every texel depends on the bounces.
@@ -359,7 +371,7 @@ TEST(LightmapBake, PrunedGlossyLobesEqualTheFullSimulation) {
   coat.bsdf.specular.model = brdf::Model::ggx;
   coat.bsdf.specular.alpha_x = coat.bsdf.specular.alpha_y = 0.9;
   coat.bsdf.specular_weight = 0.01;
-  expect_planned_equals_full(room_lit_by_a_point(coat), "room", 0.05);
+  expect_planned_equals_full(room_lit_by_a_point(coat), "room", 0.05, "specular_interreflection");
 }
 
 TEST(LightmapBake, BadInputIsRefusedByName) {
