@@ -82,7 +82,9 @@ TEST(SceneImport, CornellBoxMeshesUvsInstancesAndEmission) {
   EXPECT_NEAR(light->emission().g(), 17.0 * 0.71, 17 * 1e-5);
   EXPECT_NEAR(light->emission().b(), 17.0 * 0.24, 17 * 1e-5);
   for (const v1::SceneMaterial& m : j.materials()) {
-    if (m.name() != "light") EXPECT_FALSE(m.has_emission()) << m.name();
+    if (m.name() != "light") {
+      EXPECT_FALSE(m.has_emission()) << m.name();
+    }
   }
   // The whole import passes the daemon's translation (every field within its bounds).
   v1::JobSpec spec;
