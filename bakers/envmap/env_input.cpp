@@ -20,34 +20,13 @@
 #include <tbb/parallel_for.h>
 
 #include "bakers/image/color.h"
+#include "bakers/image/image_format.h"
 
 namespace kiln::envmap {
 namespace {
 
-constexpr const char* kAccepted = "OpenEXR, Radiance HDR, PNG or JPEG";
-
-struct Format {
-  const char* name;          // reported in EnvironmentInput::format
-  const char* virtual_name;  // picks OpenImageIO's plugin; nothing touches the file system through it
-  bool is_float;             // default colour space: lin_rec709 if true, srgb_texture otherwise
-};
-
-bool starts_with(const std::string& bytes, const char* magic, size_t n) {
-  return bytes.size() >= n && std::memcmp(bytes.data(), magic, n) == 0;
-}
-
-// Content sniffing: the formats are chosen by their signatures, never by a name.
-const Format* detect(const std::string& bytes) {
-  static const Format exr{"openexr", "kiln-env.exr", true};
-  static const Format hdr{"hdr", "kiln-env.hdr", true};
-  static const Format png{"png", "kiln-env.png", false};
-  static const Format jpeg{"jpeg", "kiln-env.jpg", false};
-  if (starts_with(bytes, "\x76\x2f\x31\x01", 4)) return &exr;
-  if (starts_with(bytes, "#?", 2)) return &hdr;  // "#?RADIANCE" or "#?RGBE"
-  if (starts_with(bytes, "\x89PNG\r\n\x1a\n", 8)) return &png;
-  if (starts_with(bytes, "\xff\xd8\xff", 3)) return &jpeg;
-  return nullptr;
-}
+constexpr const char* kAccepted = image::kAcceptedImageFormats;
+using Format = image::ImageFormat;
 
 std::string hex_prefix(const std::string& bytes) {
   std::string out;
@@ -159,7 +138,7 @@ namespace {
 // Decodes, sanitises and converts one image (see the header); `who` starts every message.
 EnvironmentInput decode_image(const std::string& bytes, const EnvDecodeOptions& options, const std::string& who,
                               Shape shape, bool header_only = false) {
-  const Format* format = detect(bytes);
+  const Format* format = image::detect_image_format(bytes);
   if (!format) {
     throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
                              " bytes are not an image kiln reads (they start with " + hex_prefix(bytes) + "); upload " +

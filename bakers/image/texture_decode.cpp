@@ -5,36 +5,16 @@
 #include <stdexcept>
 
 #include "bakers/image/color.h"
+#include "bakers/image/image_format.h"
 #include "bakers/image/oiio_memory.h"
 
 namespace kiln::image {
-namespace {
-
-struct Format {
-  const char* name;
-  const char* virtual_name;  // picks OpenImageIO's plugin; the bytes come from memory
-  bool is_float;
-};
-
-const Format* detect(const std::string& b) {
-  static const Format png{"png", "kiln-texture.png", false}, jpeg{"jpeg", "kiln-texture.jpg", false},
-      exr{"openexr", "kiln-texture.exr", true}, hdr{"hdr", "kiln-texture.hdr", true};
-  auto starts = [&](const char* magic, size_t n) { return b.size() >= n && std::memcmp(b.data(), magic, n) == 0; };
-  if (starts("\x89PNG\r\n\x1a\n", 8)) return &png;
-  if (starts("\xff\xd8\xff", 3)) return &jpeg;
-  if (starts("\x76\x2f\x31\x01", 4)) return &exr;
-  if (starts("#?", 2)) return &hdr;
-  return nullptr;
-}
-
-}  // namespace
-
 DecodedTexture decode_texture(const std::string& bytes, const std::string& color_space, const std::string& name) {
   const std::string who = "texture " + name;
-  const Format* format = detect(bytes);
+  const ImageFormat* format = detect_image_format(bytes);
   if (!format) {
     throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
-                             " bytes are not an image kiln reads; upload a PNG, JPEG, OpenEXR or Radiance HDR file");
+                             " bytes are not an image kiln reads; upload an " + kAcceptedImageFormats + " file");
   }
   const ColorConfig& config = ColorConfig::active();
   const std::string space = !color_space.empty() ? color_space : (format->is_float ? "lin_rec709" : "srgb_texture");

@@ -44,6 +44,7 @@ class RectLight final : public LightSource {
   double solid_angle(const Vec3& p) const;
   // True when p would be sampled with the spherical rectangle parametrisation.
   bool uses_spherical_sampling(const Vec3& p) const;
+  bool uniform_in_solid_angle(const Vec3& p) const override { return uses_spherical_sampling(p); }
   // Corners in order c0, c0 + u, c0 + u + v, c0 + v (counter-clockwise seen from the side of u × v).
   Vec3 corner(int i) const;
 

@@ -88,6 +88,10 @@ class LightSource {
     return std::nullopt;
   }
   virtual Rgb power(double scene_radius) const = 0;
+  // True when sample_li at p is uniform in the solid angle the light subtends there (a spherical rectangle, a sun
+  // disc): light sampling then leaves only the variation of cos θ, and the transport lets it own the light rather
+  // than combine it with BSDF sampling, whose rare hits on a small light only add skewed variance.
+  virtual bool uniform_in_solid_angle(const Vec3& /*p*/) const { return false; }
 };
 
 }  // namespace kiln::scene

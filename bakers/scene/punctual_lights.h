@@ -57,6 +57,7 @@ class DirectionalLight final : public LightSource {
   DirectionalLight(const Vec3& direction, const Rgb& irradiance, double angular_diameter);
   LightKind kind() const override { return disc_ ? LightKind::sun : LightKind::directional; }
   bool is_delta() const override { return !disc_; }
+  bool uniform_in_solid_angle(const Vec3&) const override { return disc_; }  // sampled uniformly in its cone
   bool is_infinite() const override { return true; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   double pdf_li(const Vec3& p, const Vec3& n, const Vec3& wi, const LightHit& hit) const override;
