@@ -6,6 +6,7 @@
 
 #include "bakers/brdf/albedo.h"
 #include "bakers/brdf/describe.h"
+#include "bakers/math/constants.h"
 
 namespace kiln::brdf {
 namespace {
@@ -55,6 +56,16 @@ Material::Material(const MaterialSpec& spec) : spec_(spec) {
   e_diffuse_ = tabulate(*diffuse_);
 }
 
+std::optional<LambertianForm> lambertian_form(const MaterialSpec& spec) {
+  if (spec.diffuse.model != Model::lambert || spec.specular.model != Model::lambert) return std::nullopt;
+  const Rgb rho_d = spec.diffuse.albedo, rho_s = spec.specular.albedo;
+  if (spec.combine == Combine::weights) {
+    const double s = spec.specular_weight;
+    return LambertianForm{rho_s * s, rho_d * (1.0 - s)};
+  }
+  return LambertianForm{rho_s, (Rgb{1.0} - rho_s) * (Rgb{1.0} - rho_s) * rho_d};
+}
+
 Rgb Material::specular_albedo(double mu) const { return lookup(e_specular_, mu); }
 
 Rgb Material::eval(const Vec3& wo, const Vec3& wi) const { return eval(wo, wi, Rgb{1.0}); }
@@ -98,7 +109,7 @@ std::optional<BsdfSample> Material::sample(const Vec3& wo, Point2 u, double uc, 
   if (uc < p) {
     s = specular_->sample(wo, u, uc / p);
   } else {
-    s = diffuse_->sample(wo, u, std::min((uc - p) / (1.0 - p), 0x1.fffffffffffffp-1));
+    s = diffuse_->sample(wo, u, std::min((uc - p) / (1.0 - p), kOneMinusEpsilon));
   }
   if (!s) return std::nullopt;
   return make_sample(s->wi, eval(wo, s->wi, tint), pdf(wo, s->wi));

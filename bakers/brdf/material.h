@@ -30,6 +30,16 @@ struct MaterialSpec {
 
 std::optional<std::string> validate(const MaterialSpec& spec);
 
+// The closed form of a material whose two lobes are both Lambertian (as the lightmap planner leaves a pruned
+// specular lobe): it reflects the same for every pair of directions above the horizon, f(wo, wi, tint) =
+// (A + B·tint)/π, so a renderer may shade it without the general machinery. Weights: A = s ρ_s, B = (1 − s) ρ_d.
+// Layered: A = ρ_s, B = (1 − ρ_s)² ρ_d, since a Lambertian lobe's directional albedo is ρ_s at every angle (Material
+// tabulates it; the two agree to the table's accuracy). nullopt for any other material.
+struct LambertianForm {
+  Rgb A, B;
+};
+std::optional<LambertianForm> lambertian_form(const MaterialSpec& spec);
+
 class Material final : public Bxdf {
  public:
   // Throws std::invalid_argument with validate()'s message if the spec is invalid.

@@ -19,6 +19,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "bakers/envmap/env_rotation.h"
 #include "bakers/image/color.h"
 #include "bakers/image/image_format.h"
 
@@ -298,17 +299,8 @@ CubeFacesInput decode_cube_faces(const std::vector<std::string>& faces, const En
   return out;
 }
 
-namespace {
-// R_y(−α)·d: where the input is looked up for the rotated environment's direction d.
-Vec3 unrotate(const Vec3& d, double degrees) {
-  const double a = std::fmod(degrees, 360.0) * (M_PI / 180.0);
-  const double c = std::cos(a), s = std::sin(a);
-  return {d.x * c - d.z * s, d.y, d.x * s + d.z * c};
-}
-}  // namespace
-
 Rgb sample_environment(const EnvironmentInput& env, const Vec3& dir) {
-  return sample_equirect_bilinear(env.image, unrotate(dir, env.rotation_degrees));
+  return sample_equirect_bilinear(env.image, EnvRotation(env.rotation_degrees).to_image(dir));
 }
 
 RgbImage rotated_equirect(const EnvironmentInput& env) {
@@ -362,6 +354,7 @@ Cubemap faces_to_cube(const CubeFacesInput& faces, int size) {
     return c;
   }
   const int k = std::clamp((2 * src.size() + size - 1) / size, 2, 32);
+  const EnvRotation rotation(faces.rotation_degrees);
   Cubemap cube(size);
   const double texel = 2.0 / size, sub = texel / k;
   tbb::parallel_for(tbb::blocked_range<int>(0, kFaceCount * size), [&](const tbb::blocked_range<int>& rows) {
@@ -375,7 +368,7 @@ Cubemap faces_to_cube(const CubeFacesInput& faces, int size) {
             const double sa0 = -1.0 + x * texel + i * sub, sb0 = -1.0 + y * texel + j * sub;
             const double w = face_rect_solid_angle(sa0, sb0, sa0 + sub, sb0 + sub);
             const Vec3 d = face_uv_to_direction(face, 0.5 * (sa0 + 0.5 * sub + 1.0), 0.5 * (sb0 + 0.5 * sub + 1.0));
-            const Rgb v = src.sample_bilinear(unrotate(d, faces.rotation_degrees));
+            const Rgb v = src.sample_bilinear(rotation.to_image(d));
             // The weighted mean as L0 + Σ w (L − L0) / Σ w: exactly L0 when all samples are equal.
             if (i == 0 && j == 0) first = v;
             delta += (v - first) * w;

@@ -28,7 +28,8 @@
 // rotation_degrees turns the environment about +Y, right-handed (counter-clockwise seen from above): the radiance
 // arriving from direction d after the rotation is the input's from R_y(−α)·d, so with α = 90° what the input showed
 // towards −Z is seen towards −X. In the equirectangular image this is a shift of the columns: out(u) = in(u + α/360°).
-// The rotation is applied when sampling (sample_environment, environment_to_cube); `image` stays unrotated.
+// The rotation is applied when sampling (sample_environment, environment_to_cube), through EnvRotation
+// (env_rotation.h); `image` stays unrotated.
 // intensity multiplies every value of `image` (applied at decode time); it must be finite and in (0, 1e6].
 //
 // ## Six faces

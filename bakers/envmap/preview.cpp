@@ -9,7 +9,7 @@
 
 #include "bakers/brdf/describe.h"
 #include "bakers/image/color.h"
-#include "bakers/image/png.h"
+#include "bakers/image/display_png.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::envmap {
@@ -159,7 +159,7 @@ std::string render(const Chain& chain, const Cubemap& irradiance, const DfgTable
     }
   });
 
-  // 2. Exposure: median background luminance → mid-grey.
+  // 2. Exposure: median background luminance → mid-grey (image::auto_exposure's rule).
   double exposure = 1.0;
   std::string rule;
   if (options.exposure) {
@@ -168,26 +168,24 @@ std::string render(const Chain& chain, const Cubemap& irradiance, const DfgTable
   } else {
     std::vector<double> lum(background.size());
     std::transform(background.begin(), background.end(), lum.begin(), luminance);
-    const auto mid = lum.begin() + static_cast<std::ptrdiff_t>(lum.size() / 2);
-    std::nth_element(lum.begin(), mid, lum.end());
-    double key = *mid;
-    rule = "automatic: median background luminance " + format_number(key) + " -> " + format_number(kPreviewMidGrey);
-    if (!(key > 0.0 && std::isfinite(key))) {
-      // More than half the background is black: the mean still says how bright the rest is.
-      double mean = 0.0;
-      for (double l : lum) mean += l / static_cast<double>(lum.size());
-      key = mean;
-      rule = "automatic: mean background luminance " + format_number(key) + " -> " + format_number(kPreviewMidGrey) +
-             " (the median is black)";
-    }
-    if (key > 0.0 && std::isfinite(key)) {
-      exposure = kPreviewMidGrey / key;
-    } else {
-      rule = "automatic: a black environment, exposure 1";
+    const image::AutoExposure automatic = image::auto_exposure(std::move(lum));
+    exposure = automatic.multiplier;
+    const std::string to_grey = " -> " + format_number(image::kMidGrey);
+    switch (automatic.from) {
+      case image::AutoExposure::Key::median:
+        rule = "automatic: median background luminance " + format_number(automatic.key) + to_grey;
+        break;
+      case image::AutoExposure::Key::mean:
+        rule = "automatic: mean background luminance " + format_number(automatic.key) + to_grey +
+               " (the median is black)";
+        break;
+      case image::AutoExposure::Key::black:
+        rule = "automatic: a black environment, exposure 1";
+        break;
     }
   }
 
-  // 3. Spheres over the background, exposed, as floats for OpenColorIO.
+  // 3. Spheres over the background, as floats for OpenColorIO.
   std::vector<float> linear(static_cast<size_t>(kW) * kH * 3);
   tbb::parallel_for(tbb::blocked_range<int>(0, kH), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
@@ -215,30 +213,15 @@ std::string render(const Chain& chain, const Cubemap& irradiance, const DfgTable
           }
           value = sum / (kS * kS);
         }
-        value *= exposure;
         float* out = &linear[(static_cast<size_t>(y) * kW + x) * 3];
-        for (int c = 0; c < 3; ++c) {
-          // OpenColorIO does not define NaN input; the cubes are finite, this is the guard that keeps it so.
-          const double v = value[c];
-          out[c] = std::isnan(v) ? 0.0f : static_cast<float>(v);
-        }
+        for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(value[c]);  // NaN guarded by display_png8
       }
     }
   });
 
-  // 4. Display transform and quantisation.
-  const std::string display_view = image::ColorConfig::active().convert_to_display(
-      linear.data(), linear.size() / 3, 3, color_space, options.display, options.view);
-  image::Png8Image png;
-  png.width = kW;
-  png.height = kH;
-  png.channels = 3;
-  png.pixels.resize(linear.size());
-  for (size_t i = 0; i < linear.size(); ++i) {
-    const float v = linear[i];
-    // A NaN (no display transform should make one) becomes 0; beyond [0, 1] is clamped.
-    png.pixels[i] = std::isnan(v) ? 0 : static_cast<uint8_t>(std::lround(255.0 * std::clamp(double(v), 0.0, 1.0)));
-  }
+  // 4. Exposure, display transform and quantisation.
+  image::Png8Image png =
+      image::display_png8(std::move(linear), kW, kH, exposure, color_space, options.display, options.view);
   png.metadata["Description"] =
       "kiln environment preview, " + std::to_string(kW) + "x" + std::to_string(kH) +
       ". Background: the environment, longitude 360 deg across (centre column looks along -Z), latitude +45 deg "
@@ -249,7 +232,6 @@ std::string render(const Chain& chain, const Cubemap& irradiance, const DfgTable
   png.metadata["kiln:exposure"] = format_number(exposure);
   png.metadata["kiln:exposure_ev"] = format_number(std::log2(exposure));
   png.metadata["kiln:exposure_rule"] = rule;
-  png.metadata["kiln:display_view"] = display_view;
   png.metadata["kiln:color_space"] = color_space;
   return image::encode_png(png);
 }

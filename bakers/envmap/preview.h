@@ -21,13 +21,14 @@
 //   shading the sphere whose disc (distance ≤ R, boundary included) holds it or else the background: silhouettes are
 //   antialiased, and a pixel whose square lies wholly inside a disc is pure sphere.
 //
-// ## Exposure and display
+// ## Exposure and display (the rules of bakers/image/display_png.h, shared with the lightmap preview)
 // Automatic exposure (unless PreviewOptions::exposure is given): the multiplier that maps the median luminance of the
 // background pixels (Rec.709 luma weights 0.2126, 0.7152, 0.0722, kiln's working space) to mid-grey 0.18. A black
 // median falls back to the mean, a black environment to exposure 1. The exposed scene-linear values then go through
 // the active OpenColorIO config's display/view transform from `color_space` (default display and view: kiln's
 // "sRGB"/"Standard" = clamp to [0, 1] and the sRGB curve) and are quantised as round(255 · clamp(v, 0, 1)); a value
-// that is not a number anywhere along the way becomes 0, so the PNG never holds one.
+// that is not a number anywhere along the way (or is negative before the transform) becomes 0, so the PNG never
+// holds a NaN.
 // The PNG's text chunks record the exposure ("kiln:exposure" multiplier, "kiln:exposure_ev" = log2 of it,
 // "kiln:exposure_rule"), the display/view, the colour space and a description of the spheres ("Description").
 #pragma once
@@ -40,6 +41,7 @@
 #include "bakers/envmap/cubemap.h"
 #include "bakers/envmap/dfg.h"
 #include "bakers/envmap/prefilter.h"
+#include "bakers/image/display_png.h"
 
 namespace kiln::envmap {
 
@@ -49,7 +51,7 @@ inline constexpr int kPreviewSpheres = 6;  // five specular, one diffuse
 inline constexpr double kPreviewSphereRadius = 48.0;
 inline constexpr int kPreviewSupersampling = 4;  // 4 × 4 sub-pixel samples
 inline constexpr std::array<double, 5> kPreviewRoughness = {0.0, 0.25, 0.5, 0.75, 1.0};
-inline constexpr double kPreviewMidGrey = 0.18;
+inline constexpr double kPreviewMidGrey = image::kMidGrey;  // 0.18
 
 // Centre of sphere i (0…5) in pixel coordinates (x right, y down; pixel (x, y) covers [x, x + 1) × [y, y + 1)).
 inline double preview_sphere_center_x(int i) { return (i + 0.5) * kPreviewWidth / kPreviewSpheres; }

@@ -157,23 +157,40 @@ struct Walk {
       const Vec3 wo_local = frame.to_local(wo);
       if (wo_local.z <= 0) break;  // below the shading normal's horizon: no reflection is defined there
       const Rgb t = tint(m, hit);
-      auto f_cos = [&](const Vec3& wi) {
-        const Vec3 wi_local = frame.to_local(wi);
-        return m.bsdf->eval(wo_local, wi_local, t) * std::abs(wi_local.z);
-      };
-      auto pdf = [&](const Vec3& wi) { return m.bsdf->pdf(wo_local, frame.to_local(wi)); };
-      L += beta * next_event(surface, ns, f_cos, pdf);
-      const std::optional<brdf::BsdfSample> s = m.bsdf->sample(wo_local, u2(), rng.uniform(), t);
-      if (!s) break;
-      const Vec3 wi = frame.from_local(s->wi);
+      Vec3 wi;
+      double pdf_wi;
+      if (m.lambertian) {
+        // Closed form: f = ρ/π with ρ = A + B·tint; cosine sampling, so f cos θ / pdf = ρ.
+        const Rgb rho = m.lambertian->A + m.lambertian->B * t;
+        auto f_cos = [&](const Vec3& w) { return rho * (std::max(0.0, dot(w, ns)) * kInvPi); };
+        auto pdf = [&](const Vec3& w) { return std::max(0.0, dot(w, ns)) * kInvPi; };
+        L += beta * next_event(surface, ns, f_cos, pdf);
+        const Vec3 local = sample_cosine_hemisphere(rng);
+        if (!(local.z > 0)) break;  // on the rim of the hemisphere: cos θ = 0 reflects nothing
+        wi = frame.from_local(local);
+        pdf_wi = local.z * kInvPi;
+        beta = beta * rho;
+      } else {
+        ++out.general_vertices;
+        auto f_cos = [&](const Vec3& w) {
+          const Vec3 wi_local = frame.to_local(w);
+          return m.bsdf->eval(wo_local, wi_local, t) * std::abs(wi_local.z);
+        };
+        auto pdf = [&](const Vec3& w) { return m.bsdf->pdf(wo_local, frame.to_local(w)); };
+        L += beta * next_event(surface, ns, f_cos, pdf);
+        const std::optional<brdf::BsdfSample> s = m.bsdf->sample(wo_local, u2(), rng.uniform(), t);
+        if (!s) break;
+        wi = frame.from_local(s->wi);
+        pdf_wi = s->pdf;
+        beta = beta * s->weight;
+      }
       if (dot(wi, surface.ng) <= 0) break;  // into the surface (the shading normal disagrees with the geometry)
-      beta = beta * s->weight;
       if (!finite(beta) || !(beta.max() > 0)) break;
       const scene::Ray ray = scene::spawn_ray(surface, wi);
       const auto next = trace(ray);
-      L += beta * lights_along(ray.origin, ns, wi, next ? next->t : kInfinity, s->pdf, !next);
+      L += beta * lights_along(ray.origin, ns, wi, next ? next->t : kInfinity, pdf_wi, !next);
       if (!next) break;
-      L += beta * emitted(*next, ray.origin, ns, wi, s->pdf);
+      L += beta * emitted(*next, ray.origin, ns, wi, pdf_wi);
       if (depth + 1 > plan.bounces) break;
       if (plan.russian_roulette && depth >= plan.russian_roulette_depth) {
         const double q = std::max(0.05, 1.0 - beta.max());
@@ -218,7 +235,9 @@ std::vector<ShadingMaterial> shading_materials(const scene::Scene& scene, const 
       s.alpha_x = s.alpha_y = std::sqrt(s.alpha_x * s.alpha_y);
     }
     ShadingMaterial sm;
-    sm.bsdf = std::make_unique<brdf::Material>(spec);
+    sm.lambertian = brdf::lambertian_form(spec);
+    // The general material tabulates its lobes' albedos when built (milliseconds each): only when it is used.
+    if (!sm.lambertian) sm.bsdf = std::make_unique<brdf::Material>(spec);
     sm.base_color = m.base_color;
     sm.emission = m.emission;
     sm.two_sided = m.two_sided;
@@ -253,7 +272,7 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   add_sh(out.sh, direction, radiance);
 
   // 2. Cosine sampling.
-  const Vec3 local = sample_cosine_hemisphere(walk.u2());
+  const Vec3 local = sample_cosine_hemisphere(rng);
   const Vec3 wi = frame.from_local(local);
   if (local.z > 0 && dot(wi, r.ng) > 0) {
     const double pdf = local.z * kInvPi;

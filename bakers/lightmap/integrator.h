@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "bakers/brdf/material.h"
@@ -33,7 +34,10 @@ namespace kiln::lightmap {
 // A scene material as the transport evaluates it, after the plan's substitutions (a specular lobe the planner pruned
 // is a Lambertian lobe of the same average albedo; an anisotropic one the plan does not evaluate is isotropic).
 struct ShadingMaterial {
-  std::unique_ptr<brdf::Material> bsdf;
+  // Set when the material is Lambertian whatever the directions (brdf::lambertian_form): shaded in closed form,
+  // f = (A + B·tint)/π with cosine sampling (the same function as the general material, a fraction of the cost).
+  std::optional<brdf::LambertianForm> lambertian;
+  std::unique_ptr<brdf::Material> bsdf;  // the general material, when `lambertian` is not set
   Rgb base_color{1.0};
   int texture = -1;    // into Scene::textures, or -1 (also when the plan does not sample textures)
   Rgb texture_average{1.0};  // used instead of the texture when the plan says so
@@ -74,6 +78,7 @@ struct IrradianceEstimate {
   double ao = 0;                // 1 if the cosine ray escaped ao_distance, else 0
   uint32_t rays = 0;
   uint32_t occlusion_rays = 0;  // of `rays`, the shadow (any-hit) queries; the others are closest-hit
+  uint32_t general_vertices = 0;  // path vertices shaded through the general BSDF (not in closed Lambertian form)
   bool dropped = false;         // a non-finite contribution was discarded
 };
 

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <tbb/blocked_range.h>
@@ -11,6 +12,7 @@
 
 #include "bakers/brdf/describe.h"
 #include "bakers/image/color.h"
+#include "bakers/image/display_png.h"
 #include "bakers/image/exr.h"
 #include "bakers/image/png.h"
 #include "bakers/image/texture_decode.h"
@@ -75,6 +77,7 @@ Rgb reflectance(const scene::Scene& s, const std::vector<ShadingMaterial>& mater
     const int y = std::clamp(static_cast<int>((uv.y - std::floor(uv.y)) * tex.height), 0, tex.height - 1);
     tint = m.base_color * tex.texels[static_cast<size_t>(y) * tex.width + x];
   }
+  if (m.lambertian) return m.lambertian->A + m.lambertian->B * tint;  // the same albedo in every direction
   // The albedo of the material seen from the normal (μ = 1), with the tint on its diffuse part.
   const Vec3 n{0, 0, 1};
   Rgb albedo;
@@ -105,33 +108,18 @@ image::FloatImage texel_image(const LightmapImage& img, int channels, const std:
 // The irradiance through the display transform, exposed so that the median valid texel is mid-grey.
 std::string preview_png(const image::FloatImage& irradiance, const std::vector<uint8_t>& validity,
                         const std::string& color_space, const std::string& name) {
+  // The key: the valid texels' luminances (invalid texels are not part of any surface).
   std::vector<double> luma;
   for (size_t t = 0; t < validity.size(); ++t) {
     if (!validity[t]) continue;
     const float* p = &irradiance.pixels[t * 3];
-    luma.push_back(0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]);
+    luma.push_back(luminance(Rgb(p[0], p[1], p[2])));
   }
-  double exposure = 1;
-  if (!luma.empty()) {
-    std::nth_element(luma.begin(), luma.begin() + luma.size() / 2, luma.end());
-    const double median = luma[luma.size() / 2];
-    if (median > 0) exposure = 0.18 / median;
-  }
-  std::vector<float> rgb(irradiance.pixels);
-  for (float& v : rgb) v = static_cast<float>(std::max(0.0, v * exposure));
-  const image::ColorConfig& config = image::ColorConfig::active();
-  const std::string view = config.convert_to_display(rgb.data(), rgb.size() / 3, 3, color_space);
-  image::Png8Image png;
-  png.width = irradiance.width;
-  png.height = irradiance.height;
-  png.channels = 3;
-  png.pixels.resize(rgb.size());
-  for (size_t i = 0; i < rgb.size(); ++i) {
-    png.pixels[i] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(static_cast<double>(rgb[i]), 0.0, 1.0)));
-  }
+  const double exposure = image::auto_exposure(std::move(luma)).multiplier;
+  image::Png8Image png =
+      image::display_png8(irradiance.pixels, irradiance.width, irradiance.height, exposure, color_space);
   png.metadata["Description"] = "kiln lightmap " + name + ": irradiance, exposed so the median valid texel is 0.18";
   png.metadata["kiln:exposure"] = format_number(exposure);
-  png.metadata["kiln:display_view"] = view;
   return image::encode_png(png);
 }
 
@@ -143,7 +131,26 @@ struct Lightmap {
   LeakReport leaks;
   std::vector<Rgb> ao_sum;                 // per texel, sum over estimates (AO in every channel)
   std::vector<std::array<Rgb, 4>> sh_sum;  // per texel
+  std::vector<std::array<double, 4>> sh_y2;  // per texel, sum over estimates of each coefficient's luminance²
+  std::vector<uint32_t> attempts;          // per texel, estimates tried (kept or dropped)
 };
+
+// The estimated relative error of a texel's SH from the spread of its n estimates (luminance throughout): the
+// standard error of L00 relative to L00, and that of the L1 vector relative to √3·L00 (the largest |L1| a
+// non-negative radiance has: all of it arriving from one direction), whichever is larger. +∞ below two estimates;
+// 0 for a black texel (all estimates 0).
+double sh_relative_error(const std::array<Rgb, 4>& sum, const std::array<double, 4>& sum_y2, uint32_t n) {
+  if (n < 2) return std::numeric_limits<double>::infinity();
+  double se2[4];
+  for (int c = 0; c < 4; ++c) {
+    const double mean = luminance(sum[c]) / n;
+    // Σ Y² − n Ȳ² can come out a few ulps negative for estimates that are all equal.
+    se2[c] = std::max(0.0, (sum_y2[c] - n * mean * mean) / (n - 1)) / n;
+  }
+  const double l00 = luminance(sum[0]) / n;
+  if (!(l00 > 0)) return 0;  // no radiance arrives: every estimate was 0
+  return std::max(std::sqrt(se2[0]) / l00, std::sqrt(se2[1] + se2[2] + se2[3]) / (std::sqrt(3.0) * l00));
+}
 
 std::string json_string(const std::string& s) {
   std::string out = "\"";
@@ -292,11 +299,15 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
     const LeakReport leaks = fix_leaks(texels, query, LeakOptions{});
     result.rays += leaks.rays;
     std::vector<uint8_t> validity = texels.validity();
-    Lightmap m{name, std::move(texels), {}, LightmapImage(name, res, res, std::move(validity)), leaks, {}, {}};
+    Lightmap m{name, std::move(texels), {}, LightmapImage(name, res, res, std::move(validity)), leaks, {}, {}, {}, {}};
+    m.attempts.assign(m.texels.texel_count(), 0);
     m.receivers.reserve(m.texels.samples.size());
     for (const TexelSample& t : m.texels.samples) m.receivers.push_back(receiver(t));
     if (in.ao) m.ao_sum.assign(m.texels.texel_count(), Rgb{});
-    if (in.directional) m.sh_sum.assign(m.texels.texel_count(), {});
+    if (in.directional) {
+      m.sh_sum.assign(m.texels.texel_count(), {});
+      m.sh_y2.assign(m.texels.texel_count(), {});
+    }
     maps.push_back(std::move(m));
     check_cancel(control);
   }
@@ -306,23 +317,38 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
   }
   progress(0.05, "texels", -1);
 
-  // 5. Adaptive passes: every texel gets one estimate per pass (one path per sample point, weighted by the point's
-  // share of the texel) until its relative error is below the target (after min_samples) or it has max_samples.
+  // 5. Adaptive passes: every estimate is one path per sample point of the texel, weighted by the point's share of
+  // it. Each pass gives every texel still short of its goal a batch of estimates: up to min_samples first, then as
+  // many as its (pooled) variance says the target needs, up to max_samples. Batches grow with what a texel already
+  // has (at most half as many again per pass, at least one), so a bake takes tens of passes rather than thousands
+  // (scheduling and the error summary run between passes, on all texels) and the curve still has a point per pass.
   std::atomic<uint64_t> dropped{0};
+  // Rule of three: n estimates that never met some contribution only say that its probability per path is below
+  // 3/n (95 % confidence). A texel whose estimates barely vary (in the open under a constant sky, or black) would
+  // stop at min_samples while missing anything that only some of its paths find; no texel stops before 3/n ≤
+  // target, i.e. before anything reaching it through more than a fraction `target` of its paths would have shown.
+  // (Texels with real variance need more than this anyway once v > 3·target.)
+  const double rare_event_samples = std::ceil(3.0 / in.target_error);
+  const auto deadline = in.time_limit_seconds > 0
+                            ? t0 + std::chrono::duration_cast<Clock::duration>(
+                                       std::chrono::duration<double>(in.time_limit_seconds))
+                            : Clock::time_point::max();
   for (uint64_t pass = 0;; ++pass) {
     struct Job {
-      size_t map, texel;
+      uint32_t map;
+      uint32_t batch;
+      size_t texel;
     };
-    // Scheduling is O(texels) per pass and runs between the passes: done row-parallel, and the pooled variance only
-    // when some texel of the lightmap has its min_samples (budget-bound bakes, min_samples = max_samples, never need
-    // it), so that it does not hold the cores idle (it took ~20 % of a bake's time serially).
+    // Scheduling is O(texels) per pass: done row-parallel, and the pooled variance only when some texel of the
+    // lightmap has its min_samples (budget-bound bakes, min_samples = max_samples, never need it).
     std::vector<Job> active;
     for (size_t mi = 0; mi < maps.size(); ++mi) {
-      const LightmapImage& img = maps[mi].image;
+      const Lightmap& m = maps[mi];
+      const LightmapImage& img = m.image;
       const int w = img.width(), h = img.height();
       bool any_adaptive = false;
       for (size_t t = 0; t < img.texel_count() && !any_adaptive; ++t) {
-        any_adaptive = img.count(t) >= in.min_samples && img.count(t) < in.max_samples;
+        any_adaptive = img.count(t) >= in.min_samples && m.attempts[t] < in.max_samples;
       }
       // The relative variance of one estimate, v = n·(relative standard error)², per texel.
       std::vector<double> v;
@@ -338,93 +364,116 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
                             }
                           });
       }
-      std::vector<std::vector<size_t>> rows(h);
+      std::vector<std::vector<Job>> rows(h);
       tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& ry) {
         for (int y = ry.begin(); y != ry.end(); ++y) {
-          std::vector<size_t>& row = rows[y];
           for (int x = 0; x < w; ++x) {
             const size_t t = static_cast<size_t>(y) * w + x;
             if (!img.valid(t)) continue;
+            // Attempts, not kept estimates, bound the work: a texel whose estimates are all dropped (non-finite)
+            // would otherwise be scheduled for ever.
+            const uint64_t tried = m.attempts[t];
+            if (tried >= in.max_samples) continue;
             const uint64_t n = img.count(t);
-            if (n >= in.max_samples) continue;
-            if (n < in.min_samples) {
-              row.push_back(t);
-              continue;
-            }
-            // The samples a texel needs, n = v/target², from v pooled over its 3 × 3 neighbourhood: deciding from
-            // the texel's own variance alone biases the result low, since an estimate that has not yet met its rare
-            // large samples also looks precise (measured: 1-2 % low at a 2 % target in a furnace). Neighbours are
-            // independent estimates of nearly the same variance, which breaks that correlation.
-            double sum = 0;
-            int count = 0;
-            for (int dy = -1; dy <= 1; ++dy) {
-              for (int dx = -1; dx <= 1; ++dx) {
-                const int xx = x + dx, yy = y + dy;
-                if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
-                const double vv = v[static_cast<size_t>(yy) * w + xx];
-                if (vv >= 0) sum += vv, ++count;
+            double goal = static_cast<double>(in.min_samples);
+            if (n >= in.min_samples) {
+              // The samples a texel needs, n = v/target², from v pooled over its 3 × 3 neighbourhood: deciding from
+              // the texel's own variance alone biases the result low, since an estimate that has not yet met its
+              // rare large samples also looks precise (measured: 1-2 % low at a 2 % target in a furnace).
+              // Neighbours are independent estimates of nearly the same variance, which breaks that correlation.
+              double sum = 0;
+              int count = 0;
+              for (int dy = -1; dy <= 1; ++dy) {
+                for (int dx = -1; dx <= 1; ++dx) {
+                  const int xx = x + dx, yy = y + dy;
+                  if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
+                  const double vv = v[static_cast<size_t>(yy) * w + xx];
+                  if (vv >= 0) sum += vv, ++count;
+                }
               }
+              goal = std::max(count ? sum / count / (in.target_error * in.target_error) : 0, rare_event_samples);
             }
-            const double needed = count ? sum / count / (in.target_error * in.target_error) : 0;
-            if (static_cast<double>(n) < needed) row.push_back(t);
+            const double want = std::ceil(goal) - static_cast<double>(n);
+            if (!(want >= 1)) continue;
+            const uint64_t growth = std::max<uint64_t>(1, tried / 2);
+            const uint64_t batch =
+                std::min({static_cast<uint64_t>(std::min(want, 1e12)), growth, in.max_samples - tried});
+            rows[y].push_back({static_cast<uint32_t>(mi), static_cast<uint32_t>(batch), t});
           }
         }
       });
-      for (const std::vector<size_t>& row : rows) {
-        for (size_t t : row) active.push_back({mi, t});
-      }
+      for (const std::vector<Job>& row : rows) active.insert(active.end(), row.begin(), row.end());
     }
     if (active.empty()) break;
-    std::atomic<uint64_t> rays{0}, occlusion_rays{0}, paths{0};
-    // Grain: up to 64 texels per task, fewer when few remain active (late adaptive passes), so both cores get work.
-    const size_t grain = std::clamp<size_t>(active.size() / 32, 1, 64);
+    std::atomic<uint64_t> rays{0}, occlusion_rays{0}, paths{0}, general_vertices{0};
+    std::atomic<bool> out_of_time{false};
+    // Grain: up to 16 texels per task, fewer when few remain active (late adaptive passes), so both cores get work.
+    const size_t grain = std::clamp<size_t>(active.size() / 32, 1, 16);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size(), grain), [&](const tbb::blocked_range<size_t>& r) {
       if (control.cancel && control.cancel->load()) return;
-      uint64_t local_rays = 0, local_occlusion = 0, local_paths = 0;
+      uint64_t local_rays = 0, local_occlusion = 0, local_paths = 0, local_general = 0;
       for (size_t j = r.begin(); j != r.end(); ++j) {
+        // The time limit holds inside a pass too: the texels not reached keep what they have.
+        if (out_of_time.load(std::memory_order_relaxed)) break;
+        if (Clock::now() >= deadline) {
+          out_of_time = true;
+          break;
+        }
         Lightmap& m = maps[active[j].map];
         const size_t t = active[j].texel;
-        Pcg32 rng(mix(mix(in.seed, active[j].map), mix(t, pass)));
-        Rgb E, ao;
-        std::array<Rgb, 4> sh{};
-        double weight = 0;
-        bool bad = false;
+        // A stream per (bake seed, lightmap, texel, estimates tried so far): the bytes do not depend on scheduling.
+        Pcg32 rng(mix(mix(in.seed, active[j].map), mix(t, m.attempts[t])));
         const auto samples = m.texels.at(t);
-        for (size_t k = 0; k < samples.size(); ++k) {
-          const Receiver& rec = m.receivers[m.texels.first[t] + k];
-          const IrradianceEstimate e = estimate_irradiance(ctx, rec, rng);
-          local_rays += e.rays;
-          local_occlusion += e.occlusion_rays;
-          ++local_paths;
-          if (e.dropped) {
-            bad = true;
+        for (uint32_t b = 0; b < active[j].batch; ++b) {
+          ++m.attempts[t];
+          Rgb E, ao;
+          std::array<Rgb, 4> sh{};
+          double weight = 0;
+          bool bad = false;
+          for (size_t k = 0; k < samples.size(); ++k) {
+            const Receiver& rec = m.receivers[m.texels.first[t] + k];
+            const IrradianceEstimate e = estimate_irradiance(ctx, rec, rng);
+            local_rays += e.rays;
+            local_occlusion += e.occlusion_rays;
+            local_general += e.general_vertices;
+            ++local_paths;
+            if (e.dropped) {
+              bad = true;
+              continue;
+            }
+            const double w = samples[k].weight;
+            E += e.E * w;
+            ao += Rgb{e.ao * w};
+            for (int c = 0; c < 4; ++c) sh[c] += e.sh[c] * w;
+            weight += w;
+          }
+          if (bad) dropped.fetch_add(1, std::memory_order_relaxed);
+          if (!(weight > 0)) continue;
+          if (!m.image.add(t, E / weight)) {
+            dropped.fetch_add(1, std::memory_order_relaxed);
             continue;
           }
-          const double w = samples[k].weight;
-          E += e.E * w;
-          ao += Rgb{e.ao * w};
-          for (int c = 0; c < 4; ++c) sh[c] += e.sh[c] * w;
-          weight += w;
-        }
-        if (bad) dropped.fetch_add(1, std::memory_order_relaxed);
-        if (!(weight > 0)) continue;
-        if (!m.image.add(t, E / weight)) {
-          dropped.fetch_add(1, std::memory_order_relaxed);
-          continue;
-        }
-        if (!m.ao_sum.empty()) m.ao_sum[t] += ao / weight;
-        if (!m.sh_sum.empty()) {
-          for (int c = 0; c < 4; ++c) m.sh_sum[t][c] += sh[c] / weight;
+          if (!m.ao_sum.empty()) m.ao_sum[t] += ao / weight;
+          if (!m.sh_sum.empty()) {
+            for (int c = 0; c < 4; ++c) {
+              const Rgb coefficient = sh[c] / weight;
+              m.sh_sum[t][c] += coefficient;
+              const double y = luminance(coefficient);
+              m.sh_y2[t][c] += y * y;
+            }
+          }
         }
       }
       rays.fetch_add(local_rays, std::memory_order_relaxed);
       occlusion_rays.fetch_add(local_occlusion, std::memory_order_relaxed);
       paths.fetch_add(local_paths, std::memory_order_relaxed);
+      general_vertices.fetch_add(local_general, std::memory_order_relaxed);
     });
     check_cancel(control);
     result.rays += rays.load();
     result.occlusion_rays += occlusion_rays.load();
     result.samples += paths.load();
+    result.general_vertices += general_vertices.load();
     // The error after this pass, over every valid texel of every lightmap.
     double sum_sq = 0;
     size_t estimated = 0, above = 0, valid = 0;
@@ -443,7 +492,7 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
     result.curve.push_back({elapsed, result.samples, rms});
     const double done = valid ? 1.0 - static_cast<double>(above) / static_cast<double>(valid) : 1.0;
     progress(0.05 + 0.9 * done, "pass " + std::to_string(pass + 1), rms);
-    if (in.time_limit_seconds > 0 && elapsed >= in.time_limit_seconds) break;
+    if (out_of_time.load() || Clock::now() >= deadline) break;
   }
   result.error_estimate = result.curve.empty() ? 0 : std::max(0.0, result.curve.back().error);
 
@@ -484,6 +533,7 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
       ao.metadata["kiln:lightmap"] = name;
       result.outputs.push_back({name + "_ao.exr", "image/x-exr", "data", image::encode_exr(ao)});
     }
+    double sh_error_rms = -1, sh_error_max = 0;
     if (in.directional) {
       image::FloatImage sh = texel_image(
           img, 12, {"L00.R", "L00.G", "L00.B", "L1m1.R", "L1m1.G", "L1m1.B", "L10.R", "L10.G", "L10.B", "L11.R",
@@ -498,6 +548,21 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
           "order-1 SH of incoming radiance L(w), world axes: L00 (Y00 = 0.282095), L1m1 (0.488603 y), L10 "
           "(0.488603 z), L11 (0.488603 x)";
       sh.metadata["kiln:lightmap"] = name;
+      double sum_sq = 0;
+      size_t estimated = 0;
+      for (size_t t = 0; t < img.texel_count(); ++t) {
+        if (!img.valid(t)) continue;
+        const double e = sh_relative_error(m.sh_sum[t], m.sh_y2[t], img.count(t));
+        if (!std::isfinite(e)) continue;
+        sum_sq += e * e;
+        sh_error_max = std::max(sh_error_max, e);
+        ++estimated;
+      }
+      sh_error_rms = estimated ? std::sqrt(sum_sq / static_cast<double>(estimated)) : -1;
+      sh.metadata["kiln:error_rms"] = format_number(sh_error_rms);
+      sh.metadata["kiln:error"] =
+          "estimated relative standard error per texel: of L00, and of the L1 vector relative to sqrt(3) L00, the "
+          "larger; RMS over valid texels in kiln:error_rms, also in report.json";
       result.outputs.push_back({name + "_sh.exr", "image/x-exr", color_space, image::encode_exr(sh)});
     }
     if (in.preview) {
@@ -509,7 +574,12 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
     maps_json << (mi ? ",\n    " : "") << "{\"name\": " << json_string(name) << ", \"resolution\": " << img.width()
               << ", \"valid_texels\": " << e.valid << ", \"samples_per_texel_point\": "
               << format_number(mem.samples_per_valid_texel) << ", \"error_rms\": " << format_number(e.rms)
-              << ", \"error_max\": " << format_number(e.max) << ", \"above_target\": " << e.above_target
+              << ", \"error_max\": " << format_number(e.max) << ", \"above_target\": " << e.above_target;
+    if (in.directional) {
+      maps_json << ", \"sh_error_rms\": " << format_number(sh_error_rms) << ", \"sh_error_max\": "
+                << format_number(sh_error_max);
+    }
+    maps_json
               << ", \"leaks\": {\"moved\": " << m.leaks.moved << ", \"invalidated\": " << m.leaks.invalidated
               << ", \"texels_invalidated\": " << m.leaks.texels_invalidated << "}, \"memory_bytes\": "
               << mem.total_bytes << ", \"memory\": " << json_string(mem.describe()) << "}";
@@ -520,6 +590,7 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
   json << "{\n  \"baker\": \"" << kLightmapBakerVersion << "\",\n  \"seconds\": " << format_number(result.seconds)
        << ",\n  \"samples\": " << result.samples << ",\n  \"rays\": " << result.rays
        << ",\n  \"occlusion_rays\": " << result.occlusion_rays
+       << ",\n  \"general_bsdf_vertices\": " << result.general_vertices
        << ",\n  \"mrays_per_second\": " << format_number(result.rays / std::max(result.seconds, 1e-9) / 1e6)
        << ",\n  \"target_error\": " << format_number(in.target_error)
        << ",\n  \"error_estimate\": " << format_number(result.error_estimate)

@@ -48,7 +48,7 @@ struct LightmapBakeInput {
   double target_error = 0.01;              // relative standard error per texel the adaptive sampling aims at
   uint64_t min_samples = 16;               // per texel before any texel may stop, [1, max_samples]
   uint64_t max_samples = 4096;             // per texel, [1, 1 << 20]
-  double time_limit_seconds = 0;           // stop after this long (the current pass completes); 0: none
+  double time_limit_seconds = 0;           // stop after this long (texels not yet reached keep what they have); 0: none
   uint64_t seed = 1;                       // the same input and seed give the same bytes
 
   int max_bounces = 64;                    // cap on the planner's bounce count, [0, 1024]
@@ -76,6 +76,9 @@ struct LightmapBakeResult {
   std::vector<ErrorPoint> curve;
   uint64_t samples = 0, rays = 0;
   uint64_t occlusion_rays = 0;    // of `rays`, the shadow (any-hit) queries; the others are closest-hit
+  // Path vertices shaded through the general BSDF (a glossy or otherwise non-Lambertian material); the others are
+  // shaded in closed Lambertian form (integrator.h), which is what pruning a glossy lobe buys.
+  uint64_t general_vertices = 0;
   double seconds = 0;
   double error_estimate = 0;      // the last point of the curve
   std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people

@@ -34,6 +34,17 @@ inline Vec3 sample_cosine_hemisphere(Point2 u) {
   const double z = std::sqrt(std::fmax(0.0, 1.0 - d.x * d.x - d.y * d.y));
   return {d.x, d.y, z};
 }
+// The same density by Malley's method from a point uniform on the disk found by rejection from the square (accepted
+// with probability π/4): no trigonometry, for hot loops that draw independent uniforms. The map from random numbers
+// is not continuous and their count varies, so it does not carry stratification over; sample_cosine_hemisphere does.
+template <class Rng>
+Vec3 sample_cosine_hemisphere(Rng& rng) {
+  for (;;) {
+    const double x = 2.0 * rng.uniform() - 1.0, y = 2.0 * rng.uniform() - 1.0;
+    const double r2 = x * x + y * y;
+    if (r2 < 1.0) return {x, y, std::sqrt(1.0 - r2)};
+  }
+}
 inline double cosine_hemisphere_pdf(double cos_theta) { return cos_theta > 0 ? cos_theta * kInvPi : 0.0; }
 
 inline Vec3 sample_uniform_hemisphere(Point2 u) {

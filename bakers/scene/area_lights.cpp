@@ -133,7 +133,7 @@ std::optional<LightSample> RectLight::sample_spherical(const Vec3& p, Point2 u, 
   } else {
     const double fu = (std::cos(au) * b0 - b1) / sin_au;
     double cu = std::copysign(1.0 / std::sqrt(fu * fu + b0 * b0), fu);
-    cu = std::clamp(cu, -std::nextafter(1.0, 0.0), std::nextafter(1.0, 0.0));
+    cu = std::clamp(cu, -kOneMinusEpsilon, kOneMinusEpsilon);
     xu = -(cu * z0) / std::sqrt(std::fmax(0.0, 1.0 - cu * cu));
     xu = std::isfinite(xu) ? std::clamp(xu, x0, x1) : (u.x < 0.5 ? x0 : x1);
   }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "bakers/math/constants.h"
+
 namespace kiln::scene {
 
 Distribution1D::Distribution1D(std::vector<double> f) : func_(std::move(f)) {
@@ -38,14 +40,14 @@ int Distribution1D::find_cell(double u) const {
 }
 
 Distribution1D::Continuous Distribution1D::sample_continuous(double u) const {
-  u = std::clamp(u, 0.0, std::nextafter(1.0, 0.0));
+  u = std::clamp(u, 0.0, kOneMinusEpsilon);
   const int i = find_cell(u);
   const double width = cdf_[i + 1] - cdf_[i];
   // width > 0 by find_cell; the guard only protects against a u clamped onto the last boundary.
   const double t = width > 0 ? (u - cdf_[i]) / width : 0.0;
   Continuous s;
   s.cell = i;
-  s.x = std::min((i + std::clamp(t, 0.0, 1.0)) / size(), std::nextafter(1.0, 0.0));
+  s.x = std::min((i + std::clamp(t, 0.0, 1.0)) / size(), kOneMinusEpsilon);
   s.pdf = func_[i] * size() / func_sum_;
   return s;
 }
@@ -57,13 +59,13 @@ double Distribution1D::pdf(double x) const {
 }
 
 Distribution1D::Discrete Distribution1D::sample_discrete(double u) const {
-  u = std::clamp(u, 0.0, std::nextafter(1.0, 0.0));
+  u = std::clamp(u, 0.0, kOneMinusEpsilon);
   const int i = find_cell(u);
   const double width = cdf_[i + 1] - cdf_[i];
   Discrete s;
   s.index = i;
   s.pmf = func_[i] / func_sum_;
-  s.u_remapped = width > 0 ? std::clamp((u - cdf_[i]) / width, 0.0, std::nextafter(1.0, 0.0)) : 0.0;
+  s.u_remapped = width > 0 ? std::clamp((u - cdf_[i]) / width, 0.0, kOneMinusEpsilon) : 0.0;
   return s;
 }
 

@@ -8,11 +8,8 @@
 
 namespace kiln::scene {
 
-EnvironmentLight::EnvironmentLight(const Environment& env, bool importance_map) {
-  // The angle as env_input.cpp's R_y(−α) reads it: fmod in degrees first, so that large angles keep their digits.
-  const double a = std::fmod(env.rotation_degrees, 360.0) * (kPi / 180.0);
-  cos_a_ = std::isfinite(a) ? std::cos(a) : 1.0;
-  sin_a_ = std::isfinite(a) ? std::sin(a) : 0.0;
+EnvironmentLight::EnvironmentLight(const Environment& env, bool importance_map)
+    : rotation_(env.rotation_degrees) {  // the environment baker's rotation (env_rotation.h), to the last bit
   if (env.constant || env.equirect.empty()) {
     const Rgb c = env.constant.value_or(Rgb{});
     constant_ = usable_emission(c);
@@ -69,14 +66,6 @@ EnvironmentLight::EnvironmentLight(const Environment& env, bool importance_map) 
     }
   }
   distribution_ = Distribution2D(weights, w, h);
-}
-
-Vec3 EnvironmentLight::to_image(const Vec3& d) const {
-  return {d.x * cos_a_ - d.z * sin_a_, d.y, d.x * sin_a_ + d.z * cos_a_};  // R_y(−α)·d, as env_input.cpp
-}
-
-Vec3 EnvironmentLight::to_world(const Vec3& d) const {
-  return {d.x * cos_a_ + d.z * sin_a_, d.y, -d.x * sin_a_ + d.z * cos_a_};  // R_y(α)·d
 }
 
 Rgb EnvironmentLight::radiance(const Vec3& wi) const {

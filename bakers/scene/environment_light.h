@@ -21,6 +21,7 @@
 #include <optional>
 
 #include "bakers/envmap/cubemap.h"
+#include "bakers/envmap/env_rotation.h"
 #include "bakers/scene/distribution.h"
 #include "bakers/scene/lights.h"
 #include "bakers/scene/scene.h"
@@ -46,16 +47,16 @@ class EnvironmentLight final : public LightSource {
   // ∫ L dω over the sphere (exact for the constant; for the image, per pixel its value times its solid angle).
   Rgb integral() const { return integral_; }
 
-  // Rotation about +Y by the environment's angle: world = R_y(α)·image direction (env_input.h).
-  Vec3 to_world(const Vec3& image_dir) const;
-  Vec3 to_image(const Vec3& world_dir) const;
+  // Rotation about +Y by the environment's angle: world = R_y(α)·image direction (env_rotation.h).
+  Vec3 to_world(const Vec3& image_dir) const { return rotation_.to_world(image_dir); }
+  Vec3 to_image(const Vec3& world_dir) const { return rotation_.to_image(world_dir); }
 
  private:
   std::optional<Rgb> constant_;
   envmap::RgbImage image_;
   bool importance_ = false;
   Distribution2D distribution_;
-  double cos_a_ = 1, sin_a_ = 0;
+  envmap::EnvRotation rotation_;
   Rgb integral_;
 };
 

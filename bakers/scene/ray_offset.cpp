@@ -1,7 +1,10 @@
 #include "bakers/scene/ray_offset.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 namespace kiln::scene {
 namespace {
@@ -12,11 +15,21 @@ constexpr double gamma(int k) { return k * kEps / (1 - k * kEps); }
 
 double max_abs(const Vec3& v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
 
-// Rounds x to a float on the side `direction` points to (x itself if it is a float already).
+// The next float above / below a finite float, by stepping its bit pattern (what nextafterf does, without the
+// library call on every ray origin). −0 and +0 both step to the smallest denormal of the sign asked for.
+float next_float_up(float f) {
+  if (f == 0.0f) return std::numeric_limits<float>::denorm_min();
+  const uint32_t bits = std::bit_cast<uint32_t>(f);
+  return std::bit_cast<float>(f > 0 ? bits + 1 : bits - 1);
+}
+float next_float_down(float f) { return -next_float_up(-f); }
+
+// Rounds x to a float on the side `direction` points to (x itself if it is a float already). Origins are finite
+// floats well inside the range (the tracer refuses scenes beyond it), so the steps never reach an infinity.
 double round_float_towards(double x, double direction) {
   const float f = static_cast<float>(x);
-  if (direction > 0 && static_cast<double>(f) < x) return std::nextafterf(f, INFINITY);
-  if (direction < 0 && static_cast<double>(f) > x) return std::nextafterf(f, -INFINITY);
+  if (direction > 0 && static_cast<double>(f) < x) return next_float_up(f);
+  if (direction < 0 && static_cast<double>(f) > x) return next_float_down(f);
   return f;
 }
 

@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -31,7 +32,6 @@ const char* error_name(RTCError code) {
 // One Embree geometry: an instance's triangles in world space.
 // The attributes a hit interpolates, copied from the scene's mesh (shared by its instances).
 struct MeshAttributes {
-  std::vector<Vec3> normals;
   std::vector<Point2> uv, lightmap_uv;
 };
 
@@ -43,6 +43,17 @@ struct Geometry {
   double normal_matrix[9];          // the inverse transpose of the instance's 3×3 part, row-major
   double mirror = 1;                // sign of its determinant: −1 flips the winding's normal back outwards
   std::array<double, 4> lightmap_st{1, 1, 0, 0};
+  // Per triangle, computed once here rather than at every hit (a hit's cost was ~100 ns before, as much as a third
+  // of an Embree query on a small scene):
+  //  - self_intersection_offset of its world (float) vertices, rounded up to a float: it depends on the triangle
+  //    alone (a hit point inside it is no farther from the origin than its farthest vertex, coordinate-wise);
+  //  - its unit geometric normal (mirror applied) as floats, from the double cross product of those vertices; zero
+  //    for a triangle whose normal underflows (Embree cannot hit it, see complete()).
+  std::vector<float> offsets;
+  std::vector<float> normals;  // 3 per triangle
+  // Per vertex, the mesh's normals in world space (the inverse transpose applied, not renormalised: interpolating
+  // them and then normalising is the same as transforming the interpolated normal). Empty without vertex normals.
+  std::vector<float> vertex_normals;  // 3 per vertex
 };
 
 Vec3 vertex(const Geometry& g, uint32_t i) {
@@ -80,6 +91,8 @@ struct Tracer::Impl {
   std::vector<Geometry> geometries;  // by Embree geometry ID
   std::vector<MeshAttributes> meshes;
   size_t triangles = 0;
+  size_t side_bytes = 0;                    // the per-triangle and per-vertex arrays of the geometries above
+  std::atomic<int64_t> embree_bytes{0};     // what Embree holds, from its memory monitor
   Vec3 lower{INFINITY, INFINITY, INFINITY}, upper{-INFINITY, -INFINITY, -INFINITY};
   std::mutex error_mutex;
   std::string error;  // Embree's last message, from its error callback
@@ -89,6 +102,12 @@ struct Tracer::Impl {
     auto* self = static_cast<Impl*>(user);
     std::lock_guard<std::mutex> lock(self->error_mutex);
     self->error = std::string(error_name(code)) + (message ? std::string(": ") + message : std::string());
+  }
+
+  // Embree reports every allocation (bytes > 0) and release (bytes < 0); true lets it proceed.
+  static bool on_memory(void* user, ssize_t bytes, bool /*post*/) {
+    static_cast<Impl*>(user)->embree_bytes.fetch_add(bytes, std::memory_order_relaxed);
+    return true;
   }
 
   void check(const char* doing) {
@@ -172,13 +191,14 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
     throw std::runtime_error(std::string("Embree could not create a device: ") + error_name(rtcGetDeviceError(nullptr)) +
                              " (Embree needs an SSE2-capable x86-64 CPU)");
   rtcSetDeviceErrorFunction(im.device, &Impl::on_error, &im);
+  rtcSetDeviceMemoryMonitorFunction(im.device, &Impl::on_memory, &im);
   im.scene = rtcNewScene(im.device);
   rtcSetSceneFlags(im.scene, options.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
   rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_HIGH);
   im.check("creating the scene");
   im.meshes.resize(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m)
-    im.meshes[m] = {scene.meshes[m].normals, scene.meshes[m].uv, scene.meshes[m].lightmap_uv};
+    im.meshes[m] = {scene.meshes[m].uv, scene.meshes[m].lightmap_uv};
 
   for (size_t k = 0; k < scene.instances.size(); ++k) {
     const Instance& inst = scene.instances[k];
@@ -232,8 +252,35 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
     g.indices = ib;
     g.mirror = inverse_transpose(inst.to_world, g.normal_matrix);
     g.lightmap_st = inst.lightmap_scale_offset;
+    g.offsets.resize(nt);
+    g.normals.resize(3 * nt);
+    for (size_t t = 0; t < nt; ++t) {
+      const Vec3 p0 = vertex(g, ib[3 * t]), p1 = vertex(g, ib[3 * t + 1]), p2 = vertex(g, ib[3 * t + 2]);
+      const double offset = self_intersection_offset(p0, p1, p2, p0);
+      float f = static_cast<float>(offset);
+      if (static_cast<double>(f) < offset) f = std::nextafterf(f, INFINITY);  // never below the bound
+      g.offsets[t] = f;
+      const Vec3 c = cross(p1 - p0, p2 - p0);
+      const double len = length(c);
+      const Vec3 n = len > 0 ? c * (g.mirror / len) : Vec3{};
+      g.normals[3 * t] = static_cast<float>(n.x);
+      g.normals[3 * t + 1] = static_cast<float>(n.y);
+      g.normals[3 * t + 2] = static_cast<float>(n.z);
+    }
+    if (!mesh.normals.empty()) {
+      g.vertex_normals.resize(3 * nv);
+      const double* M = g.normal_matrix;
+      for (size_t v = 0; v < nv; ++v) {
+        const Vec3& n = mesh.normals[v];
+        g.vertex_normals[3 * v] = static_cast<float>(M[0] * n.x + M[1] * n.y + M[2] * n.z);
+        g.vertex_normals[3 * v + 1] = static_cast<float>(M[3] * n.x + M[4] * n.y + M[5] * n.z);
+        g.vertex_normals[3 * v + 2] = static_cast<float>(M[6] * n.x + M[7] * n.y + M[8] * n.z);
+      }
+    }
+    im.side_bytes += g.offsets.size() * sizeof(float) + g.normals.size() * sizeof(float) +
+                     g.vertex_normals.size() * sizeof(float);
     if (im.geometries.size() <= id) im.geometries.resize(id + 1);
-    im.geometries[id] = g;
+    im.geometries[id] = std::move(g);
     im.triangles += nt;
   }
   rtcCommitScene(im.scene);
@@ -245,6 +292,9 @@ Tracer::Tracer(Tracer&&) noexcept = default;
 Tracer& Tracer::operator=(Tracer&&) noexcept = default;
 
 size_t Tracer::triangle_count() const { return impl_->triangles; }
+size_t Tracer::memory_bytes() const {
+  return static_cast<size_t>(std::max<int64_t>(0, impl_->embree_bytes.load())) + impl_->side_bytes;
+}
 Vec3 Tracer::bounds_lower() const { return impl_->lower; }
 Vec3 Tracer::bounds_upper() const { return impl_->upper; }
 
@@ -262,18 +312,19 @@ Hit Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, f
   h.v = hv;
   const double w = 1.0 - h.u - h.v;
   h.p = p0 * w + p1 * h.u + p2 * h.v;
-  const Vec3 c = cross(p1 - p0, p2 - p0);
-  const double len = length(c);
+  const float* n_tri = &g.normals[3 * static_cast<size_t>(prim_id)];
   // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
-  // anyway, face the ray.
-  h.ng = len > 0 ? c * (g.mirror / len) : -normalize(ray.direction);
+  // anyway (stored as zero), face the ray.
+  const bool no_normal = n_tri[0] == 0.0f && n_tri[1] == 0.0f && n_tri[2] == 0.0f;
+  h.ng = no_normal ? -normalize(ray.direction) : Vec3{n_tri[0], n_tri[1], n_tri[2]};
   h.front_face = dot(ray.direction, h.ng) < 0;
   h.ns = h.ng;
-  if (!mesh.normals.empty()) {
-    const Vec3 n = mesh.normals[i0] * w + mesh.normals[i1] * h.u + mesh.normals[i2] * h.v;
-    const double* M = g.normal_matrix;
-    const Vec3 nw{M[0] * n.x + M[1] * n.y + M[2] * n.z, M[3] * n.x + M[4] * n.y + M[5] * n.z,
-                  M[6] * n.x + M[7] * n.y + M[8] * n.z};
+  if (!g.vertex_normals.empty()) {
+    auto normal = [&](uint32_t i) {
+      const float* n = &g.vertex_normals[3 * static_cast<size_t>(i)];
+      return Vec3{n[0], n[1], n[2]};
+    };
+    const Vec3 nw = normal(i0) * w + normal(i1) * h.u + normal(i2) * h.v;
     const double nl = length(nw);
     // Opposite vertex normals can interpolate to zero inside the triangle: the geometric normal stands in.
     if (nl > 0 && std::isfinite(nl)) h.ns = dot(nw, h.ng) < 0 ? nw / -nl : nw / nl;
@@ -287,7 +338,7 @@ Hit Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, f
     const Point2 &a = mesh.uv[i0], &b = mesh.uv[i1], &d = mesh.uv[i2];
     h.uv = {a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
   }
-  h.offset = self_intersection_offset(p0, p1, p2, h.p);
+  h.offset = g.offsets[prim_id];
   return h;
 }
 
@@ -310,11 +361,9 @@ HitId make_id(const RTCRayHit& rh, const std::vector<Geometry>& geometries) {
   id.triangle = static_cast<int>(rh.hit.primID);
   id.u = rh.hit.u;
   id.v = rh.hit.v;
-  // Embree's Ng is (p1 − p0) × (p2 − p0) up to Embree's sign convention, which we do not rely on: recompute it.
-  const Vec3 p0 = vertex(g, g.indices[3 * rh.hit.primID]), p1 = vertex(g, g.indices[3 * rh.hit.primID + 1]),
-             p2 = vertex(g, g.indices[3 * rh.hit.primID + 2]);
-  const Vec3 ng = cross(p1 - p0, p2 - p0) * g.mirror;
-  id.front_face = ng.x * rh.ray.dir_x + ng.y * rh.ray.dir_y + ng.z * rh.ray.dir_z < 0;
+  // Embree's Ng is (p1 − p0) × (p2 − p0) up to Embree's sign convention, which we do not rely on: ours, stored.
+  const float* ng = &g.normals[3 * static_cast<size_t>(rh.hit.primID)];
+  id.front_face = double(ng[0]) * rh.ray.dir_x + double(ng[1]) * rh.ray.dir_y + double(ng[2]) * rh.ray.dir_z < 0;
   return id;
 }
 }  // namespace

@@ -83,6 +83,9 @@ class Tracer {
   Hit complete(const Ray& ray, const HitId& id) const;
 
   size_t triangle_count() const;
+  // Memory the tracer holds: Embree's (its BVH and vertex and index buffers, from its memory monitor) and the
+  // tracer's own per-triangle and per-vertex arrays.
+  size_t memory_bytes() const;
   // World-space bounds of everything traced (empty: lower > upper).
   Vec3 bounds_lower() const;
   Vec3 bounds_upper() const;

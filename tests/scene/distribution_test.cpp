@@ -12,7 +12,7 @@
 namespace kiln::scene {
 namespace {
 
-using test::pearson;
+using test::pearson_chi2;
 
 // Five χ² tests run in this file: the family-wise false-rejection rate is held at 1% by Šidák's correction.
 const double kLevel = test::sidak_significance(0.01, 5);
@@ -46,7 +46,7 @@ TEST(Distribution1D, ContinuousSamplesFollowThePdf) {
   }
   // Exact sum of 64 dyadic-width terms: rounding only.
   EXPECT_NEAR(integral, 1.0, 1e-14);
-  const auto r = pearson(observed, expected);
+  const auto r = pearson_chi2(observed, expected);
   EXPECT_GT(r.p_value, kLevel) << "chi2 " << r.statistic << " dof " << r.dof << "\n" << r.worst;
 }
 
@@ -79,9 +79,9 @@ TEST(Distribution1D, DiscreteSamplesFollowThePmfAndRemapUniformly) {
   }
   EXPECT_EQ(observed[1], 0);
   EXPECT_EQ(observed[4], 0);
-  const auto r = pearson(observed, expected);
+  const auto r = pearson_chi2(observed, expected);
   EXPECT_GT(r.p_value, kLevel) << r.worst;
-  const auto rj = pearson(joint_obs, joint_exp);
+  const auto rj = pearson_chi2(joint_obs, joint_exp);
   EXPECT_GT(rj.p_value, kLevel) << rj.worst;
 }
 
@@ -144,7 +144,7 @@ TEST(Distribution2D, SamplesFollowThePdfWhichIntegratesToOne) {
   }
   for (int v = 0; v < bv; ++v)
     for (int u = 0; u < bu; ++u) expected[v * bu + u] = n * d.pdf({(u + 0.5) / bu, (v + 0.5) / bv}) / (bu * bv);
-  const auto r = pearson(observed, expected);
+  const auto r = pearson_chi2(observed, expected);
   EXPECT_GT(r.p_value, kLevel) << "chi2 " << r.statistic << " dof " << r.dof << "\n" << r.worst;
 }
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "bakers/envmap/env_input.h"
 #include "tests/scene/light_test_util.h"
@@ -154,9 +155,10 @@ TEST(EnvironmentLight, OneTexelHotSpotStaysFiniteAndUnbiased) {
 }
 
 TEST(EnvironmentLight, RotationFollowsEnvInput) {
-  // Le must be what the environment baker sees: envmap::sample_environment on the same image and rotation.
+  // Le must be what the environment baker sees: envmap::sample_environment on the same image and rotation. A NaN
+  // angle (decode_environment refuses it; a hand-built scene may carry it) is no rotation for both, never a NaN.
   Pcg32 gen(4);
-  for (double rotation : {0.0, 37.0, -200.0, 725.5}) {
+  for (double rotation : {0.0, 37.0, -200.0, 725.5, std::numeric_limits<double>::quiet_NaN()}) {
     const Environment env = image_env(16, 8, [&](int, int) { return Rgb{gen.uniform(), gen.uniform(), 0}; }, rotation);
     const EnvironmentLight light(env);
     envmap::EnvironmentInput input;

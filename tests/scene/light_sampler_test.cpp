@@ -109,7 +109,7 @@ TEST(SceneLights, BuildsEveryLightAndChoosesByPower) {
     observed[c->index] += 1;
   }
   for (int i = 0; i < lights.size(); ++i) expected[i] = n * lights.pmf(i);
-  const auto r = test::pearson(observed, expected);
+  const auto r = test::pearson_chi2(observed, expected);
   EXPECT_GT(r.p_value, 0.01) << r.worst;
 }
 

@@ -1,6 +1,7 @@
-// Test helpers for the light sources (header-only, shared by tests/scene/*light*_test.cpp and distribution_test):
-// Pearson's χ² over categories with pooling, a χ² test of a direction sampler against a density (Mitsuba's check,
-// in cells of (θ, φ) about an axis chosen to frame the light), and irradiance estimates with their standard error.
+// Test helpers for the light sources (header-only, shared by tests/scene/*light*_test.cpp and distribution_test): a
+// χ² test of a direction sampler against a density (Mitsuba's check, in cells of (θ, φ) about an axis chosen to frame
+// the light; Pearson's statistic with pooling is tests/support/chi2.h's pearson_chi2), and irradiance estimates with
+// their standard error.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -8,7 +9,6 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <numeric>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -22,54 +22,6 @@
 #include "tests/support/hemisphere.h"
 
 namespace kiln::test {
-
-struct PearsonResult {
-  double statistic = 0;
-  int dof = 0;
-  double p_value = 0;
-  std::string worst;  // the categories contributing most, for failure messages
-};
-
-// Pearson's statistic of observed against expected counts. Categories expected to hold fewer than min_expected are
-// pooled, smallest first (the χ² approximation needs about 5 per category), as tests/support/chi2.cpp does.
-inline PearsonResult pearson(const std::vector<double>& observed, const std::vector<double>& expected,
-                             double min_expected = 5.0) {
-  struct Cat {
-    size_t index;
-    double e, o;
-  };
-  std::vector<Cat> cells;
-  for (size_t i = 0; i < observed.size(); ++i) cells.push_back({i, expected[i], observed[i]});
-  std::sort(cells.begin(), cells.end(), [](const Cat& a, const Cat& b) { return a.e < b.e; });
-  Cat pool{SIZE_MAX, 0, 0};
-  size_t first = 0;
-  while (first < cells.size() && (cells[first].e < min_expected || (first > 0 && pool.e < min_expected))) {
-    pool.e += cells[first].e;
-    pool.o += cells[first].o;
-    ++first;
-  }
-  std::vector<Cat> cats(cells.begin() + first, cells.end());
-  if (pool.e > 0 || pool.o > 0) cats.push_back(pool);
-  PearsonResult r;
-  std::vector<std::pair<double, size_t>> contrib;
-  for (size_t k = 0; k < cats.size(); ++k) {
-    const double d = cats[k].o - cats[k].e;
-    const double c = cats[k].e > 0 ? d * d / cats[k].e : (cats[k].o > 0 ? HUGE_VAL : 0.0);
-    r.statistic += c;
-    contrib.push_back({c, k});
-  }
-  r.dof = static_cast<int>(cats.size()) - 1;
-  r.p_value = r.dof > 0 ? chi2_p_value(r.statistic, r.dof) : (r.statistic == 0 ? 1.0 : 0.0);
-  std::sort(contrib.rbegin(), contrib.rend());
-  std::ostringstream out;
-  for (size_t k = 0; k < std::min<size_t>(6, contrib.size()); ++k) {
-    const Cat& c = cats[contrib[k].second];
-    out << "  category " << (c.index == SIZE_MAX ? std::string("pool") : std::to_string(c.index)) << ": observed "
-        << c.o << ", expected " << c.e << "\n";
-  }
-  r.worst = out.str();
-  return r;
-}
 
 // One sample of a direction sampler: the direction and the density it reported; nullopt for a failed sample.
 struct DirectionDraw {
@@ -164,14 +116,17 @@ inline DirectionChi2Result direction_chi2(const DirectionSampler& sampler, const
   } else {
     expected[n_cells] = std::max(0.0, 1.0 - res.pdf_integral) * static_cast<double>(o.samples);
   }
-  const PearsonResult p = pearson(observed, expected);
+  const PearsonResult p = pearson_chi2(observed, expected, 5.0, 6, [&](size_t i) {
+    if (i == static_cast<size_t>(n_cells)) return std::string("failed or outside the cells");
+    return "cell theta " + std::to_string(i / o.n_phi) + "/" + std::to_string(o.n_theta) + ", phi " +
+           std::to_string(i % o.n_phi) + "/" + std::to_string(o.n_phi);
+  });
   res.p_value = p.p_value;
   res.passed = p.p_value > res.threshold && res.pdf_mismatches == 0;
   std::ostringstream out;
   out << "chi2 = " << p.statistic << ", dof = " << p.dof << ", p = " << p.p_value << " (reject below "
       << res.threshold << "), pdf integral over the cells " << res.pdf_integral << " +- " << res.pdf_integral_error
-      << ", failed " << res.failures << " / " << o.samples << ", pdf mismatches " << res.pdf_mismatches
-      << " (category " << n_cells << " = failed or outside)\n"
+      << ", failed " << res.failures << " / " << o.samples << ", pdf mismatches " << res.pdf_mismatches << "\n"
       << p.worst;
   res.details = out.str();
   return res;

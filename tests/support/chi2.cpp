@@ -6,6 +6,7 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
 #include <vector>
 
 #include "bakers/math/constants.h"
@@ -56,22 +57,13 @@ double gamma_q_fraction(double a, double x) {
   return std::exp(log_prefactor(a, x)) * h;
 }
 
-struct Cell {
-  int index = 0;  // θ index * n_phi + φ index; -1 for the category of failed samples
-  double expected = 0;
-  double observed = 0;
-};
-
-std::string describe_cell(const Cell& c, const Chi2Options& o) {
-  char buf[200];
-  if (c.index < 0) {
-    std::snprintf(buf, sizeof buf, "failed samples: observed %.0f, expected %.2f", c.observed, c.expected);
-  } else {
-    const int it = c.index / o.n_phi, ip = c.index % o.n_phi;
-    const double dt = 90.0 / o.n_theta, dp = 360.0 / o.n_phi;
-    std::snprintf(buf, sizeof buf, "theta [%.2f, %.2f] deg, phi [%.2f, %.2f] deg: observed %.0f, expected %.2f",
-                  it * dt, (it + 1) * dt, ip * dp, (ip + 1) * dp, c.observed, c.expected);
-  }
+// Cell index (θ index · n_phi + φ index) as a range of angles, for failure messages.
+std::string describe_cell(size_t index, const Chi2Options& o) {
+  char buf[120];
+  const int it = static_cast<int>(index) / o.n_phi, ip = static_cast<int>(index) % o.n_phi;
+  const double dt = 90.0 / o.n_theta, dp = 360.0 / o.n_phi;
+  std::snprintf(buf, sizeof buf, "theta [%.2f, %.2f] deg, phi [%.2f, %.2f] deg", it * dt, (it + 1) * dt, ip * dp,
+                (ip + 1) * dp);
   return buf;
 }
 
@@ -96,6 +88,65 @@ double chi2_p_value(double statistic, double dof) { return gamma_q(0.5 * dof, 0.
 double sidak_significance(double alpha, int tests) {
   // 1 − (1 − α)^(1/m), computed without cancellation for small α.
   return -std::expm1(std::log1p(-alpha) / std::max(tests, 1));
+}
+
+PearsonResult pearson_chi2(const std::vector<double>& observed, const std::vector<double>& expected,
+                           double min_expected, int worst, const std::function<std::string(size_t)>& name) {
+  if (observed.size() != expected.size()) {
+    throw std::invalid_argument("pearson_chi2: " + std::to_string(observed.size()) + " observed counts but " +
+                                std::to_string(expected.size()) + " expected; give one of each per category");
+  }
+  constexpr size_t kPool = SIZE_MAX;
+  struct Category {
+    size_t index;  // into the input, or kPool
+    double expected, observed;
+  };
+  std::vector<Category> cells;
+  cells.reserve(observed.size());
+  for (size_t i = 0; i < observed.size(); ++i) cells.push_back({i, expected[i], observed[i]});
+  // Pool the categories expected to hold fewer than min_expected, smallest first; if the pool itself stays below the
+  // threshold, keep adding the next smallest.
+  std::sort(cells.begin(), cells.end(), [](const Category& a, const Category& b) { return a.expected < b.expected; });
+  Category pool{kPool, 0, 0};
+  size_t first = 0;
+  const auto pooled = [&](size_t i) {
+    return cells[i].expected < min_expected || (i > 0 && pool.expected < min_expected);
+  };
+  while (first < cells.size() && pooled(first)) {
+    pool.expected += cells[first].expected;
+    pool.observed += cells[first].observed;
+    ++first;
+  }
+  std::vector<Category> categories(cells.begin() + static_cast<std::ptrdiff_t>(first), cells.end());
+  // A pool with nothing expected and nothing observed carries no information (and no degree of freedom).
+  if (pool.expected > 0 || pool.observed > 0) categories.push_back(pool);
+
+  PearsonResult r;
+  std::vector<double> contribution(categories.size());
+  for (size_t k = 0; k < categories.size(); ++k) {
+    const Category& c = categories[k];
+    const double d = c.observed - c.expected;
+    // A category with nothing expected and something observed cannot come from the expected distribution.
+    contribution[k] = c.expected > 0 ? d * d / c.expected : (c.observed > 0 ? HUGE_VAL : 0.0);
+    r.statistic += contribution[k];
+  }
+  r.dof = static_cast<int>(categories.size()) - 1;
+  r.p_value = r.dof > 0 ? chi2_p_value(r.statistic, r.dof) : (r.statistic == 0 ? 1.0 : 0.0);
+
+  std::vector<size_t> order(categories.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return contribution[a] > contribution[b]; });
+  std::ostringstream out;
+  for (size_t k = 0; k < std::min(order.size(), static_cast<size_t>(std::max(worst, 0))); ++k) {
+    const Category& c = categories[order[k]];
+    const std::string what = c.index == kPool ? "pooled categories"
+                             : name           ? name(c.index)
+                                              : "category " + std::to_string(c.index);
+    out << "  " << contribution[order[k]] << "  " << what << ": observed " << c.observed << ", expected "
+        << c.expected << "\n";
+  }
+  r.worst = out.str();
+  return r;
 }
 
 Chi2Result chi2_test(const brdf::Bxdf& bxdf, const Vec3& wo, const Chi2Options& o) {
@@ -127,56 +178,30 @@ Chi2Result chi2_test(const brdf::Bxdf& bxdf, const Vec3& wo, const Chi2Options& 
   }
   res.failed_fraction = static_cast<double>(res.failures) / static_cast<double>(o.samples);
 
-  // Expected counts.
-  std::vector<Cell> cells(n_cells);
+  // Expected counts; failed samples are one more category (index n_cells).
+  std::vector<double> expected(n_cells + 1, 0.0);
+  observed.push_back(static_cast<double>(res.failures));
   const DirectionFunction pdf = [&](const Vec3& wi) { return bxdf.pdf(wo, wi); };
   for (int it = 0; it < o.n_theta; ++it) {
     for (int ip = 0; ip < o.n_phi; ++ip) {
       const CellIntegral ci = integrate_cell(pdf, it * dtheta, (it + 1) * dtheta, ip * dphi, (ip + 1) * dphi,
                                              o.integration_rel_tol, o.integration_abs_tol, 2, o.integration_max_depth);
-      Cell& c = cells[it * o.n_phi + ip];
-      c.index = it * o.n_phi + ip;
-      c.expected = ci.value * static_cast<double>(o.samples);
-      c.observed = observed[c.index];
+      expected[it * o.n_phi + ip] = ci.value * static_cast<double>(o.samples);
       res.pdf_integral += ci.value;
       res.pdf_integral_error += ci.error;
       res.pdf_evaluations += ci.evaluations;
       res.integration_depth_limited = res.integration_depth_limited || ci.depth_limited;
     }
   }
-  // Failed samples are one more category; its expectation is clamped at 0 when ∫ pdf > 1 (which fails separately).
-  cells.push_back(Cell{-1, std::max(0.0, 1.0 - res.pdf_integral) * static_cast<double>(o.samples),
-                       static_cast<double>(res.failures)});
+  // The failed samples' expectation is clamped at 0 when ∫ pdf > 1 (which fails separately).
+  expected[n_cells] = std::max(0.0, 1.0 - res.pdf_integral) * static_cast<double>(o.samples);
 
-  // Pool the cells expected to hold fewer than min_expected samples, smallest first, into one category; if the pool
-  // itself stays below the threshold, keep adding the next smallest cells.
-  std::sort(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) { return a.expected < b.expected; });
-  Cell pool{-2, 0, 0};
-  size_t first = 0;
-  while (first < cells.size() && cells[first].expected < o.min_expected) {
-    pool.expected += cells[first].expected;
-    pool.observed += cells[first].observed;
-    ++first;
-  }
-  while (first > 0 && first < cells.size() && pool.expected < o.min_expected) {
-    pool.expected += cells[first].expected;
-    pool.observed += cells[first].observed;
-    ++first;
-  }
-  std::vector<Cell> categories(cells.begin() + first, cells.end());
-  // A pool with nothing expected and nothing observed carries no information (and no degree of freedom).
-  if (first > 0 && (pool.expected > 0 || pool.observed > 0)) categories.push_back(pool);
-
-  std::vector<double> contribution(categories.size());
-  for (size_t k = 0; k < categories.size(); ++k) {
-    const Cell& c = categories[k];
-    const double d = c.observed - c.expected;
-    // A category with nothing expected and something observed cannot come from pdf(): infinite statistic.
-    contribution[k] = c.expected > 0 ? d * d / c.expected : (c.observed > 0 ? HUGE_VAL : 0.0);
-    res.statistic += contribution[k];
-  }
-  res.dof = static_cast<int>(categories.size()) - 1;
-  res.p_value = res.dof > 0 ? chi2_p_value(res.statistic, res.dof) : (res.statistic == 0 ? 1.0 : 0.0);
+  const PearsonResult p = pearson_chi2(observed, expected, o.min_expected, o.worst_cells, [&](size_t i) {
+    return i == static_cast<size_t>(n_cells) ? std::string("failed samples") : describe_cell(i, o);
+  });
+  res.statistic = p.statistic;
+  res.dof = p.dof;
+  res.p_value = p.p_value;
   res.passed = res.p_value > res.threshold && res.invalid == 0;
 
   std::ostringstream out;
@@ -184,20 +209,7 @@ Chi2Result chi2_test(const brdf::Bxdf& bxdf, const Vec3& wo, const Chi2Options& 
       << ", dof = " << res.dof << ", p = " << res.p_value << " (reject below " << res.threshold << "), pdf integral "
       << res.pdf_integral << " +- " << res.pdf_integral_error << ", failed samples " << res.failures << " / "
       << res.samples << ", invalid samples " << res.invalid << "\n";
-  if (!res.passed) {
-    std::vector<size_t> order(categories.size());
-    std::iota(order.begin(), order.end(), size_t{0});
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return contribution[a] > contribution[b]; });
-    out << "worst categories (contribution to chi2):\n";
-    for (int k = 0; k < o.worst_cells && k < static_cast<int>(order.size()); ++k) {
-      const Cell& c = categories[order[k]];
-      out << "  " << contribution[order[k]] << "  "
-          << (c.index == -2
-                  ? "pooled cells: observed " + std::to_string(c.observed) + ", expected " + std::to_string(c.expected)
-                  : describe_cell(c, o))
-          << "\n";
-    }
-  }
+  if (!res.passed) out << "worst categories (contribution to chi2):\n" << p.worst;
   res.details = out.str();
   return res;
 }

@@ -2,13 +2,16 @@
 // the hemisphere is cut into (θ, φ) cells; N samples are drawn with Pcg32 and counted per cell; the expected count of
 // each cell is N times the integral of pdf() over it, from a deterministic adaptive Gauss–Legendre rule. Failed
 // samples form one more category whose expected count is N (1 − ∫ pdf). Cells expected to hold fewer than 5 samples
-// are pooled (the χ² approximation of Pearson's statistic needs about 5 per category). The p-value comes from the
-// regularised incomplete gamma function; the null hypothesis "sample() draws from pdf()" is rejected below a
-// significance level Šidák-corrected for the number of tests run.
+// are pooled (pearson_chi2 below: the χ² approximation of Pearson's statistic needs about 5 per category). The
+// p-value comes from the regularised incomplete gamma function; the null hypothesis "sample() draws from pdf()" is
+// rejected below a significance level Šidák-corrected for the number of tests run.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "bakers/brdf/bxdf.h"
 
@@ -22,6 +25,25 @@ double gamma_q(double a, double x);
 double chi2_p_value(double statistic, double dof);
 // Šidák: the per-test level that makes the chance of any false rejection among `tests` independent tests = alpha.
 double sidak_significance(double alpha, int tests);
+
+// Pearson's statistic Σ (O − E)² / E of observed against expected counts, one pair per category (the same size).
+// Categories expected to hold fewer than min_expected are pooled, smallest first, into one category, and the pool
+// keeps taking the next smallest until it reaches min_expected itself (the χ² approximation of the statistic needs
+// about 5 per category); a pool with nothing expected and nothing observed is dropped (no information, no degree of
+// freedom). A category with nothing expected but something observed makes the statistic infinite. dof = categories
+// − 1 and p is the χ² upper tail; with no degree of freedom p is 1 for a zero statistic, else 0.
+struct PearsonResult {
+  double statistic = 0;
+  int dof = 0;
+  double p_value = 0;
+  // The `worst` categories contributing most to the statistic, one a line ("  contribution  name: observed o,
+  // expected e"), for failure messages.
+  std::string worst;
+};
+// `name` names category i in `worst` (default "category i"); the pool is "pooled categories".
+PearsonResult pearson_chi2(const std::vector<double>& observed, const std::vector<double>& expected,
+                           double min_expected = 5.0, int worst = 6,
+                           const std::function<std::string(size_t)>& name = {});
 
 struct Chi2Options {
   int n_theta = 64;  // cells in θ ∈ [0, π/2]

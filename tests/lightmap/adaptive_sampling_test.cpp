@@ -1,0 +1,98 @@
+// The adaptive sampling's stopping rules, seen from outside the bake: the rule-of-three floor on texels whose
+// estimates barely vary, batches that grow so a bake takes few passes, and a time limit that holds inside a pass.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "bakers/lightmap/lightmap_bake.h"
+#include "bakers/math/constants.h"
+#include "tests/support/test_scenes.h"
+
+namespace kiln::lightmap {
+namespace {
+
+using test::add_floor;
+using test::lambert_material;
+using test::lightmap_input;
+
+// A 2 m floor in the open under a uniform sky of radiance 1: every estimate is π up to rounding (see
+// lightmap_bake_test), so a texel's own variance would let it stop at min_samples.
+scene::Scene sky_floor() {
+  scene::Scene s;
+  s.materials.push_back(lambert_material("grey", 0.5));
+  add_floor(s, 2.0, 0, 2);
+  s.environment.constant = Rgb{1.0};
+  return s;
+}
+
+// The same floor lit only from below (a point light under it, which its one-sided lightmap never sees): every
+// estimate is exactly 0.
+scene::Scene black_floor() {
+  scene::Scene s;
+  s.materials.push_back(lambert_material("grey", 0.5));
+  add_floor(s, 2.0, 0, 2);
+  scene::Light below;
+  below.type = scene::LightType::point;
+  below.position = {0, -1, 0};
+  below.color = Rgb{10.0};
+  s.lights = {below};
+  return s;
+}
+
+LightmapBakeResult budget_bake(const scene::Scene& s, uint64_t samples) {
+  LightmapBakeInput in = lightmap_input(s, 8, 1e-4);
+  in.min_samples = in.max_samples = samples;
+  return bake_lightmaps(in);
+}
+
+// Rule of three: at target 0.1 no texel stops before 3/0.1 = 30 estimates, however little they vary, and the
+// adaptive bake then stops there exactly (batches never overshoot the goal). Counted through the paths traced,
+// which are estimates × sample points: the same number as a budget bake of exactly 30 estimates per texel.
+TEST(AdaptiveSampling, TexelsThatDoNotVaryStillTakeThreeOverTargetEstimates) {
+  for (const scene::Scene& s : {sky_floor(), black_floor()}) {
+    LightmapBakeInput in = lightmap_input(s, 8, 0.1);
+    in.min_samples = 4;
+    const LightmapBakeResult adaptive = bake_lightmaps(in);
+    const LightmapBakeResult at_min = budget_bake(s, 4), at_30 = budget_bake(s, 30);
+    EXPECT_GT(adaptive.samples, at_min.samples) << "stopped at min_samples on a texel with no variance";
+    EXPECT_EQ(adaptive.samples, at_30.samples);
+  }
+}
+
+// Batches grow with what a texel has (by half, at least one), so 1024 estimates per texel take ~18 passes, not
+// 1024: the count of curve points (one per pass) is the number of passes. The bound 2·log_1.5(1024) = 34 leaves
+// room for the first passes of one estimate.
+TEST(AdaptiveSampling, ABudgetOfNEstimatesTakesLogarithmicallyManyPasses) {
+  const LightmapBakeResult r = budget_bake(sky_floor(), 1024);
+  EXPECT_LE(r.curve.size(), 34u);
+  EXPECT_GE(r.curve.size(), 10u) << "batches jumped: the error-versus-time curve would have too few points";
+  for (size_t i = 1; i < r.curve.size(); ++i) {
+    EXPECT_GT(r.curve[i].samples, r.curve[i - 1].samples) << "pass " << i << " added nothing";
+    EXPECT_GE(r.curve[i].seconds, r.curve[i - 1].seconds);
+  }
+}
+
+// A time limit already past when sampling starts: no estimate is taken (the limit is checked before every texel,
+// inside the pass), the bake still ends normally and every output is there, with error 1 (no estimate) at every
+// valid texel.
+TEST(AdaptiveSampling, ATimeLimitHoldsInsideAPass) {
+  LightmapBakeInput in = lightmap_input(test::cornell_box(), 8, 1e-3);
+  in.time_limit_seconds = 1e-9;
+  const LightmapBakeResult r = bake_lightmaps(in);
+  EXPECT_EQ(r.samples, 0u);
+  ASSERT_EQ(r.curve.size(), 1u);
+  const image::FloatImage err = test::exr_output(r, "floor_error.exr");
+  const image::FloatImage valid = test::exr_output(r, "floor_validity.exr");
+  int valid_texels = 0;
+  for (int y = 0; y < err.height; ++y) {
+    for (int x = 0; x < err.width; ++x) {
+      if (valid.at(x, y, 0) != 1.0f) continue;
+      ++valid_texels;
+      EXPECT_EQ(err.at(x, y, 0), 1.0f) << x << "," << y;
+    }
+  }
+  EXPECT_GT(valid_texels, 0);
+}
+
+}  // namespace
+}  // namespace kiln::lightmap
