@@ -609,7 +609,10 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
          << result.curve[i].samples << ", \"error\": " << format_number(result.curve[i].error) << "}";
   }
   json << "],\n  \"lightmaps\": [\n    " << maps_json.str() << "\n  ],\n  \"tracer\": {\"triangles\": "
-       << tracer.triangle_count() << "},\n  \"scene_problems\": {\"total\": " << checked.report.total()
+       << tracer.triangle_count() << ", \"memory_bytes\": " << tracer.memory_bytes() << ", \"bytes_per_triangle\": "
+       << format_number(tracer.triangle_count() ? static_cast<double>(tracer.memory_bytes()) / tracer.triangle_count()
+                                                : 0.0)
+       << "},\n  \"scene_problems\": {\"total\": " << checked.report.total()
        << ", \"listed\": [";
   for (size_t i = 0; i < result.skipped.size(); ++i) json << (i ? ", " : "") << json_string(result.skipped[i]);
   json << "]}\n}\n";

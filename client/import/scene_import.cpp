@@ -1,11 +1,14 @@
 #include "client/import/scene_import.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -21,9 +24,6 @@
 
 namespace kiln::client {
 namespace {
-
-// The sun's angular diameter (0.53°): directional lights from files have no size of their own.
-constexpr double kSunAngularDiameter = 0.00925;
 
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -43,9 +43,16 @@ bool ends_with(const std::string& s, const std::string& tail) {
                                                [](char a, char b) { return std::tolower(a) == std::tolower(b); });
 }
 
-// KHR_materials_emissive_strength per material name, from the glTF's JSON (Assimp 5.2 does not read it).
-std::map<std::string, double> emissive_strengths(const std::string& path) {
-  std::map<std::string, double> out;
+// What the glTF's JSON says that Assimp 5.2 does not pass on: KHR_materials_emissive_strength, and the lights'
+// `range`. Both by index: Assimp keeps glTF's material and light order (it appends its default material last), while
+// names need be neither present nor unique.
+struct GltfExtras {
+  std::map<unsigned, double> emissive_strength;  // material index → emissiveStrength
+  std::map<unsigned, double> light_range;        // KHR_lights_punctual light index → range
+};
+
+GltfExtras gltf_extras(const std::string& path) {
+  GltfExtras out;
   std::string json;
   if (ends_with(path, ".gltf")) {
     json = read_file(path);
@@ -64,15 +71,48 @@ std::map<std::string, double> emissive_strengths(const std::string& path) {
     boost::property_tree::ptree tree;
     std::istringstream in(json);
     boost::property_tree::read_json(in, tree);
-    const auto materials = tree.get_child_optional("materials");
-    if (!materials) return out;
-    for (const auto& [key, material] : *materials) {
-      const auto strength = material.get_optional<double>("extensions.KHR_materials_emissive_strength.emissiveStrength");
-      if (strength) out[material.get<std::string>("name", "")] = *strength;
+    unsigned i = 0;
+    if (const auto materials = tree.get_child_optional("materials")) {
+      for (const auto& [key, material] : *materials) {
+        const auto strength = material.get_optional<double>("extensions.KHR_materials_emissive_strength.emissiveStrength");
+        if (strength) out.emissive_strength[i] = *strength;
+        ++i;
+      }
+    }
+    i = 0;
+    if (const auto lights = tree.get_child_optional("extensions.KHR_lights_punctual.lights")) {
+      for (const auto& [key, light] : *lights) {
+        if (const auto range = light.get_optional<double>("range")) out.light_range[i] = *range;
+        ++i;
+      }
     }
   } catch (const std::exception&) {
     // Malformed JSON: Assimp has read the file already or will say what is wrong with it.
   }
+  return out;
+}
+
+// glTF image URIs are RFC 3986 references ("my%20wood.png" is the file "my wood.png"); Assimp 5.2 passes them on
+// undecoded. A malformed escape is kept as it is.
+std::string percent_decoded(const std::string& uri) {
+  std::string out;
+  for (size_t i = 0; i < uri.size(); ++i) {
+    if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit(static_cast<unsigned char>(uri[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(uri[i + 2]))) {
+      out += static_cast<char>(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += uri[i];
+    }
+  }
+  return out;
+}
+
+// `name` (cut to the protocol's 256 bytes) if `used` does not hold it yet, else name#1, name#2, ...: kiln wants mesh,
+// material and light names unique, which files do not promise.
+std::string unique_name(std::set<std::string>& used, const std::string& name) {
+  std::string out = name.substr(0, 256);
+  for (int n = 1; !used.insert(out).second; ++n) out = name.substr(0, 240) + "#" + std::to_string(n);
   return out;
 }
 
@@ -94,7 +134,8 @@ v1::Vector3 vec(const aiVector3D& v) {
 
 class Importer {
  public:
-  explicit Importer(const std::string& path) : path_(path) {}
+  explicit Importer(const std::string& path)
+      : path_(path), gltf_(ends_with(path, ".gltf") || ends_with(path, ".glb")) {}
 
   ImportedScene run() {
     Assimp::Importer importer;
@@ -105,7 +146,7 @@ class Importer {
     if (!scene_ || !scene_->mRootNode) {
       throw std::runtime_error("cannot import " + path_ + ": " + importer.GetErrorString());
     }
-    strengths_ = emissive_strengths(path_);
+    extras_ = gltf_extras(path_);
     materials();
     meshes();
     count_node_uses(scene_->mRootNode);
@@ -126,6 +167,27 @@ class Importer {
     return sha;
   }
 
+  // Where an external image may be, most literal first: the name relative to the model's folder (percent-decoded
+  // for glTF, whose image URIs are URI references); with Windows separators turned; the bare file name beside the
+  // model (exporters often write the absolute path of the machine they ran on).
+  std::vector<std::string> texture_paths(const std::string& name) const {
+    const std::string dir = directory_of(path_) + "/";
+    std::vector<std::string> out;
+    auto add = [&](const std::string& file) {
+      if (file.empty()) return;
+      const std::string path = file[0] == '/' ? file : dir + file;
+      if (std::find(out.begin(), out.end(), path) == out.end()) out.push_back(path);
+    };
+    const std::string decoded = gltf_ ? percent_decoded(name) : name;
+    add(decoded);
+    add(name);  // a file whose name holds a literal '%'
+    std::string slashes = decoded;
+    std::replace(slashes.begin(), slashes.end(), '\\', '/');
+    add(slashes);
+    add(slashes.substr(slashes.find_last_of('/') + 1));  // npos + 1 = 0: the whole name
+    return out;
+  }
+
   std::optional<uint32_t> texture(const aiMaterial* m) {
     aiString file;
     if (m->GetTexture(aiTextureType_BASE_COLOR, 0, &file) != AI_SUCCESS &&
@@ -142,11 +204,18 @@ class Importer {
       }
       bytes.assign(reinterpret_cast<const char*>(embedded->pcData), embedded->mWidth);
     } else {
-      const std::string file_path = directory_of(path_) + "/" + name;
-      try {
-        bytes = read_file(file_path);
-      } catch (const std::exception& e) {
-        out_.warnings.push_back("texture " + name + ": " + e.what() + "; the material uses its base colour alone");
+      std::string error;
+      for (const std::string& candidate : texture_paths(name)) {
+        try {
+          bytes = read_file(candidate);
+          error.clear();
+          break;
+        } catch (const std::exception& e) {
+          if (error.empty()) error = e.what();  // the first, most literal reading of the name
+        }
+      }
+      if (!error.empty()) {
+        out_.warnings.push_back("texture " + name + ": " + error + "; the material uses its base colour alone");
         return std::nullopt;
       }
     }
@@ -160,19 +229,19 @@ class Importer {
   }
 
   void materials() {
-    const bool gltf = ends_with(path_, ".gltf") || ends_with(path_, ".glb");
+    std::set<std::string> material_names;
     for (unsigned i = 0; i < scene_->mNumMaterials; ++i) {
       const aiMaterial* m = scene_->mMaterials[i];
       v1::SceneMaterial* out = out_.job.add_materials();
       std::string name = m->GetName().C_Str();
       if (name.empty()) name = "material_" + std::to_string(i);
-      out->set_name(name.substr(0, 256));
+      out->set_name(unique_name(material_names, name));
 
       aiColor4D base(1, 1, 1, 1);
       float metallic = 0, roughness = 1;
       aiColor3D specular(0, 0, 0);
       float shininess = 0;
-      if (gltf) {
+      if (gltf_) {
         m->Get(AI_MATKEY_BASE_COLOR, base);
         m->Get(AI_MATKEY_METALLIC_FACTOR, metallic);
         m->Get(AI_MATKEY_ROUGHNESS_FACTOR, roughness);
@@ -184,7 +253,8 @@ class Importer {
         m->Get(AI_MATKEY_SHININESS, shininess);
       }
       auto clamp01 = [](double v) { return std::isfinite(v) ? std::clamp(v, 0.0, 1.0) : 0.0; };
-      *out->mutable_base_color() = color(clamp01(base.r), clamp01(base.g), clamp01(base.b));
+      const double r = clamp01(base.r), g = clamp01(base.g), b = clamp01(base.b);
+      *out->mutable_base_color() = color(r, g, b);
       if (auto t = texture(m)) out->set_base_color_texture(*t);
 
       v1::Layered* bsdf = out->mutable_bsdf();
@@ -192,13 +262,14 @@ class Importer {
       v1::Lambert* diffuse = bsdf->mutable_diffuse()->mutable_lambert();
       v1::Microfacet* ggx = bsdf->mutable_specular()->mutable_ggx();
       ggx->set_fresnel(v1::FRESNEL_SCHLICK);
-      if (gltf) {
-        metallic = static_cast<float>(clamp01(metallic));
-        const double a = std::max(clamp01(roughness), 0.03);  // α = ρ²; ρ < 0.03 is a mirror beyond the BRDF library's range
+      if (gltf_) {
+        const double metal = clamp01(metallic);
+        // α = roughness² (glTF's remapping); roughness < 0.03 is a mirror beyond the BRDF library's range.
+        const double a = std::max(clamp01(roughness), 0.03);
         ggx->set_alpha(a * a);
-        *ggx->mutable_f0() = color(0.04 + (base.r - 0.04) * metallic, 0.04 + (base.g - 0.04) * metallic,
-                                   0.04 + (base.b - 0.04) * metallic);
-        *diffuse->mutable_albedo() = color(1 - metallic, 1 - metallic, 1 - metallic);
+        // glTF's f0 = lerp(0.04, base colour, metallic): 4 % for dielectrics (η = 1.5), the base colour for metals.
+        *ggx->mutable_f0() = color(0.04 + (r - 0.04) * metal, 0.04 + (g - 0.04) * metal, 0.04 + (b - 0.04) * metal);
+        *diffuse->mutable_albedo() = color(1 - metal, 1 - metal, 1 - metal);  // times base_color: glTF's c_diff
       } else {
         *diffuse->mutable_albedo() = color(1, 1, 1);
         if (std::max({specular.r, specular.g, specular.b}) > 0 && shininess > 0) {
@@ -213,7 +284,9 @@ class Importer {
       aiColor3D emissive(0, 0, 0);
       m->Get(AI_MATKEY_COLOR_EMISSIVE, emissive);
       double strength = 1;
-      if (auto it = strengths_.find(name); it != strengths_.end()) strength = it->second;
+      if (auto it = extras_.emissive_strength.find(i); gltf_ && it != extras_.emissive_strength.end()) {
+        strength = it->second;
+      }
       if (std::max({emissive.r, emissive.g, emissive.b}) > 0) {
         *out->mutable_emission() = color(emissive.r * strength, emissive.g * strength, emissive.b * strength);
       }
@@ -223,7 +296,7 @@ class Importer {
   }
 
   void meshes() {
-    std::map<std::string, int> seen;
+    std::set<std::string> mesh_names;
     for (unsigned i = 0; i < scene_->mNumMeshes; ++i) {
       const aiMesh* m = scene_->mMeshes[i];
       mesh_index_.push_back(-1);
@@ -263,10 +336,8 @@ class Importer {
       }
       a.materials.assign(a.indices.size() / 3, m->mMaterialIndex);
       // Assimp splits a mesh by material into pieces of the same name: the pieces keep it as their lightmap.
-      const int n = seen[base_name]++;
-      const std::string name = n == 0 ? base_name : base_name + "#" + std::to_string(n);
       v1::Mesh* out = out_.job.add_meshes();
-      out->set_name(name.substr(0, 256));
+      out->set_name(unique_name(mesh_names, base_name));
       add_blob(encode_mesh_blob(a), out->mutable_geometry());
       mesh_index_.back() = out_.job.meshes_size() - 1;
       lightmap_of_mesh_.push_back(base_name);
@@ -281,7 +352,7 @@ class Importer {
 
   void instances(const aiNode* node, const aiMatrix4x4& parent) {
     const aiMatrix4x4 world = parent * node->mTransformation;
-    world_of_node_[node->mName.C_Str()] = world;
+    world_of_node_.emplace(node->mName.C_Str(), world);
     for (unsigned i = 0; i < node->mNumMeshes; ++i) {
       const unsigned ai_mesh = node->mMeshes[i];
       const int mesh = ai_mesh < mesh_index_.size() ? mesh_index_[ai_mesh] : -1;
@@ -308,18 +379,42 @@ class Importer {
   }
 
   void lights() {
+    std::set<std::string> light_names;
     for (unsigned i = 0; i < scene_->mNumLights; ++i) {
       const aiLight* l = scene_->mLights[i];
       const std::string name = l->mName.C_Str();
+      // Assimp names a light after the node that places it: find that node's world transform.
       aiMatrix4x4 world;
-      if (auto it = world_of_node_.find(name); it != world_of_node_.end()) world = it->second;
-      aiVector3D position = world * l->mPosition;
-      aiMatrix3x3 rotation(world);
-      aiVector3D direction = rotation * l->mDirection;
+      const auto [first, last] = world_of_node_.equal_range(name);
+      if (first == last) {
+        out_.warnings.push_back("light " + name + ": no node of that name places it; it stays where the file's "
+                                "light itself says, in world space");
+      } else {
+        world = first->second;
+        if (std::next(first) != last) {
+          out_.warnings.push_back("light " + name + ": several nodes have that name; placed by the first (give the "
+                                  "nodes unique names to place it by the right one)");
+        }
+      }
+      const aiVector3D position = world * l->mPosition;
+      // A direction moves with the node's linear part (not its inverse transpose: it is not a normal).
+      aiVector3D direction = aiMatrix3x3(world) * l->mDirection;
       if (direction.Length() > 0) direction.Normalize();
       v1::Light* out = out_.job.add_lights();
-      out->set_name(name.substr(0, 256));
+      out->set_name(unique_name(light_names, name));
+      // Assimp has multiplied the colour by the intensity already (glTF: color × intensity). kiln's lights are
+      // radiometric and glTF's photometric; the number carries over unchanged (1 cd → 1 W/sr for point and spot
+      // lights, 1 lx → 1 W/m² of irradiance at normal incidence for directional ones), as in the viewers glTF
+      // scenes are tuned in, and the same factor as emissive materials (1 cd/m² → 1 W/m²/sr), so that lights and
+      // emitters keep their proportions. A photometric conversion would divide every one by 683 lm/W.
       *out->mutable_color() = color(l->mColorDiffuse.r, l->mColorDiffuse.g, l->mColorDiffuse.b);
+      if (auto it = extras_.light_range.find(i); gltf_ && it != extras_.light_range.end()) {
+        std::ostringstream range;
+        range << it->second;
+        out_.warnings.push_back("light " + name + ": range " + range.str() +
+                                " ignored; kiln's lights fall off as 1/r² without a cut-off (the range is a hint in "
+                                "KHR_lights_punctual)");
+      }
       switch (l->mType) {
         case aiLightSource_POINT:
           *out->mutable_point()->mutable_position() = vec(position);
@@ -328,15 +423,17 @@ class Importer {
           v1::SpotLight* s = out->mutable_spot();
           *s->mutable_position() = vec(position);
           *s->mutable_direction() = vec(direction);
-          // Assimp stores the cone angles whole (glTF's are half-angles); kiln's are measured from the axis.
-          s->set_inner_cone_angle(std::clamp(l->mAngleInnerCone / 2.0, 0.0, M_PI / 2));
-          s->set_outer_cone_angle(std::clamp(l->mAngleOuterCone / 2.0, 1e-3, M_PI / 2));
+          // kiln's cone angles are measured from the axis, as glTF's innerConeAngle and outerConeAngle, which
+          // Assimp 5.2 passes on unchanged. Other formats' (FBX's cone, Collada's falloff) are apex angles: halved.
+          const double scale = gltf_ ? 1.0 : 0.5;
+          const double outer = std::clamp(l->mAngleOuterCone * scale, 1e-3, M_PI / 2);
+          s->set_outer_cone_angle(outer);
+          s->set_inner_cone_angle(std::clamp(l->mAngleInnerCone * scale, 0.0, outer));
           break;
         }
         case aiLightSource_DIRECTIONAL: {
-          v1::DirectionalLight* d = out->mutable_directional();
-          *d->mutable_direction() = vec(direction);
-          d->set_angular_diameter(kSunAngularDiameter);
+          // Left without an angular diameter: the daemon's default, the sun's disc (kiln.proto), softens its shadows.
+          *out->mutable_directional()->mutable_direction() = vec(direction);
           break;
         }
         default:
@@ -349,15 +446,16 @@ class Importer {
   }
 
   std::string path_;
+  bool gltf_;  // glTF 2.0 (.gltf or .glb): metallic-roughness materials, URI-encoded image names
   const aiScene* scene_ = nullptr;
   ImportedScene out_;
-  std::map<std::string, double> strengths_;
+  GltfExtras extras_;
   std::map<std::string, uint32_t> textures_;
   std::vector<int> mesh_index_;                // aiMesh → job mesh, -1 if dropped
   std::vector<std::string> lightmap_of_mesh_;  // job mesh → its lightmap name
   std::vector<bool> has_lightmap_uv_;          // job mesh
   std::map<unsigned, int> uses_;               // aiMesh → nodes referring to it
-  std::map<std::string, aiMatrix4x4> world_of_node_;
+  std::multimap<std::string, aiMatrix4x4> world_of_node_;  // in the order the nodes are visited
 };
 
 }  // namespace

@@ -8,14 +8,24 @@
 //   file's mesh name as their lightmap, so they share its UV atlas.
 // - Instances: one per node that refers to a mesh, with the node's accumulated transform. A mesh used by several
 //   nodes gets one lightmap per node (named after the node), since its pieces would overlap in a shared atlas.
-// - Materials (glTF metallic-roughness): a GGX lobe of α = roughness² with Schlick's Fresnel, f0 = lerp(0.04,
-//   base colour, metallic), layered over a Lambertian lobe of albedo (1 − metallic) tinted by the base colour (and
-//   its texture). Other formats: diffuse colour as the base colour; a specular colour with shininess Ns becomes
-//   that GGX lobe with f0 = Ks and α = √(2/(Ns + 2)) (the Phong–Beckmann equivalence). Emission: the emissive colour
-//   times KHR_materials_emissive_strength (read from the glTF's JSON: Assimp 5.2 ignores it).
-// - Textures: base-colour textures (files beside the model, or embedded) uploaded as they are, declared sRGB.
-// - Lights (KHR_lights_punctual and the other formats' lights): point, spot (cone angles), directional (a sun disc
-//   of the sun's angular diameter), placed by their node.
+// - Materials (glTF metallic-roughness): a GGX lobe of α = roughness² (roughness at least 0.03) with Schlick's
+//   Fresnel, f0 = lerp(0.04, base colour factor, metallic), layered over a Lambertian lobe of albedo (1 − metallic)
+//   that base_color (the factor, and its texture) multiplies: glTF's c_diff. The texture tints the diffuse lobe only;
+//   metallicRoughness, normal and occlusion textures are not read. Other formats: diffuse colour as the base colour;
+//   a specular colour with shininess Ns becomes that GGX lobe with f0 = Ks and α = √(2/(Ns + 2)) (the Phong–Beckmann
+//   equivalence). Emission: the emissive colour times KHR_materials_emissive_strength (read from the glTF's JSON by
+//   material index: Assimp 5.2 ignores it); the emissive texture is not read. doubleSided → two_sided.
+// - Textures: base-colour textures uploaded as they are (the file's bytes), declared srgb_texture; one Texture per
+//   image however many materials use it. External files are looked for beside the model (glTF URIs percent-decoded;
+//   failing that, the bare file name beside the model); embedded ones (data URIs, GLB or bufferView images) are
+//   taken from Assimp. An image that cannot be read is a warning, and the material keeps its base colour alone.
+// - Lights (KHR_lights_punctual, which Assimp 5.2 reads, and the other formats' lights): point, spot and
+//   directional, placed by the node of the light's name (position and direction in world space; glTF lights shine
+//   along the node's −Z). Spot cone angles are kiln's half-angles from the axis (glTF's as they are; other formats'
+//   apex angles halved). Directional lights get the daemon's default sun disc. Units: Assimp gives colour ×
+//   intensity, which carries over unchanged (glTF's candela as kiln's W/sr for point and spot, lux as W/m² of
+//   irradiance for directional, as emissive strengths carry cd/m² over as W/m²/sr: one factor for every emitter,
+//   so their proportions hold). glTF's `range` is ignored, with a warning (kiln's lights fall off as 1/r²).
 #pragma once
 
 #include <map>

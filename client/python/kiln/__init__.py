@@ -76,18 +76,22 @@ from .client import (  # noqa: E402  (needs pb loaded first)
     parse_job,
     state_name,
 )
+from .lightmap import Mesh, lightmap_job, mesh  # noqa: E402
 
 __all__ = [
     "PROTOCOL_VERSION",
     "Client",
     "ConnectionError",
     "KilnError",
+    "Mesh",
     "ServerError",
     "TimeoutError",
     "digest_of",
     "environment_job",
+    "lightmap_job",
     "load_job",
     "material_job",
+    "mesh",
     "parse_job",
     "pb",
     "state_name",

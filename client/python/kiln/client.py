@@ -179,8 +179,51 @@ def _set_model(message, model, params, path):
     _fill(sub, params, path + "." + model)
 
 
+def _set_message(target, value, path):
+    """A message field from a kiln.pb message of its type, or the plain Python forms of the common ones."""
+    full_name = target.DESCRIPTOR.full_name
+    if isinstance(value, type(target)):
+        target.CopyFrom(value)
+    elif full_name == "kiln.v1.Color":
+        _set_color(target, value, path)
+    elif full_name == "kiln.v1.Digest":
+        try:
+            target.CopyFrom(_as_digest(value))
+        except TypeError as e:
+            raise TypeError("%s: %s" % (path, e)) from None
+    elif full_name == "kiln.v1.Vector3" and isinstance(value, (tuple, list)):
+        if len(value) != 3:
+            raise TypeError("%s: expected (x, y, z), got %r" % (path, value))
+        target.x, target.y, target.z = (float(v) for v in value)
+    elif full_name == "kiln.v1.Brdf":
+        if not isinstance(value, dict) or "model" not in value:
+            raise TypeError("%s: expected a dict with a 'model' key, e.g. {'model': 'lambert', "
+                            "'albedo': 0.5}, got %r" % (path, value))
+        rest = dict(value)
+        _set_model(target, rest.pop("model"), rest, path)
+    elif isinstance(value, dict):
+        target.SetInParent()
+        _fill(target, value, path)
+    else:
+        raise TypeError("%s: expected a dict or a kiln.pb.%s, got %r" % (path, target.DESCRIPTOR.name, value))
+
+
+def _scalar(field, value, path):
+    if field.type == _descriptor.FieldDescriptor.TYPE_ENUM:
+        return _enum_value(field.enum_type, value, path)
+    if field.type in (_descriptor.FieldDescriptor.TYPE_DOUBLE, _descriptor.FieldDescriptor.TYPE_FLOAT):
+        try:
+            return float(value)
+        except (TypeError, ValueError):
+            raise TypeError("%s: expected a number, got %r" % (path, value)) from None
+    return value
+
+
 def _fill(message, values, path):
+    """Sets `message`'s fields from a dict of field names: scalars, enums by name, messages from dicts (or their
+    plain forms: colors, digests, vectors, Brdfs), repeated fields from lists. TypeError/ValueError name the path."""
     fields = message.DESCRIPTOR.fields_by_name
+    given = {}
     for key, value in values.items():
         if value is None:
             continue  # unset: the server's default
@@ -189,32 +232,27 @@ def _fill(message, values, path):
         if field is None:
             raise TypeError("%s: %s has no field %r (fields: %s)"
                             % (path, message.DESCRIPTOR.name, key, ", ".join(fields)))
+        if field.containing_oneof is not None:
+            oneof = field.containing_oneof.name
+            if oneof in given:
+                raise ValueError("%s: give one of %s, not both %s and %s"
+                                 % (path, ", ".join(f.name for f in field.containing_oneof.fields), given[oneof], key))
+            given[oneof] = key
         if field.label == _descriptor.FieldDescriptor.LABEL_REPEATED:
-            raise TypeError("%s: repeated fields are not set by keyword; build the message instead" % here)
-        if field.type == _descriptor.FieldDescriptor.TYPE_MESSAGE:
+            if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__iter__"):
+                raise TypeError("%s: expected a list, got %r" % (here, value))
             target = getattr(message, key)
-            if isinstance(value, type(target)):
-                target.CopyFrom(value)
-            elif field.message_type.full_name == "kiln.v1.Color":
-                _set_color(target, value, here)
-            elif field.message_type.full_name == "kiln.v1.Brdf":
-                if not isinstance(value, dict) or "model" not in value:
-                    raise TypeError("%s: expected a dict with a 'model' key, e.g. {'model': 'lambert', "
-                                    "'albedo': 0.5}, got %r" % (here, value))
-                rest = dict(value)
-                _set_model(target, rest.pop("model"), rest, here)
-            elif isinstance(value, dict):
-                target.SetInParent()
-                _fill(target, value, here)
-            else:
-                raise TypeError("%s: expected a dict or a kiln.pb.%s, got %r"
-                                % (here, field.message_type.name, value))
-        elif field.type == _descriptor.FieldDescriptor.TYPE_ENUM:
-            setattr(message, key, _enum_value(field.enum_type, value, here))
-        elif field.type in (_descriptor.FieldDescriptor.TYPE_DOUBLE, _descriptor.FieldDescriptor.TYPE_FLOAT):
-            setattr(message, key, float(value))
+            del target[:]
+            for i, item in enumerate(value):
+                item_path = "%s[%d]" % (here, i)
+                if field.type == _descriptor.FieldDescriptor.TYPE_MESSAGE:
+                    _set_message(target.add(), item, item_path)
+                else:
+                    target.append(_scalar(field, item, item_path))
+        elif field.type == _descriptor.FieldDescriptor.TYPE_MESSAGE:
+            _set_message(getattr(message, key), value, here)
         else:
-            setattr(message, key, value)
+            setattr(message, key, _scalar(field, value, here))
 
 
 def material_job(model, *, name="", table_mu=None, table_roughness=None, merl=None, samples=None,
