@@ -94,6 +94,13 @@ void SceneLights::build_distribution(const std::vector<bool>& sampled, LightChoi
   }
   distribution_ = Distribution1D(weights);
   any_ = distribution_.integral() > 0;
+  // The common case of one light to sample (a single sun, area light or emissive mesh): chosen with pmf 1 without
+  // searching the distribution, and u passes through whole.
+  single_ = -1;
+  if (any_ && std::count_if(weights.begin(), weights.end(), [](double w) { return w > 0; }) == 1) {
+    single_ = static_cast<int>(std::find_if(weights.begin(), weights.end(), [](double w) { return w > 0; }) -
+                               weights.begin());
+  }
 }
 
 int SceneLights::index_of(const LightSource* light) const {
@@ -105,6 +112,7 @@ int SceneLights::index_of(const LightSource* light) const {
 
 std::optional<SceneLights::Choice> SceneLights::sample(double u) const {
   if (!any_) return std::nullopt;
+  if (single_ >= 0) return Choice{single_, lights_[single_].get(), 1.0, u};
   const auto d = distribution_.sample_discrete(u);
   return Choice{d.index, lights_[d.index].get(), d.pmf, d.u_remapped};
 }

@@ -73,6 +73,7 @@ class SceneLights {
   const EmissiveTriangles* emissive_ = nullptr;
   const EnvironmentLight* environment_ = nullptr;
   Distribution1D distribution_;
+  int single_ = -1;  // the only light with a non-zero choice probability, or −1
   bool any_ = false;
   double radius_ = 1;
 };

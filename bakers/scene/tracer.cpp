@@ -47,10 +47,11 @@ struct Geometry {
   // of an Embree query on a small scene):
   //  - self_intersection_offset of its world (float) vertices, rounded up to a float: it depends on the triangle
   //    alone (a hit point inside it is no farther from the origin than its farthest vertex, coordinate-wise);
-  //  - its unit geometric normal (mirror applied) as floats, from the double cross product of those vertices; zero
-  //    for a triangle whose normal underflows (Embree cannot hit it, see complete()).
+  //  - its unit geometric normal (mirror applied), the double cross product of those vertices normalised (kept in
+  //    double: front-face and horizon decisions at grazing angles rest on it); zero for a triangle whose normal
+  //    underflows (Embree cannot hit it, see complete()).
   std::vector<float> offsets;
-  std::vector<float> normals;  // 3 per triangle
+  std::vector<double> normals;  // 3 per triangle
   // Per vertex, the mesh's normals in world space (the inverse transpose applied, not renormalised: interpolating
   // them and then normalising is the same as transforming the interpolated normal). Empty without vertex normals.
   std::vector<float> vertex_normals;  // 3 per vertex
@@ -263,9 +264,9 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
       const Vec3 c = cross(p1 - p0, p2 - p0);
       const double len = length(c);
       const Vec3 n = len > 0 ? c * (g.mirror / len) : Vec3{};
-      g.normals[3 * t] = static_cast<float>(n.x);
-      g.normals[3 * t + 1] = static_cast<float>(n.y);
-      g.normals[3 * t + 2] = static_cast<float>(n.z);
+      g.normals[3 * t] = n.x;
+      g.normals[3 * t + 1] = n.y;
+      g.normals[3 * t + 2] = n.z;
     }
     if (!mesh.normals.empty()) {
       g.vertex_normals.resize(3 * nv);
@@ -277,7 +278,7 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
         g.vertex_normals[3 * v + 2] = static_cast<float>(M[6] * n.x + M[7] * n.y + M[8] * n.z);
       }
     }
-    im.side_bytes += g.offsets.size() * sizeof(float) + g.normals.size() * sizeof(float) +
+    im.side_bytes += g.offsets.size() * sizeof(float) + g.normals.size() * sizeof(double) +
                      g.vertex_normals.size() * sizeof(float);
     if (im.geometries.size() <= id) im.geometries.resize(id + 1);
     im.geometries[id] = std::move(g);
@@ -312,10 +313,10 @@ Hit Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, f
   h.v = hv;
   const double w = 1.0 - h.u - h.v;
   h.p = p0 * w + p1 * h.u + p2 * h.v;
-  const float* n_tri = &g.normals[3 * static_cast<size_t>(prim_id)];
+  const double* n_tri = &g.normals[3 * static_cast<size_t>(prim_id)];
   // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
   // anyway (stored as zero), face the ray.
-  const bool no_normal = n_tri[0] == 0.0f && n_tri[1] == 0.0f && n_tri[2] == 0.0f;
+  const bool no_normal = n_tri[0] == 0.0 && n_tri[1] == 0.0 && n_tri[2] == 0.0;
   h.ng = no_normal ? -normalize(ray.direction) : Vec3{n_tri[0], n_tri[1], n_tri[2]};
   h.front_face = dot(ray.direction, h.ng) < 0;
   h.ns = h.ng;
@@ -362,8 +363,8 @@ HitId make_id(const RTCRayHit& rh, const std::vector<Geometry>& geometries) {
   id.u = rh.hit.u;
   id.v = rh.hit.v;
   // Embree's Ng is (p1 − p0) × (p2 − p0) up to Embree's sign convention, which we do not rely on: ours, stored.
-  const float* ng = &g.normals[3 * static_cast<size_t>(rh.hit.primID)];
-  id.front_face = double(ng[0]) * rh.ray.dir_x + double(ng[1]) * rh.ray.dir_y + double(ng[2]) * rh.ray.dir_z < 0;
+  const double* ng = &g.normals[3 * static_cast<size_t>(rh.hit.primID)];
+  id.front_face = ng[0] * rh.ray.dir_x + ng[1] * rh.ray.dir_y + ng[2] * rh.ray.dir_z < 0;
   return id;
 }
 }  // namespace
