@@ -152,6 +152,43 @@ double sh_relative_error(const std::array<Rgb, 4>& sum, const std::array<double,
   return std::max(std::sqrt(se2[0]) / l00, std::sqrt(se2[1] + se2[2] + se2[3]) / (std::sqrt(3.0) * l00));
 }
 
+// What one work item's estimates add to a texel, accumulated by its worker alone and then merged (merge()).
+struct Partial {
+  Rgb sum;                       // of the accepted irradiance estimates
+  double sum_y2 = 0;             // of their luminances squared
+  uint32_t count = 0, tried = 0;  // accepted; tried (accepted or dropped)
+  Rgb ao;
+  std::array<Rgb, 4> sh{};
+  std::array<double, 4> sh_y2{};
+
+  // One accepted estimate: irradiance E, AO, and the SH coefficients summed with total sample weight `weight`.
+  void add(const Rgb& E, const Rgb& ao_estimate, const std::array<Rgb, 4>& sh_weighted, double weight) {
+    sum += E;
+    const double y = luminance(E);
+    sum_y2 += y * y;
+    ++count;
+    ao += ao_estimate;
+    for (int c = 0; c < 4; ++c) {
+      const Rgb coefficient = sh_weighted[c] / weight;
+      sh[c] += coefficient;
+      const double yc = luminance(coefficient);
+      sh_y2[c] += yc * yc;
+    }
+  }
+};
+
+void merge(Lightmap& m, size_t t, const Partial& p) {
+  m.attempts[t] += p.tried;
+  m.image.merge(t, p.sum, p.sum_y2, p.count);
+  if (!m.ao_sum.empty()) m.ao_sum[t] += p.ao;
+  if (!m.sh_sum.empty()) {
+    for (int c = 0; c < 4; ++c) {
+      m.sh_sum[t][c] += p.sh[c];
+      m.sh_y2[t][c] += p.sh_y2[c];
+    }
+  }
+}
+
 std::string json_string(const std::string& s) {
   std::string out = "\"";
   for (char c : s) {
@@ -405,11 +442,42 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
       for (const std::vector<Job>& row : rows) active.insert(active.end(), row.begin(), row.end());
     }
     if (active.empty()) break;
+    // Work items: normally one per texel, whose worker owns the texel and merges into it directly. When few texels
+    // remain (late adaptive passes, where batches are large), one texel's batch is split over several items so that
+    // every core gets work; their partial sums are merged after the pass. Each item's estimates draw from a stream
+    // seeded by (bake seed, lightmap, texel, index of its first estimate): the bytes do not depend on the thread
+    // count or the order of execution.
+    struct Item {
+      uint32_t map, count;
+      size_t texel;
+      uint64_t first;     // index of the item's first estimate among all the texel's estimates
+      int64_t partial;    // into `partials`, or −1: merge directly
+    };
+    std::vector<Item> items;
+    std::vector<Partial> partials;
+    // Fixed, not from the thread count (the split decides the streams, so the bytes would follow the machine):
+    // enough items for a few dozen cores.
+    constexpr size_t spread = 1024;
+    if (active.size() >= spread) {
+      items.reserve(active.size());
+      for (const Job& j : active) items.push_back({j.map, j.batch, j.texel, maps[j.map].attempts[j.texel], -1});
+    } else {
+      const uint64_t pieces = (spread + active.size() - 1) / active.size();
+      for (const Job& j : active) {
+        const uint64_t size = std::max<uint64_t>(1, (j.batch + pieces - 1) / pieces);
+        const uint64_t start = maps[j.map].attempts[j.texel];
+        for (uint64_t done = 0; done < j.batch; done += size) {
+          const auto count = static_cast<uint32_t>(std::min<uint64_t>(size, j.batch - done));
+          items.push_back({j.map, count, j.texel, start + done, static_cast<int64_t>(partials.size())});
+          partials.emplace_back();
+        }
+      }
+    }
     std::atomic<uint64_t> rays{0}, occlusion_rays{0}, paths{0}, general_vertices{0};
     std::atomic<bool> out_of_time{false};
-    // Grain: up to 16 texels per task, fewer when few remain active (late adaptive passes), so both cores get work.
-    const size_t grain = std::clamp<size_t>(active.size() / 32, 1, 16);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size(), grain), [&](const tbb::blocked_range<size_t>& r) {
+    // Grain: up to 16 items per task, fewer when there are few, so that every core gets work.
+    const size_t grain = std::clamp<size_t>(items.size() / 32, 1, 16);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, items.size(), grain), [&](const tbb::blocked_range<size_t>& r) {
       if (control.cancel && control.cancel->load()) return;
       uint64_t local_rays = 0, local_occlusion = 0, local_paths = 0, local_general = 0;
       for (size_t j = r.begin(); j != r.end(); ++j) {
@@ -419,13 +487,14 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
           out_of_time = true;
           break;
         }
-        Lightmap& m = maps[active[j].map];
-        const size_t t = active[j].texel;
-        // A stream per (bake seed, lightmap, texel, estimates tried so far): the bytes do not depend on scheduling.
-        Pcg32 rng(mix(mix(in.seed, active[j].map), mix(t, m.attempts[t])));
+        const Item& item = items[j];
+        Lightmap& m = maps[item.map];
+        const size_t t = item.texel;
+        Pcg32 rng(mix(mix(in.seed, item.map), mix(t, item.first)));
         const auto samples = m.texels.at(t);
-        for (uint32_t b = 0; b < active[j].batch; ++b) {
-          ++m.attempts[t];
+        Partial p;
+        for (uint32_t b = 0; b < item.count; ++b) {
+          ++p.tried;
           Rgb E, ao;
           std::array<Rgb, 4> sh{};
           double weight = 0;
@@ -449,19 +518,17 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
           }
           if (bad) dropped.fetch_add(1, std::memory_order_relaxed);
           if (!(weight > 0)) continue;
-          if (!m.image.add(t, E / weight)) {
+          const Rgb estimate = E / weight;
+          if (!LightmapImage::acceptable(estimate)) {
             dropped.fetch_add(1, std::memory_order_relaxed);
             continue;
           }
-          if (!m.ao_sum.empty()) m.ao_sum[t] += ao / weight;
-          if (!m.sh_sum.empty()) {
-            for (int c = 0; c < 4; ++c) {
-              const Rgb coefficient = sh[c] / weight;
-              m.sh_sum[t][c] += coefficient;
-              const double y = luminance(coefficient);
-              m.sh_y2[t][c] += y * y;
-            }
-          }
+          p.add(estimate, ao / weight, sh, weight);
+        }
+        if (item.partial < 0) {
+          merge(m, t, p);
+        } else {
+          partials[item.partial] = p;
         }
       }
       rays.fetch_add(local_rays, std::memory_order_relaxed);
@@ -469,6 +536,9 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
       paths.fetch_add(local_paths, std::memory_order_relaxed);
       general_vertices.fetch_add(local_general, std::memory_order_relaxed);
     });
+    for (const Item& item : items) {
+      if (item.partial >= 0) merge(maps[item.map], item.texel, partials[item.partial]);
+    }
     check_cancel(control);
     result.rays += rays.load();
     result.occlusion_rays += occlusion_rays.load();

@@ -47,13 +47,22 @@ LightmapImage::LightmapImage(std::string name, int width, int height, std::vecto
   count_.assign(validity_.size(), 0);
 }
 
+bool LightmapImage::acceptable(const Rgb& e) { return e.is_finite() && e.min() >= 0; }
+
 bool LightmapImage::add(size_t texel, const Rgb& e) {
-  if (!valid(texel) || !e.is_finite() || e.min() < 0) return false;
+  if (!valid(texel) || !acceptable(e)) return false;
   sum_[texel] += e;
   const double y = luminance(e);
   sum_y2_[texel] += y * y;
   ++count_[texel];
   return true;
+}
+
+void LightmapImage::merge(size_t texel, const Rgb& sum, double sum_y2, uint32_t count) {
+  if (!valid(texel) || count == 0) return;
+  sum_[texel] += sum;
+  sum_y2_[texel] += sum_y2;
+  count_[texel] += count;
 }
 
 Rgb LightmapImage::mean(size_t texel) const {

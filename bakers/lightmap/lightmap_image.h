@@ -40,6 +40,11 @@ class LightmapImage {
   // caller counts it for the report. Different texels may be added to from different threads at once; one texel
   // from one thread at a time.
   bool add(size_t texel, const Rgb& estimate);
+  // What add() accepts: every channel finite and non-negative.
+  static bool acceptable(const Rgb& estimate);
+  // Adds `count` estimates at once, already checked with acceptable(), given by their sum and the sum of the squares
+  // of their luminances (what a worker accumulates on its own before merging). Ignored for an invalid texel.
+  void merge(size_t texel, const Rgb& sum, double sum_y2, uint32_t count);
 
   uint32_t count(size_t texel) const { return count_[texel]; }
   // The mean of the estimates; black without any.
