@@ -24,7 +24,7 @@
 
 namespace kiln::lightmap {
 
-inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-1";
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-2";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
 struct EncodedTexture {
