@@ -75,7 +75,7 @@ double lobe_normalization(brdf::Distribution distribution, double alpha) {
   // ξ* where θ_h = π/4 (n·l = 0): cos θ_h decreases with ξ; bisection to double precision.
   const double c45 = std::sqrt(0.5);
   double lo = 0.0, hi = 1.0;
-  if (cos_theta(std::nextafter(1.0, 0.0)) >= c45) {
+  if (cos_theta(kOneMinusEpsilon) >= c45) {
     lo = hi = 1.0;  // the whole support lies within θ_h < π/4 (Schlick's compact D for m < 1 − 1/√2)
   } else {
     for (int i = 0; i < 200 && hi - lo > 1e-16; ++i) {
@@ -95,7 +95,7 @@ double lobe_normalization(brdf::Distribution distribution, double alpha) {
     const QuadratureRule rule = gauss_legendre(16, edges[p], edges[p + 1]);
     for (size_t i = 0; i < rule.nodes.size(); ++i) {
       const double u = rule.nodes[i];
-      const double c = cos_theta(std::fmin(-std::expm1(-u), std::nextafter(1.0, 0.0)));
+      const double c = cos_theta(std::fmin(-std::expm1(-u), kOneMinusEpsilon));
       w += rule.weights[i] * std::exp(-u) * std::fmax(0.0, 2.0 * c * c - 1.0);
     }
   }

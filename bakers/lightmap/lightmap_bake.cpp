@@ -141,15 +141,11 @@ struct Lightmap {
 // 0 for a black texel (all estimates 0).
 double sh_relative_error(const std::array<Rgb, 4>& sum, const std::array<double, 4>& sum_y2, uint32_t n) {
   if (n < 2) return std::numeric_limits<double>::infinity();
-  double se2[4];
-  for (int c = 0; c < 4; ++c) {
-    const double mean = luminance(sum[c]) / n;
-    // Σ Y² − n Ȳ² can come out a few ulps negative for estimates that are all equal.
-    se2[c] = std::max(0.0, (sum_y2[c] - n * mean * mean) / (n - 1)) / n;
-  }
+  double se[4];
+  for (int c = 0; c < 4; ++c) se[c] = standard_error_of_mean(luminance(sum[c]), sum_y2[c], n);
   const double l00 = luminance(sum[0]) / n;
   if (!(l00 > 0)) return 0;  // no radiance arrives: every estimate was 0
-  return std::max(std::sqrt(se2[0]) / l00, std::sqrt(se2[1] + se2[2] + se2[3]) / (std::sqrt(3.0) * l00));
+  return std::max(se[0] / l00, std::hypot(se[1], se[2], se[3]) / (std::sqrt(3.0) * l00));
 }
 
 // What one work item's estimates add to a texel, accumulated by its worker alone and then merged (merge()).

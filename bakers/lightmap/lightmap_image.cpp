@@ -47,14 +47,19 @@ LightmapImage::LightmapImage(std::string name, int width, int height, std::vecto
   count_.assign(validity_.size(), 0);
 }
 
+double standard_error_of_mean(double sum, double sum_sq, uint32_t n) {
+  const double mean = sum / n;
+  // Σ y² − n ȳ² can come out a few ulps negative for values that are all equal.
+  const double variance = std::max(0.0, (sum_sq - n * mean * mean) / (n - 1));
+  return std::sqrt(variance / n);
+}
+
 bool LightmapImage::acceptable(const Rgb& e) { return e.is_finite() && e.min() >= 0; }
 
 bool LightmapImage::add(size_t texel, const Rgb& e) {
   if (!valid(texel) || !acceptable(e)) return false;
-  sum_[texel] += e;
   const double y = luminance(e);
-  sum_y2_[texel] += y * y;
-  ++count_[texel];
+  merge(texel, e, y * y, 1);
   return true;
 }
 
@@ -74,9 +79,7 @@ double LightmapImage::relative_error(size_t texel, double floor) const {
   const uint32_t n = count_[texel];
   if (n < 2) return std::numeric_limits<double>::infinity();
   const double mean_y = luminance(sum_[texel]) / n;
-  // Σ Y² − n Ȳ² can come out a few ulps negative for estimates that are all equal.
-  const double variance = std::max(0.0, (sum_y2_[texel] - n * mean_y * mean_y) / (n - 1));
-  const double standard_error = std::sqrt(variance / n);
+  const double standard_error = standard_error_of_mean(luminance(sum_[texel]), sum_y2_[texel], n);
   const double denominator = std::max(mean_y, floor);
   // All estimates 0 (non-negative ones with a zero mean): no light reaches the texel, and that is exact.
   if (!(denominator > 0)) return 0;

@@ -22,6 +22,10 @@
 
 namespace kiln::lightmap {
 
+// The standard error of the mean of n values from their sum and the sum of their squares: √(s²/n) with the sample
+// variance s² = (Σ y² − n ȳ²)/(n − 1); needs n ≥ 2. Shared by the irradiance and the SH error estimates.
+double standard_error_of_mean(double sum, double sum_sq, uint32_t n);
+
 class LightmapImage {
  public:
   // validity: width·height bytes (non-zero: valid), e.g. LightmapTexels::validity() after leak handling.
