@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "bakers/math/constants.h"
+#include "bakers/lightmap/ray_log.h"
 #include "bakers/math/sampling.h"
 #include "bakers/scene/light_sampler.h"
 #include "bakers/scene/ray_offset.h"
@@ -36,13 +37,16 @@ struct Walk {
 
   Point2 u2() { return {rng.uniform(), rng.uniform()}; }
 
-  std::optional<scene::Hit> trace(const scene::Ray& ray) {
+  // A closest-hit query into `hit` (untouched on a miss); true on a hit.
+  bool trace(const scene::Ray& ray, scene::Hit& hit) {
     ++out.rays;
-    return ctx.tracer->intersect(ray);
+    if (ctx.ray_log) ctx.ray_log->record(ray, false);
+    return ctx.tracer->intersect(ray, hit, scene::HitDetail{.lightmap_uv = false, .uv = ctx.textured});
   }
   bool visible(const scene::Ray& ray) {
     ++out.rays;
     ++out.occlusion_rays;
+    if (ctx.ray_log) ctx.ray_log->record(ray, true);
     return !ctx.tracer->occluded(ray);
   }
 
@@ -127,10 +131,10 @@ struct Walk {
     } else {
       const double p_light = choice->pmf * s->pdf;
       if (!(p_light > 0)) return Rgb{};
-      const double w = ctx.plan->multiple_importance_sampling && !choice->light->uniform_in_solid_angle(from.p)
-                           ? balance(p_light, pdf_other(s->wi))
-                           : 1.0;
-      weight = w / p_light;
+      // The balance heuristic's weight over the density, w/p = (p/(p + p_other))/p = 1/(p + p_other).
+      weight = ctx.plan->multiple_importance_sampling && !choice->light->uniform_in_solid_angle(from.p)
+                   ? 1.0 / (p_light + pdf_other(s->wi))
+                   : 1.0 / p_light;
     }
     if (radiance) {
       *radiance = s->Li * weight;
@@ -141,10 +145,15 @@ struct Walk {
 
   // Radiance leaving `hit` towards wo (world), reflected there at least once: path tracing with next-event
   // estimation; `depth` counts the reflections of the light arriving at the receiver.
-  Rgb reflected(scene::Hit hit, Vec3 wo) {
+  Rgb reflected(const scene::Hit& first, Vec3 wo) {
     Rgb L, beta{1.0};
     const plan::LightmapPlan& plan = *ctx.plan;
+    // Two hit records in turn (the vertex shaded and the next one found), never copied.
+    scene::Hit records[2];
+    const scene::Hit* current = &first;
     for (int depth = 1;; ++depth) {
+      const scene::Hit& hit = *current;
+      scene::Hit& next = records[depth & 1];
       const ShadingMaterial& m = material(hit);
       // Reflect on whichever side the ray arrived (one-sided geometry seen from behind still reflects).
       scene::SurfacePoint surface = hit.surface();
@@ -187,17 +196,17 @@ struct Walk {
       if (dot(wi, surface.ng) <= 0) break;  // into the surface (the shading normal disagrees with the geometry)
       if (!finite(beta) || !(beta.max() > 0)) break;
       const scene::Ray ray = scene::spawn_ray(surface, wi);
-      const auto next = trace(ray);
-      L += beta * lights_along(ray.origin, ns, wi, next ? next->t : kInfinity, pdf_wi, !next);
-      if (!next) break;
-      L += beta * emitted(*next, ray.origin, ns, wi, pdf_wi);
+      const bool found = trace(ray, next);
+      L += beta * lights_along(ray.origin, ns, wi, found ? next.t : kInfinity, pdf_wi, !found);
+      if (!found) break;
+      L += beta * emitted(next, ray.origin, ns, wi, pdf_wi);
       if (depth + 1 > plan.bounces) break;
       if (plan.russian_roulette && depth >= plan.russian_roulette_depth) {
         const double q = std::max(0.05, 1.0 - beta.max());
         if (rng.uniform() < q) break;
         beta = beta / (1.0 - q);
       }
-      hit = *next;
+      current = &next;
       wo = -wi;
     }
     return L;
@@ -206,7 +215,11 @@ struct Walk {
 
 }  // namespace
 
-void index_lights(TransportContext& ctx) {
+void prepare_context(TransportContext& ctx) {
+  ctx.textured = false;
+  if (ctx.materials) {
+    for (const ShadingMaterial& m : *ctx.materials) ctx.textured = ctx.textured || m.texture >= 0;
+  }
   ctx.analytic_lights.clear();
   ctx.emissive_light = -1;
   if (!ctx.lights) return;
@@ -269,7 +282,7 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   Rgb radiance;
   Vec3 direction;
   Rgb E = walk.next_event(surface, r.ns, cosine, cosine_pdf, &radiance, &direction);
-  add_sh(out.sh, direction, radiance);
+  if (ctx.directional) add_sh(out.sh, direction, radiance);
 
   // 2. Cosine sampling.
   const Vec3 local = sample_cosine_hemisphere(rng);
@@ -277,15 +290,16 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   if (local.z > 0 && dot(wi, r.ng) > 0) {
     const double pdf = local.z * kInvPi;
     const scene::Ray ray = scene::spawn_ray(surface, wi);
-    const auto hit = walk.trace(ray);
-    Rgb L = walk.lights_along(ray.origin, r.ns, wi, hit ? hit->t : kInfinity, pdf, !hit);
-    if (hit) {
-      L += walk.emitted(*hit, ray.origin, r.ns, wi, pdf);
-      if (ctx.plan->bounces >= 1) L += walk.reflected(*hit, -wi);
+    scene::Hit hit;
+    const bool found = walk.trace(ray, hit);
+    Rgb L = walk.lights_along(ray.origin, r.ns, wi, found ? hit.t : kInfinity, pdf, !found);
+    if (found) {
+      L += walk.emitted(hit, ray.origin, r.ns, wi, pdf);
+      if (ctx.plan->bounces >= 1) L += walk.reflected(hit, -wi);
     }
-    out.ao = (!hit || (ctx.ao_distance > 0 && hit->t > ctx.ao_distance)) ? 1.0 : 0.0;
+    out.ao = (!found || (ctx.ao_distance > 0 && hit.t > ctx.ao_distance)) ? 1.0 : 0.0;
     E += L * kPi;  // L cos θ / pdf with pdf = cos θ / π
-    add_sh(out.sh, wi, L / pdf);
+    if (ctx.directional) add_sh(out.sh, wi, L / pdf);
   }
   if (!finite(E) || !finite(out.sh[0]) || !finite(out.sh[1]) || !finite(out.sh[2]) || !finite(out.sh[3])) {
     // Never let one bad sample poison a texel: drop it whole, and say so (the report counts them).

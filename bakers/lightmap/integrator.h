@@ -31,6 +31,8 @@ class SceneLights;
 
 namespace kiln::lightmap {
 
+class RayLog;
+
 // A scene material as the transport evaluates it, after the plan's substitutions (a specular lobe the planner pruned
 // is a Lambertian lobe of the same average albedo; an anisotropic one the plan does not evaluate is isotropic).
 struct ShadingMaterial {
@@ -56,13 +58,16 @@ struct TransportContext {
   const plan::LightmapPlan* plan = nullptr;
   const std::vector<ShadingMaterial>* materials = nullptr;
   double ao_distance = 0;  // > 0: a cosine ray that travels this far counts as unoccluded
-  // Filled by index_lights():
+  bool directional = false;  // estimate the SH of incoming radiance too (IrradianceEstimate::sh; else left zero)
+  RayLog* ray_log = nullptr;  // benchmarks only (ray_log.h): receives every ray traced
+  // Filled by prepare_context():
   std::vector<int> analytic_lights;  // indices into `lights` of rect and disk lights (not scene geometry)
   int emissive_light = -1;           // index of the emissive triangles in `lights`, −1 if none
+  bool textured = false;             // some material samples its texture at hit points (texture UVs needed)
 };
 
-// Fills the context's light indices from ctx.lights.
-void index_lights(TransportContext& ctx);
+// Fills the context's light indices from ctx.lights and `textured` from ctx.materials.
+void prepare_context(TransportContext& ctx);
 
 // The point a texel sample stands on.
 struct Receiver {
@@ -74,7 +79,8 @@ struct Receiver {
 
 struct IrradianceEstimate {
   Rgb E;                        // irradiance, W/m²
-  Rgb sh[4];                    // order-1 SH of incoming radiance: Y00, Y1-1, Y10, Y11 (real, orthonormal)
+  Rgb sh[4];                    // order-1 SH of incoming radiance: Y00, Y1-1, Y10, Y11 (real, orthonormal), when
+                                // the context asks for it
   double ao = 0;                // 1 if the cosine ray escaped ao_distance, else 0
   uint32_t rays = 0;
   uint32_t occlusion_rays = 0;  // of `rays`, the shadow (any-hit) queries; the others are closest-hit

@@ -157,13 +157,16 @@ struct Partial {
   std::array<Rgb, 4> sh{};
   std::array<double, 4> sh_y2{};
 
-  // One accepted estimate: irradiance E, AO, and the SH coefficients summed with total sample weight `weight`.
-  void add(const Rgb& E, const Rgb& ao_estimate, const std::array<Rgb, 4>& sh_weighted, double weight) {
+  // One accepted estimate: irradiance E, AO, and (`directional`) the SH coefficients summed with total sample weight
+  // `weight`.
+  void add(const Rgb& E, const Rgb& ao_estimate, const std::array<Rgb, 4>& sh_weighted, double weight,
+           bool directional) {
     sum += E;
     const double y = luminance(E);
     sum_y2 += y * y;
     ++count;
     ao += ao_estimate;
+    if (!directional) return;
     for (int c = 0; c < 4; ++c) {
       const Rgb coefficient = sh_weighted[c] / weight;
       sh[c] += coefficient;
@@ -309,7 +312,9 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
   ctx.lights = &lights;
   ctx.plan = &plan;
   ctx.materials = &materials;
-  index_lights(ctx);
+  ctx.ray_log = in.ray_log;
+  ctx.directional = in.directional;
+  prepare_context(ctx);
   if (in.ao) {
     // AO within a tenth of the scene's size: the usual contact-shadow scale, and independent of the scene's unit.
     ctx.ao_distance = 0.1 * scene::scene_bounding_radius(s);
@@ -509,7 +514,9 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
             const double w = samples[k].weight;
             E += e.E * w;
             ao += Rgb{e.ao * w};
-            for (int c = 0; c < 4; ++c) sh[c] += e.sh[c] * w;
+            if (in.directional) {
+              for (int c = 0; c < 4; ++c) sh[c] += e.sh[c] * w;
+            }
             weight += w;
           }
           if (bad) dropped.fetch_add(1, std::memory_order_relaxed);
@@ -519,7 +526,7 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
             dropped.fetch_add(1, std::memory_order_relaxed);
             continue;
           }
-          p.add(estimate, ao / weight, sh, weight);
+          p.add(estimate, ao / weight, sh, weight, in.directional);
         }
         if (item.partial < 0) {
           merge(m, t, p);

@@ -24,6 +24,8 @@
 
 namespace kiln::lightmap {
 
+class RayLog;
+
 inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-2";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
@@ -61,6 +63,10 @@ struct LightmapBakeInput {
   bool ao = false;           // NAME_ao.exr
   bool directional = false;  // NAME_sh.exr
   bool preview = true;       // NAME_preview.png
+
+  // Benchmarks only, not part of a job (the service never sets it, and it is not in the cache key): receives the
+  // rays the transport traces (ray_log.h).
+  RayLog* ray_log = nullptr;
 };
 
 // One point of the error-versus-time curve: after a pass, the estimate over all valid texels.

@@ -39,7 +39,7 @@ EmissiveTriangles::EmissiveTriangles(std::vector<EmissiveTriangle> triangles) {
     power_ += t.Le * (kPi * a * sides);
     triangles_.push_back(t);
   }
-  choice_ = Distribution1D(std::move(weights));
+  choice_ = AliasTable(weights);
 }
 
 EmissiveTriangles EmissiveTriangles::from_scene(const Scene& scene) {
@@ -79,7 +79,7 @@ int EmissiveTriangles::find(int instance, int triangle) const {
 
 std::optional<LightSample> EmissiveTriangles::sample_li(const Vec3& p, const Vec3& /*n*/, Point2 u) const {
   if (triangles_.empty()) return std::nullopt;
-  const auto choice = choice_.sample_discrete(u.x);
+  const AliasTable::Choice choice = choice_.sample(u.x);
   const int i = choice.index;
   const EmissiveTriangle& t = triangles_[i];
   const Vec3& ng = normal_[i];
@@ -101,7 +101,7 @@ std::optional<LightSample> EmissiveTriangles::sample_li(const Vec3& p, const Vec
   const double dist2 = dot(d, d);
   if (!(dist2 > 0)) return std::nullopt;  // p is the sampled point itself
   const double dist = std::sqrt(dist2);
-  const Vec3 wi = d / dist;
+  const Vec3 wi = d * (1.0 / dist);  // one division, not three: this runs at every path vertex
   const double cos_l = std::fabs(dot(ng, wi));
   if (!(cos_l > 0)) return std::nullopt;  // seen exactly edge-on
   LightSample s;

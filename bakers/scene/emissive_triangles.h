@@ -1,8 +1,8 @@
 // Emissive triangles as one light: the world-space triangles of every mesh whose material has emission > 0, each
 // emitting its material's L_e from its front side (the side of (p1 − p0) × (p2 − p0)) unless two-sided.
 //
-// sample_li chooses a triangle in proportion to its power (area × luminance(L_e), × 2 if two-sided) through a
-// Distribution1D — the same as choosing among them as separate lights by power — and then a point uniformly by
+// sample_li chooses a triangle in proportion to its power (area × luminance(L_e), × 2 if two-sided) through an
+// alias table — the same as choosing among them as separate lights by power — and then a point uniformly by
 // area (Heitz 2019's low-distortion square-to-triangle map), converted to solid angle: pdf = pmf · d² / (A |cos θ_l|).
 // pdf_li needs the triangle a ray hit (LightHit::triangle, from find()) and includes its pmf.
 //
@@ -14,7 +14,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "bakers/scene/distribution.h"
+#include "bakers/scene/alias_table.h"
 #include "bakers/scene/lights.h"
 #include "bakers/scene/scene.h"
 
@@ -54,7 +54,7 @@ class EmissiveTriangles final : public LightSource {
   std::vector<EmissiveTriangle> triangles_;
   std::vector<double> area_;
   std::vector<Vec3> normal_;  // unit geometric normal (front)
-  Distribution1D choice_;
+  AliasTable choice_;
   std::unordered_map<uint64_t, int> index_;
   Rgb power_;
 };

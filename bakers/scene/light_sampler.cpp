@@ -92,8 +92,8 @@ void SceneLights::build_distribution(const std::vector<bool>& sampled, LightChoi
     if (!(phi > 0) || !std::isfinite(phi)) continue;
     weights[i] = choice == LightChoice::power ? phi : 1.0;
   }
-  distribution_ = Distribution1D(weights);
-  any_ = distribution_.integral() > 0;
+  distribution_ = AliasTable(weights);
+  any_ = distribution_.total() > 0;
   // The common case of one light to sample (a single sun, area light or emissive mesh): chosen with pmf 1 without
   // searching the distribution, and u passes through whole.
   single_ = -1;
@@ -108,13 +108,6 @@ int SceneLights::index_of(const LightSource* light) const {
     if (lights_[i].get() == light) return static_cast<int>(i);
   }
   return -1;
-}
-
-std::optional<SceneLights::Choice> SceneLights::sample(double u) const {
-  if (!any_) return std::nullopt;
-  if (single_ >= 0) return Choice{single_, lights_[single_].get(), 1.0, u};
-  const auto d = distribution_.sample_discrete(u);
-  return Choice{d.index, lights_[d.index].get(), d.pmf, d.u_remapped};
 }
 
 double SceneLights::pmf(int index) const { return any_ ? distribution_.pmf(index) : 0.0; }

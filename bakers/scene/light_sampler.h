@@ -14,7 +14,7 @@
 #include <optional>
 #include <vector>
 
-#include "bakers/scene/distribution.h"
+#include "bakers/scene/alias_table.h"
 #include "bakers/scene/emissive_triangles.h"
 #include "bakers/scene/environment_light.h"
 #include "bakers/scene/lights.h"
@@ -61,7 +61,12 @@ class SceneLights {
     double pmf = 0;
     double u_remapped = 0;  // the part of u not spent on the choice, uniform in [0, 1)
   };
-  std::optional<Choice> sample(double u) const;
+  std::optional<Choice> sample(double u) const {
+    if (!any_) return std::nullopt;
+    if (single_ >= 0) return Choice{single_, lights_[single_].get(), 1.0, u};
+    const AliasTable::Choice d = distribution_.sample(u);
+    return Choice{d.index, lights_[d.index].get(), d.pmf, d.u_remapped};
+  }
   double pmf(int index) const;  // 0 for lights that are not sampled
   double pmf(const LightSource* light) const { return pmf(index_of(light)); }
   double scene_radius() const { return radius_; }
@@ -72,7 +77,7 @@ class SceneLights {
   std::vector<int> escape_;
   const EmissiveTriangles* emissive_ = nullptr;
   const EnvironmentLight* environment_ = nullptr;
-  Distribution1D distribution_;
+  AliasTable distribution_;
   int single_ = -1;  // the only light with a non-zero choice probability, or −1
   bool any_ = false;
   double radius_ = 1;

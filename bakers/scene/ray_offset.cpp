@@ -1,10 +1,7 @@
 #include "bakers/scene/ray_offset.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
-#include <cstdint>
-#include <limits>
 
 namespace kiln::scene {
 namespace {
@@ -14,24 +11,6 @@ constexpr double kEps = 0x1.0p-24;
 constexpr double gamma(int k) { return k * kEps / (1 - k * kEps); }
 
 double max_abs(const Vec3& v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
-
-// The next float above / below a finite float, by stepping its bit pattern (what nextafterf does, without the
-// library call on every ray origin). −0 and +0 both step to the smallest denormal of the sign asked for.
-float next_float_up(float f) {
-  if (f == 0.0f) return std::numeric_limits<float>::denorm_min();
-  const uint32_t bits = std::bit_cast<uint32_t>(f);
-  return std::bit_cast<float>(f > 0 ? bits + 1 : bits - 1);
-}
-float next_float_down(float f) { return -next_float_up(-f); }
-
-// Rounds x to a float on the side `direction` points to (x itself if it is a float already). Origins are finite
-// floats well inside the range (the tracer refuses scenes beyond it), so the steps never reach an infinity.
-double round_float_towards(double x, double direction) {
-  const float f = static_cast<float>(x);
-  if (direction > 0 && static_cast<double>(f) < x) return next_float_up(f);
-  if (direction < 0 && static_cast<double>(f) > x) return next_float_down(f);
-  return f;
-}
 
 }  // namespace
 
@@ -66,25 +45,6 @@ double self_intersection_offset(const Vec3& v0, const Vec3& v1, const Vec3& v2, 
   // k ≥ 1 only for a triangle flatter than ~1e-7 (sin of its angle below γ_3): lift by its whole size then.
   const double self = k < 0.5 ? longest * k / (1 - k) : longest;
   return 2 * (self + neighbours);
-}
-
-Vec3 offset_ray_origin(const SurfacePoint& s, const Vec3& w) {
-  const Vec3 n = dot(w, s.ng) < 0 ? -s.ng : s.ng;
-  const Vec3 o = s.p + n * s.offset;
-  return {round_float_towards(o.x, n.x), round_float_towards(o.y, n.y), round_float_towards(o.z, n.z)};
-}
-
-Ray spawn_ray(const SurfacePoint& s, const Vec3& w, double tmax) { return {offset_ray_origin(s, w), w, tmax}; }
-
-Ray spawn_ray_to(const SurfacePoint& from, const Vec3& target) {
-  const Vec3 origin = offset_ray_origin(from, target - from.p);
-  return {origin, target - origin, 1 - kShadowEpsilon};
-}
-
-Ray spawn_ray_to(const SurfacePoint& from, const SurfacePoint& to) {
-  const Vec3 origin = offset_ray_origin(from, to.p - from.p);
-  const Vec3 target = offset_ray_origin(to, from.p - to.p);
-  return {origin, target - origin, 1 - kShadowEpsilon};
 }
 
 }  // namespace kiln::scene

@@ -126,7 +126,8 @@ struct Tracer::Impl {
     if (device) rtcReleaseDevice(device);
   }
 
-  Hit complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u, float v) const;
+  Hit complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u, float v,
+               HitDetail detail = {}) const;
 };
 
 namespace {
@@ -299,7 +300,8 @@ size_t Tracer::memory_bytes() const {
 Vec3 Tracer::bounds_lower() const { return impl_->lower; }
 Vec3 Tracer::bounds_upper() const { return impl_->upper; }
 
-Hit Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv) const {
+Hit Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv,
+                           HitDetail detail) const {
   const Geometry& g = geometries[geom_id];
   const MeshAttributes& mesh = *g.source;
   const uint32_t i0 = g.indices[3 * prim_id], i1 = g.indices[3 * prim_id + 1], i2 = g.indices[3 * prim_id + 2];
@@ -328,14 +330,14 @@ Hit Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, f
     const Vec3 nw = normal(i0) * w + normal(i1) * h.u + normal(i2) * h.v;
     const double nl = length(nw);
     // Opposite vertex normals can interpolate to zero inside the triangle: the geometric normal stands in.
-    if (nl > 0 && std::isfinite(nl)) h.ns = dot(nw, h.ng) < 0 ? nw / -nl : nw / nl;
+    if (nl > 0 && std::isfinite(nl)) h.ns = nw * ((dot(nw, h.ng) < 0 ? -1.0 : 1.0) / nl);
   }
-  if (!mesh.lightmap_uv.empty()) {
+  if (detail.lightmap_uv && !mesh.lightmap_uv.empty()) {
     const Point2 &a = mesh.lightmap_uv[i0], &b = mesh.lightmap_uv[i1], &d = mesh.lightmap_uv[i2];
     const Point2 q{a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
     h.lightmap_uv = {g.lightmap_st[0] * q.x + g.lightmap_st[2], g.lightmap_st[1] * q.y + g.lightmap_st[3]};
   }
-  if (!mesh.uv.empty()) {
+  if (detail.uv && !mesh.uv.empty()) {
     const Point2 &a = mesh.uv[i0], &b = mesh.uv[i1], &d = mesh.uv[i2];
     h.uv = {a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
   }
@@ -369,10 +371,17 @@ HitId make_id(const RTCRayHit& rh, const std::vector<Geometry>& geometries) {
 }
 }  // namespace
 
-std::optional<Hit> Tracer::intersect(const Ray& ray) const {
+std::optional<Hit> Tracer::intersect(const Ray& ray, HitDetail detail) const {
   RTCRayHit rh;
   if (!intersect1(impl_->scene, ray, rh)) return std::nullopt;
-  return impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v);
+  return impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail);
+}
+
+bool Tracer::intersect(const Ray& ray, Hit& out, HitDetail detail) const {
+  RTCRayHit rh;
+  if (!intersect1(impl_->scene, ray, rh)) return false;
+  out = impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail);
+  return true;
 }
 
 std::optional<HitId> Tracer::intersect_id(const Ray& ray) const {

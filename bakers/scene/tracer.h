@@ -38,7 +38,8 @@ struct Hit {
   Vec3 ns;                 // unit shading normal: interpolated vertex normals transformed by the inverse transpose,
                            // on ng's side (flipped if the mesh's normals disagree with its winding); ng without them
   Point2 lightmap_uv;      // in the instance's lightmap (lightmap_scale_offset applied); (0,0) without lightmap UVs
-  Point2 uv;               // texture UV set 0; (0,0) without
+                           // or when not asked for (HitDetail)
+  Point2 uv;               // texture UV set 0; (0,0) without, or when not asked for
   bool front_face = true;  // the ray arrived from ng's side
   double offset = 0;       // lift off the surface that clears its float error (ray_offset.h)
 
@@ -51,6 +52,13 @@ struct HitId {
   int instance = 0, triangle = 0;
   double u = 0, v = 0;
   bool front_face = true;
+};
+
+// What a closest-hit query interpolates beyond the hit's place, normals and offset (which it always gives): path
+// vertices need no lightmap UVs, and texture UVs only where a texture is sampled.
+struct HitDetail {
+  bool lightmap_uv = true;
+  bool uv = true;
 };
 
 struct TracerOptions {
@@ -68,7 +76,9 @@ class Tracer {
   Tracer(const Tracer&) = delete;
   Tracer& operator=(const Tracer&) = delete;
 
-  std::optional<Hit> intersect(const Ray& ray) const;
+  std::optional<Hit> intersect(const Ray& ray, HitDetail detail = {}) const;
+  // The same into `out` (untouched on a miss): for loops that reuse one record per path vertex.
+  bool intersect(const Ray& ray, Hit& out, HitDetail detail = {}) const;
   std::optional<HitId> intersect_id(const Ray& ray) const;
   // True if anything lies on the ray within (0, tmax].
   bool occluded(const Ray& ray) const;

@@ -24,14 +24,18 @@
 // "error vs ref" reads sqrt(e² + e_ref²); "(ref removed)" is sqrt(error vs ref² − e_ref²), the bake's own error, to
 // compare with "est. error" (it is meaningful only well above e_ref).
 //
-// Raw Embree: the same number of rays as the bake traced (the same closest-hit / occlusion mix, counted by the bake),
-// incoherent (tests/bench/ray_workload.h: origins throughout the room, directions uniform on the sphere), traced one
-// ray at a time through Tracer::intersect_id and Tracer::occluded (rtcIntersect1 / rtcOccluded1 and nothing else
-// worth counting) on both cores with TBB, over the same Tracer (robust mode, as the baker's). The ratio divides the
-// baker's rays per second of its whole bake (rasterization, leaks, outputs included) by raw Embree's. Rays of the
-// baker's own kind (origins on the surfaces, cosine-distributed directions, shadow rays ending on the light) cost
-// Embree about as much as these (measured 261 vs 238 ns per ray on one thread), so the ratio is the share of the
-// bake's time spent inside Embree, up to that 10 %.
+// Raw Embree: the baker's own rays, replayed. A 16-estimate bake of the box (another seed) records every ray its
+// transport traces (bakers/lightmap/ray_log.h): origins on the surfaces, cosine- and BSDF-sampled directions, shadow
+// rays ending on the light. Each measured bake is followed by the same number of rays as it traced, with its own
+// closest-hit / occlusion mix, cycled through those recorded rays in their recorded order and traced one at a time
+// through Tracer::intersect_id and Tracer::occluded (rtcIntersect1 / rtcOccluded1 and nothing else worth counting)
+// on both cores with TBB, over the same Tracer (robust mode, as the baker's). The ratio divides the baker's rays per
+// second of its whole bake (rasterization, leaks, outputs included) by raw Embree's: the share of the bake's time
+// spent inside Embree. (Until kiln-lightmap-2 the baseline was synthetic rays from points throughout the room in
+// directions uniform on the sphere, which Embree traces ~10 % faster than the baker's.)
+//
+//   lightmap_bench --profile=N   only the N-estimate budget bake and its baseline (no reference, no table): for
+//                                profiling and for comparing two builds quickly.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -47,9 +51,9 @@
 #include <tbb/task_arena.h>
 
 #include "bakers/lightmap/lightmap_bake.h"
+#include "bakers/lightmap/ray_log.h"
 #include "bakers/scene/scene_check.h"
 #include "bakers/scene/tracer.h"
-#include "tests/bench/ray_workload.h"
 #include "tests/support/test_scenes.h"
 
 namespace kiln::lightmap {
@@ -72,23 +76,46 @@ struct Timing {
   double wall = 0, cpu = 0;
 };
 
-// Raw Embree: `closest` closest-hit and `occlusion` any-hit incoherent rays, one at a time, on every TBB thread.
-Timing raw_embree_seconds(const scene::Tracer& tracer, uint64_t closest, uint64_t occlusion) {
-  constexpr size_t kPool = 1 << 20;  // rays generated once and cycled through: generation stays out of the timing
-  const auto c = bench::incoherent_rays(tracer.bounds_lower(), tracer.bounds_upper(), kPool, false, 1);
-  const auto o = bench::incoherent_rays(tracer.bounds_lower(), tracer.bounds_upper(), kPool, true, 2);
+// The baker's own rays, recorded by a bake (bakers/lightmap/ray_log.h) and split by kind, each kind in the order
+// the bake traced it: what raw Embree replays.
+struct RayPools {
+  std::vector<scene::Ray> closest, occlusion;
+};
+
+RayPools record_rays(LightmapBakeInput in) {
+  constexpr size_t kCapacity = size_t{1} << 22;  // 4 M rays, ~230 MB: every ray of the recording bake at 32²
+  RayLog log(kCapacity);
+  in.ray_log = &log;
+  bake_lightmaps(in);
+  RayPools pools;
+  for (size_t i = 0; i < log.size(); ++i) (log.occlusion(i) ? pools.occlusion : pools.closest).push_back(log.ray(i));
+  return pools;
+}
+
+// Raw Embree: `closest` closest-hit and `occlusion` any-hit rays cycled through the pools, one at a time, on every
+// TBB thread.
+Timing raw_embree_seconds(const scene::Tracer& tracer, const RayPools& pools, uint64_t closest, uint64_t occlusion) {
+  const std::vector<scene::Ray>& c = pools.closest;
+  const std::vector<scene::Ray>& o = pools.occlusion;
   std::atomic<uint64_t> hits{0};
   const auto t0 = Clock::now();
   const double cpu0 = process_cpu_seconds();
+  // Each block walks the pools from its own start, wrapping by comparison (a modulo per ray would cost as much as
+  // a tenth of an Embree query and count against Embree).
   tbb::parallel_for(tbb::blocked_range<uint64_t>(0, closest + occlusion, 1024),
                     [&](const tbb::blocked_range<uint64_t>& r) {
                       uint64_t h = 0;
-                      for (uint64_t i = r.begin(); i != r.end(); ++i) {
-                        if (i < closest) {
-                          h += tracer.intersect_id(c[i % kPool]).has_value();
-                        } else {
-                          h += tracer.occluded(o[i % kPool]);
-                        }
+                      const uint64_t end_closest = std::min(r.end(), std::max(r.begin(), closest));
+                      size_t k = r.begin() % c.size();
+                      for (uint64_t i = r.begin(); i < end_closest; ++i) {
+                        h += tracer.intersect_id(c[k]).has_value();
+                        if (++k == c.size()) k = 0;
+                      }
+                      const uint64_t begin_occlusion = std::max(r.begin(), closest);
+                      k = (begin_occlusion - closest) % o.size();
+                      for (uint64_t i = begin_occlusion; i < r.end(); ++i) {
+                        h += tracer.occluded(o[k]);
+                        if (++k == o.size()) k = 0;
                       }
                       hits.fetch_add(h, std::memory_order_relaxed);
                     });
@@ -108,7 +135,7 @@ struct Run {
 // The bake `repeats` times (the same bytes each time), each followed at once by raw Embree on its ray count and mix;
 // the fastest of each. The machine this runs on is shared: measuring the two back to back and keeping the best of a
 // few keeps other load out of the ratio (measured apart, it moved by ±30 % between runs).
-Run bake(const std::string& label, LightmapBakeInput in, int repeats = 1) {
+Run bake(const std::string& label, LightmapBakeInput in, const RayPools& pools, int repeats = 1) {
   Run run{label, {}, {}, INFINITY, {INFINITY, INFINITY}};
   for (int i = 0; i < repeats; ++i) {
     const double cpu0 = process_cpu_seconds();
@@ -120,7 +147,7 @@ Run bake(const std::string& label, LightmapBakeInput in, int repeats = 1) {
     }
     const scene::CheckedScene checked = scene::check_scene(in.scene);
     const scene::Tracer tracer(checked.scene);
-    const Timing t = raw_embree_seconds(tracer, run.result.rays - run.result.occlusion_rays, run.result.occlusion_rays);
+    const Timing t = raw_embree_seconds(tracer, pools, run.result.rays - run.result.occlusion_rays, run.result.occlusion_rays);
     run.raw.wall = std::min(run.raw.wall, t.wall);
     run.raw.cpu = std::min(run.raw.cpu, t.cpu);
   }
@@ -171,7 +198,7 @@ int main(int argc, char** argv) {
   using namespace kiln;
   using namespace kiln::lightmap;
   bool quick = false;
-  int resolution = 0;
+  int resolution = 0, profile = 0;
   std::string table_out, command = "lightmap_bench";
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
@@ -182,8 +209,10 @@ int main(int argc, char** argv) {
     } else if (std::strncmp(argv[i], "--resolution=", 13) == 0) {
       resolution = std::atoi(argv[i] + 13);
       command += std::string(" ") + argv[i];
+    } else if (std::strncmp(argv[i], "--profile=", 10) == 0) {
+      profile = std::atoi(argv[i] + 10);
     } else {
-      std::fprintf(stderr, "usage: lightmap_bench [--table_out=FILE] [--quick] [--resolution=N]\n");
+      std::fprintf(stderr, "usage: lightmap_bench [--table_out=FILE] [--quick] [--resolution=N] [--profile=N]\n");
       return 2;
     }
   }
@@ -203,17 +232,32 @@ int main(int argc, char** argv) {
     return in;
   };
 
+  // The baseline's rays: every ray of a 16-estimate bake of the box (another seed than the bakes measured).
+  std::fprintf(stderr, "recording the baker's rays...\n");
+  const RayPools pools = record_rays(budget(16, 424242));
+  std::fprintf(stderr, "recorded %zu closest-hit and %zu shadow rays\n", pools.closest.size(), pools.occlusion.size());
+  if (profile > 0) {
+    // One budget bake and its baseline, for profiling and quick comparisons: no reference, no table.
+    const Run r = bake("profile", budget(profile, 1), pools, 3);
+    std::printf("budget %d: %.3f CPU s, %llu rays, %.2f Mrays/cpu_s; raw Embree %.2f Mrays/cpu_s; ratio (CPU) %.3f, "
+                "(wall) %.3f\n",
+                profile, r.cpu_seconds, static_cast<unsigned long long>(r.result.rays),
+                r.result.rays / r.cpu_seconds * 1e-6, r.result.rays / r.raw.cpu * 1e-6, r.raw.cpu / r.cpu_seconds,
+                r.raw.wall / r.result.seconds);
+    return 0;
+  }
+
   std::fprintf(stderr, "reference: %llu estimates per texel at %d^2...\n",
                static_cast<unsigned long long>(reference_samples), resolution);
-  const Run reference = bake("reference", budget(reference_samples, 987654321));
+  const Run reference = bake("reference", budget(reference_samples, 987654321), pools);
 
   std::vector<Run> runs;
   for (const uint64_t n : {4, 16, 64, 256}) {
     std::fprintf(stderr, "budget %llu...\n", static_cast<unsigned long long>(n));
-    runs.push_back(bake("max_samples " + std::to_string(n), budget(n, 1), 3));
+    runs.push_back(bake("max_samples " + std::to_string(n), budget(n, 1), pools, 3));
   }
   std::fprintf(stderr, "default target...\n");
-  runs.push_back(bake("target 0.01 (default)", input(4096, 0.01, 1)));
+  runs.push_back(bake("target 0.01 (default)", input(4096, 0.01, 1), pools));
   // The planner: the same target, planned and as a full simulation (every effect, max_bounces bounces), on the box
   // as `kiln bake lightmap` imports it from the glTF: every material gets glTF's dielectric coat, GGX with α =
   // roughness² = 1 and Schlick's f0 = 0.04, layered over the tinted Lambertian base (client/import/scene_import.cpp).
@@ -233,10 +277,10 @@ int main(int argc, char** argv) {
     return in;
   };
   std::fprintf(stderr, "planned vs full simulation...\n");
-  const Run planned = bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1));
+  const Run planned = bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1), pools);
   LightmapBakeInput full_in = imported(4096, plan_target, 1);
   full_in.full_simulation = true;
-  const Run full = bake("imported box, full simulation, target " + fmt("%.2f", plan_target), full_in);
+  const Run full = bake("imported box, full simulation, target " + fmt("%.2f", plan_target), full_in, pools);
 
 
   std::string table;
