@@ -105,7 +105,8 @@ image::FloatImage texel_image(const LightmapImage& img, int channels, const std:
   return out;
 }
 
-// The irradiance through the display transform, exposed so that the median valid texel is mid-grey.
+// The irradiance through the display transform, exposed by image::auto_exposure's rule over the valid texels
+// (the median to mid-grey, else the mean, else 1); the Description and kiln:exposure_rule say which applied.
 std::string preview_png(const image::FloatImage& irradiance, const std::vector<uint8_t>& validity,
                         const std::string& color_space, const std::string& name) {
   // The key: the valid texels' luminances (invalid texels are not part of any surface).
@@ -115,11 +116,26 @@ std::string preview_png(const image::FloatImage& irradiance, const std::vector<u
     const float* p = &irradiance.pixels[t * 3];
     luma.push_back(luminance(Rgb(p[0], p[1], p[2])));
   }
-  const double exposure = image::auto_exposure(std::move(luma)).multiplier;
+  const image::AutoExposure auto_exposure = image::auto_exposure(std::move(luma));
+  const double exposure = auto_exposure.multiplier;
+  std::string rule;
+  switch (auto_exposure.from) {
+    case image::AutoExposure::Key::median:
+      rule = "the median valid texel's luminance (" + format_number(auto_exposure.key) + " W/m^2) to 0.18";
+      break;
+    case image::AutoExposure::Key::mean:
+      rule = "the mean valid texel's luminance (" + format_number(auto_exposure.key) +
+             " W/m^2) to 0.18: more than half the valid texels are black";
+      break;
+    case image::AutoExposure::Key::black:
+      rule = "exposure 1: every valid texel is black";
+      break;
+  }
   image::Png8Image png =
       image::display_png8(irradiance.pixels, irradiance.width, irradiance.height, exposure, color_space);
-  png.metadata["Description"] = "kiln lightmap " + name + ": irradiance, exposed so the median valid texel is 0.18";
+  png.metadata["Description"] = "kiln lightmap " + name + ": irradiance, exposed by " + rule;
   png.metadata["kiln:exposure"] = format_number(exposure);
+  png.metadata["kiln:exposure_rule"] = rule;
   return image::encode_png(png);
 }
 

@@ -31,7 +31,7 @@
 // through Tracer::intersect_id and Tracer::occluded (rtcIntersect1 / rtcOccluded1 and nothing else worth counting)
 // on both cores with TBB, over the same Tracer (robust mode, as the baker's). The ratio divides the baker's rays per
 // second of its whole bake (rasterization, leaks, outputs included) by raw Embree's: the share of the bake's time
-// spent inside Embree. (Until kiln-lightmap-2 the baseline was synthetic rays from points throughout the room in
+// spent inside Embree. (Up to kiln-lightmap-2 the baseline was synthetic rays from points throughout the room in
 // directions uniform on the sphere, which Embree traces ~10 % faster than the baker's.)
 //
 //   lightmap_bench --profile=N   only the N-estimate budget bake and its baseline (no reference, no table): for

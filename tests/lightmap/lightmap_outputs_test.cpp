@@ -308,6 +308,51 @@ TEST(LightmapOutputs, PreviewDecodesWithTheLightmapsSize) {
   EXPECT_LT(png.at(0, 0, 0), 255) << "mid-grey is not white";
   ASSERT_TRUE(png.metadata.count("kiln:exposure"));
   EXPECT_NEAR(std::stod(png.metadata.at("kiln:exposure")), 0.18 / kPi, 1e-6 * 0.18 / kPi);
+  ASSERT_TRUE(png.metadata.count("kiln:exposure_rule"));
+  EXPECT_NE(png.metadata.at("kiln:exposure_rule").find("median"), std::string::npos)
+      << png.metadata.at("kiln:exposure_rule");
+}
+
+// A lightmap more than half of whose valid texels are black (a floor mostly in a box's exact shadow) is exposed by
+// the mean of its texels, and the preview says so rather than claiming the median; an all-black one keeps exposure 1.
+TEST(LightmapOutputs, PreviewSaysWhichExposureRuleApplied) {
+  // All black: no light at all.
+  {
+    scene::Scene s;
+    s.materials.push_back(lambert_material("grey", 0.5));
+    test::add_floor(s, 2.0, 0);
+    LightmapBakeInput in = lightmap_input(s, 8, 0.1);
+    in.preview = true;
+    in.max_samples = in.min_samples = 4;
+    const LightmapBakeResult r = bake_lightmaps(in);
+    const image::Png8Image png = image::decode_png(test::find_output(r, "floor_preview.png").bytes);
+    EXPECT_EQ(std::stod(png.metadata.at("kiln:exposure")), 1.0);
+    EXPECT_NE(png.metadata.at("kiln:exposure_rule").find("black"), std::string::npos)
+        << png.metadata.at("kiln:exposure_rule");
+  }
+  // A spot's narrow cone lights a disc of radius tan(0.3) ≈ 0.31 on the 2 × 2 floor (under a tenth of it), the rest
+  // is black: the median is black.
+  {
+    scene::Scene s;
+    s.materials.push_back(lambert_material("grey", 0.5));
+    test::add_floor(s, 2.0, 0);
+    scene::Light l;
+    l.type = scene::LightType::spot;
+    l.position = {0, 1, 0};
+    l.direction = {0, -1, 0};
+    l.color = Rgb{1.0};
+    l.inner_cone = 0.25;
+    l.outer_cone = 0.3;
+    s.lights.push_back(l);
+    LightmapBakeInput in = lightmap_input(s, 16, 0.1);
+    in.preview = true;
+    in.max_samples = in.min_samples = 4;
+    const LightmapBakeResult r = bake_lightmaps(in);
+    const image::Png8Image png = image::decode_png(test::find_output(r, "floor_preview.png").bytes);
+    const std::string rule = png.metadata.at("kiln:exposure_rule");
+    EXPECT_NE(rule.find("mean"), std::string::npos) << rule;
+    EXPECT_NE(png.metadata.at("Description").find("mean"), std::string::npos) << png.metadata.at("Description");
+  }
 }
 
 // report.json parses and holds the plan, a curve whose seconds and samples never decrease and whose last error is

@@ -1,0 +1,73 @@
+// The ray log the lightmap benchmark replays through raw Embree (bakers/lightmap/ray_log.h): it receives exactly the
+// transport's rays, shadow rays marked, starting where the bake's receivers are, and a full log counts what it drops.
+#include "bakers/lightmap/ray_log.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "bakers/lightmap/lightmap_bake.h"
+#include "tests/support/test_scenes.h"
+
+namespace kiln::lightmap {
+namespace {
+
+// A 2 m floor (y = 0, facing +Y) under a point light 1 m above it: every texel traces a shadow ray to the light and
+// a cosine ray that escapes (nothing else in the scene), so the counts are known.
+LightmapBakeInput lit_floor() {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("grey", 0.5));
+  test::add_floor(s, 2.0, 0, 2);
+  scene::Light l;
+  l.type = scene::LightType::point;
+  l.position = {0, 1, 0};
+  l.color = Rgb{1.0};
+  s.lights = {l};
+  LightmapBakeInput in = test::lightmap_input(s, 8, 0.1);
+  in.min_samples = in.max_samples = 4;
+  in.preview = false;
+  return in;
+}
+
+TEST(RayLog, ReceivesTheTransportsRays) {
+  LightmapBakeInput in = lit_floor();
+  RayLog log(1 << 16);
+  in.ray_log = &log;
+  const LightmapBakeResult r = bake_lightmaps(in);
+  ASSERT_GT(log.size(), 0u);
+  EXPECT_EQ(log.size(), log.offered()) << "the log was large enough for every ray";
+  // The bake's counts also hold the leak pass's rays (closest-hit), which the transport does not trace.
+  EXPECT_LE(log.offered(), r.rays);
+  size_t shadow = 0;
+  for (size_t i = 0; i < log.size(); ++i) {
+    const scene::Ray& ray = log.ray(i);
+    ASSERT_TRUE(is_finite(ray.origin) && is_finite(ray.direction)) << "ray " << i;
+    ASSERT_GT(ray.tmax, 0.0);
+    // Every path starts on the floor and goes up (the floor faces the light; nothing else reflects).
+    EXPECT_NEAR(ray.origin.y, 0.0, 1e-4) << "ray " << i;
+    EXPECT_GT(ray.direction.y, 0.0) << "ray " << i;
+    if (log.occlusion(i)) {
+      ++shadow;
+      // A shadow ray towards the point light ends just short of it (scene/ray_offset.h: direction = target − origin).
+      const Vec3 end = ray.origin + ray.direction;
+      EXPECT_NEAR(end.y, 1.0, 1e-9) << "ray " << i;
+      EXPECT_LT(ray.tmax, 1.0);
+    }
+  }
+  EXPECT_EQ(shadow, r.occlusion_rays);
+  // One shadow ray and one cosine ray per path: as many of each.
+  EXPECT_EQ(2 * shadow, log.size());
+}
+
+TEST(RayLog, AFullLogKeepsItsCapacityAndCountsTheRest) {
+  LightmapBakeInput in = lit_floor();
+  RayLog log(10);
+  in.ray_log = &log;
+  const LightmapBakeResult r = bake_lightmaps(in);
+  EXPECT_EQ(log.size(), 10u);
+  EXPECT_GT(log.offered(), 10u);
+  EXPECT_LE(log.offered(), r.rays);
+}
+
+}  // namespace
+}  // namespace kiln::lightmap
