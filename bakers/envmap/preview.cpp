@@ -170,19 +170,7 @@ std::string render(const Chain& chain, const Cubemap& irradiance, const DfgTable
     std::transform(background.begin(), background.end(), lum.begin(), luminance);
     const image::AutoExposure automatic = image::auto_exposure(std::move(lum));
     exposure = automatic.multiplier;
-    const std::string to_grey = " -> " + format_number(image::kMidGrey);
-    switch (automatic.from) {
-      case image::AutoExposure::Key::median:
-        rule = "automatic: median background luminance " + format_number(automatic.key) + to_grey;
-        break;
-      case image::AutoExposure::Key::mean:
-        rule = "automatic: mean background luminance " + format_number(automatic.key) + to_grey +
-               " (the median is black)";
-        break;
-      case image::AutoExposure::Key::black:
-        rule = "automatic: a black environment, exposure 1";
-        break;
-    }
+    rule = image::describe_exposure(automatic, "background", "a black environment");
   }
 
   // 3. Spheres over the background, as floats for OpenColorIO.

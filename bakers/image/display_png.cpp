@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <stdexcept>
 
+#include "bakers/brdf/describe.h"
 #include "bakers/image/color.h"
 
 namespace kiln::image {
@@ -65,6 +66,21 @@ Png8Image display_png8(std::vector<float> linear, int width, int height, double 
     png.pixels[i] = std::isnan(v) ? 0 : static_cast<uint8_t>(std::lround(255.0 * std::clamp(double(v), 0.0, 1.0)));
   }
   return png;
+}
+
+std::string describe_exposure(const AutoExposure& exposure, const std::string& what, const std::string& black) {
+  using brdf::format_number;
+  const std::string to_grey = " -> " + format_number(kMidGrey);
+  switch (exposure.from) {
+    case AutoExposure::Key::median:
+      return "automatic: median " + what + " luminance " + format_number(exposure.key) + to_grey;
+    case AutoExposure::Key::mean:
+      return "automatic: mean " + what + " luminance " + format_number(exposure.key) + to_grey +
+             " (the median is black)";
+    case AutoExposure::Key::black:
+      break;
+  }
+  return "automatic: " + black + ", exposure 1";
 }
 
 }  // namespace kiln::image

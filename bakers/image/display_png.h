@@ -36,6 +36,11 @@ struct AutoExposure {
 // The automatic exposure of the rule above for these luminances (taken by value: the median reorders them).
 AutoExposure auto_exposure(std::vector<double> luminances);
 
+// What an automatic exposure did, for people (a preview's kiln:exposure_rule): "automatic: median <what> luminance
+// K -> 0.18", the same with "mean" and "(the median is black)", or "automatic: <black>, exposure 1". `what` names the
+// pixels the key came from ("background", "valid texel"); `black` says what a black key means ("a black environment").
+std::string describe_exposure(const AutoExposure& exposure, const std::string& what, const std::string& black);
+
 // `linear` holds width × height interleaved RGB pixels, top row first, scene-linear in `color_space` (a space or role
 // of the active config); `exposure` is a finite multiplier > 0. Returns the 3-channel picture with the text chunk
 // "kiln:display_view" ("display/view" as used) set; the caller adds the rest of its metadata. Throws

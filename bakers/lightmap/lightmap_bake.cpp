@@ -118,22 +118,10 @@ std::string preview_png(const image::FloatImage& irradiance, const std::vector<u
   }
   const image::AutoExposure auto_exposure = image::auto_exposure(std::move(luma));
   const double exposure = auto_exposure.multiplier;
-  std::string rule;
-  switch (auto_exposure.from) {
-    case image::AutoExposure::Key::median:
-      rule = "the median valid texel's luminance (" + format_number(auto_exposure.key) + " W/m^2) to 0.18";
-      break;
-    case image::AutoExposure::Key::mean:
-      rule = "the mean valid texel's luminance (" + format_number(auto_exposure.key) +
-             " W/m^2) to 0.18: more than half the valid texels are black";
-      break;
-    case image::AutoExposure::Key::black:
-      rule = "exposure 1: every valid texel is black";
-      break;
-  }
+  const std::string rule = image::describe_exposure(auto_exposure, "valid texel", "every valid texel is black");
   image::Png8Image png =
       image::display_png8(irradiance.pixels, irradiance.width, irradiance.height, exposure, color_space);
-  png.metadata["Description"] = "kiln lightmap " + name + ": irradiance, exposed by " + rule;
+  png.metadata["Description"] = "kiln lightmap " + name + ": irradiance, exposure " + rule;
   png.metadata["kiln:exposure"] = format_number(exposure);
   png.metadata["kiln:exposure_rule"] = rule;
   return image::encode_png(png);

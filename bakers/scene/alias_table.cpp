@@ -14,8 +14,7 @@ AliasTable::AliasTable(const std::vector<double>& weights) {
     total_ = 0;
     std::fill(w.begin(), w.end(), 1.0);
   }
-  double sum = 0;
-  for (double x : w) sum += x;
+  const double sum = total_ > 0 ? total_ : static_cast<double>(n);
   pmf_.resize(n);
   for (size_t i = 0; i < n; ++i) pmf_[i] = w[i] / sum;
 
@@ -45,8 +44,8 @@ AliasTable::AliasTable(const std::vector<double>& weights) {
     cells_[i].q = w[i] > 0 ? 1.0 : 0.0;
     cells_[i].alias = heaviest;
   }
+  // Zero weights have q = 0 by now (p = 0 in the loop, or left over above): their cells always give the alias.
   for (Cell& c : cells_) {
-    if (w[&c - cells_.data()] == 0) c.q = 0;  // zero weight: the cell always gives its alias
     c.inv_q = c.q > 0 ? 1.0 / c.q : 0.0;
     c.inv_rest = c.q < 1 ? 1.0 / (1.0 - c.q) : 0.0;
   }
