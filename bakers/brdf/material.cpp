@@ -57,8 +57,11 @@ Material::Material(const MaterialSpec& spec) : spec_(spec) {
 }
 
 std::optional<LambertianForm> lambertian_form(const MaterialSpec& spec) {
-  if (spec.diffuse.model != Model::lambert || spec.specular.model != Model::lambert) return std::nullopt;
+  if (spec.diffuse.model != Model::lambert) return std::nullopt;
   const Rgb rho_d = spec.diffuse.albedo, rho_s = spec.specular.albedo;
+  // A weightless specular lobe reflects nothing, whatever its model.
+  if (spec.combine == Combine::weights && spec.specular_weight == 0) return LambertianForm{Rgb{0.0}, rho_d};
+  if (spec.specular.model != Model::lambert) return std::nullopt;
   if (spec.combine == Combine::weights) {
     const double s = spec.specular_weight;
     return LambertianForm{rho_s * s, rho_d * (1.0 - s)};

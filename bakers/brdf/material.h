@@ -34,7 +34,8 @@ std::optional<std::string> validate(const MaterialSpec& spec);
 // specular lobe): it reflects the same for every pair of directions above the horizon, f(wo, wi, tint) =
 // (A + B·tint)/π, so a renderer may shade it without the general machinery. Weights: A = s ρ_s, B = (1 − s) ρ_d.
 // Layered: A = ρ_s, B = (1 − ρ_s)² ρ_d, since a Lambertian lobe's directional albedo is ρ_s at every angle (Material
-// tabulates it; the two agree to the table's accuracy). nullopt for any other material.
+// tabulates it; the two agree to the table's accuracy). A Lambertian diffuse lobe with a weightless specular lobe of
+// any model (weights, s = 0) is the first case with A = 0. nullopt for any other material.
 struct LambertianForm {
   Rgb A, B;
 };

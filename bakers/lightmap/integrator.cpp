@@ -80,11 +80,7 @@ struct Walk {
     return L;
   }
 
-  const ShadingMaterial& material(const scene::Hit& hit) const {
-    const scene::Mesh& mesh = ctx.scene->meshes[hit.mesh];
-    const uint32_t index = mesh.material.empty() ? 0 : mesh.material[hit.triangle];
-    return (*ctx.materials)[index];
-  }
+  const ShadingMaterial& material(const scene::Hit& hit) const { return (*ctx.materials)[hit.material]; }
 
   // Emission of the surface at `hit` seen from `p` along wi, weighted against light sampling of the emissive
   // triangles.

@@ -26,7 +26,7 @@ namespace kiln::lightmap {
 
 class RayLog;
 
-inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-3";
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-4";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
 struct EncodedTexture {

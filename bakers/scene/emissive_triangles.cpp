@@ -34,6 +34,7 @@ EmissiveTriangles::EmissiveTriangles(std::vector<EmissiveTriangle> triangles) {
     if (t.instance >= 0 && t.triangle >= 0) index_[key(t.instance, t.triangle)] = index;
     area_.push_back(a);
     normal_.push_back(c / (2.0 * a));
+    sampling_.push_back({t.p2, t.p0 - t.p2, t.p1 - t.p2, normal_.back(), 1.0 / a, t.Le, t.two_sided});
     const double sides = t.two_sided ? 2.0 : 1.0;
     weights.push_back(a * luminance(t.Le) * sides);
     power_ += t.Le * (kPi * a * sides);
@@ -78,15 +79,13 @@ int EmissiveTriangles::find(int instance, int triangle) const {
 }
 
 std::optional<LightSample> EmissiveTriangles::sample_li(const Vec3& p, const Vec3& /*n*/, Point2 u) const {
-  if (triangles_.empty()) return std::nullopt;
+  if (sampling_.empty()) return std::nullopt;
   const AliasTable::Choice choice = choice_.sample(u.x);
-  const int i = choice.index;
-  const EmissiveTriangle& t = triangles_[i];
-  const Vec3& ng = normal_[i];
-  const double h = dot(p - t.p0, ng);
+  const Sampling& t = sampling_[choice.index];
+  const double h = dot(p - t.p2, t.ng);
   // p on the triangle's plane (edge-on) or behind a one-sided triangle: no light from it.
   if (t.two_sided ? h == 0 : !(h > 0)) return std::nullopt;
-  // Heitz 2019, "A low-distortion map between triangle and square": uniform barycentrics.
+  // Heitz 2019, "A low-distortion map between triangle and square": uniform barycentrics b0, b1 of p0, p1.
   double b0, b1;
   const double ux = choice.u_remapped, uy = u.y;
   if (ux < uy) {
@@ -96,18 +95,21 @@ std::optional<LightSample> EmissiveTriangles::sample_li(const Vec3& p, const Vec
     b1 = uy / 2;
     b0 = ux - b1;
   }
-  const Vec3 x = t.p0 * b0 + t.p1 * b1 + t.p2 * (1.0 - b0 - b1);
+  const Vec3 x = t.p2 + t.e0 * b0 + t.e1 * b1;
   const Vec3 d = x - p;
   const double dist2 = dot(d, d);
-  if (!(dist2 > 0)) return std::nullopt;  // p is the sampled point itself
+  // |ng·d| = cos θ_l · dist.
+  const double c = std::fabs(dot(t.ng, d));
+  // p is the sampled point itself, or sees it exactly edge-on: no light along d.
+  if (!(dist2 > 0) || !(c > 0)) return std::nullopt;
   const double dist = std::sqrt(dist2);
-  const Vec3 wi = d * (1.0 / dist);  // one division, not three: this runs at every path vertex
-  const double cos_l = std::fabs(dot(ng, wi));
-  if (!(cos_l > 0)) return std::nullopt;  // seen exactly edge-on
+  // One division serves both wi = d / dist and the density pmf · dist² / (A cos θ_l) = pmf · dist⁴ / (A · dist · c):
+  // this runs at every path vertex.
+  const double r = 1.0 / (dist * c);
   LightSample s;
-  s.wi = wi;
+  s.wi = d * (c * r);
   s.Li = t.Le;
-  s.pdf = choice.pmf * dist2 / (area_[i] * cos_l);
+  s.pdf = choice.pmf * t.inv_area * (dist2 * dist2) * r;
   if (!std::isfinite(s.pdf)) return std::nullopt;
   s.distance = dist;
   s.point = x;

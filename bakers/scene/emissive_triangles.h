@@ -51,9 +51,18 @@ class EmissiveTriangles final : public LightSource {
   int find(int instance, int triangle) const;
 
  private:
+  // What sample_li reads of one triangle, together: its vertex p2 and the edges to the other two (x = p2 + b0·e0 +
+  // b1·e1), the unit front normal, 1/area and the emission.
+  struct Sampling {
+    Vec3 p2, e0, e1, ng;
+    double inv_area;
+    Rgb Le;
+    bool two_sided;
+  };
   std::vector<EmissiveTriangle> triangles_;
   std::vector<double> area_;
   std::vector<Vec3> normal_;  // unit geometric normal (front)
+  std::vector<Sampling> sampling_;
   AliasTable choice_;
   std::unordered_map<uint64_t, int> index_;
   Rgb power_;

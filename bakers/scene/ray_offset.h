@@ -41,24 +41,24 @@ struct SurfacePoint {
 double self_intersection_offset(const Vec3& v0, const Vec3& v1, const Vec3& v2, const Vec3& p);
 
 namespace detail {
-// The next float above / below a finite float, by stepping its bit pattern (what nextafterf does, without the
-// library call on every ray origin). −0 and +0 both step to the smallest denormal of the sign asked for.
-inline float next_float_up(float f) {
-  if (f == 0.0f) return std::numeric_limits<float>::denorm_min();
-  const uint32_t bits = std::bit_cast<uint32_t>(f);
-  return std::bit_cast<float>(f > 0 ? bits + 1 : bits - 1);
-}
-inline float next_float_down(float f) { return -next_float_up(-f); }
-
-// Rounds x to a float on the side `direction` points to (x itself if it is a float already). Origins are finite
-// floats well inside the range (the tracer refuses scenes beyond it), so the steps never reach an infinity.
+// Rounds x to a float on the side `direction` points to (x itself if it is a float already; any float when
+// direction is 0), by stepping the bit pattern of the nearest float, as nextafterf would, without branches: which
+// side the nearest float falls on is a coin toss for every coordinate of every ray origin, and a branch on it was
+// mispredicted half the time. Origins are finite floats well inside the range (the tracer refuses scenes beyond
+// it), so the steps never reach an infinity.
 inline double round_float_towards(double x, double direction) {
   const float f = static_cast<float>(x);
-  if (direction > 0 && static_cast<double>(f) < x) return next_float_up(f);
-  if (direction < 0 && static_cast<double>(f) > x) return next_float_down(f);
-  return f;
+  const int up = direction > 0 && static_cast<double>(f) < x;
+  const int down = direction < 0 && static_cast<double>(f) > x;
+  uint32_t bits = std::bit_cast<uint32_t>(f);
+  // ±0 steps to the smallest denormal of the sign asked for: start from the zero of that sign (a zero that does not
+  // step keeps its own).
+  bits = f == 0.0f && (up | down) ? static_cast<uint32_t>(down) << 31 : bits;
+  const int negative = static_cast<int>(bits >> 31);
+  // In the bit pattern, +1 moves away from zero and −1 towards it; up moves away from zero for positive floats.
+  const int step = (up - down) * (1 - 2 * negative);
+  return std::bit_cast<float>(bits + static_cast<uint32_t>(step));
 }
-
 }  // namespace detail
 
 // s.p lifted by s.offset along ±s.ng (the side w leaves to), rounded to float away from the surface. (Inline with
@@ -71,14 +71,14 @@ inline double round_float_towards(double x, double direction) {
 }
 
 // A ray leaving s in direction w.
-inline Ray spawn_ray(const SurfacePoint& s, const Vec3& w, double tmax = INFINITY) {
+[[gnu::always_inline]] inline Ray spawn_ray(const SurfacePoint& s, const Vec3& w, double tmax = INFINITY) {
   return {offset_ray_origin(s, w), w, tmax};
 }
 
 // A shadow ray from s towards a point (a point light, a sample on an area light that is not scene geometry): the
 // direction is target − origin and tmax stops kShadowEpsilon short of the target, so nothing at the target counts.
 inline constexpr double kShadowEpsilon = 1e-4;
-inline Ray spawn_ray_to(const SurfacePoint& from, const Vec3& target) {
+[[gnu::always_inline]] inline Ray spawn_ray_to(const SurfacePoint& from, const Vec3& target) {
   const Vec3 origin = offset_ray_origin(from, target - from.p);
   return {origin, target - origin, 1 - kShadowEpsilon};
 }

@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -29,36 +30,47 @@ const char* error_name(RTCError code) {
   return "unrecognised error";
 }
 
-// One Embree geometry: an instance's triangles in world space.
-// The attributes a hit interpolates, copied from the scene's mesh (shared by its instances).
+// The attributes a hit interpolates beyond position and normal, copied from the scene's mesh (shared by its
+// instances).
 struct MeshAttributes {
   std::vector<Point2> uv, lightmap_uv;
 };
 
+// Everything a hit on one triangle needs, in one record, computed once when the tracer is built: completing a hit
+// is then one dependent load after Embree returns instead of a chain through the geometry's index, vertex and
+// normal buffers (that chain, and recomputing these per hit, cost as much as a third of an Embree query on a small
+// scene).
+struct alignas(64) TriangleRecord {
+  float p[3][3];  // the world (float) vertices Embree traces, in the triangle's index order
+  float n[3][3];  // the mesh's vertex normals in world space (the inverse transpose applied, not renormalised:
+                  // interpolating them and then normalising is the same as transforming the interpolated normal);
+                  // unused without vertex normals
+  // The unit geometric normal (mirror applied), the double cross product of the float vertices normalised (kept in
+  // double: front-face and horizon decisions at grazing angles rest on it); zero for a triangle whose normal
+  // underflows (Embree cannot hit it, see complete()).
+  double ng[3];
+  // self_intersection_offset of the float vertices, rounded up to a float: it depends on the triangle alone (a hit
+  // point inside it is no farther from the origin than its farthest vertex, coordinate-wise).
+  float offset;
+  int32_t material;  // into Scene::materials
+  uint32_t index[3];  // the vertex indices, for the UV attributes
+  int32_t instance, mesh;
+  bool vertex_normals;
+};
+static_assert(sizeof(TriangleRecord) == 128, "two cache lines per triangle");
+
+// One Embree geometry: an instance's triangles in world space.
 struct Geometry {
   int instance = 0, mesh = 0;
   const MeshAttributes* source = nullptr;
-  const float* vertices = nullptr;  // Embree's buffer, xyz per vertex, world space
-  const uint32_t* indices = nullptr;
+  size_t first = 0;                 // its triangles' records start here in Impl::records
   double normal_matrix[9];          // the inverse transpose of the instance's 3×3 part, row-major
   double mirror = 1;                // sign of its determinant: −1 flips the winding's normal back outwards
   std::array<double, 4> lightmap_st{1, 1, 0, 0};
-  // Per triangle, computed once here rather than at every hit (a hit's cost was ~100 ns before, as much as a third
-  // of an Embree query on a small scene):
-  //  - self_intersection_offset of its world (float) vertices, rounded up to a float: it depends on the triangle
-  //    alone (a hit point inside it is no farther from the origin than its farthest vertex, coordinate-wise);
-  //  - its unit geometric normal (mirror applied), the double cross product of those vertices normalised (kept in
-  //    double: front-face and horizon decisions at grazing angles rest on it); zero for a triangle whose normal
-  //    underflows (Embree cannot hit it, see complete()).
-  std::vector<float> offsets;
-  std::vector<double> normals;  // 3 per triangle
-  // Per vertex, the mesh's normals in world space (the inverse transpose applied, not renormalised: interpolating
-  // them and then normalising is the same as transforming the interpolated normal). Empty without vertex normals.
-  std::vector<float> vertex_normals;  // 3 per vertex
 };
 
-Vec3 vertex(const Geometry& g, uint32_t i) {
-  const float* v = g.vertices + 3 * static_cast<size_t>(i);
+Vec3 vertex(const float* vertices, uint32_t i) {
+  const float* v = vertices + 3 * static_cast<size_t>(i);
   return {v[0], v[1], v[2]};
 }
 
@@ -90,9 +102,11 @@ struct Tracer::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   std::vector<Geometry> geometries;  // by Embree geometry ID
+  std::vector<size_t> first;         // by Embree geometry ID: geometries[id].first, apart for the hit path
+  std::vector<TriangleRecord> records;
   std::vector<MeshAttributes> meshes;
   size_t triangles = 0;
-  size_t side_bytes = 0;                    // the per-triangle and per-vertex arrays of the geometries above
+  size_t side_bytes = 0;                    // the records and the copied UV attributes
   std::atomic<int64_t> embree_bytes{0};     // what Embree holds, from its memory monitor
   Vec3 lower{INFINITY, INFINITY, INFINITY}, upper{-INFINITY, -INFINITY, -INFINITY};
   std::mutex error_mutex;
@@ -126,8 +140,9 @@ struct Tracer::Impl {
     if (device) rtcReleaseDevice(device);
   }
 
-  Hit complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u, float v,
-               HitDetail detail = {}) const;
+  const TriangleRecord& record(unsigned geom_id, unsigned prim_id) const { return records[first[geom_id] + prim_id]; }
+  void complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u, float v, HitDetail detail,
+                Hit& h) const;
 };
 
 namespace {
@@ -250,41 +265,57 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
     g.instance = static_cast<int>(k);
     g.mesh = inst.mesh;
     g.source = &im.meshes[inst.mesh];
-    g.vertices = vb;
-    g.indices = ib;
+    g.first = im.records.size();
     g.mirror = inverse_transpose(inst.to_world, g.normal_matrix);
     g.lightmap_st = inst.lightmap_scale_offset;
-    g.offsets.resize(nt);
-    g.normals.resize(3 * nt);
-    for (size_t t = 0; t < nt; ++t) {
-      const Vec3 p0 = vertex(g, ib[3 * t]), p1 = vertex(g, ib[3 * t + 1]), p2 = vertex(g, ib[3 * t + 2]);
-      const double offset = self_intersection_offset(p0, p1, p2, p0);
-      float f = static_cast<float>(offset);
-      if (static_cast<double>(f) < offset) f = std::nextafterf(f, INFINITY);  // never below the bound
-      g.offsets[t] = f;
-      const Vec3 c = cross(p1 - p0, p2 - p0);
-      const double len = length(c);
-      const Vec3 n = len > 0 ? c * (g.mirror / len) : Vec3{};
-      g.normals[3 * t] = n.x;
-      g.normals[3 * t + 1] = n.y;
-      g.normals[3 * t + 2] = n.z;
-    }
+    // The mesh's normals in world space, rounded to float (as the records keep them).
+    std::vector<Vec3> world_normals;
     if (!mesh.normals.empty()) {
-      g.vertex_normals.resize(3 * nv);
+      world_normals.resize(nv);
       const double* M = g.normal_matrix;
       for (size_t v = 0; v < nv; ++v) {
         const Vec3& n = mesh.normals[v];
-        g.vertex_normals[3 * v] = static_cast<float>(M[0] * n.x + M[1] * n.y + M[2] * n.z);
-        g.vertex_normals[3 * v + 1] = static_cast<float>(M[3] * n.x + M[4] * n.y + M[5] * n.z);
-        g.vertex_normals[3 * v + 2] = static_cast<float>(M[6] * n.x + M[7] * n.y + M[8] * n.z);
+        world_normals[v] = {static_cast<float>(M[0] * n.x + M[1] * n.y + M[2] * n.z),
+                            static_cast<float>(M[3] * n.x + M[4] * n.y + M[5] * n.z),
+                            static_cast<float>(M[6] * n.x + M[7] * n.y + M[8] * n.z)};
       }
     }
-    im.side_bytes += g.offsets.size() * sizeof(float) + g.normals.size() * sizeof(double) +
-                     g.vertex_normals.size() * sizeof(float);
+    for (size_t t = 0; t < nt; ++t) {
+      TriangleRecord r{};
+      for (int j = 0; j < 3; ++j) {
+        r.index[j] = ib[3 * t + j];
+        std::copy(vb + 3 * size_t{r.index[j]}, vb + 3 * size_t{r.index[j]} + 3, r.p[j]);
+        if (!world_normals.empty()) {
+          const Vec3& n = world_normals[r.index[j]];
+          r.n[j][0] = static_cast<float>(n.x);
+          r.n[j][1] = static_cast<float>(n.y);
+          r.n[j][2] = static_cast<float>(n.z);
+        }
+      }
+      r.vertex_normals = !world_normals.empty();
+      const Vec3 p0 = vertex(vb, r.index[0]), p1 = vertex(vb, r.index[1]), p2 = vertex(vb, r.index[2]);
+      const double offset = self_intersection_offset(p0, p1, p2, p0);
+      r.offset = static_cast<float>(offset);
+      if (static_cast<double>(r.offset) < offset) r.offset = std::nextafterf(r.offset, INFINITY);  // never below
+      const Vec3 c = cross(p1 - p0, p2 - p0);
+      const double len = length(c);
+      const Vec3 n = len > 0 ? c * (g.mirror / len) : Vec3{};
+      r.ng[0] = n.x;
+      r.ng[1] = n.y;
+      r.ng[2] = n.z;
+      r.material = mesh.material.empty() ? 0 : static_cast<int32_t>(mesh.material[t]);
+      r.instance = g.instance;
+      r.mesh = g.mesh;
+      im.records.push_back(r);
+    }
+    im.side_bytes += nt * sizeof(TriangleRecord);
     if (im.geometries.size() <= id) im.geometries.resize(id + 1);
+    if (im.first.size() <= id) im.first.resize(id + 1);
+    im.first[id] = g.first;
     im.geometries[id] = std::move(g);
     im.triangles += nt;
   }
+  for (const MeshAttributes& m : im.meshes) im.side_bytes += (m.uv.size() + m.lightmap_uv.size()) * sizeof(Point2);
   rtcCommitScene(im.scene);
   im.check("building the acceleration structure");
 }
@@ -300,49 +331,48 @@ size_t Tracer::memory_bytes() const {
 Vec3 Tracer::bounds_lower() const { return impl_->lower; }
 Vec3 Tracer::bounds_upper() const { return impl_->upper; }
 
-Hit Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv,
-                           HitDetail detail) const {
-  const Geometry& g = geometries[geom_id];
-  const MeshAttributes& mesh = *g.source;
-  const uint32_t i0 = g.indices[3 * prim_id], i1 = g.indices[3 * prim_id + 1], i2 = g.indices[3 * prim_id + 2];
-  const Vec3 p0 = vertex(g, i0), p1 = vertex(g, i1), p2 = vertex(g, i2);
-  Hit h;
+void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv,
+                            HitDetail detail, Hit& h) const {
+  const TriangleRecord& r = record(geom_id, prim_id);
   h.t = t;
-  h.instance = g.instance;
-  h.mesh = g.mesh;
+  h.instance = r.instance;
+  h.mesh = r.mesh;
   h.triangle = static_cast<int>(prim_id);
+  h.material = r.material;
   h.u = hu;
   h.v = hv;
   const double w = 1.0 - h.u - h.v;
-  h.p = p0 * w + p1 * h.u + p2 * h.v;
-  const double* n_tri = &g.normals[3 * static_cast<size_t>(prim_id)];
+  auto point = [&](const float (&q)[3][3], int c) { return q[0][c] * w + q[1][c] * h.u + q[2][c] * h.v; };
+  h.p = {point(r.p, 0), point(r.p, 1), point(r.p, 2)};
   // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
   // anyway (stored as zero), face the ray.
-  const bool no_normal = n_tri[0] == 0.0 && n_tri[1] == 0.0 && n_tri[2] == 0.0;
-  h.ng = no_normal ? -normalize(ray.direction) : Vec3{n_tri[0], n_tri[1], n_tri[2]};
+  const bool no_normal = r.ng[0] == 0.0 && r.ng[1] == 0.0 && r.ng[2] == 0.0;
+  h.ng = no_normal ? -normalize(ray.direction) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
   h.front_face = dot(ray.direction, h.ng) < 0;
   h.ns = h.ng;
-  if (!g.vertex_normals.empty()) {
-    auto normal = [&](uint32_t i) {
-      const float* n = &g.vertex_normals[3 * static_cast<size_t>(i)];
-      return Vec3{n[0], n[1], n[2]};
-    };
-    const Vec3 nw = normal(i0) * w + normal(i1) * h.u + normal(i2) * h.v;
+  if (r.vertex_normals) {
+    const Vec3 nw{point(r.n, 0), point(r.n, 1), point(r.n, 2)};
     const double nl = length(nw);
     // Opposite vertex normals can interpolate to zero inside the triangle: the geometric normal stands in.
     if (nl > 0 && std::isfinite(nl)) h.ns = nw * ((dot(nw, h.ng) < 0 ? -1.0 : 1.0) / nl);
   }
-  if (detail.lightmap_uv && !mesh.lightmap_uv.empty()) {
-    const Point2 &a = mesh.lightmap_uv[i0], &b = mesh.lightmap_uv[i1], &d = mesh.lightmap_uv[i2];
-    const Point2 q{a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
-    h.lightmap_uv = {g.lightmap_st[0] * q.x + g.lightmap_st[2], g.lightmap_st[1] * q.y + g.lightmap_st[3]};
+  h.lightmap_uv = {};
+  h.uv = {};
+  if (detail.lightmap_uv || detail.uv) {
+    const Geometry& g = geometries[geom_id];
+    const MeshAttributes& mesh = *g.source;
+    const uint32_t i0 = r.index[0], i1 = r.index[1], i2 = r.index[2];
+    if (detail.lightmap_uv && !mesh.lightmap_uv.empty()) {
+      const Point2 &a = mesh.lightmap_uv[i0], &b = mesh.lightmap_uv[i1], &d = mesh.lightmap_uv[i2];
+      const Point2 q{a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
+      h.lightmap_uv = {g.lightmap_st[0] * q.x + g.lightmap_st[2], g.lightmap_st[1] * q.y + g.lightmap_st[3]};
+    }
+    if (detail.uv && !mesh.uv.empty()) {
+      const Point2 &a = mesh.uv[i0], &b = mesh.uv[i1], &d = mesh.uv[i2];
+      h.uv = {a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
+    }
   }
-  if (detail.uv && !mesh.uv.empty()) {
-    const Point2 &a = mesh.uv[i0], &b = mesh.uv[i1], &d = mesh.uv[i2];
-    h.uv = {a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
-  }
-  h.offset = g.offsets[prim_id];
-  return h;
+  h.offset = r.offset;
 }
 
 namespace {
@@ -356,16 +386,16 @@ bool intersect1(RTCScene scene, const Ray& ray, RTCRayHit& rh) {
 }
 
 
-HitId make_id(const RTCRayHit& rh, const std::vector<Geometry>& geometries) {
-  const Geometry& g = geometries[rh.hit.geomID];
+// `r`: the record of the triangle hit.
+HitId make_id(const RTCRayHit& rh, const TriangleRecord& r) {
   HitId id;
   id.t = rh.ray.tfar;
-  id.instance = g.instance;
+  id.instance = r.instance;
   id.triangle = static_cast<int>(rh.hit.primID);
   id.u = rh.hit.u;
   id.v = rh.hit.v;
   // Embree's Ng is (p1 − p0) × (p2 − p0) up to Embree's sign convention, which we do not rely on: ours, stored.
-  const double* ng = &g.normals[3 * static_cast<size_t>(rh.hit.primID)];
+  const double* ng = r.ng;
   id.front_face = ng[0] * rh.ray.dir_x + ng[1] * rh.ray.dir_y + ng[2] * rh.ray.dir_z < 0;
   return id;
 }
@@ -374,20 +404,22 @@ HitId make_id(const RTCRayHit& rh, const std::vector<Geometry>& geometries) {
 std::optional<Hit> Tracer::intersect(const Ray& ray, HitDetail detail) const {
   RTCRayHit rh;
   if (!intersect1(impl_->scene, ray, rh)) return std::nullopt;
-  return impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail);
+  Hit h;
+  impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail, h);
+  return h;
 }
 
 bool Tracer::intersect(const Ray& ray, Hit& out, HitDetail detail) const {
   RTCRayHit rh;
   if (!intersect1(impl_->scene, ray, rh)) return false;
-  out = impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail);
+  impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail, out);
   return true;
 }
 
 std::optional<HitId> Tracer::intersect_id(const Ray& ray) const {
   RTCRayHit rh;
   if (!intersect1(impl_->scene, ray, rh)) return std::nullopt;
-  return make_id(rh, impl_->geometries);
+  return make_id(rh, impl_->record(rh.hit.geomID, rh.hit.primID));
 }
 
 Hit Tracer::complete(const Ray& ray, const HitId& id) const {
@@ -397,8 +429,10 @@ Hit Tracer::complete(const Ray& ray, const HitId& id) const {
                                    [](const Geometry& g, int instance) { return g.instance < instance; });
   if (it == gs.end() || it->instance != id.instance)
     throw std::invalid_argument("tracer: HitId of instance " + std::to_string(id.instance) + " which has no triangles");
-  return impl_->complete(ray, static_cast<unsigned>(it - gs.begin()), static_cast<unsigned>(id.triangle),
-                         static_cast<float>(id.t), static_cast<float>(id.u), static_cast<float>(id.v));
+  Hit h;
+  impl_->complete(ray, static_cast<unsigned>(it - gs.begin()), static_cast<unsigned>(id.triangle),
+                  static_cast<float>(id.t), static_cast<float>(id.u), static_cast<float>(id.v), HitDetail{}, h);
+  return h;
 }
 
 bool Tracer::occluded(const Ray& ray) const {
@@ -435,13 +469,13 @@ void trace_stream(std::span<const Ray> rays, size_t out_size, const char* query,
 
 void Tracer::intersect(std::span<const Ray> rays, std::span<std::optional<HitId>> out) const {
   RTCScene scene = impl_->scene;
-  const std::vector<Geometry>& geometries = impl_->geometries;
+  const Impl& im = *impl_;
   trace_stream<RTCRayHit>(
       rays, out.size(), "intersect", init_ray_hit,
       [scene](RTCIntersectContext* c, RTCRayHit* b, unsigned n) { rtcIntersect1M(scene, c, b, n, sizeof(RTCRayHit)); },
       [&](size_t i, const RTCRayHit& rh) {
         out[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::nullopt
-                                                          : std::optional<HitId>(make_id(rh, geometries));
+                                                          : std::optional<HitId>(make_id(rh, im.record(rh.hit.geomID, rh.hit.primID)));
       });
 }
 

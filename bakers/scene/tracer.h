@@ -31,6 +31,7 @@ struct Hit {
   int instance = 0;        // into scene.instances
   int mesh = 0;            // into scene.meshes
   int triangle = 0;        // into that mesh's triangles
+  int material = 0;        // into scene.materials (the mesh's material of that triangle)
   double u = 0, v = 0;
   Vec3 p;                  // the hit point, interpolated in double from the float vertices Embree traced
   Vec3 ng;                 // unit geometric normal on the front side ((p1 − p0) × (p2 − p0), mirrored instances kept

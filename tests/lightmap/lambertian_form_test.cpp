@@ -24,6 +24,19 @@ brdf::MaterialSpec two_lamberts(brdf::Combine combine, Rgb rho_d, Rgb rho_s, dou
   return spec;
 }
 
+// (A + B·tint)/π against Material::eval at 200 random direction pairs and tints, to 1e-12 relative.
+void expect_same_function(const brdf::LambertianForm& form, const brdf::MaterialSpec& spec, Pcg32& rng) {
+  const brdf::Material material(spec);
+  for (int i = 0; i < 200; ++i) {
+    const Vec3 wo = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+    const Vec3 wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+    const Rgb tint{rng.uniform(), rng.uniform(), rng.uniform()};
+    const Rgb want = material.eval(wo, wi, tint);
+    const Rgb got = (form.A + form.B * tint) * kInvPi;
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 1e-12 * want[c]) << material.describe();
+  }
+}
+
 // For both combinations, random direction pairs and tints: (A + B·tint)/π equals Material::eval. Weights: exact up
 // to rounding (1e-12 relative). Layered: Material weighs the diffuse lobe by its tabulated E_s, a Monte Carlo
 // albedo table; for a Lambertian lobe every cosine-weighted sample returns ρ_s exactly, so the table is ρ_s to
@@ -34,15 +47,22 @@ TEST(LambertianForm, EqualsTheMaterialItStandsFor) {
     const brdf::MaterialSpec spec = two_lamberts(combine, Rgb{0.7, 0.5, 0.2}, Rgb{0.1, 0.3, 0.05}, 0.25);
     const auto form = brdf::lambertian_form(spec);
     ASSERT_TRUE(form.has_value());
-    const brdf::Material material(spec);
-    for (int i = 0; i < 200; ++i) {
-      const Vec3 wo = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
-      const Vec3 wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
-      const Rgb tint{rng.uniform(), rng.uniform(), rng.uniform()};
-      const Rgb want = material.eval(wo, wi, tint);
-      const Rgb got = (form->A + form->B * tint) * kInvPi;
-      for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 1e-12 * want[c]) << "combine " << int(combine);
-    }
+    expect_same_function(*form, spec, rng);
+  }
+}
+
+// A weightless specular lobe of another model (how glTF-less imports and the tests' plain Lambert materials come)
+// leaves the diffuse lobe alone: A = 0, B = ρ_d, equal to Material::eval to rounding.
+TEST(LambertianForm, AWeightlessSpecularLobeOfAnyModelIsLambertian) {
+  Pcg32 rng(9);
+  for (const brdf::Model model : {brdf::Model::ggx, brdf::Model::cook_torrance, brdf::Model::oren_nayar}) {
+    brdf::MaterialSpec spec = two_lamberts(brdf::Combine::weights, Rgb{0.7, 0.5, 0.2}, Rgb{0.5}, 0.0);
+    spec.specular.model = model;
+    spec.specular.alpha_x = spec.specular.alpha_y = 0.2;
+    const auto form = brdf::lambertian_form(spec);
+    ASSERT_TRUE(form.has_value());
+    EXPECT_EQ(form->A, Rgb{0.0});
+    expect_same_function(*form, spec, rng);
   }
 }
 
@@ -52,6 +72,11 @@ TEST(LambertianForm, OnlyForTwoLambertianLobes) {
   EXPECT_FALSE(brdf::lambertian_form(spec).has_value());
   spec = two_lamberts(brdf::Combine::weights, Rgb{0.5}, Rgb{0.5}, 0.5);
   spec.diffuse.model = brdf::Model::oren_nayar;
+  EXPECT_FALSE(brdf::lambertian_form(spec).has_value());
+  spec.specular_weight = 0.0;  // weightless specular, but the diffuse lobe itself is not Lambertian
+  EXPECT_FALSE(brdf::lambertian_form(spec).has_value());
+  spec = two_lamberts(brdf::Combine::layered, Rgb{0.5}, Rgb{0.5}, 0.0);
+  spec.specular.model = brdf::Model::ggx;  // layered: the weight does not apply, the GGX interface does
   EXPECT_FALSE(brdf::lambertian_form(spec).has_value());
 }
 

@@ -2,6 +2,9 @@
 // many bounces an albedo needs, which lobes matter, and that a job's forcing wins and is recorded.
 #include "bakers/plan/lightmap_plan.h"
 
+#include "bakers/brdf/albedo.h"
+#include "bakers/brdf/material.h"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -125,10 +128,9 @@ TEST(LightmapPlan, EnvironmentStrategiesFollowWhatTheEnvironmentIs) {
   EXPECT_TRUE(p.environment_importance_map) << decision(p, "environment_importance_map").reason;
 }
 
-// ρ_max for Lambert is the albedo times the base colour's largest channel. The planner estimates it with the
-// material's own sampling (which keeps a small probability of sampling the weightless specular lobe), from 1024
-// stratified samples: a relative error of order 1e-3, so the check allows 2e-3 relative. The rule itself is checked
-// exactly against the ρ_max the plan used.
+// ρ_max for Lambert is the albedo times the base colour's largest channel; the planner has it in closed form for
+// Lambertian materials (brdf::lambertian_form), so to rounding (1e-12 relative). The rule itself is checked exactly
+// against the ρ_max the plan used.
 TEST(LightmapPlan, BouncesAreTheFewestThatBringRhoToThePowerBelowTheBudget) {
   for (const double rho_true : {0.1, 0.5, 0.8, 0.95}) {
     for (double target : {0.1, 0.01, 0.001}) {
@@ -137,7 +139,7 @@ TEST(LightmapPlan, BouncesAreTheFewestThatBringRhoToThePowerBelowTheBudget) {
       o.target_error = target;
       const LightmapPlan p = plan_lightmap(s, o);
       double rho = rho_true;
-      EXPECT_NEAR(p.albedo_max, rho, 2e-3 * rho) << "the unused white material must not count";
+      EXPECT_NEAR(p.albedo_max, rho, 1e-12 * rho) << "the unused white material must not count";
       rho = p.albedo_max;
       const double budget = target / 4;
       const int k = p.bounces;
@@ -153,6 +155,34 @@ TEST(LightmapPlan, BouncesAreTheFewestThatBringRhoToThePowerBelowTheBudget) {
       EXPECT_EQ(p.russian_roulette, k > p.russian_roulette_depth);
     }
   }
+}
+
+// Materials that are not Lambertian go through the Monte Carlo estimates: an Oren–Nayar lobe with σ = 0 is Lambert's
+// function, so its ρ_max is the albedo times the base colour's largest channel, estimated from 1024 stratified
+// samples per μ (the material's own sampling, which keeps a small probability of sampling the weightless specular
+// lobe): a relative error of order 1e-3, so 2e-3 relative. And the closed form for a layered pair of Lambertian
+// lobes, ρ_s + (1 − ρ_s)² ρ_d·tint, against an independent estimate of the general material's albedo (4096
+// samples at μ = 0.5, any μ being the same for this material; 2e-3 relative again).
+TEST(LightmapPlan, AlbedoEstimatedForGeneralMaterialsAndClosedForLambertianOnes) {
+  scene::SceneMaterial on = lambert("oren-nayar", 0.6, Rgb{1.0, 0.5, 0.25});
+  on.bsdf.diffuse.model = brdf::Model::oren_nayar;
+  on.bsdf.diffuse.sigma = 0.0;
+  EXPECT_NEAR(plan_lightmap(quads({on}, {0}), {}).albedo_max, 0.6, 2e-3 * 0.6);
+
+  scene::SceneMaterial layered = lambert("layered", 0.7, Rgb{0.9, 0.4, 0.2});
+  layered.bsdf.specular.model = brdf::Model::lambert;
+  layered.bsdf.specular.albedo = Rgb{0.2};
+  layered.bsdf.combine = brdf::Combine::layered;
+  const LightmapPlan p = plan_lightmap(quads({layered}, {0}), {});
+  EXPECT_NEAR(p.albedo_max, 0.2 + 0.8 * 0.8 * 0.7 * 0.9, 1e-12);
+  brdf::AlbedoOptions options;
+  options.samples = 4096;
+  const Rgb e = brdf::directional_albedo(brdf::Material(layered.bsdf), 0.5, options).value;
+  const Rgb e_s = Rgb{0.2};  // the specular lobe's albedo, Lambertian: exact
+  const double estimated = e_s.r + 0.9 * (e.r - e_s.r);  // ρ = E_s + tint (E − E_s), red being the largest
+  EXPECT_NEAR(p.albedo_max, estimated, 2e-3 * estimated);
+  EXPECT_NEAR(p.materials[0].specular_albedo, 0.2, 1e-12);
+  EXPECT_EQ(p.materials[0].lobe_distance, 0.0);
 }
 
 TEST(LightmapPlan, ABlackSceneNeedsNoBouncesAndNoBaseColour) {
@@ -173,7 +203,7 @@ TEST(LightmapPlan, TexturesOnlyWhenTheyVary) {
   s.textures[0].texels[3] = Rgb{0.9};
   EXPECT_TRUE(plan_lightmap(s, {}).textures);
   // ρ_max includes the texture's brightest texel: 0.5 × 0.9.
-  EXPECT_NEAR(plan_lightmap(s, {}).albedo_max, 0.45, 2e-3 * 0.45);  // estimated: see the bounces test
+  EXPECT_NEAR(plan_lightmap(s, {}).albedo_max, 0.45, 1e-12);  // closed form: see the bounces test
 }
 
 // δ is 0 for a "specular" lobe that is itself Lambertian (π f/E = 1 everywhere, so the overlap is exactly 1 per

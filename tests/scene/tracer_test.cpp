@@ -279,6 +279,40 @@ TEST(Tracer, RejectsUncleanScenesWithAClearMessage) {
 // ---------------------------------------------------------------------------------------------------------------
 // Ray offsets.
 
+// The branchless directed rounding against its definition: the float nearest x on the side asked for, stepped with
+// std::nextafterf from the nearest float (an independent implementation). Swept over both signs, twelve decades,
+// denormals, zeros of both signs, values already floats and values a hair either side of one.
+TEST(RayOffset, DirectedRoundingToFloatMatchesNextafter) {
+  auto reference = [](double x, double direction) -> double {
+    const float f = static_cast<float>(x);
+    if (direction > 0 && static_cast<double>(f) < x) return std::nextafterf(f, INFINITY);
+    if (direction < 0 && static_cast<double>(f) > x) return std::nextafterf(f, -INFINITY);
+    return f;
+  };
+  std::vector<double> xs = {0.0, -0.0, 1e-46, -1e-46, 1e-40, -1e-40, std::numeric_limits<float>::denorm_min(),
+                            std::numeric_limits<float>::min(), -std::numeric_limits<float>::min(), 1.0, -1.0};
+  Pcg32 rng(5);
+  for (int i = 0; i < 20000; ++i) {
+    const double magnitude = std::pow(10.0, rng.uniform() * 12 - 6);
+    const double x = (rng.uniform() < 0.5 ? -1 : 1) * magnitude;
+    xs.push_back(x);
+    const float f = static_cast<float>(x);
+    xs.push_back(f);                               // already a float
+    xs.push_back(std::nextafter(double(f), 0.0));  // a double ulp either side of one
+    xs.push_back(std::nextafter(double(f), INFINITY));
+  }
+  for (const double x : xs) {
+    for (const double direction : {1.0, -1.0, 0.0, 1e-300, -1e-300}) {
+      const double got = detail::round_float_towards(x, direction);
+      const double want = reference(x, direction);
+      ASSERT_EQ(got, want) << "x " << x << " direction " << direction;
+      ASSERT_EQ(std::signbit(got), std::signbit(want)) << "x " << x << " direction " << direction;
+      if (direction > 0) ASSERT_GE(got, x);
+      if (direction < 0) ASSERT_LE(got, x);
+    }
+  }
+}
+
 TEST(RayOffset, OriginIsLiftedAtLeastTheOffsetAndIsAFloat) {
   Pcg32 rng(11);
   for (int i = 0; i < 10000; ++i) {
