@@ -36,6 +36,8 @@ struct Walk {
   IrradianceEstimate& out;
 
   Point2 u2() { return {rng.uniform(), rng.uniform()}; }
+  // For the light choice, the point on the light and Russian roulette: 32 bits each are ample (Pcg32::uniform32).
+  Point2 u2_32() { return {rng.uniform32(), rng.uniform32()}; }
 
   // A closest-hit query into `hit` (untouched on a miss); true on a hit.
   bool trace(const scene::Ray& ray, scene::Hit& hit) {
@@ -64,7 +66,12 @@ struct Walk {
 
   // Radiance reaching `p` along `wi` from the analytic area lights the ray passes before t_hit (they are not scene
   // geometry: they neither occlude nor end a path) and, for an escaping ray, from the infinite lights.
-  Rgb lights_along(const Vec3& p, const Vec3& n, const Vec3& wi, double t_hit, double pdf, bool escaped) {
+  [[gnu::always_inline]] Rgb lights_along(const Vec3& p, const Vec3& n, const Vec3& wi, double t_hit, double pdf,
+                                          bool escaped) {
+    if (ctx.analytic_lights.empty() && !escaped) return Rgb{};  // the common case: geometry hit, nothing between
+    return any_lights_along(p, n, wi, t_hit, pdf, escaped);
+  }
+  Rgb any_lights_along(const Vec3& p, const Vec3& n, const Vec3& wi, double t_hit, double pdf, bool escaped) {
     Rgb L;
     for (int index : ctx.analytic_lights) {
       const scene::LightSource& light = ctx.lights->light(index);
@@ -110,9 +117,9 @@ struct Walk {
   template <class F, class Pdf>
   Rgb next_event(const scene::SurfacePoint& from, const Vec3& ns, F&& f_cos, Pdf&& pdf_other, Rgb* radiance = nullptr,
                  Vec3* direction = nullptr) {
-    const auto choice = ctx.lights->sample(rng.uniform());
+    const auto choice = ctx.lights->sample(rng.uniform32());
     if (!choice) return Rgb{};
-    const auto s = choice->light->sample_li(from.p, ns, u2());
+    const auto s = choice->light->sample_li(from.p, ns, u2_32());
     if (!s || !(s->Li.max() > 0)) return Rgb{};
     // Below the geometric surface the ray would start inside the geometry: no light arrives from there.
     if (dot(s->wi, from.ng) <= 0) return Rgb{};
@@ -139,16 +146,14 @@ struct Walk {
     return fc * s->Li * weight;
   }
 
-  // Radiance leaving `hit` towards wo (world), reflected there at least once: path tracing with next-event
-  // estimation; `depth` counts the reflections of the light arriving at the receiver.
-  Rgb reflected(const scene::Hit& first, Vec3 wo) {
+  // Radiance leaving records[0] towards wo (world), reflected there at least once: path tracing with next-event
+  // estimation; `depth` counts the reflections of the light arriving at the receiver. The two records take turns
+  // as the vertex shaded and the next one found (never copied; a Hit is ~170 bytes).
+  Rgb reflected(scene::Hit (&records)[2], Vec3 wo) {
     Rgb L, beta{1.0};
     const plan::LightmapPlan& plan = *ctx.plan;
-    // Two hit records in turn (the vertex shaded and the next one found), never copied.
-    scene::Hit records[2];
-    const scene::Hit* current = &first;
     for (int depth = 1;; ++depth) {
-      const scene::Hit& hit = *current;
+      const scene::Hit& hit = records[(depth + 1) & 1];
       scene::Hit& next = records[depth & 1];
       const ShadingMaterial& m = material(hit);
       // Reflect on whichever side the ray arrived (one-sided geometry seen from behind still reflects).
@@ -159,8 +164,8 @@ struct Walk {
         ns = -ns;
       }
       const Frame frame = Frame::from_normal(ns);
-      const Vec3 wo_local = frame.to_local(wo);
-      if (wo_local.z <= 0) break;  // below the shading normal's horizon: no reflection is defined there
+      // Below the shading normal's horizon (cos θo = frame.to_local(wo).z ≤ 0): no reflection is defined there.
+      if (dot(wo, frame.n) <= 0) break;
       const Rgb t = tint(m, hit);
       Vec3 wi;
       double pdf_wi;
@@ -177,6 +182,7 @@ struct Walk {
         beta = beta * rho;
       } else {
         ++out.general_vertices;
+        const Vec3 wo_local = frame.to_local(wo);
         auto f_cos = [&](const Vec3& w) {
           const Vec3 wi_local = frame.to_local(w);
           return m.bsdf->eval(wo_local, wi_local, t) * std::abs(wi_local.z);
@@ -199,10 +205,9 @@ struct Walk {
       if (depth + 1 > plan.bounces) break;
       if (plan.russian_roulette && depth >= plan.russian_roulette_depth) {
         const double q = std::max(0.05, 1.0 - beta.max());
-        if (rng.uniform() < q) break;
+        if (rng.uniform32() < q) break;
         beta = beta / (1.0 - q);
       }
-      current = &next;
       wo = -wi;
     }
     return L;
@@ -286,12 +291,13 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   if (local.z > 0 && dot(wi, r.ng) > 0) {
     const double pdf = local.z * kInvPi;
     const scene::Ray ray = scene::spawn_ray(surface, wi);
-    scene::Hit hit;
+    scene::Hit records[2];
+    scene::Hit& hit = records[0];
     const bool found = walk.trace(ray, hit);
     Rgb L = walk.lights_along(ray.origin, r.ns, wi, found ? hit.t : kInfinity, pdf, !found);
     if (found) {
       L += walk.emitted(hit, ray.origin, r.ns, wi, pdf);
-      if (ctx.plan->bounces >= 1) L += walk.reflected(hit, -wi);
+      if (ctx.plan->bounces >= 1) L += walk.reflected(records, -wi);
     }
     out.ao = (!found || (ctx.ao_distance > 0 && hit.t > ctx.ao_distance)) ? 1.0 : 0.0;
     E += L * kPi;  // L cos θ / pdf with pdf = cos θ / π

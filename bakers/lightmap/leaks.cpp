@@ -46,47 +46,56 @@ struct Probe {
   std::vector<BackHit> back_hits;  // nearer than the move distance, nearest first
 };
 
-Probe probe(const Vec3& p, const Vec3& n, double s, double ray_offset, const RayQuery& rays, const LeakOptions& o,
-            double move_distance, uint32_t& traced) {
-  // Above the surface by the larger of the float tracer's bound and a fraction of the texel (leaks.h).
-  const scene::SurfacePoint surface{p, n, std::max(ray_offset, o.origin_offset_texels * s)};
-  const double tmax = o.probe_distance_texels * s;
-  const Frame frame = Frame::from_normal(n);
-  Probe result;
-  int back = 0;
+// The probe's directions in the local frame of n (+z), the same for every probe of a bake: computed once.
+std::vector<Vec3> probe_directions(const LeakOptions& o) {
+  std::vector<Vec3> out;
+  out.reserve(static_cast<size_t>(o.rings) * o.sectors);
   for (int i = 0; i < o.rings; ++i) {
     // Uniform over the hemisphere: cos θ is uniform on [0, 1]; cell centres.
     const double cos_theta = (i + 0.5) / o.rings;
     const double sin_theta = std::sqrt(std::max(0.0, 1.0 - cos_theta * cos_theta));
     for (int j = 0; j < o.sectors; ++j) {
       const double phi = 2.0 * kPi * (j + 0.5 + 0.5 * (i % 2)) / o.sectors;
-      const Vec3 dir = frame.from_local({sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta});
-      ++traced;
-      const Vec3 origin = scene::offset_ray_origin(surface, dir);
-      const std::optional<HitInfo> hit = rays.intersect(origin, dir, tmax);
-      if (!hit || hit->front_face) continue;
-      ++back;
-      if (hit->t <= move_distance) {
-        result.back_hits.push_back({hit->t, origin + dir * hit->t, hit->geometric_normal});
-      }
+      out.push_back({sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta});
     }
   }
-  result.backface_fraction = static_cast<double>(back) / (o.rings * o.sectors);
+  return out;
+}
+
+Probe probe(const Vec3& p, const Vec3& n, double s, double ray_offset, const RayQuery& rays, const LeakOptions& o,
+            const std::vector<Vec3>& directions, double move_distance, uint32_t& traced) {
+  // Above the surface by the larger of the float tracer's bound and a fraction of the texel (leaks.h).
+  const scene::SurfacePoint surface{p, n, std::max(ray_offset, o.origin_offset_texels * s)};
+  const double tmax = o.probe_distance_texels * s;
+  const Frame frame = Frame::from_normal(n);
+  Probe result;
+  int back = 0;
+  for (const Vec3& local : directions) {
+    const Vec3 dir = frame.from_local(local);
+    ++traced;
+    const Vec3 origin = scene::offset_ray_origin(surface, dir);
+    const std::optional<HitInfo> hit = rays.intersect(origin, dir, tmax);
+    if (!hit || hit->front_face) continue;
+    ++back;
+    if (hit->t <= move_distance) {
+      result.back_hits.push_back({hit->t, origin + dir * hit->t, hit->geometric_normal});
+    }
+  }
+  result.backface_fraction = static_cast<double>(back) / static_cast<double>(directions.size());
   std::sort(result.back_hits.begin(), result.back_hits.end(),
             [](const BackHit& a, const BackHit& b) { return a.t < b.t; });
   return result;
 }
 
-}  // namespace
-
-LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const LeakOptions& options) {
-  check(options);
+// resolve_leak for checked options and their probe directions.
+LeakResult resolve(const TexelSample& sample, const RayQuery& rays, const LeakOptions& options,
+                   const std::vector<Vec3>& directions) {
   const double s = sample.texel_world_size;
   const double move_distance = options.move_distance_texels * s;
   LeakResult result;
   result.position = sample.position;
-  const Probe first =
-      probe(sample.position, sample.geometric_normal, s, sample.ray_offset, rays, options, move_distance, result.rays);
+  const Probe first = probe(sample.position, sample.geometric_normal, s, sample.ray_offset, rays, options, directions,
+                            move_distance, result.rays);
   result.backface_fraction = first.backface_fraction;
   if (first.backface_fraction <= options.max_backface_fraction) return result;  // clear
 
@@ -94,8 +103,8 @@ LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const L
   for (int a = 0; a < attempts; ++a) {
     const BackHit& h = first.back_hits[a];
     const Vec3 candidate = h.point + h.front_normal * (options.push_texels * s);
-    const Probe there =
-        probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, 0.0, result.rays);
+    const Probe there = probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, directions, 0.0,
+                              result.rays);
     if (there.backface_fraction <= options.max_backface_fraction) {
       result.verdict = LeakVerdict::moved;
       result.position = candidate;
@@ -106,12 +115,21 @@ LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const L
   return result;
 }
 
+}  // namespace
+
+LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const LeakOptions& options) {
+  check(options);
+  return resolve(sample, rays, options, probe_directions(options));
+}
+
 LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOptions& options) {
   check(options);
   LeakReport report;
   const size_t n = texels.samples.size();
   std::vector<LeakResult> results(n);
-  tbb::parallel_for(size_t{0}, n, [&](size_t j) { results[j] = resolve_leak(texels.samples[j], rays, options); });
+  const std::vector<Vec3> directions = probe_directions(options);
+  tbb::parallel_for(size_t{0}, n,
+                    [&](size_t j) { results[j] = resolve(texels.samples[j], rays, options, directions); });
 
   const size_t valid_before = texels.valid_count();
   std::vector<uint8_t> keep(n, 1);

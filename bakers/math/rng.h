@@ -28,6 +28,9 @@ class Pcg32 {
     const uint64_t hi = next_u32(), lo = next_u32();
     return static_cast<double>(((hi << 32) | lo) >> 11) * 0x1.0p-53;
   }
+  // Uniform in [0, 1) on a grid of 2^-32 (one step of the generator instead of two), never 1.0: for choices and
+  // points that need no finer resolution than a float's (a light, a point on it, a Russian-roulette draw).
+  double uniform32() { return static_cast<double>(next_u32()) * 0x1.0p-32; }
 
  private:
   uint64_t state_, inc_;

@@ -1,16 +1,14 @@
 #include "bakers/scene/emissive_triangles.h"
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 #include "bakers/math/constants.h"
 
 namespace kiln::scene {
 
 namespace {
-
-uint64_t key(int instance, int triangle) {
-  return (static_cast<uint64_t>(static_cast<uint32_t>(instance)) << 32) | static_cast<uint32_t>(triangle);
-}
 
 bool emits(const Rgb& L) { return !usable_emission(L).is_black(); }
 
@@ -30,8 +28,6 @@ EmissiveTriangles::EmissiveTriangles(std::vector<EmissiveTriangle> triangles) {
     const Vec3 c = cross(t.p1 - t.p0, t.p2 - t.p0);
     const double a = 0.5 * length(c);
     if (!(a > 0) || !std::isfinite(a)) continue;  // degenerate: nothing to hit, nothing to sample
-    const int index = static_cast<int>(triangles_.size());
-    if (t.instance >= 0 && t.triangle >= 0) index_[key(t.instance, t.triangle)] = index;
     area_.push_back(a);
     normal_.push_back(c / (2.0 * a));
     sampling_.push_back({t.p2, t.p0 - t.p2, t.p1 - t.p2, normal_.back(), 1.0 / a, t.Le, t.two_sided});
@@ -41,6 +37,23 @@ EmissiveTriangles::EmissiveTriangles(std::vector<EmissiveTriangle> triangles) {
     triangles_.push_back(t);
   }
   choice_ = AliasTable(weights);
+  // find()'s table: the span of each instance's emissive triangles first, then their indices.
+  for (size_t i = 0; i < triangles_.size(); ++i) {
+    const EmissiveTriangle& t = triangles_[i];
+    if (t.instance < 0 || t.triangle < 0) continue;
+    if (index_.size() <= static_cast<size_t>(t.instance)) index_.resize(t.instance + 1);
+    InstanceIndex& x = index_[t.instance];
+    if (x.index.empty()) {
+      x.first = t.triangle;
+      x.index.assign(1, -1);
+    } else if (t.triangle < x.first) {
+      x.index.insert(x.index.begin(), static_cast<size_t>(x.first - t.triangle), -1);
+      x.first = t.triangle;
+    } else if (static_cast<size_t>(t.triangle - x.first) >= x.index.size()) {
+      x.index.resize(static_cast<size_t>(t.triangle - x.first) + 1, -1);
+    }
+    x.index[t.triangle - x.first] = static_cast<int>(i);
+  }
 }
 
 EmissiveTriangles EmissiveTriangles::from_scene(const Scene& scene) {
@@ -74,8 +87,10 @@ EmissiveTriangles EmissiveTriangles::from_scene(const Scene& scene) {
 }
 
 int EmissiveTriangles::find(int instance, int triangle) const {
-  const auto it = index_.find(key(instance, triangle));
-  return it == index_.end() ? -1 : it->second;
+  if (instance < 0 || static_cast<size_t>(instance) >= index_.size()) return -1;
+  const InstanceIndex& x = index_[instance];
+  const int64_t k = static_cast<int64_t>(triangle) - x.first;
+  return k >= 0 && k < static_cast<int64_t>(x.index.size()) ? x.index[k] : -1;
 }
 
 std::optional<LightSample> EmissiveTriangles::sample_li(const Vec3& p, const Vec3& /*n*/, Point2 u) const {
@@ -85,16 +100,17 @@ std::optional<LightSample> EmissiveTriangles::sample_li(const Vec3& p, const Vec
   const double h = dot(p - t.p2, t.ng);
   // p on the triangle's plane (edge-on) or behind a one-sided triangle: no light from it.
   if (t.two_sided ? h == 0 : !(h > 0)) return std::nullopt;
-  // Heitz 2019, "A low-distortion map between triangle and square": uniform barycentrics b0, b1 of p0, p1.
-  double b0, b1;
+  // Heitz 2019, "A low-distortion map between triangle and square": uniform barycentrics b0, b1 of p0, p1; with
+  // a = min(ux, uy) and b = max: (a/2, b − a/2) if ux < uy, else (b − a/2, a/2). Chosen by a bit mask rather than
+  // a branch (which the compiler makes of a conditional): which of ux, uy is smaller is a coin toss on every call.
   const double ux = choice.u_remapped, uy = u.y;
-  if (ux < uy) {
-    b0 = ux / 2;
-    b1 = uy - b0;
-  } else {
-    b1 = uy / 2;
-    b0 = ux - b1;
-  }
+  const uint64_t first = uint64_t{0} - static_cast<uint64_t>(ux < uy);  // all ones when ux < uy
+  auto pick = [first](double if_first, double otherwise) {
+    return std::bit_cast<double>((std::bit_cast<uint64_t>(if_first) & first) |
+                                 (std::bit_cast<uint64_t>(otherwise) & ~first));
+  };
+  const double half = 0.5 * pick(ux, uy), rest = pick(uy, ux) - half;
+  const double b0 = pick(half, rest), b1 = pick(rest, half);
   const Vec3 x = t.p2 + t.e0 * b0 + t.e1 * b1;
   const Vec3 d = x - p;
   const double dist2 = dot(d, d);

@@ -11,7 +11,6 @@
 #pragma once
 
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 #include "bakers/scene/alias_table.h"
@@ -64,7 +63,14 @@ class EmissiveTriangles final : public LightSource {
   std::vector<Vec3> normal_;  // unit geometric normal (front)
   std::vector<Sampling> sampling_;
   AliasTable choice_;
-  std::unordered_map<uint64_t, int> index_;
+  // find()'s table, dense: per instance, the container's index of triangles first … first + size − 1 of it (the span
+  // of its emissive triangles; −1 for those between that do not emit). A lookup per path vertex that hits an emitter,
+  // so two loads rather than a hash; at most one int per triangle of an emissive mesh (the tracer keeps 128 bytes).
+  struct InstanceIndex {
+    int first = 0;
+    std::vector<int> index;
+  };
+  std::vector<InstanceIndex> index_;
   Rgb power_;
 };
 

@@ -55,9 +55,20 @@ struct alignas(64) TriangleRecord {
   int32_t material;  // into Scene::materials
   uint32_t index[3];  // the vertex indices, for the UV attributes
   int32_t instance, mesh;
-  bool vertex_normals;
+  // The shading normal to interpolate: false without vertex normals, and for a triangle whose three vertex normals
+  // all lie within kFlatNormal of its geometric normal (a flat face, as most lightmapped geometry is), which is
+  // shaded with ng instead: interpolating could only return ng again to within the vertex normals' own float
+  // rounding.
+  bool interpolate_normals;
 };
 static_assert(sizeof(TriangleRecord) == 128, "two cache lines per triangle");
+
+// How far (in radians, for small angles: the length of the difference of unit vectors) a vertex normal may stand
+// from its triangle's geometric normal for the triangle to count as flat. A float vertex normal is known to a
+// relative 2^-24 per component, and the geometric normal of float vertices is itself off the modeller's by about
+// as much again on a well-shaped triangle: 8·2^-24 ≈ 4.8e-7 covers both with room for the instance transform's
+// rounding, and stays far below any deliberate smoothing (a normal turned by 1e-3 rad already shades visibly).
+constexpr double kFlatNormal = 8 * 0x1.0p-24;
 
 // One Embree geometry: an instance's triangles in world space.
 struct Geometry {
@@ -141,8 +152,9 @@ struct Tracer::Impl {
   }
 
   const TriangleRecord& record(unsigned geom_id, unsigned prim_id) const { return records[first[geom_id] + prim_id]; }
-  void complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u, float v, HitDetail detail,
-                Hit& h) const;
+  // Inline: it follows every closest-hit query.
+  [[gnu::always_inline]] inline void complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u,
+                                              float v, HitDetail detail, Hit& h) const;
 };
 
 namespace {
@@ -292,7 +304,6 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
           r.n[j][2] = static_cast<float>(n.z);
         }
       }
-      r.vertex_normals = !world_normals.empty();
       const Vec3 p0 = vertex(vb, r.index[0]), p1 = vertex(vb, r.index[1]), p2 = vertex(vb, r.index[2]);
       const double offset = self_intersection_offset(p0, p1, p2, p0);
       r.offset = static_cast<float>(offset);
@@ -303,6 +314,14 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
       r.ng[0] = n.x;
       r.ng[1] = n.y;
       r.ng[2] = n.z;
+      r.interpolate_normals = false;
+      for (int j = 0; j < 3 && !world_normals.empty(); ++j) {
+        const Vec3& vn = world_normals[r.index[j]];
+        const double vl = length(vn);
+        // A zero or non-finite vertex normal, or one off the face: interpolate (complete() guards the zero sum).
+        if (!(vl > 0) || !std::isfinite(vl) || !(length(vn * (1.0 / vl) - n) <= kFlatNormal))
+          r.interpolate_normals = true;
+      }
       r.material = mesh.material.empty() ? 0 : static_cast<int32_t>(mesh.material[t]);
       r.instance = g.instance;
       r.mesh = g.mesh;
@@ -331,8 +350,8 @@ size_t Tracer::memory_bytes() const {
 Vec3 Tracer::bounds_lower() const { return impl_->lower; }
 Vec3 Tracer::bounds_upper() const { return impl_->upper; }
 
-void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv,
-                            HitDetail detail, Hit& h) const {
+inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv,
+                                   HitDetail detail, Hit& h) const {
   const TriangleRecord& r = record(geom_id, prim_id);
   h.t = t;
   h.instance = r.instance;
@@ -350,7 +369,7 @@ void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, 
   h.ng = no_normal ? -normalize(ray.direction) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
   h.front_face = dot(ray.direction, h.ng) < 0;
   h.ns = h.ng;
-  if (r.vertex_normals) {
+  if (r.interpolate_normals) {
     const Vec3 nw{point(r.n, 0), point(r.n, 1), point(r.n, 2)};
     const double nl = length(nw);
     // Opposite vertex normals can interpolate to zero inside the triangle: the geometric normal stands in.

@@ -94,6 +94,33 @@ TEST(EmissiveTriangles, SamplingMatchesPdfLi) {
   EXPECT_NEAR(r.pdf_integral, 1.0, 1e-4) << r.details;
 }
 
+// find() against the triangles' own provenance, for emitters scattered sparsely (and out of order) through
+// instances, some instances emitting nothing.
+TEST(EmissiveTriangles, FindsEveryEmitterByInstanceAndTriangle) {
+  std::vector<EmissiveTriangle> in;
+  Pcg32 rng(3);
+  for (int k = 0; k < 200; ++k) {
+    EmissiveTriangle t;
+    t.p0 = {0, 0, 0};
+    t.p1 = {1, 0, 0};
+    t.p2 = {0, 1, 0};
+    t.Le = Rgb{1.0};
+    t.instance = 2 * static_cast<int>(rng.uniform() * 5);  // odd instances emit nothing
+    t.triangle = static_cast<int>(rng.uniform() * 1000);
+    in.push_back(t);
+  }
+  const EmissiveTriangles tris(in);
+  for (int i = 0; i < tris.size(); ++i) {
+    const EmissiveTriangle& t = tris.triangle(i);
+    const int found = tris.find(t.instance, t.triangle);
+    ASSERT_GE(found, 0);
+    // The same triangle given twice: find() returns the last, which is the same place.
+    EXPECT_EQ(tris.triangle(found).instance, t.instance);
+    EXPECT_EQ(tris.triangle(found).triangle, t.triangle);
+  }
+  for (int instance = 1; instance < 10; instance += 2) EXPECT_EQ(tris.find(instance, 0), -1);
+}
+
 TEST(EmissiveTriangles, FromSceneTransformsAndSkipsBadInput) {
   Scene scene;
   scene.materials.resize(2);
@@ -121,6 +148,10 @@ TEST(EmissiveTriangles, FromSceneTransformsAndSkipsBadInput) {
   EXPECT_EQ(tris.find(0, 2), -1);  // index out of range
   EXPECT_EQ(tris.find(0, 3), -1);  // NaN vertex
   EXPECT_EQ(tris.find(0, 4), -1);  // degenerate
+  EXPECT_EQ(tris.find(0, -1), -1);  // no such triangle or instance
+  EXPECT_EQ(tris.find(0, 1 << 30), -1);
+  EXPECT_EQ(tris.find(-1, 0), -1);
+  EXPECT_EQ(tris.find(2, 0), -1);
   EXPECT_EQ(tris.triangle(i0).p1, (Vec3{12, 5, 1}));
   EXPECT_TRUE(test::close(tris.area(i0), 1.0, 1e-15));  // 0.5 scaled by 2 in x
   // Object-space normal of (0, 2, 1): (1,0,1) × (1,0,0) = (0, 1, 0): front is +Y. Both instances (one mirrored)

@@ -307,8 +307,11 @@ TEST(RayOffset, DirectedRoundingToFloatMatchesNextafter) {
       const double want = reference(x, direction);
       ASSERT_EQ(got, want) << "x " << x << " direction " << direction;
       ASSERT_EQ(std::signbit(got), std::signbit(want)) << "x " << x << " direction " << direction;
-      if (direction > 0) ASSERT_GE(got, x);
-      if (direction < 0) ASSERT_LE(got, x);
+      if (direction > 0) {
+        ASSERT_GE(got, x);
+      } else if (direction < 0) {
+        ASSERT_LE(got, x);
+      }
     }
   }
 }
