@@ -207,6 +207,37 @@ TEST(Tracer, InterpolatedAttributes) {
   EXPECT_TRUE(is_finite(h3->ns));
 }
 
+// A flat face (every vertex normal the face normal, to float rounding) is shaded with its geometric normal exactly;
+// a face whose normals are turned by 1e-3 rad (deliberate smoothing, if slight) interpolates them as before; and the
+// material index of the triangle hit comes with the hit.
+TEST(Tracer, FlatFacesShadeWithTheGeometricNormalAndSmoothOnesInterpolate) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {2, 0, 0}, {3, 0, 0}, {2, 1, 0}};
+  m.indices = {0, 1, 2, 3, 4, 5};
+  m.material = {0, 1};
+  const Vec3 up{0, 0, 1};
+  const Vec3 tilted = normalize(Vec3{1e-3, 0, 1});
+  // Rounded to float, as an imported mesh's normals are, and a rotated copy of the flat one (not exactly +z).
+  const Vec3 flat = normalize(Vec3{float(3e-8), float(-2e-8), 1.0f});
+  m.normals = {flat, flat, up, up, tilted, up};
+  Scene sc = one_mesh(m);
+  sc.materials.resize(2);
+  const Tracer tracer(sc);
+  const auto a = tracer.intersect({{0.2, 0.3, 1}, {0, 0, -1}});
+  ASSERT_TRUE(a.has_value());
+  EXPECT_EQ(a->ns, a->ng) << "a flat face is shaded with its geometric normal";
+  EXPECT_EQ(a->material, 0);
+  const double u = 0.2, v = 0.3, w = 0.5;
+  const auto b = tracer.intersect({{2 + u, v, 1}, {0, 0, -1}});
+  ASSERT_TRUE(b.has_value());
+  EXPECT_EQ(b->material, 1);
+  const Vec3 ns = normalize(up * w + tilted * u + up * v);
+  EXPECT_NE(b->ns, b->ng) << "a smoothed face interpolates its normals";
+  // Embree's float barycentrics move the interpolated normal by ~1e-6 of the 2e-4 rad it turns: 1e-9 on the dot.
+  EXPECT_NEAR(dot(b->ns, ns), 1.0, 1e-9);
+  EXPECT_GT(std::acos(std::min(1.0, dot(b->ns, b->ng))), 1e-4);
+}
+
 TEST(Tracer, OcclusionAndStreamsAgreeWithSingleRays) {
   const Scene scene = box_room(4, 2, 12, 24);
   const CheckedScene checked = check_scene(scene);
