@@ -16,7 +16,7 @@
 //     (n_f the face's front normal, on the side the ray came out). The first candidate whose own probe is clear is
 //     the new position (moved); if none is, the sample is invalid, and a texel left without samples is invalid.
 // The origin p + ε n is lifted by ε = max(the sample's ray_offset, origin_offset_texels · s) and rounded to float
-// away from the surface (scene::offset_ray_origin): the first bounds the float tracer's error at this triangle, the
+// without giving any of it back (scene::offset_ray_origin): the first bounds the float tracer's error at this triangle, the
 // second keeps a margin of a texel's fraction; both scale with the scene.
 // Unity's progressive lightmapper applies the same test (its "backface tolerance", default 90 % front faces) to all
 // of a texel's rays; max_backface_fraction = 0.1 matches it.

@@ -1,17 +1,14 @@
 // Rays, and spawning them off surfaces without self-intersection at any scene scale.
 //
 // The tracer (tracer.h) intersects in single precision with tnear = 0. A ray leaving a surface therefore starts at a
-// point lifted off the surface's plane by `offset` along the geometric normal (on the side the ray leaves to), with
-// the origin rounded to float *away from* the surface, component by component. `offset` bounds the float error of
+// point lifted off the surface's plane by `offset` along the geometric normal (on the side the ray leaves to), and by
+// as much again as rounding the origin to float can take back. `offset` bounds the float error of
 // the ray–triangle test itself (see self_intersection_offset); it scales with the triangle and with the magnitude of
 // the coordinates, never with a fixed epsilon, so a scene scaled by 1e-3 or 1e4, or far from the origin, behaves the
 // same.
 #pragma once
 
-#include <bit>
 #include <cmath>
-#include <cstdint>
-#include <limits>
 
 #include "bakers/math/vec3.h"
 
@@ -40,34 +37,21 @@ struct SurfacePoint {
 // ~1e-6 of the triangle's size plus ~7e-7 of the largest coordinate magnitude.
 double self_intersection_offset(const Vec3& v0, const Vec3& v1, const Vec3& v2, const Vec3& p);
 
-namespace detail {
-// Rounds x to a float on the side `direction` points to (x itself if it is a float already; any float when
-// direction is 0), by stepping the bit pattern of the nearest float, as nextafterf would, without branches: which
-// side the nearest float falls on is a coin toss for every coordinate of every ray origin, and a branch on it was
-// mispredicted half the time. Origins are finite floats well inside the range (the tracer refuses scenes beyond
-// it), so the steps never reach an infinity.
-inline double round_float_towards(double x, double direction) {
-  const float f = static_cast<float>(x);
-  const int up = direction > 0 && static_cast<double>(f) < x;
-  const int down = direction < 0 && static_cast<double>(f) > x;
-  uint32_t bits = std::bit_cast<uint32_t>(f);
-  // ±0 steps to the smallest denormal of the sign asked for: start from the zero of that sign (a zero that does not
-  // step keeps its own).
-  bits = f == 0.0f && (up | down) ? static_cast<uint32_t>(down) << 31 : bits;
-  const int negative = static_cast<int>(bits >> 31);
-  // In the bit pattern, +1 moves away from zero and −1 towards it; up moves away from zero for positive floats.
-  const int step = (up - down) * (1 - 2 * negative);
-  return std::bit_cast<float>(bits + static_cast<uint32_t>(step));
-}
-}  // namespace detail
-
-// s.p lifted by s.offset along ±s.ng (the side w leaves to), rounded to float away from the surface. (Inline with
-// the spawn functions below: they run for every ray a bake traces.)
+// s.p lifted by s.offset along ±s.ng (the side w leaves to), then rounded to the nearest float. Rounding moves each
+// coordinate o_i by at most half an ulp, 2^-24·|o_i| (2^-150 below the normal range), so the point can sink back
+// towards the surface by at most Σ|n_i|·(2^-24·|o_i| + 2^-150) ≤ 2^-24·(Σ|n_i·p_i| + lift) + √3·2^-150 along the
+// unit normal n: the lift includes that much more (the factor 1 + 2^-20 covers the allowance's own share of the
+// lift), so the float origin stands at least s.offset off the surface. Weighting by |n_i| matters: only the
+// coordinates the normal points along can take the lift back (a floor far from the origin in x and z loses nothing
+// to their rounding). (Rounding each coordinate away from the surface instead needs two comparisons and a bit step
+// per coordinate, and the side each nearest float falls on is a coin toss: mispredicted half the time on every ray.)
+// Inline with the spawn functions below: they run for every ray a bake traces.
 [[gnu::always_inline]] inline Vec3 offset_ray_origin(const SurfacePoint& s, const Vec3& w) {
   const Vec3 n = dot(w, s.ng) < 0 ? -s.ng : s.ng;
-  const Vec3 o = s.p + n * s.offset;
-  return {detail::round_float_towards(o.x, n.x), detail::round_float_towards(o.y, n.y),
-          detail::round_float_towards(o.z, n.z)};
+  const double along = std::fabs(n.x * s.p.x) + std::fabs(n.y * s.p.y) + std::fabs(n.z * s.p.z);
+  const double rounding = 0x1.00001p-24 * (along + std::fabs(s.offset)) + 0x1.0p-149;
+  const Vec3 o = s.p + n * (s.offset + rounding);
+  return {static_cast<float>(o.x), static_cast<float>(o.y), static_cast<float>(o.z)};
 }
 
 // A ray leaving s in direction w.
