@@ -206,7 +206,7 @@ struct Walk {
       if (plan.russian_roulette && depth >= plan.russian_roulette_depth) {
         const double q = std::max(0.05, 1.0 - beta.max());
         if (rng.uniform32() < q) break;
-        beta = beta / (1.0 - q);
+        beta = beta * (1.0 / (1.0 - q));  // one division, not one per channel
       }
       wo = -wi;
     }

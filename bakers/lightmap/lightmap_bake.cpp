@@ -525,12 +525,13 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
           }
           if (bad) dropped.fetch_add(1, std::memory_order_relaxed);
           if (!(weight > 0)) continue;
-          const Rgb estimate = E / weight;
+          const double inv_weight = 1.0 / weight;  // one division for the four channels below
+          const Rgb estimate = E * inv_weight;
           if (!LightmapImage::acceptable(estimate)) {
             dropped.fetch_add(1, std::memory_order_relaxed);
             continue;
           }
-          p.add(estimate, ao / weight, sh, weight, in.directional);
+          p.add(estimate, ao * inv_weight, sh, weight, in.directional);
         }
         if (item.partial < 0) {
           merge(m, t, p);
