@@ -166,12 +166,12 @@ struct Walk {
       const Frame frame = Frame::from_normal(ns);
       // Below the shading normal's horizon (cos θo = frame.to_local(wo).z ≤ 0): no reflection is defined there.
       if (dot(wo, frame.n) <= 0) break;
-      const Rgb t = tint(m, hit);
+      const Rgb t = m.lambertian && m.texture < 0 ? Rgb{} : tint(m, hit);  // untextured Lambert: m.rho has it
       Vec3 wi;
       double pdf_wi;
       if (m.lambertian) {
         // Closed form: f = ρ/π with ρ = A + B·tint; cosine sampling, so f cos θ / pdf = ρ.
-        const Rgb rho = m.lambertian->A + m.lambertian->B * t;
+        const Rgb rho = m.texture < 0 ? m.rho : m.lambertian->A + m.lambertian->B * t;
         auto f_cos = [&](const Vec3& w) { return rho * (std::max(0.0, dot(w, ns)) * kInvPi); };
         auto pdf = [&](const Vec3& w) { return std::max(0.0, dot(w, ns)) * kInvPi; };
         L += beta * next_event(surface, ns, f_cos, pdf);
@@ -266,6 +266,7 @@ std::vector<ShadingMaterial> shading_materials(const scene::Scene& scene, const 
         sm.texture_average = sum / static_cast<double>(tex.texels.size());
       }
     }
+    if (sm.lambertian) sm.rho = sm.lambertian->A + sm.lambertian->B * (sm.base_color * sm.texture_average);
     out.push_back(std::move(sm));
   }
   return out;
@@ -282,7 +283,8 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   // 1. Light sampling.
   Rgb radiance;
   Vec3 direction;
-  Rgb E = walk.next_event(surface, r.ns, cosine, cosine_pdf, &radiance, &direction);
+  Rgb E = ctx.directional ? walk.next_event(surface, r.ns, cosine, cosine_pdf, &radiance, &direction)
+                          : walk.next_event(surface, r.ns, cosine, cosine_pdf);
   if (ctx.directional) add_sh(out.sh, direction, radiance);
 
   // 2. Cosine sampling.
@@ -303,7 +305,8 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
     E += L * kPi;  // L cos θ / pdf with pdf = cos θ / π
     if (ctx.directional) add_sh(out.sh, wi, L / pdf);
   }
-  if (!finite(E) || !finite(out.sh[0]) || !finite(out.sh[1]) || !finite(out.sh[2]) || !finite(out.sh[3])) {
+  if (!finite(E) || (ctx.directional && (!finite(out.sh[0]) || !finite(out.sh[1]) || !finite(out.sh[2]) ||
+                                          !finite(out.sh[3])))) {
     // Never let one bad sample poison a texel: drop it whole, and say so (the report counts them).
     const uint32_t rays = out.rays, occlusion_rays = out.occlusion_rays;
     out = IrradianceEstimate{};
