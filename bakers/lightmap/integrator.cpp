@@ -166,12 +166,12 @@ struct Walk {
       const Frame frame = Frame::from_normal(ns);
       // Below the shading normal's horizon (cos θo = frame.to_local(wo).z ≤ 0): no reflection is defined there.
       if (dot(wo, frame.n) <= 0) break;
-      const Rgb t = m.lambertian && m.texture < 0 ? Rgb{} : tint(m, hit);  // untextured Lambert: m.rho has it
       Vec3 wi;
       double pdf_wi;
       if (m.lambertian) {
-        // Closed form: f = ρ/π with ρ = A + B·tint; cosine sampling, so f cos θ / pdf = ρ.
-        const Rgb rho = m.texture < 0 ? m.rho : m.lambertian->A + m.lambertian->B * t;
+        // Closed form: f = ρ/π with ρ = A + B·tint (precomputed without a texture); cosine sampling, so
+        // f cos θ / pdf = ρ.
+        const Rgb rho = m.texture < 0 ? m.rho : m.lambertian->A + m.lambertian->B * tint(m, hit);
         auto f_cos = [&](const Vec3& w) { return rho * (std::max(0.0, dot(w, ns)) * kInvPi); };
         auto pdf = [&](const Vec3& w) { return std::max(0.0, dot(w, ns)) * kInvPi; };
         L += beta * next_event(surface, ns, f_cos, pdf);
@@ -182,6 +182,7 @@ struct Walk {
         beta = beta * rho;
       } else {
         ++out.general_vertices;
+        const Rgb t = tint(m, hit);
         const Vec3 wo_local = frame.to_local(wo);
         auto f_cos = [&](const Vec3& w) {
           const Vec3 wi_local = frame.to_local(w);

@@ -29,8 +29,7 @@ EmissiveTriangles::EmissiveTriangles(std::vector<EmissiveTriangle> triangles) {
     const double a = 0.5 * length(c);
     if (!(a > 0) || !std::isfinite(a)) continue;  // degenerate: nothing to hit, nothing to sample
     area_.push_back(a);
-    normal_.push_back(c / (2.0 * a));
-    sampling_.push_back({t.p2, t.p0 - t.p2, t.p1 - t.p2, normal_.back(), 1.0 / a, t.Le, t.two_sided});
+    sampling_.push_back({t.p2, t.p0 - t.p2, t.p1 - t.p2, c / (2.0 * a), 1.0 / a, t.Le, t.two_sided});
     const double sides = t.two_sided ? 2.0 : 1.0;
     weights.push_back(a * luminance(t.Le) * sides);
     power_ += t.Le * (kPi * a * sides);
@@ -136,7 +135,7 @@ double EmissiveTriangles::pdf_li(const Vec3& p, const Vec3& /*n*/, const Vec3& w
   if (hit.triangle < 0 || hit.triangle >= size()) return 0.0;
   const int i = hit.triangle;
   const EmissiveTriangle& t = triangles_[i];
-  const Vec3& ng = normal_[i];
+  const Vec3& ng = sampling_[i].ng;
   const double h = dot(p - t.p0, ng);
   if (t.two_sided ? h == 0 : !(h > 0)) return 0.0;  // as in sample_li
   const Vec3 d = hit.point - p;
@@ -150,7 +149,7 @@ double EmissiveTriangles::pdf_li(const Vec3& p, const Vec3& /*n*/, const Vec3& w
 Rgb EmissiveTriangles::Le(const Vec3& /*p*/, const Vec3& wi, const LightHit& hit) const {
   if (hit.triangle < 0 || hit.triangle >= size()) return Rgb{};
   const EmissiveTriangle& t = triangles_[hit.triangle];
-  const double c = dot(normal_[hit.triangle], -wi);  // > 0: the ray arrives at the front
+  const double c = dot(sampling_[hit.triangle].ng, -wi);  // > 0: the ray arrives at the front
   return (c > 0 || (t.two_sided && c < 0)) ? t.Le : Rgb{};
 }
 

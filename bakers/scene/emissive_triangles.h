@@ -51,7 +51,7 @@ class EmissiveTriangles final : public LightSource {
 
  private:
   // What sample_li reads of one triangle, together: its vertex p2 and the edges to the other two (x = p2 + b0·e0 +
-  // b1·e1), the unit front normal, 1/area and the emission.
+  // b1·e1), the unit front normal (pdf_li and Le read it too), 1/area and the emission.
   struct Sampling {
     Vec3 p2, e0, e1, ng;
     double inv_area;
@@ -60,7 +60,6 @@ class EmissiveTriangles final : public LightSource {
   };
   std::vector<EmissiveTriangle> triangles_;
   std::vector<double> area_;
-  std::vector<Vec3> normal_;  // unit geometric normal (front)
   std::vector<Sampling> sampling_;
   AliasTable choice_;
   // find()'s table, dense: per instance, the container's index of triangles first … first + size − 1 of it (the span

@@ -27,8 +27,8 @@ double max_abs(const Vec3& v) { return std::max({std::fabs(v.x), std::fabs(v.y),
 // ℓ²/|Ng| is 1/sin of the triangle's smallest angle (up to a factor ≤ 2): slivers need more lift, well-shaped
 // triangles ~10ε of their size. This term does not grow with the distance from the origin because Embree subtracts
 // float vertices from a float origin; the origin itself is lifted by the most that rounding it to float can take
-// back before it is rounded (offset_ray_origin), so it keeps the whole lift. The hit point p is interpolated in double from the float vertices, so it lies on their
-// plane to ~1e-16 relative: no term for it.
+// back before it is rounded (offset_ray_origin), so it keeps the whole lift. The hit point p is interpolated in
+// double from the float vertices, so it lies on their plane to ~1e-16 relative: no term for it.
 // Coplanar neighbours: world vertices are rounded to float one by one (by up to ε·|v| per coordinate), so a triangle
 // that shared the hit triangle's plane before rounding can stand up to √3·ε·m above it near their shared edge, m the
 // largest coordinate magnitude; the second term lifts the origin over it.

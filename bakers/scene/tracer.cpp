@@ -74,7 +74,6 @@ constexpr double kFlatNormal = 8 * 0x1.0p-24;
 struct Geometry {
   int instance = 0, mesh = 0;
   const MeshAttributes* source = nullptr;
-  size_t first = 0;                 // its triangles' records start here in Impl::records
   double normal_matrix[9];          // the inverse transpose of the instance's 3×3 part, row-major
   double mirror = 1;                // sign of its determinant: −1 flips the winding's normal back outwards
   std::array<double, 4> lightmap_st{1, 1, 0, 0};
@@ -113,7 +112,7 @@ struct Tracer::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   std::vector<Geometry> geometries;  // by Embree geometry ID
-  std::vector<size_t> first;         // by Embree geometry ID: geometries[id].first, apart for the hit path
+  std::vector<size_t> first;         // by Embree geometry ID: where its triangles' records start in `records`
   std::vector<TriangleRecord> records;
   std::vector<MeshAttributes> meshes;
   size_t triangles = 0;
@@ -277,7 +276,7 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
     g.instance = static_cast<int>(k);
     g.mesh = inst.mesh;
     g.source = &im.meshes[inst.mesh];
-    g.first = im.records.size();
+    const size_t first = im.records.size();
     g.mirror = inverse_transpose(inst.to_world, g.normal_matrix);
     g.lightmap_st = inst.lightmap_scale_offset;
     // The mesh's normals in world space, rounded to float (as the records keep them).
@@ -330,7 +329,7 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
     im.side_bytes += nt * sizeof(TriangleRecord);
     if (im.geometries.size() <= id) im.geometries.resize(id + 1);
     if (im.first.size() <= id) im.first.resize(id + 1);
-    im.first[id] = g.first;
+    im.first[id] = first;
     im.geometries[id] = std::move(g);
     im.triangles += nt;
   }
