@@ -60,6 +60,9 @@ struct alignas(64) TriangleRecord {
   // shaded with ng instead: interpolating could only return ng again to within the vertex normals' own float
   // rounding.
   bool interpolate_normals;
+  // ng is zero (its double cross product underflowed). A flag rather than testing ng's components per hit: on
+  // axis-aligned walls some component is zero on every other hit, and a short-circuit test of them mispredicts.
+  bool zero_normal;
 };
 static_assert(sizeof(TriangleRecord) == 128, "two cache lines per triangle");
 
@@ -313,6 +316,7 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
       r.ng[0] = n.x;
       r.ng[1] = n.y;
       r.ng[2] = n.z;
+      r.zero_normal = n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
       r.interpolate_normals = false;
       for (int j = 0; j < 3 && !world_normals.empty(); ++j) {
         const Vec3& vn = world_normals[r.index[j]];
@@ -364,8 +368,7 @@ inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned pr
   h.p = {point(r.p, 0), point(r.p, 1), point(r.p, 2)};
   // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
   // anyway (stored as zero), face the ray.
-  const bool no_normal = r.ng[0] == 0.0 && r.ng[1] == 0.0 && r.ng[2] == 0.0;
-  h.ng = no_normal ? -normalize(ray.direction) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
+  h.ng = r.zero_normal ? -normalize(ray.direction) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
   h.front_face = dot(ray.direction, h.ng) < 0;
   h.ns = h.ng;
   if (r.interpolate_normals) {
