@@ -6,6 +6,7 @@
 #include "bakers/math/constants.h"
 #include "bakers/lightmap/ray_log.h"
 #include "bakers/math/sampling.h"
+#include "bakers/scene/emissive_triangles.h"
 #include "bakers/scene/light_sampler.h"
 #include "bakers/scene/ray_offset.h"
 #include "bakers/scene/texture_sample.h"
@@ -119,7 +120,9 @@ struct Walk {
                  Vec3* direction = nullptr) {
     const auto choice = ctx.lights->sample(rng.uniform32());
     if (!choice) return Rgb{};
-    const auto s = choice->light->sample_li(from.p, ns, u2_32());
+    // The emissive triangles directly (inlined), the other lights through the interface.
+    const auto s = choice->index == ctx.emissive_light ? ctx.lights->emissive()->sample(from.p, u2_32())
+                                                       : choice->light->sample_li(from.p, ns, u2_32());
     if (!s || !(s->Li.max() > 0)) return Rgb{};
     // Below the geometric surface the ray would start inside the geometry: no light arrives from there.
     if (dot(s->wi, from.ng) <= 0) return Rgb{};

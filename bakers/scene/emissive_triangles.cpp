@@ -1,6 +1,5 @@
 #include "bakers/scene/emissive_triangles.h"
 
-#include <bit>
 #include <cmath>
 #include <cstdint>
 
@@ -93,42 +92,7 @@ int EmissiveTriangles::find(int instance, int triangle) const {
 }
 
 std::optional<LightSample> EmissiveTriangles::sample_li(const Vec3& p, const Vec3& /*n*/, Point2 u) const {
-  if (sampling_.empty()) return std::nullopt;
-  const AliasTable::Choice choice = choice_.sample(u.x);
-  const Sampling& t = sampling_[choice.index];
-  const double h = dot(p - t.p2, t.ng);
-  // p on the triangle's plane (edge-on) or behind a one-sided triangle: no light from it.
-  if (t.two_sided ? h == 0 : !(h > 0)) return std::nullopt;
-  // Heitz 2019, "A low-distortion map between triangle and square": uniform barycentrics b0, b1 of p0, p1; with
-  // a = min(ux, uy) and b = max: (a/2, b − a/2) if ux < uy, else (b − a/2, a/2). Chosen by a bit mask rather than
-  // a branch (which the compiler makes of a conditional): which of ux, uy is smaller is a coin toss on every call.
-  const double ux = choice.u_remapped, uy = u.y;
-  const uint64_t first = uint64_t{0} - static_cast<uint64_t>(ux < uy);  // all ones when ux < uy
-  auto pick = [first](double if_first, double otherwise) {
-    return std::bit_cast<double>((std::bit_cast<uint64_t>(if_first) & first) |
-                                 (std::bit_cast<uint64_t>(otherwise) & ~first));
-  };
-  const double half = 0.5 * pick(ux, uy), rest = pick(uy, ux) - half;
-  const double b0 = pick(half, rest), b1 = pick(rest, half);
-  const Vec3 x = t.p2 + t.e0 * b0 + t.e1 * b1;
-  const Vec3 d = x - p;
-  const double dist2 = dot(d, d);
-  // |ng·d| = cos θ_l · dist.
-  const double c = std::fabs(dot(t.ng, d));
-  // p is the sampled point itself, or sees it exactly edge-on: no light along d.
-  if (!(dist2 > 0) || !(c > 0)) return std::nullopt;
-  const double dist = std::sqrt(dist2);
-  // One division serves both wi = d / dist and the density pmf · dist² / (A cos θ_l) = pmf · dist⁴ / (A · dist · c):
-  // this runs at every path vertex.
-  const double r = 1.0 / (dist * c);
-  LightSample s;
-  s.wi = d * (c * r);
-  s.Li = t.Le;
-  s.pdf = choice.pmf * t.inv_area * (dist2 * dist2) * r;
-  if (!std::isfinite(s.pdf)) return std::nullopt;
-  s.distance = dist;
-  s.point = x;
-  return s;
+  return sample(p, u);
 }
 
 double EmissiveTriangles::pdf_li(const Vec3& p, const Vec3& /*n*/, const Vec3& wi, const LightHit& hit) const {
