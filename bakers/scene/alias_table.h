@@ -3,10 +3,9 @@
 // chooses a light, and an emissive triangle on it, once per path vertex; a binary search over a CDF (Distribution1D)
 // costs a call and unpredictable branches there, this costs one multiply and one compare.
 //
-// Contract (as Distribution1D's discrete half): negative and non-finite weights are read as 0; all-zero weights (or
+// Contract (as Distribution1D's for functions): negative and non-finite weights are read as 0; all-zero weights (or
 // none: one zero item) fall back to the uniform choice and total() reports 0 so callers can tell. A sample never
-// returns an item of zero weight unless every weight is zero. The pmf of an item is weight / Σ weights, exactly the
-// value Distribution1D gives (the table only changes which u chooses which item).
+// returns an item of zero weight unless every weight is zero. The pmf of an item is weight / Σ weights.
 #pragma once
 
 #include <algorithm>

@@ -58,22 +58,6 @@ double Distribution1D::pdf(double x) const {
   return func_[i] * size() / func_sum_;
 }
 
-Distribution1D::Discrete Distribution1D::sample_discrete(double u) const {
-  u = std::clamp(u, 0.0, kOneMinusEpsilon);
-  const int i = find_cell(u);
-  const double width = cdf_[i + 1] - cdf_[i];
-  Discrete s;
-  s.index = i;
-  s.pmf = func_[i] / func_sum_;
-  s.u_remapped = width > 0 ? std::clamp((u - cdf_[i]) / width, 0.0, kOneMinusEpsilon) : 0.0;
-  return s;
-}
-
-double Distribution1D::pmf(int index) const {
-  if (index < 0 || index >= size()) return 0.0;
-  return func_[index] / func_sum_;
-}
-
 Distribution2D::Distribution2D(const std::vector<double>& f, int nu, int nv) : nu_(nu), nv_(nv) {
   if (nu < 1 || nv < 1 || f.size() != static_cast<size_t>(nu) * static_cast<size_t>(nv))
     throw std::invalid_argument("Distribution2D: the table must hold nu × nv ≥ 1 values");

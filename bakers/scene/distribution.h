@@ -1,7 +1,7 @@
 // Piecewise-constant 1-D and 2-D distributions (pbrt-v4 §A.4.2 and §A.5.3, PiecewiseConstant1D/2D): sampling a
-// tabulated non-negative function in proportion to its value, with the density of what was sampled. The lights use
-// them to choose a light or an emissive triangle by power (discrete) and to importance-sample an environment image
-// (continuous, over [0,1)²).
+// tabulated non-negative function in proportion to its value, with the density of what was sampled. The environment
+// light uses them to importance-sample its image over [0,1)². (Choosing among lights and emissive triangles is the
+// alias table's: alias_table.h, O(1) instead of a binary search.)
 //
 // Contract: f is tabulated on n equal cells of [0, 1). Negative and non-finite entries are read as 0 (they cannot be a
 // probability). A function that is zero everywhere (or empty input: one zero cell) falls back to the uniform
@@ -36,20 +36,12 @@ class Distribution1D {
   // Density at x ∈ [0, 1] (x = 1 reads the last cell; outside [0, 1]: 0).
   double pdf(double x) const;
 
-  struct Discrete {
-    int index = 0;
-    double pmf = 0;        // probability of `index` (never 0 for a returned index)
-    double u_remapped = 0; // u rescaled to [0, 1) within the chosen cell, reusable as a fresh uniform number
-  };
-  Discrete sample_discrete(double u) const;
-  double pmf(int index) const;  // 0 outside [0, size)
-
  private:
   int find_cell(double u) const;
   std::vector<double> func_;  // sanitised values (uniform 1s in the fallback)
   std::vector<double> cdf_;   // size + 1 entries, cdf_[0] = 0, cdf_[size] = 1
   double integral_ = 0;
-  double func_sum_ = 0;       // Σ func_ (after the fallback), the discrete normaliser
+  double func_sum_ = 0;       // Σ func_ (after the fallback)
   bool fallback_ = false;
 };
 

@@ -7,11 +7,12 @@
 //
 // Plain timing with a custom main (a bake is seconds long, so Google Benchmark's repetition machinery adds nothing),
 // both cores through TBB, in wall-clock seconds (steady_clock) and CPU seconds of the whole process (all threads).
-// The budget bakes run 3 times, the others once; each is followed at once by its raw-Embree run and the fastest of
-// each is kept (see bake()). Default: 32² per lightmap, 4096-estimate reference; --quick: 16², 1024-estimate
-// reference and target 0.05 for the planner lines. Most of the time is the reference and the default-target bake
-// (~4000 estimates per texel: this scene's small light makes one estimate's relative standard deviation ~0.5):
-// --quick takes ~1.5 CPU-minutes, the default ~4 times that and a 4 times longer reference.
+// Every measured bake runs 3 times (the reference once), each followed at once by its raw-Embree run, and the fastest
+// of each is kept (see bake()): on a shared machine a single run's ratio moves by ±10 % between runs, the fastest of
+// three far less. Default: 32² per lightmap, 4096-estimate reference; --quick: 16², 1024-estimate reference and
+// target 0.05 for the planner lines. Most of the time is the reference and the default-target bake (~4000 estimates
+// per texel: this scene's small light makes one estimate's relative standard deviation ~0.5). The default takes ~13
+// CPU-minutes (6.5 minutes on two cores), --quick a fraction of that.
 //
 // Budgets: max_samples 4 … 256 with min_samples = max_samples and a target error of 1e-4 that no texel reaches, so
 // the budget binds and every valid texel gets exactly that many estimates. "est. error" is the bake's own estimate
@@ -269,7 +270,7 @@ int main(int argc, char** argv) {
     runs.push_back(bake("max_samples " + std::to_string(n), budget(n, 1), pools, 3));
   }
   std::fprintf(stderr, "default target...\n");
-  runs.push_back(bake("target 0.01 (default)", input(4096, 0.01, 1), pools));
+  runs.push_back(bake("target 0.01 (default)", input(4096, 0.01, 1), pools, 3));
   // The planner: the same target, planned and as a full simulation (every effect, max_bounces bounces), on the box
   // as `kiln bake lightmap` imports it from the glTF: every material gets glTF's dielectric coat, GGX with α =
   // roughness² = 1 and Schlick's f0 = 0.04, layered over the tinted Lambertian base (client/import/scene_import.cpp).
@@ -289,10 +290,10 @@ int main(int argc, char** argv) {
     return in;
   };
   std::fprintf(stderr, "planned vs full simulation...\n");
-  const Run planned = bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1), pools);
+  const Run planned = bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1), pools, 3);
   LightmapBakeInput full_in = imported(4096, plan_target, 1);
   full_in.full_simulation = true;
-  const Run full = bake("imported box, full simulation, target " + fmt("%.2f", plan_target), full_in, pools);
+  const Run full = bake("imported box, full simulation, target " + fmt("%.2f", plan_target), full_in, pools, 3);
 
 
   std::string table;

@@ -27,7 +27,7 @@ TEST(AliasTable, ChoicesFollowTheWeights) {
   const int64_t n = 400000;
   std::vector<double> observed(w.size(), 0), expected(w.size(), 0);
   for (size_t i = 0; i < w.size(); ++i) {
-    // The pmf is exactly weight / total, as Distribution1D's (to rounding).
+    // The pmf is weight / total (to rounding).
     EXPECT_NEAR(table.pmf(static_cast<int>(i)), w[i] / sum, 1e-15);
     expected[i] = n * w[i] / sum;
   }

@@ -50,59 +50,26 @@ TEST(Distribution1D, ContinuousSamplesFollowThePdf) {
   EXPECT_GT(r.p_value, kLevel) << "chi2 " << r.statistic << " dof " << r.dof << "\n" << r.worst;
 }
 
-TEST(Distribution1D, DiscreteSamplesFollowThePmfAndRemapUniformly) {
-  const std::vector<double> f = {1, 0, 3, 0.5, 0, 10, 2};
-  const Distribution1D d(f);
-  double sum = 0;
-  for (int i = 0; i < d.size(); ++i) sum += d.pmf(i);
-  EXPECT_NEAR(sum, 1.0, 1e-15);  // rounding of 7 divisions
-  EXPECT_DOUBLE_EQ(d.pmf(2), 3.0 / 16.5);
-  EXPECT_EQ(d.pmf(-1), 0.0);
-  EXPECT_EQ(d.pmf(7), 0.0);
-  const int64_t n = 100000;
-  std::vector<double> observed(d.size(), 0), expected(d.size(), 0);
-  // The remapped u must be uniform on [0,1) and independent of the choice: histogram of (index, remapped u in 4 bins).
-  std::vector<double> joint_obs(d.size() * 4, 0), joint_exp(d.size() * 4, 0);
-  Pcg32 rng(5);
-  for (int64_t k = 0; k < n; ++k) {
-    const auto s = d.sample_discrete(rng.uniform());
-    ASSERT_GT(s.pmf, 0.0);
-    ASSERT_EQ(s.pmf, d.pmf(s.index));
-    ASSERT_GE(s.u_remapped, 0.0);
-    ASSERT_LT(s.u_remapped, 1.0);
-    observed[s.index] += 1;
-    joint_obs[s.index * 4 + std::min(static_cast<int>(s.u_remapped * 4), 3)] += 1;
-  }
-  for (int i = 0; i < d.size(); ++i) {
-    expected[i] = n * d.pmf(i);
-    for (int b = 0; b < 4; ++b) joint_exp[i * 4 + b] = n * d.pmf(i) / 4;
-  }
-  EXPECT_EQ(observed[1], 0);
-  EXPECT_EQ(observed[4], 0);
-  const auto r = pearson_chi2(observed, expected);
-  EXPECT_GT(r.p_value, kLevel) << r.worst;
-  const auto rj = pearson_chi2(joint_obs, joint_exp);
-  EXPECT_GT(rj.p_value, kLevel) << rj.worst;
-}
-
 TEST(Distribution1D, GuardedInputsStayFinite) {
   // All zero: uniform, with integral 0 so that callers can tell.
   const Distribution1D zero(std::vector<double>(5, 0.0));
   EXPECT_TRUE(zero.uniform_fallback());
   EXPECT_EQ(zero.integral(), 0.0);
-  EXPECT_DOUBLE_EQ(zero.pmf(3), 0.2);
+  EXPECT_DOUBLE_EQ(zero.pdf(0.7), 1.0);
   EXPECT_DOUBLE_EQ(zero.sample_continuous(0.5).pdf, 1.0);
   // Empty: one cell.
   const Distribution1D empty;
   EXPECT_EQ(empty.size(), 1);
-  EXPECT_EQ(empty.sample_discrete(0.3).index, 0);
+  EXPECT_EQ(empty.sample_continuous(0.3).cell, 0);
+  EXPECT_DOUBLE_EQ(empty.sample_continuous(0.3).pdf, 1.0);
   // NaN, ±Inf and negative entries are read as zero probability.
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
   const Distribution1D bad({nan, 1.0, -inf, inf, -2.0, 1.0});
   EXPECT_FALSE(bad.uniform_fallback());
-  EXPECT_DOUBLE_EQ(bad.pmf(1), 0.5);
-  EXPECT_EQ(bad.pmf(0), 0.0);
-  EXPECT_EQ(bad.pmf(3), 0.0);
+  // Cells 1 and 5 hold all of it, half each: density 0.5 · 6 cells = 3 there, 0 elsewhere.
+  EXPECT_DOUBLE_EQ(bad.pdf(1.5 / 6), 3.0);
+  EXPECT_EQ(bad.pdf(0.5 / 6), 0.0);
+  EXPECT_EQ(bad.pdf(3.5 / 6), 0.0);
   for (double u : {0.0, 0.25, 0.5, 0.75, std::nextafter(1.0, 0.0), 1.0}) {
     const auto c = bad.sample_continuous(u);
     EXPECT_TRUE(c.cell == 1 || c.cell == 5) << u;
