@@ -39,6 +39,10 @@
 //                                only the N-estimate budget bake and its baseline (no reference, no table): for
 //                                comparing two builds quickly; --bake_only leaves the baseline out, for profiling the
 //                                baker alone.
+//   lightmap_bench --subdivide=K  the same box with every triangle split into 4^K (edge midpoints, every attribute
+//                                interpolated): the same surfaces with 32·4^K triangles, for the ratio on heavier
+//                                geometry (the rasterizer then places more sample points per texel, so a bake traces
+//                                more rays per texel; Embree's cost per query and the baker's both grow).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -196,6 +200,34 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
+// Every triangle of every mesh split into 4 at its edge midpoints, `levels` times, each attribute interpolated
+// linearly (the surfaces, their UVs and normals are unchanged). Vertices are not shared between triangles: this is
+// for loading Embree with triangles, not for memory.
+void subdivide(scene::Scene& scene, int levels) {
+  for (scene::Mesh& mesh : scene.meshes) {
+    for (int level = 0; level < levels; ++level) {
+      scene::Mesh out;
+      out.name = mesh.name;
+      auto mid = [](auto a, auto b) { return decltype(a){(a.x + b.x) / 2, (a.y + b.y) / 2}; };
+      auto vertex = [&](uint32_t i, uint32_t j) {  // the midpoint of vertices i and j (i == j: vertex i)
+        out.positions.push_back((mesh.positions[i] + mesh.positions[j]) * 0.5);
+        if (!mesh.normals.empty()) out.normals.push_back((mesh.normals[i] + mesh.normals[j]) * 0.5);
+        if (!mesh.uv.empty()) out.uv.push_back(mid(mesh.uv[i], mesh.uv[j]));
+        if (!mesh.lightmap_uv.empty()) out.lightmap_uv.push_back(mid(mesh.lightmap_uv[i], mesh.lightmap_uv[j]));
+        return static_cast<uint32_t>(out.positions.size() - 1);
+      };
+      for (size_t t = 0; t * 3 < mesh.indices.size(); ++t) {
+        const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
+        const uint32_t va = vertex(a, a), vb = vertex(b, b), vc = vertex(c, c);
+        const uint32_t ab = vertex(a, b), bc = vertex(b, c), ca = vertex(c, a);
+        for (uint32_t i : {va, ab, ca, ab, vb, bc, ca, bc, vc, ab, bc, ca}) out.indices.push_back(i);
+        if (!mesh.material.empty()) out.material.insert(out.material.end(), 4, mesh.material[t]);
+      }
+      mesh = std::move(out);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace kiln::lightmap
 
@@ -203,7 +235,7 @@ int main(int argc, char** argv) {
   using namespace kiln;
   using namespace kiln::lightmap;
   bool quick = false;
-  int resolution = 0, profile = 0;
+  int resolution = 0, profile = 0, subdivisions = 0;
   bool bake_only = false;
   std::string table_out, command = "lightmap_bench";
   for (int i = 1; i < argc; ++i) {
@@ -219,8 +251,12 @@ int main(int argc, char** argv) {
       profile = std::atoi(argv[i] + 10);
     } else if (std::strcmp(argv[i], "--bake_only") == 0) {
       bake_only = true;
+    } else if (std::strncmp(argv[i], "--subdivide=", 12) == 0) {
+      subdivisions = std::clamp(std::atoi(argv[i] + 12), 0, 8);
+      command += std::string(" ") + argv[i];
     } else {
-      std::fprintf(stderr, "usage: lightmap_bench [--table_out=FILE] [--quick] [--resolution=N] [--profile=N [--bake_only]]\n");
+      std::fprintf(stderr, "usage: lightmap_bench [--table_out=FILE] [--quick] [--resolution=N] [--subdivide=K] "
+                           "[--profile=N [--bake_only]]\n");
       return 2;
     }
   }
@@ -228,7 +264,9 @@ int main(int argc, char** argv) {
   const uint64_t reference_samples = quick ? 1024 : 4096;
 
   auto input = [&](uint64_t samples, double target, uint64_t seed) {
-    LightmapBakeInput in = test::lightmap_input(test::cornell_box(), resolution, target);
+    scene::Scene box = test::cornell_box();
+    subdivide(box, subdivisions);
+    LightmapBakeInput in = test::lightmap_input(std::move(box), resolution, target);
     in.min_samples = std::min<uint64_t>(samples, in.min_samples);
     in.max_samples = samples;
     in.seed = seed;
@@ -239,6 +277,10 @@ int main(int argc, char** argv) {
     in.min_samples = samples;  // every valid texel gets exactly `samples` estimates
     return in;
   };
+
+  size_t triangles = 0;
+  for (const scene::Mesh& m : input(1, 0.01, 1).scene.meshes) triangles += m.indices.size() / 3;
+  std::fprintf(stderr, "the box: %zu triangles\n", triangles);
 
   // The baseline's rays: every ray of a 16-estimate bake of the box (another seed than the bakes measured).
   std::fprintf(stderr, "recording the baker's rays...\n");
@@ -298,7 +340,8 @@ int main(int argc, char** argv) {
 
   std::string table;
   auto line = [&](const std::string& s) { table += s + "\n"; };
-  line("Cornell box (client/examples/scenes/cornell_box.py, 8 lightmaps), " + std::to_string(resolution) + "^2 per "
+  line("Cornell box (client/examples/scenes/cornell_box.py, 8 lightmaps, " + std::to_string(triangles) +
+       " triangles), " + std::to_string(resolution) + "^2 per "
        "lightmap; reference: " + std::to_string(reference_samples) + " estimates per texel, its own estimated error " +
        fmt("%.4f", reference.result.error_estimate) + ", " + fmt("%.1f s", reference.result.seconds) + ".");
   line("");
