@@ -37,7 +37,8 @@ struct Walk {
   IrradianceEstimate& out;
 
   Point2 u2() { return {rng.uniform(), rng.uniform()}; }
-  // For the light choice, the point on the light and Russian roulette: 32 bits each are ample (Pcg32::uniform32).
+  // For the point on a light: 32 bits per coordinate are ample (Pcg32::uniform32; the light choice and Russian
+  // roulette draw one such number each).
   Point2 u2_32() { return {rng.uniform32(), rng.uniform32()}; }
 
   // A closest-hit query into `hit` (untouched on a miss); true on a hit.
