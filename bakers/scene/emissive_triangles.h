@@ -70,7 +70,7 @@ class EmissiveTriangles final : public LightSource {
   AliasTable choice_;
   // find()'s table, dense: per instance, the container's index of triangles first … first + size − 1 of it (the span
   // of its emissive triangles; −1 for those between that do not emit). A lookup per path vertex that hits an emitter,
-  // so two loads rather than a hash; at most one int per triangle of an emissive mesh (the tracer keeps 128 bytes).
+  // so two loads rather than a hash; at most one int per triangle of an emissive mesh (the tracer keeps 120 bytes).
   struct InstanceIndex {
     int first = 0;
     std::vector<int> index;

@@ -36,25 +36,29 @@ struct MeshAttributes {
   std::vector<Point2> uv, lightmap_uv;
 };
 
-// Everything a hit on one triangle needs, in one record, computed once when the tracer is built: completing a hit
-// is then one dependent load after Embree returns instead of a chain through the geometry's index, vertex and
-// normal buffers (that chain, and recomputing these per hit, cost as much as a third of an Embree query on a small
-// scene).
+// What a hit on one triangle needs, computed once when the tracer is built, so that completing a hit is a dependent
+// load after Embree returns instead of a chain through the geometry's index, vertex and normal buffers (that chain,
+// and recomputing these per hit, cost as much as a third of an Embree query on a small scene). Split by how often a
+// hit reads it, so that the part every hit reads is one cache line: on a scene whose records outgrow the caches the
+// load after Embree returns is the tracer's largest cost (two lines a triangle measured 64 % of Tracer::intersect's
+// time on 8,192 triangles).
+//
+// Every closest hit: the place, the normal and the offset.
 struct alignas(64) TriangleRecord {
   float p[3][3];  // the world (float) vertices Embree traces, in the triangle's index order
-  float n[3][3];  // the mesh's vertex normals in world space (the inverse transpose applied, not renormalised:
-                  // interpolating them and then normalising is the same as transforming the interpolated normal);
-                  // unused without vertex normals
+  // self_intersection_offset of the float vertices, rounded up to a float: it depends on the triangle alone (a hit
+  // point inside it is no farther from the origin than its farthest vertex, coordinate-wise).
+  float offset;
   // The unit geometric normal (mirror applied), the double cross product of the float vertices normalised (kept in
   // double: front-face and horizon decisions at grazing angles rest on it); zero for a triangle whose normal
   // underflows (Embree cannot hit it, see complete()).
   double ng[3];
-  // self_intersection_offset of the float vertices, rounded up to a float: it depends on the triangle alone (a hit
-  // point inside it is no farther from the origin than its farthest vertex, coordinate-wise).
-  float offset;
+};
+static_assert(sizeof(TriangleRecord) == 64, "one cache line per triangle");
+
+// Every closest hit too, but small enough to stay cached (8 bytes a triangle).
+struct TriangleFacts {
   int32_t material;  // into Scene::materials
-  uint32_t index[3];  // the vertex indices, for the UV attributes
-  int32_t instance, mesh;
   // The shading normal to interpolate: false without vertex normals, and for a triangle whose three vertex normals
   // all lie within kFlatNormal of its geometric normal (a flat face, as most lightmapped geometry is), which is
   // shaded with ng instead: interpolating could only return ng again to within the vertex normals' own float
@@ -64,7 +68,15 @@ struct alignas(64) TriangleRecord {
   // axis-aligned walls some component is zero on every other hit, and a short-circuit test of them mispredicts.
   bool zero_normal;
 };
-static_assert(sizeof(TriangleRecord) == 128, "two cache lines per triangle");
+static_assert(sizeof(TriangleFacts) == 8);
+
+// Only for hits that interpolate vertex normals or UVs.
+struct TriangleVertices {
+  float n[3][3];  // the mesh's vertex normals in world space (the inverse transpose applied, not renormalised:
+                  // interpolating them and then normalising is the same as transforming the interpolated normal);
+                  // unused without vertex normals
+  uint32_t index[3];  // the vertex indices, for the UV attributes
+};
 
 // How far (in radians, for small angles: the length of the difference of unit vectors) a vertex normal may stand
 // from its triangle's geometric normal for the triangle to count as flat. A float vertex normal is known to a
@@ -115,8 +127,10 @@ struct Tracer::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   std::vector<Geometry> geometries;  // by Embree geometry ID
-  std::vector<size_t> first;         // by Embree geometry ID: where its triangles' records start in `records`
+  std::vector<size_t> first;         // by Embree geometry ID: where its triangles start in the three arrays below
   std::vector<TriangleRecord> records;
+  std::vector<TriangleFacts> facts;
+  std::vector<TriangleVertices> vertices;
   std::vector<MeshAttributes> meshes;
   size_t triangles = 0;
   size_t side_bytes = 0;                    // the records and the copied UV attributes
@@ -153,7 +167,8 @@ struct Tracer::Impl {
     if (device) rtcReleaseDevice(device);
   }
 
-  const TriangleRecord& record(unsigned geom_id, unsigned prim_id) const { return records[first[geom_id] + prim_id]; }
+  size_t triangle(unsigned geom_id, unsigned prim_id) const { return first[geom_id] + prim_id; }
+  HitId id_of(const RTCRayHit& rh) const;  // of a hit
   // Inline: it follows every closest-hit query.
   [[gnu::always_inline]] inline void complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u,
                                               float v, HitDetail detail, Hit& h) const;
@@ -296,17 +311,19 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
     }
     for (size_t t = 0; t < nt; ++t) {
       TriangleRecord r{};
+      TriangleFacts f{};
+      TriangleVertices tv{};
       for (int j = 0; j < 3; ++j) {
-        r.index[j] = ib[3 * t + j];
-        std::copy(vb + 3 * size_t{r.index[j]}, vb + 3 * size_t{r.index[j]} + 3, r.p[j]);
+        tv.index[j] = ib[3 * t + j];
+        std::copy(vb + 3 * size_t{tv.index[j]}, vb + 3 * size_t{tv.index[j]} + 3, r.p[j]);
         if (!world_normals.empty()) {
-          const Vec3& n = world_normals[r.index[j]];
-          r.n[j][0] = static_cast<float>(n.x);
-          r.n[j][1] = static_cast<float>(n.y);
-          r.n[j][2] = static_cast<float>(n.z);
+          const Vec3& n = world_normals[tv.index[j]];
+          tv.n[j][0] = static_cast<float>(n.x);
+          tv.n[j][1] = static_cast<float>(n.y);
+          tv.n[j][2] = static_cast<float>(n.z);
         }
       }
-      const Vec3 p0 = vertex(vb, r.index[0]), p1 = vertex(vb, r.index[1]), p2 = vertex(vb, r.index[2]);
+      const Vec3 p0 = vertex(vb, tv.index[0]), p1 = vertex(vb, tv.index[1]), p2 = vertex(vb, tv.index[2]);
       const double offset = self_intersection_offset(p0, p1, p2, p0);
       r.offset = static_cast<float>(offset);
       if (static_cast<double>(r.offset) < offset) r.offset = std::nextafterf(r.offset, INFINITY);  // never below
@@ -316,21 +333,21 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
       r.ng[0] = n.x;
       r.ng[1] = n.y;
       r.ng[2] = n.z;
-      r.zero_normal = n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
-      r.interpolate_normals = false;
+      f.zero_normal = n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
+      f.interpolate_normals = false;
       for (int j = 0; j < 3 && !world_normals.empty(); ++j) {
-        const Vec3& vn = world_normals[r.index[j]];
+        const Vec3& vn = world_normals[tv.index[j]];
         const double vl = length(vn);
         // A zero or non-finite vertex normal, or one off the face: interpolate (complete() guards the zero sum).
         if (!(vl > 0) || !std::isfinite(vl) || !(length(vn * (1.0 / vl) - n) <= kFlatNormal))
-          r.interpolate_normals = true;
+          f.interpolate_normals = true;
       }
-      r.material = mesh.material.empty() ? 0 : static_cast<int32_t>(mesh.material[t]);
-      r.instance = g.instance;
-      r.mesh = g.mesh;
+      f.material = mesh.material.empty() ? 0 : static_cast<int32_t>(mesh.material[t]);
       im.records.push_back(r);
+      im.facts.push_back(f);
+      im.vertices.push_back(tv);
     }
-    im.side_bytes += nt * sizeof(TriangleRecord);
+    im.side_bytes += nt * (sizeof(TriangleRecord) + sizeof(TriangleFacts) + sizeof(TriangleVertices));
     if (im.geometries.size() <= id) im.geometries.resize(id + 1);
     if (im.first.size() <= id) im.first.resize(id + 1);
     im.first[id] = first;
@@ -355,12 +372,15 @@ Vec3 Tracer::bounds_upper() const { return impl_->upper; }
 
 inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv,
                                    HitDetail detail, Hit& h) const {
-  const TriangleRecord& r = record(geom_id, prim_id);
+  const size_t i = triangle(geom_id, prim_id);
+  const TriangleRecord& r = records[i];
+  const TriangleFacts& f = facts[i];
+  const Geometry& g = geometries[geom_id];
   h.t = t;
-  h.instance = r.instance;
-  h.mesh = r.mesh;
+  h.instance = g.instance;
+  h.mesh = g.mesh;
   h.triangle = static_cast<int>(prim_id);
-  h.material = r.material;
+  h.material = f.material;
   h.u = hu;
   h.v = hv;
   const double w = 1.0 - h.u - h.v;
@@ -368,11 +388,12 @@ inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned pr
   h.p = {point(r.p, 0), point(r.p, 1), point(r.p, 2)};
   // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
   // anyway (stored as zero), face the ray.
-  h.ng = r.zero_normal ? -normalize(ray.direction) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
+  h.ng = f.zero_normal ? -normalize(ray.direction) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
   h.front_face = dot(ray.direction, h.ng) < 0;
   h.ns = h.ng;
-  if (r.interpolate_normals) {
-    const Vec3 nw{point(r.n, 0), point(r.n, 1), point(r.n, 2)};
+  if (f.interpolate_normals) {
+    const TriangleVertices& tv = vertices[i];
+    const Vec3 nw{point(tv.n, 0), point(tv.n, 1), point(tv.n, 2)};
     const double nl = length(nw);
     // Opposite vertex normals can interpolate to zero inside the triangle: the geometric normal stands in.
     if (nl > 0 && std::isfinite(nl)) h.ns = nw * ((dot(nw, h.ng) < 0 ? -1.0 : 1.0) / nl);
@@ -380,9 +401,9 @@ inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned pr
   h.lightmap_uv = {};
   h.uv = {};
   if (detail.lightmap_uv || detail.uv) {
-    const Geometry& g = geometries[geom_id];
     const MeshAttributes& mesh = *g.source;
-    const uint32_t i0 = r.index[0], i1 = r.index[1], i2 = r.index[2];
+    const TriangleVertices& tv = vertices[i];
+    const uint32_t i0 = tv.index[0], i1 = tv.index[1], i2 = tv.index[2];
     if (detail.lightmap_uv && !mesh.lightmap_uv.empty()) {
       const Point2 &a = mesh.lightmap_uv[i0], &b = mesh.lightmap_uv[i1], &d = mesh.lightmap_uv[i2];
       const Point2 q{a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
@@ -407,11 +428,11 @@ bool intersect1(RTCScene scene, const Ray& ray, RTCRayHit& rh) {
 }
 
 
-// `r`: the record of the triangle hit.
-HitId make_id(const RTCRayHit& rh, const TriangleRecord& r) {
+// `r`: the record of the triangle hit, `g` its geometry.
+HitId make_id(const RTCRayHit& rh, const TriangleRecord& r, const Geometry& g) {
   HitId id;
   id.t = rh.ray.tfar;
-  id.instance = r.instance;
+  id.instance = g.instance;
   id.triangle = static_cast<int>(rh.hit.primID);
   id.u = rh.hit.u;
   id.v = rh.hit.v;
@@ -421,6 +442,10 @@ HitId make_id(const RTCRayHit& rh, const TriangleRecord& r) {
   return id;
 }
 }  // namespace
+
+HitId Tracer::Impl::id_of(const RTCRayHit& rh) const {
+  return make_id(rh, records[triangle(rh.hit.geomID, rh.hit.primID)], geometries[rh.hit.geomID]);
+}
 
 std::optional<Hit> Tracer::intersect(const Ray& ray, HitDetail detail) const {
   RTCRayHit rh;
@@ -440,7 +465,7 @@ bool Tracer::intersect(const Ray& ray, Hit& out, HitDetail detail) const {
 std::optional<HitId> Tracer::intersect_id(const Ray& ray) const {
   RTCRayHit rh;
   if (!intersect1(impl_->scene, ray, rh)) return std::nullopt;
-  return make_id(rh, impl_->record(rh.hit.geomID, rh.hit.primID));
+  return impl_->id_of(rh);
 }
 
 Hit Tracer::complete(const Ray& ray, const HitId& id) const {
@@ -495,8 +520,7 @@ void Tracer::intersect(std::span<const Ray> rays, std::span<std::optional<HitId>
       rays, out.size(), "intersect", init_ray_hit,
       [scene](RTCIntersectContext* c, RTCRayHit* b, unsigned n) { rtcIntersect1M(scene, c, b, n, sizeof(RTCRayHit)); },
       [&](size_t i, const RTCRayHit& rh) {
-        out[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::nullopt
-                                                          : std::optional<HitId>(make_id(rh, im.record(rh.hit.geomID, rh.hit.primID)));
+        out[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::nullopt : std::optional<HitId>(im.id_of(rh));
       });
 }
 
