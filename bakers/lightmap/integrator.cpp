@@ -44,13 +44,13 @@ struct Walk {
   // A closest-hit query into `hit` (untouched on a miss); true on a hit.
   bool trace(const scene::Ray& ray, scene::Hit& hit) {
     ++out.rays;
-    if (ctx.ray_log) ctx.ray_log->record(ray, false);
+    if (ctx.ray_log) ctx.ray_log->record(ray, RayKind::closest);
     return ctx.tracer->intersect(ray, hit, scene::HitDetail{.lightmap_uv = false, .uv = ctx.textured});
   }
   bool visible(const scene::Ray& ray) {
     ++out.rays;
     ++out.occlusion_rays;
-    if (ctx.ray_log) ctx.ray_log->record(ray, true);
+    if (ctx.ray_log) ctx.ray_log->record(ray, RayKind::occlusion);
     return !ctx.tracer->occluded(ray);
   }
 

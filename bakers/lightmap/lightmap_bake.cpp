@@ -327,7 +327,7 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
 
   // 4. Texels of every lightmap, leaks resolved.
   std::vector<Lightmap> maps;
-  const TracerRayQuery query(tracer, s);
+  const TracerRayQuery query(tracer, s, in.ray_log);
   // Triangles the scene check keeps for tracing but not for baking (UVs outside [0, 1], zero UV area).
   std::vector<std::vector<uint8_t>> bake_mask;
   for (const auto& t : checked.triangles) bake_mask.push_back(t.bake);
@@ -340,6 +340,7 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
     LightmapTexels texels = rasterize_lightmap(s, name, raster);
     const LeakReport leaks = fix_leaks(texels, query, LeakOptions{});
     result.rays += leaks.rays;
+    result.probe_rays += leaks.rays;
     std::vector<uint8_t> validity = texels.validity();
     Lightmap m{name, std::move(texels), {}, LightmapImage(name, res, res, std::move(validity)), leaks, {}, {}, {}, {}};
     m.attempts.assign(m.texels.texel_count(), 0);

@@ -65,7 +65,7 @@ struct LightmapBakeInput {
   bool preview = true;       // NAME_preview.png
 
   // Benchmarks only, not part of a job (the service never sets it, and it is not in the cache key): receives the
-  // rays the transport traces (ray_log.h).
+  // rays the transport and the leak probes trace (ray_log.h).
   RayLog* ray_log = nullptr;
 };
 
@@ -82,6 +82,7 @@ struct LightmapBakeResult {
   std::vector<ErrorPoint> curve;
   uint64_t samples = 0, rays = 0;
   uint64_t occlusion_rays = 0;    // of `rays`, the shadow (any-hit) queries; the others are closest-hit
+  uint64_t probe_rays = 0;        // of the closest-hit ones, the leak probes' (leaks.h), traced before the passes
   // Path vertices shaded through the general BSDF (a glossy or otherwise non-Lambertian material); the others are
   // shaded in closed Lambertian form (integrator.h), which is what pruning a glossy lobe buys.
   uint64_t general_vertices = 0;

@@ -10,6 +10,7 @@ bool TracerRayQuery::two_sided(int instance, int triangle) const {
 
 std::optional<HitInfo> TracerRayQuery::intersect(const Vec3& origin, const Vec3& dir, double tmax) const {
   const scene::Ray ray{origin, dir, tmax};
+  if (log_) log_->record(ray, RayKind::probe);
   const std::optional<scene::HitId> id = tracer_.intersect_id(ray);
   if (!id) return std::nullopt;
   if (id->front_face || two_sided(id->instance, id->triangle)) return HitInfo{id->t, true, {}};

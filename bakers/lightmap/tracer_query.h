@@ -2,6 +2,7 @@
 #pragma once
 
 #include "bakers/lightmap/leaks.h"
+#include "bakers/lightmap/ray_log.h"
 #include "bakers/scene/scene.h"
 #include "bakers/scene/tracer.h"
 
@@ -9,10 +10,12 @@ namespace kiln::lightmap {
 
 // front_face is the tracer's (the ray arrived from the side of the front normal), except that surfaces of two-sided
 // materials have no back: every hit on them is a front-face hit. Both references must outlive the query; `scene` is
-// the one the tracer was built from (check_scene's cleaned scene), so that hit triangles index its meshes.
+// the one the tracer was built from (check_scene's cleaned scene), so that hit triangles index its meshes. `log`
+// (benchmarks only, ray_log.h) receives every query as a probe.
 class TracerRayQuery final : public RayQuery {
  public:
-  TracerRayQuery(const scene::Tracer& tracer, const scene::Scene& scene) : tracer_(tracer), scene_(scene) {}
+  TracerRayQuery(const scene::Tracer& tracer, const scene::Scene& scene, RayLog* log = nullptr)
+      : tracer_(tracer), scene_(scene), log_(log) {}
   std::optional<HitInfo> intersect(const Vec3& origin, const Vec3& dir, double tmax) const override;
 
  private:
@@ -20,6 +23,7 @@ class TracerRayQuery final : public RayQuery {
 
   const scene::Tracer& tracer_;
   const scene::Scene& scene_;
+  RayLog* log_;
 };
 
 }  // namespace kiln::lightmap

@@ -25,15 +25,19 @@
 // "error vs ref" reads sqrt(e² + e_ref²); "(ref removed)" is sqrt(error vs ref² − e_ref²), the bake's own error, to
 // compare with "est. error" (it is meaningful only well above e_ref).
 //
-// Raw Embree: the baker's own rays, replayed. A 16-estimate bake of the box (another seed) records every ray its
-// transport traces (bakers/lightmap/ray_log.h): origins on the surfaces, cosine- and BSDF-sampled directions, shadow
-// rays ending on the light. Each measured bake is followed by the same number of rays as it traced, with its own
-// closest-hit / occlusion mix, cycled through those recorded rays in their recorded order and traced one at a time
-// through Tracer::intersect_id and Tracer::occluded (rtcIntersect1 / rtcOccluded1 and nothing else worth counting)
-// on both cores with TBB, over the same Tracer (robust mode, as the baker's). The ratio divides the baker's rays per
-// second of its whole bake (rasterization, leaks, outputs included) by raw Embree's: the share of the bake's time
-// spent inside Embree. (Up to kiln-lightmap-2 the baseline was synthetic rays from points throughout the room in
-// directions uniform on the sphere, which Embree traces ~10 % faster than the baker's.)
+// Raw Embree: the baker's own rays, replayed. A 16-estimate bake of the box (another seed) records every ray it
+// traces (bakers/lightmap/ray_log.h): the transport's (origins on the surfaces, cosine- and BSDF-sampled directions,
+// shadow rays ending on the light) and the leak probes' (every sample point's hemisphere, before the passes). Each
+// measured bake is followed by the same number of rays as it traced, with its own mix of the three kinds (transport
+// closest-hit, shadow, leak probe), each cycled through its recorded rays in their recorded order and traced one at
+// a time through Tracer::intersect_id and Tracer::occluded (rtcIntersect1 / rtcOccluded1 and nothing else worth
+// counting) on both cores with TBB, over the same Tracer (robust mode, as the baker's). The ratio divides the
+// baker's rays per second of its whole bake (rasterization, leaks, outputs included) by raw Embree's: the share of
+// the bake's time spent inside Embree. (Up to kiln-lightmap-2 the baseline was synthetic rays from points throughout the room in
+// directions uniform on the sphere, which Embree traces ~10 % faster than the baker's; until session 7 the leak
+// probes were replayed as transport rays, which Embree traces at much the same speed.) The leak probes are most of a
+// short bake's rays (58 % at 4 estimates per texel) and cost the baker little beyond Embree's query, which is why
+// the short bakes' ratio is the highest.
 //
 //   lightmap_bench --profile=N [--bake_only]
 //                                only the N-estimate budget bake and its baseline (no reference, no table): for
@@ -86,7 +90,7 @@ struct Timing {
 // The baker's own rays, recorded by a bake (bakers/lightmap/ray_log.h) and split by kind, each kind in the order
 // the bake traced it: what raw Embree replays.
 struct RayPools {
-  std::vector<scene::Ray> closest, occlusion;
+  std::vector<scene::Ray> closest, occlusion, probe;
 };
 
 RayPools record_rays(LightmapBakeInput in) {
@@ -95,37 +99,49 @@ RayPools record_rays(LightmapBakeInput in) {
   in.ray_log = &log;
   bake_lightmaps(in);
   RayPools pools;
-  for (size_t i = 0; i < log.size(); ++i) (log.occlusion(i) ? pools.occlusion : pools.closest).push_back(log.ray(i));
+  for (size_t i = 0; i < log.size(); ++i) {
+    switch (log.kind(i)) {
+      case RayKind::closest: pools.closest.push_back(log.ray(i)); break;
+      case RayKind::occlusion: pools.occlusion.push_back(log.ray(i)); break;
+      case RayKind::probe: pools.probe.push_back(log.ray(i)); break;
+    }
+  }
   return pools;
 }
 
-// Raw Embree: `closest` closest-hit and `occlusion` any-hit rays cycled through the pools, one at a time, on every
-// TBB thread.
-Timing raw_embree_seconds(const scene::Tracer& tracer, const RayPools& pools, uint64_t closest, uint64_t occlusion) {
-  const std::vector<scene::Ray>& c = pools.closest;
-  const std::vector<scene::Ray>& o = pools.occlusion;
+// How many rays of each kind a bake traced.
+struct RayMix {
+  uint64_t closest = 0, occlusion = 0, probe = 0;
+};
+RayMix mix_of(const LightmapBakeResult& r) {
+  return {r.rays - r.occlusion_rays - r.probe_rays, r.occlusion_rays, r.probe_rays};
+}
+
+// Raw Embree: `mix` rays, each kind cycled through its pool, one at a time, on every TBB thread.
+Timing raw_embree_seconds(const scene::Tracer& tracer, const RayPools& pools, const RayMix& mix) {
   std::atomic<uint64_t> hits{0};
+  const uint64_t end_closest = mix.closest, end_occlusion = end_closest + mix.occlusion,
+                 end_probe = end_occlusion + mix.probe;
   const auto t0 = Clock::now();
   const double cpu0 = process_cpu_seconds();
-  // Each block walks the pools from its own start, wrapping by comparison (a modulo per ray would cost as much as
-  // a tenth of an Embree query and count against Embree).
-  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, closest + occlusion, 1024),
-                    [&](const tbb::blocked_range<uint64_t>& r) {
-                      uint64_t h = 0;
-                      const uint64_t end_closest = std::min(r.end(), std::max(r.begin(), closest));
-                      size_t k = r.begin() % c.size();
-                      for (uint64_t i = r.begin(); i < end_closest; ++i) {
-                        h += tracer.intersect_id(c[k]).has_value();
-                        if (++k == c.size()) k = 0;
-                      }
-                      const uint64_t begin_occlusion = std::max(r.begin(), closest);
-                      k = (begin_occlusion - closest) % o.size();
-                      for (uint64_t i = begin_occlusion; i < r.end(); ++i) {
-                        h += tracer.occluded(o[k]);
-                        if (++k == o.size()) k = 0;
-                      }
-                      hits.fetch_add(h, std::memory_order_relaxed);
-                    });
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, end_probe, 1024), [&](const tbb::blocked_range<uint64_t>& r) {
+    uint64_t h = 0;
+    // The part of this block in [begin, end), walked through `pool` from the block's own start, wrapping by
+    // comparison (a modulo per ray would cost as much as a tenth of an Embree query and count against Embree).
+    auto replay = [&](const std::vector<scene::Ray>& pool, uint64_t begin, uint64_t end, auto&& trace) {
+      const uint64_t lo = std::max(r.begin(), begin), hi = std::min(r.end(), end);
+      if (lo >= hi) return;
+      size_t k = (lo - begin) % pool.size();
+      for (uint64_t i = lo; i < hi; ++i) {
+        h += trace(pool[k]);
+        if (++k == pool.size()) k = 0;
+      }
+    };
+    replay(pools.closest, 0, end_closest, [&](const scene::Ray& ray) { return tracer.intersect_id(ray).has_value(); });
+    replay(pools.occlusion, end_closest, end_occlusion, [&](const scene::Ray& ray) { return tracer.occluded(ray); });
+    replay(pools.probe, end_occlusion, end_probe, [&](const scene::Ray& ray) { return tracer.intersect_id(ray).has_value(); });
+    hits.fetch_add(h, std::memory_order_relaxed);
+  });
   const Timing s{seconds_since(t0), process_cpu_seconds() - cpu0};
   if (hits.load() == 0) std::fprintf(stderr, "raw Embree: no ray hit anything (the scene is wrong)\n");
   return s;
@@ -156,7 +172,7 @@ Run bake(const std::string& label, LightmapBakeInput in, const RayPools& pools, 
     if (!with_baseline) continue;
     const scene::CheckedScene checked = scene::check_scene(in.scene);
     const scene::Tracer tracer(checked.scene);
-    const Timing t = raw_embree_seconds(tracer, pools, run.result.rays - run.result.occlusion_rays, run.result.occlusion_rays);
+    const Timing t = raw_embree_seconds(tracer, pools, mix_of(run.result));
     run.raw.wall = std::min(run.raw.wall, t.wall);
     run.raw.cpu = std::min(run.raw.cpu, t.cpu);
   }
@@ -283,9 +299,17 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "the box: %zu triangles\n", triangles);
 
   // The baseline's rays: every ray of a 16-estimate bake of the box (another seed than the bakes measured).
-  std::fprintf(stderr, "recording the baker's rays...\n");
-  const RayPools pools = record_rays(budget(16, 424242));
-  std::fprintf(stderr, "recorded %zu closest-hit and %zu shadow rays\n", pools.closest.size(), pools.occlusion.size());
+  RayPools pools;
+  if (!(profile > 0 && bake_only)) {
+    std::fprintf(stderr, "recording the baker's rays...\n");
+    pools = record_rays(budget(16, 424242));
+    std::fprintf(stderr, "recorded %zu closest-hit, %zu shadow and %zu leak-probe rays\n", pools.closest.size(),
+                 pools.occlusion.size(), pools.probe.size());
+    if (pools.closest.empty() || pools.occlusion.empty() || pools.probe.empty()) {
+      std::fprintf(stderr, "lightmap_bench: the recording bake traced no rays of some kind; the box is wrong\n");
+      return 1;
+    }
+  }
   if (profile > 0) {
     // One budget bake and its baseline, for profiling and quick comparisons: no reference, no table.
     const Run r = bake("profile", budget(profile, 1), pools, 3, !bake_only);

@@ -1,5 +1,6 @@
 // The ray log the lightmap benchmark replays through raw Embree (bakers/lightmap/ray_log.h): it receives exactly the
-// transport's rays, shadow rays marked, starting where the bake's receivers are, and a full log counts what it drops.
+// bake's rays, each marked with its kind (transport closest-hit, shadow, leak probe), the transport's starting where
+// the bake's receivers are, and a full log counts what it drops.
 #include "bakers/lightmap/ray_log.h"
 
 #include <gtest/gtest.h>
@@ -29,34 +30,40 @@ LightmapBakeInput lit_floor() {
   return in;
 }
 
-TEST(RayLog, ReceivesTheTransportsRays) {
+TEST(RayLog, ReceivesEveryRayOfTheBakeWithItsKind) {
   LightmapBakeInput in = lit_floor();
   RayLog log(1 << 16);
   in.ray_log = &log;
   const LightmapBakeResult r = bake_lightmaps(in);
   ASSERT_GT(log.size(), 0u);
   EXPECT_EQ(log.size(), log.offered()) << "the log was large enough for every ray";
-  // The bake's counts also hold the leak pass's rays (closest-hit), which the transport does not trace.
-  EXPECT_LE(log.offered(), r.rays);
-  size_t shadow = 0;
+  EXPECT_EQ(log.offered(), r.rays) << "every ray the bake counts, and no other";
+  size_t shadow = 0, probes = 0, closest = 0;
   for (size_t i = 0; i < log.size(); ++i) {
     const scene::Ray& ray = log.ray(i);
     ASSERT_TRUE(is_finite(ray.origin) && is_finite(ray.direction)) << "ray " << i;
     ASSERT_GT(ray.tmax, 0.0);
-    // Every path starts on the floor and goes up (the floor faces the light; nothing else reflects).
+    // Every path and every leak probe starts on the floor and goes up (the floor faces the light; nothing else
+    // reflects; probes cover the hemisphere above the sample point's normal).
     EXPECT_NEAR(ray.origin.y, 0.0, 1e-4) << "ray " << i;
     EXPECT_GT(ray.direction.y, 0.0) << "ray " << i;
-    if (log.occlusion(i)) {
+    if (log.kind(i) == RayKind::occlusion) {
       ++shadow;
       // A shadow ray towards the point light ends just short of it (scene/ray_offset.h: direction = target − origin).
       const Vec3 end = ray.origin + ray.direction;
       EXPECT_NEAR(end.y, 1.0, 1e-9) << "ray " << i;
       EXPECT_LT(ray.tmax, 1.0);
+    } else if (log.kind(i) == RayKind::probe) {
+      ++probes;
+    } else {
+      ++closest;
     }
   }
   EXPECT_EQ(shadow, r.occlusion_rays);
+  EXPECT_EQ(probes, r.probe_rays);
+  EXPECT_GT(probes, 0u) << "every sample point is probed for leaks";
   // One shadow ray and one cosine ray per path: as many of each.
-  EXPECT_EQ(2 * shadow, log.size());
+  EXPECT_EQ(shadow, closest);
 }
 
 TEST(RayLog, AFullLogKeepsItsCapacityAndCountsTheRest) {
