@@ -152,6 +152,16 @@ double sh_relative_error(const std::array<Rgb, 4>& sum, const std::array<double,
   return std::max(se[0] / l00, std::hypot(se[1], se[2], se[3]) / (std::sqrt(3.0) * l00));
 }
 
+// What Lightmap holds beside its texels and image, for the report.
+BakeStateBytes state_bytes(const LightmapBakeInput& in) {
+  BakeStateBytes b;
+  b.per_texel = sizeof(uint32_t);  // attempts
+  if (in.ao) b.per_texel += sizeof(Rgb);
+  if (in.directional) b.per_texel += sizeof(std::array<Rgb, 4>) + sizeof(std::array<double, 4>);
+  b.per_sample = sizeof(Receiver);
+  return b;
+}
+
 // What one work item's estimates add to a texel, accumulated by its worker alone and then merged (merge()).
 struct Partial {
   Rgb sum;                       // of the accepted irradiance estimates
@@ -649,7 +659,7 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
                                 preview_png(img.irradiance_image(in.padding), img.validity(), color_space, name)});
     }
     const LightmapImage::ErrorSummary e = img.error_summary(in.target_error);
-    const LightmapMemory mem = lightmap_memory(m.texels);
+    const LightmapMemory mem = lightmap_memory(m.texels, state_bytes(in));
     maps_json << (mi ? ",\n    " : "") << "{\"name\": " << json_string(name) << ", \"resolution\": " << img.width()
               << ", \"valid_texels\": " << e.valid << ", \"samples_per_texel_point\": "
               << format_number(mem.samples_per_valid_texel) << ", \"error_rms\": " << format_number(e.rms)

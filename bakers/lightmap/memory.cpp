@@ -6,10 +6,10 @@
 
 namespace kiln::lightmap {
 
-LightmapMemory lightmap_memory(const LightmapTexels& texels) {
+LightmapMemory lightmap_memory(const LightmapTexels& texels, const BakeStateBytes& bake) {
   LightmapMemory m;
-  m.bytes_per_sample = sizeof(TexelSample);
-  m.bytes_per_texel = sizeof(uint32_t) + LightmapImage::kBytesPerTexel;
+  m.bytes_per_sample = sizeof(TexelSample) + bake.per_sample;
+  m.bytes_per_texel = sizeof(uint32_t) + LightmapImage::kBytesPerTexel + bake.per_texel;
   m.bytes_per_triangle = 0;
   m.peak_bytes_per_triangle = raster_bytes_per_triangle();
   m.peak_bytes_per_sample = 2 * raster_bytes_per_fragment() + sizeof(TexelSample);

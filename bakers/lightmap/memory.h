@@ -9,10 +9,18 @@
 
 namespace kiln::lightmap {
 
+// What a bake keeps beside the texel layer for the whole bake (lightmap_bake.cpp knows it): per texel (its attempt
+// count and the AO and SH sums when those outputs are asked for) and per sample (the transport's receiver).
+struct BakeStateBytes {
+  size_t per_texel = 0;
+  size_t per_sample = 0;
+};
+
 struct LightmapMemory {
-  size_t bytes_per_sample = 0;       // one TexelSample
-  size_t bytes_per_texel = 0;        // every texel, valid or not: the sample offset and the LightmapImage's
-                                     // accumulators (sum, luminance square sum, count, validity)
+  size_t bytes_per_sample = 0;       // one TexelSample, and the bake's state per sample
+  size_t bytes_per_texel = 0;        // every texel, valid or not: the sample offset, the LightmapImage's
+                                     // accumulators (sum, luminance square sum, count, validity) and the bake's
+                                     // state per texel
   size_t bytes_per_triangle = 0;     // held by the texel layer per triangle after rasterization: none (samples
                                      // refer to the scene's arrays; the tracer states its own per-triangle cost)
   size_t peak_bytes_per_triangle = 0;  // while rasterizing: world vertices and normals of each covering triangle
@@ -22,6 +30,6 @@ struct LightmapMemory {
   std::string describe() const;      // one line for people
 };
 
-LightmapMemory lightmap_memory(const LightmapTexels& texels);
+LightmapMemory lightmap_memory(const LightmapTexels& texels, const BakeStateBytes& bake = {});
 
 }  // namespace kiln::lightmap

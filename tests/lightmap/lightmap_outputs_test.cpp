@@ -398,5 +398,29 @@ TEST(LightmapOutputs, ReportJsonHasThePlanCurveAndLightmaps) {
   EXPECT_GE(report["tracer"]["memory_bytes"].number(), 12.0 * report["tracer"]["triangles"].number());
 }
 
+// The memory a lightmap's report states covers what its bake holds: at the least, every sample point's position and
+// two normals in double twice over (the texel layer's sample and the transport's receiver), every texel's RGB sum and
+// luminance-square sum, and with AO and SH asked for, one more RGB sum per texel for AO and four RGB sums and four
+// luminance-square sums for the SH, in double.
+TEST(LightmapOutputs, ReportedMemoryCoversWhatTheBakeHolds) {
+  LightmapBakeInput in = lightmap_input(test::floor_under_point_light(0.5, {0, 1, 0}, Rgb{1.0}), 16, 0.1);
+  in.min_samples = in.max_samples = 2;
+  in.preview = false;
+  auto memory = [](const LightmapBakeInput& input) {
+    const LightmapBakeResult r = bake_lightmaps(input);
+    const Json report = parse_json(test::find_output(r, "report.json").bytes);
+    const Json& map = report["lightmaps"].array().at(0);
+    const double samples = map["samples_per_texel_point"].number() * map["valid_texels"].number();
+    return std::pair{map["memory_bytes"].number(), samples};
+  };
+  const auto [plain, samples] = memory(in);
+  const double texels = 16 * 16;
+  EXPECT_GE(plain, texels * 4 * 8 + samples * 2 * 9 * 8);
+  in.ao = in.directional = true;
+  const auto [with_outputs, samples_again] = memory(in);
+  EXPECT_EQ(samples_again, samples);
+  EXPECT_GE(with_outputs - plain, texels * (3 * 8 + 4 * 3 * 8 + 4 * 8));
+}
+
 }  // namespace
 }  // namespace kiln::lightmap

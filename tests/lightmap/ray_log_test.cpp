@@ -16,15 +16,7 @@ namespace {
 // A 2 m floor (y = 0, facing +Y) under a point light 1 m above it: every texel traces a shadow ray to the light and
 // a cosine ray that escapes (nothing else in the scene), so the counts are known.
 LightmapBakeInput lit_floor() {
-  scene::Scene s;
-  s.materials.push_back(test::lambert_material("grey", 0.5));
-  test::add_floor(s, 2.0, 0, 2);
-  scene::Light l;
-  l.type = scene::LightType::point;
-  l.position = {0, 1, 0};
-  l.color = Rgb{1.0};
-  s.lights = {l};
-  LightmapBakeInput in = test::lightmap_input(s, 8, 0.1);
+  LightmapBakeInput in = test::lightmap_input(test::floor_under_point_light(0.5, {0, 1, 0}, Rgb{1.0}), 8, 0.1);
   in.min_samples = in.max_samples = 4;
   in.preview = false;
   return in;

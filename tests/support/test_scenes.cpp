@@ -157,6 +157,18 @@ int add_floor(scene::Scene& s, double size, uint32_t material, int n) {
   return add_quad(s, "floor", {-h, 0, h}, {h, 0, h}, {h, 0, -h}, {-h, 0, -h}, material, n);
 }
 
+scene::Scene floor_under_point_light(double rho, const Vec3& position, Rgb I) {
+  scene::Scene s;
+  s.materials.push_back(lambert_material("floor", rho));
+  add_floor(s, 2.0, 0, 2);
+  scene::Light l;
+  l.type = scene::LightType::point;
+  l.position = position;
+  l.color = I;
+  s.lights = {l};
+  return s;
+}
+
 std::vector<double> texel_means(const scene::Scene& s, const std::string& name, int resolution,
                                 const std::function<double(const Vec3& p, const Vec3& n)>& f) {
   lightmap::RasterOptions options;

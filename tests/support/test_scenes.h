@@ -40,6 +40,10 @@ void scale_scene(scene::Scene& s, double scale, Vec3 offset = {});
 // (add_quad's UV layout: u grows towards +X, v = 0 at z = −size/2). Returns the mesh index.
 int add_floor(scene::Scene& s, double size, uint32_t material, int n = 4);
 
+// A 2 m floor (add_floor, n = 2) of one Lambertian material of albedo `rho` under a point light of intensity I at
+// `position`, and nothing else.
+scene::Scene floor_under_point_light(double rho, const Vec3& position, Rgb I);
+
 // Per texel of lightmap `name` at `resolution`², the weighted mean of f(position, normal) over the sample points the
 // baker's rasterizer (bakers/lightmap/texels.h) puts in the texel, with the weights the baker averages its estimates
 // with; NaN for texels no triangle covers. An analytic field evaluated this way is exactly what a noise-free bake
