@@ -139,6 +139,23 @@ struct Lightmap {
   std::vector<uint32_t> attempts;          // per texel, estimates tried (kept or dropped)
 };
 
+// What a Lightmap holds beside its texels and image, per texel and per sample, for the report: the element sizes
+// of its vectors (the AO and SH sums only when those outputs are asked for), read off the members themselves.
+template <class Vector>
+constexpr size_t element_bytes() {
+  return sizeof(typename Vector::value_type);
+}
+BakeStateBytes state_bytes(const LightmapBakeInput& in) {
+  BakeStateBytes b;
+  b.per_texel = element_bytes<decltype(Lightmap::attempts)>();
+  if (in.ao) b.per_texel += element_bytes<decltype(Lightmap::ao_sum)>();
+  if (in.directional) {
+    b.per_texel += element_bytes<decltype(Lightmap::sh_sum)>() + element_bytes<decltype(Lightmap::sh_y2)>();
+  }
+  b.per_sample = element_bytes<decltype(Lightmap::receivers)>();
+  return b;
+}
+
 // The estimated relative error of a texel's SH from the spread of its n estimates (luminance throughout): the
 // standard error of L00 relative to L00, and that of the L1 vector relative to √3·L00 (the largest |L1| a
 // non-negative radiance has: all of it arriving from one direction), whichever is larger. +∞ below two estimates;
@@ -150,16 +167,6 @@ double sh_relative_error(const std::array<Rgb, 4>& sum, const std::array<double,
   const double l00 = luminance(sum[0]) / n;
   if (!(l00 > 0)) return 0;  // no radiance arrives: every estimate was 0
   return std::max(se[0] / l00, std::hypot(se[1], se[2], se[3]) / (std::sqrt(3.0) * l00));
-}
-
-// What Lightmap holds beside its texels and image, for the report.
-BakeStateBytes state_bytes(const LightmapBakeInput& in) {
-  BakeStateBytes b;
-  b.per_texel = sizeof(uint32_t);  // attempts
-  if (in.ao) b.per_texel += sizeof(Rgb);
-  if (in.directional) b.per_texel += sizeof(std::array<Rgb, 4>) + sizeof(std::array<double, 4>);
-  b.per_sample = sizeof(Receiver);
-  return b;
 }
 
 // What one work item's estimates add to a texel, accumulated by its worker alone and then merged (merge()).

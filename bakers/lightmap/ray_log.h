@@ -17,7 +17,8 @@
 
 namespace kiln::lightmap {
 
-// What a ray was traced for; the three cost Embree (and the baker) differently, so a replay keeps their mix.
+// What a ray was traced for. The baker spends very different work around each kind (a leak probe needs none
+// beyond its query), so a replay keeps their mix, each kind from its own recording.
 enum class RayKind : uint8_t {
   closest,    // the transport's closest-hit queries: cosine- and BSDF-sampled directions
   occlusion,  // the transport's shadow (any-hit) queries

@@ -137,9 +137,10 @@ Timing raw_embree_seconds(const scene::Tracer& tracer, const RayPools& pools, co
         if (++k == pool.size()) k = 0;
       }
     };
-    replay(pools.closest, 0, end_closest, [&](const scene::Ray& ray) { return tracer.intersect_id(ray).has_value(); });
+    auto closest_hit = [&](const scene::Ray& ray) { return tracer.intersect_id(ray).has_value(); };
+    replay(pools.closest, 0, end_closest, closest_hit);
     replay(pools.occlusion, end_closest, end_occlusion, [&](const scene::Ray& ray) { return tracer.occluded(ray); });
-    replay(pools.probe, end_occlusion, end_probe, [&](const scene::Ray& ray) { return tracer.intersect_id(ray).has_value(); });
+    replay(pools.probe, end_occlusion, end_probe, closest_hit);
     hits.fetch_add(h, std::memory_order_relaxed);
   });
   const Timing s{seconds_since(t0), process_cpu_seconds() - cpu0};
