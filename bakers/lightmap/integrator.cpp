@@ -17,7 +17,9 @@ namespace {
 
 using scene::kInfinity;
 
-bool finite(const Rgb& c) { return std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b); }
+// All three channels finite, by one test of their sum: a NaN or infinite channel makes it NaN or infinite (so does a
+// sum past DBL_MAX, ~1e308, which no radiance or path weight comes near: such a value is as unusable).
+bool finite(const Rgb& c) { return std::isfinite(c.r + c.g + c.b); }
 
 // Real orthonormal SH of order 1 in world coordinates: Y00, Y1−1 ∝ y, Y10 ∝ z, Y11 ∝ x.
 void add_sh(Rgb sh[4], const Vec3& w, const Rgb& value) {
@@ -70,7 +72,7 @@ struct Walk {
   // geometry: they neither occlude nor end a path) and, for an escaping ray, from the infinite lights.
   [[gnu::always_inline]] Rgb lights_along(const Vec3& p, const Vec3& n, const Vec3& wi, double t_hit, double pdf,
                                           bool escaped) {
-    if (ctx.analytic_lights.empty() && !escaped) return Rgb{};  // the common case: geometry hit, nothing between
+    if (!ctx.has_analytic_lights && !escaped) return Rgb{};  // the common case: geometry hit, nothing between
     return any_lights_along(p, n, wi, t_hit, pdf, escaped);
   }
   Rgb any_lights_along(const Vec3& p, const Vec3& n, const Vec3& wi, double t_hit, double pdf, bool escaped) {
@@ -121,44 +123,59 @@ struct Walk {
                  Vec3* direction = nullptr) {
     const auto choice = ctx.lights->sample(rng.uniform32());
     if (!choice) return Rgb{};
-    // The emissive triangles directly (inlined), the other lights through the interface.
-    const auto s = choice->index == ctx.emissive_light ? ctx.lights->emissive()->sample(from.p, u2_32())
-                                                       : choice->light->sample_li(from.p, ns, u2_32());
-    if (!s || !(s->Li.max() > 0)) return Rgb{};
+    // The point on the light: with a single light the choice spent none of its number, which serves again.
+    const Point2 u = ctx.lights->single() ? Point2{choice->u_remapped, rng.uniform32()} : u2_32();
+    // The emissive triangles directly, inlined, so that their sample stays in registers; the other lights through
+    // the interface (whose sample comes back through memory).
+    if (choice->index == ctx.emissive_light) {
+      const auto s = ctx.lights->emissive()->sample(from.p, u);
+      return s ? shade_light_sample(*s, *choice, from, f_cos, pdf_other, radiance, direction) : Rgb{};
+    }
+    const auto s = choice->light->sample_li(from.p, ns, u);
+    return s ? shade_light_sample(*s, *choice, from, f_cos, pdf_other, radiance, direction) : Rgb{};
+  }
+
+  // The rest of next-event estimation for light sample `s` of `choice`: its shadow ray and its weight.
+  template <class F, class Pdf>
+  [[gnu::always_inline]] Rgb shade_light_sample(const scene::LightSample& s, const scene::SceneLights::Choice& choice,
+                                                const scene::SurfacePoint& from, F&& f_cos, Pdf&& pdf_other,
+                                                Rgb* radiance, Vec3* direction) {
+    if (!(s.Li.max() > 0)) return Rgb{};
     // Below the geometric surface the ray would start inside the geometry: no light arrives from there.
-    if (dot(s->wi, from.ng) <= 0) return Rgb{};
-    const Rgb fc = f_cos(s->wi);
+    if (dot(s.wi, from.ng) <= 0) return Rgb{};
+    const Rgb fc = f_cos(s.wi);
     if (!(fc.max() > 0)) return Rgb{};
-    const scene::Ray ray = std::isfinite(s->distance) ? scene::spawn_ray_to(from, s->point)
-                                                      : scene::spawn_ray(from, s->wi);
+    // On ng's side (tested above): the rays leave from the front.
+    const scene::Ray ray = std::isfinite(s.distance) ? scene::spawn_ray_to_front(from, s.point)
+                                                     : scene::spawn_ray_front(from, s.wi);
     if (!visible(ray)) return Rgb{};
     double weight;
-    if (s->delta) {
-      weight = 1.0 / choice->pmf;
+    if (s.delta) {
+      weight = 1.0 / choice.pmf;
     } else {
-      const double p_light = choice->pmf * s->pdf;
+      const double p_light = choice.pmf * s.pdf;
       if (!(p_light > 0)) return Rgb{};
       // The balance heuristic's weight over the density, w/p = (p/(p + p_other))/p = 1/(p + p_other).
-      weight = ctx.plan->multiple_importance_sampling && !choice->light->uniform_in_solid_angle(from.p)
-                   ? 1.0 / (p_light + pdf_other(s->wi))
+      weight = ctx.plan->multiple_importance_sampling && !choice.light->uniform_in_solid_angle(from.p)
+                   ? 1.0 / (p_light + pdf_other(s.wi))
                    : 1.0 / p_light;
     }
     if (radiance) {
-      *radiance = s->Li * weight;
-      *direction = s->wi;
+      *radiance = s.Li * weight;
+      *direction = s.wi;
     }
-    return fc * s->Li * weight;
+    return fc * s.Li * weight;
   }
 
-  // Radiance leaving records[0] towards wo (world), reflected there at least once: path tracing with next-event
+  // Radiance leaving *hit towards wo (world), reflected there at least once: path tracing with next-event
   // estimation; `depth` counts the reflections of the light arriving at the receiver. The two records take turns
-  // as the vertex shaded and the next one found (never copied; a Hit is ~170 bytes).
-  Rgb reflected(scene::Hit (&records)[2], Vec3 wo) {
+  // as the vertex shaded and the next one found (swapped, never copied; a Hit is ~170 bytes).
+  Rgb reflected(const scene::Hit* hit_record, scene::Hit* next_record, Vec3 wo) {
     Rgb L, beta{1.0};
     const plan::LightmapPlan& plan = *ctx.plan;
     for (int depth = 1;; ++depth) {
-      const scene::Hit& hit = records[(depth + 1) & 1];
-      scene::Hit& next = records[depth & 1];
+      const scene::Hit& hit = *hit_record;
+      scene::Hit& next = *next_record;
       const ShadingMaterial& m = material(hit);
       // Reflect on whichever side the ray arrived (one-sided geometry seen from behind still reflects).
       scene::SurfacePoint surface = hit.surface();
@@ -202,7 +219,7 @@ struct Walk {
       }
       if (dot(wi, surface.ng) <= 0) break;  // into the surface (the shading normal disagrees with the geometry)
       if (!finite(beta) || !(beta.max() > 0)) break;
-      const scene::Ray ray = scene::spawn_ray(surface, wi);
+      const scene::Ray ray = scene::spawn_ray_front(surface, wi);  // dot(wi, ng) > 0, tested above
       const bool found = trace(ray, next);
       L += beta * lights_along(ray.origin, ns, wi, found ? next.t : kInfinity, pdf_wi, !found);
       if (!found) break;
@@ -214,6 +231,8 @@ struct Walk {
         beta = beta * (1.0 / (1.0 - q));  // one division, not one per channel
       }
       wo = -wi;
+      hit_record = next_record;
+      next_record = const_cast<scene::Hit*>(&hit);
     }
     return L;
   }
@@ -227,12 +246,14 @@ void prepare_context(TransportContext& ctx) {
     for (const ShadingMaterial& m : *ctx.materials) ctx.textured = ctx.textured || m.texture >= 0;
   }
   ctx.analytic_lights.clear();
+  ctx.has_analytic_lights = false;
   ctx.emissive_light = -1;
   if (!ctx.lights) return;
   for (int i = 0; i < ctx.lights->size(); ++i) {
     const scene::LightKind kind = ctx.lights->light(i).kind();
     if (kind == scene::LightKind::rect || kind == scene::LightKind::disk) ctx.analytic_lights.push_back(i);
   }
+  ctx.has_analytic_lights = !ctx.analytic_lights.empty();
   if (ctx.lights->emissive()) ctx.emissive_light = ctx.lights->index_of(ctx.lights->emissive());
 }
 
@@ -280,7 +301,7 @@ std::vector<ShadingMaterial> shading_materials(const scene::Scene& scene, const 
 IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, Pcg32& rng) {
   IrradianceEstimate out;
   Walk walk{ctx, rng, out};
-  const scene::SurfacePoint surface{r.p, r.ng, r.offset};
+  const scene::SurfacePoint& surface = r.surface;
   const Frame frame = Frame::from_normal(r.ns);
   auto cosine = [&](const Vec3& wi) { return Rgb{std::max(0.0, dot(wi, r.ns))}; };
   auto cosine_pdf = [&](const Vec3& wi) { return std::max(0.0, dot(wi, r.ns)) * kInvPi; };
@@ -295,16 +316,22 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   // 2. Cosine sampling.
   const Vec3 local = sample_cosine_hemisphere(rng);
   const Vec3 wi = frame.from_local(local);
-  if (local.z > 0 && dot(wi, r.ng) > 0) {
+  if (local.z > 0 && dot(wi, surface.ng) > 0) {
     const double pdf = local.z * kInvPi;
-    const scene::Ray ray = scene::spawn_ray(surface, wi);
-    scene::Hit records[2];
+    const scene::Ray ray = scene::spawn_ray_front(surface, wi);  // dot(wi, ng) > 0, tested above
+    // Left uninitialised (~350 bytes a sample otherwise): the tracer writes every field of a record it reports a
+    // hit in, and nothing reads one it has not.
+    union HitRecords {
+      scene::Hit records[2];
+      HitRecords() {}
+    } slots;
+    scene::Hit (&records)[2] = slots.records;
     scene::Hit& hit = records[0];
     const bool found = walk.trace(ray, hit);
     Rgb L = walk.lights_along(ray.origin, r.ns, wi, found ? hit.t : kInfinity, pdf, !found);
     if (found) {
       L += walk.emitted(hit, ray.origin, r.ns, wi, pdf);
-      if (ctx.plan->bounces >= 1) L += walk.reflected(records, -wi);
+      if (ctx.plan->bounces >= 1) L += walk.reflected(&records[0], &records[1], -wi);
     }
     out.ao = (!found || (ctx.ao_distance > 0 && hit.t > ctx.ao_distance)) ? 1.0 : 0.0;
     E += L * kPi;  // L cos θ / pdf with pdf = cos θ / π

@@ -22,6 +22,7 @@
 #include "bakers/math/rng.h"
 #include "bakers/math/vec3.h"
 #include "bakers/plan/lightmap_plan.h"
+#include "bakers/scene/ray_offset.h"
 #include "bakers/scene/scene.h"
 
 namespace kiln::scene {
@@ -63,6 +64,7 @@ struct TransportContext {
   RayLog* ray_log = nullptr;  // benchmarks only (ray_log.h): receives every ray traced
   // Filled by prepare_context():
   std::vector<int> analytic_lights;  // indices into `lights` of rect and disk lights (not scene geometry)
+  bool has_analytic_lights = false;  // !analytic_lights.empty(), tested on every ray
   int emissive_light = -1;           // index of the emissive triangles in `lights`, −1 if none
   bool textured = false;             // some material samples its texture at hit points (texture UVs needed)
 };
@@ -72,10 +74,10 @@ void prepare_context(TransportContext& ctx);
 
 // The point a texel sample stands on.
 struct Receiver {
-  Vec3 p;         // world position (already moved out of geometry by the leak pass)
-  Vec3 ng;        // geometric normal, unit, on the side the lightmap faces
-  Vec3 ns;        // shading normal, unit, same hemisphere as ng
-  double offset;  // lift off the surface that clears its float error (scene/ray_offset.h)
+  // The world position (already moved out of geometry by the leak pass), the unit geometric normal on the side the
+  // lightmap faces, and the lift off the surface that clears its float error (scene/ray_offset.h).
+  scene::SurfacePoint surface;
+  Vec3 ns;  // shading normal, unit, same hemisphere as surface.ng
 };
 
 struct IrradianceEstimate {

@@ -53,10 +53,8 @@ uint64_t mix(uint64_t a, uint64_t b) {
 // The receiver of a texel sample, with the lift that clears its own float triangle.
 Receiver receiver(const TexelSample& t) {
   Receiver r;
-  r.p = t.position;
-  r.ng = t.geometric_normal;
+  r.surface = t.surface();
   r.ns = dot(t.shading_normal, t.geometric_normal) > 0 ? t.shading_normal : t.geometric_normal;
-  r.offset = t.ray_offset;
   return r;
 }
 

@@ -59,8 +59,10 @@ class SceneLights {
     int index = -1;
     const LightSource* light = nullptr;
     double pmf = 0;
-    double u_remapped = 0;  // the part of u not spent on the choice, uniform in [0, 1)
+    double u_remapped = 0;  // the part of u not spent on the choice, uniform in [0, 1); u itself when single()
   };
+  // One light is sampled, so sample() spends none of u on the choice.
+  bool single() const { return single_ >= 0; }
   std::optional<Choice> sample(double u) const {
     if (!any_) return std::nullopt;
     if (single_ >= 0) return Choice{single_, lights_[single_].get(), 1.0, u};
