@@ -68,12 +68,13 @@ struct Walk {
     return balance(pdf, pmf * light.pdf_li(p, n, wi, hit));
   }
 
-  // Radiance reaching `p` along `wi` from the analytic area lights the ray passes before t_hit (they are not scene
-  // geometry: they neither occlude nor end a path) and, for an escaping ray, from the infinite lights.
-  [[gnu::always_inline]] Rgb lights_along(const Vec3& p, const Vec3& n, const Vec3& wi, double t_hit, double pdf,
-                                          bool escaped) {
-    if (!ctx.has_analytic_lights && !escaped) return Rgb{};  // the common case: geometry hit, nothing between
-    return any_lights_along(p, n, wi, t_hit, pdf, escaped);
+  // Adds to L, times beta, the radiance reaching `p` along `wi` from the analytic area lights the ray passes before
+  // t_hit (they are not scene geometry: they neither occlude nor end a path) and, for an escaping ray, from the
+  // infinite lights.
+  [[gnu::always_inline]] void add_lights_along(Rgb& L, const Rgb& beta, const Vec3& p, const Vec3& n, const Vec3& wi,
+                                               double t_hit, double pdf, bool escaped) {
+    if (!ctx.has_analytic_lights && !escaped) return;  // the common case: geometry hit, nothing between
+    L += beta * any_lights_along(p, n, wi, t_hit, pdf, escaped);
   }
   Rgb any_lights_along(const Vec3& p, const Vec3& n, const Vec3& wi, double t_hit, double pdf, bool escaped) {
     Rgb L;
@@ -93,11 +94,16 @@ struct Walk {
 
   const ShadingMaterial& material(const scene::Hit& hit) const { return (*ctx.materials)[hit.material]; }
 
-  // Emission of the surface at `hit` seen from `p` along wi, weighted against light sampling of the emissive
-  // triangles.
-  Rgb emitted(const scene::Hit& hit, const Vec3& p, const Vec3& n, const Vec3& wi, double pdf) {
+  // Adds to L, times beta, the emission of the surface at `hit` seen from `p` along wi, weighted against light
+  // sampling of the emissive triangles.
+  [[gnu::always_inline]] void add_emitted(Rgb& L, const Rgb& beta, const scene::Hit& hit, const Vec3& p, const Vec3& n,
+                                          const Vec3& wi, double pdf) {
     const ShadingMaterial& m = material(hit);
-    if (!m.emissive() || !(hit.front_face || m.two_sided)) return Rgb{};
+    if (!m.emissive || !(hit.front_face || m.two_sided)) return;  // the common case: it does not emit
+    L += beta * emitted(m, hit, p, n, wi, pdf);
+  }
+  Rgb emitted(const ShadingMaterial& m, const scene::Hit& hit, const Vec3& p, const Vec3& n, const Vec3& wi,
+              double pdf) {
     double w = 1.0;
     if (ctx.emissive_light >= 0) {
       scene::LightHit lh;
@@ -221,9 +227,9 @@ struct Walk {
       if (!finite(beta) || !(beta.max() > 0)) break;
       const scene::Ray ray = scene::spawn_ray_front(surface, wi);  // dot(wi, ng) > 0, tested above
       const bool found = trace(ray, next);
-      L += beta * lights_along(ray.origin, ns, wi, found ? next.t : kInfinity, pdf_wi, !found);
+      add_lights_along(L, beta, ray.origin, ns, wi, found ? next.t : kInfinity, pdf_wi, !found);
       if (!found) break;
-      L += beta * emitted(next, ray.origin, ns, wi, pdf_wi);
+      add_emitted(L, beta, next, ray.origin, ns, wi, pdf_wi);
       if (depth + 1 > plan.bounces) break;
       if (plan.russian_roulette && depth >= plan.russian_roulette_depth) {
         const double q = std::max(0.05, 1.0 - beta.max());
@@ -280,6 +286,7 @@ std::vector<ShadingMaterial> shading_materials(const scene::Scene& scene, const 
     if (!sm.lambertian) sm.bsdf = std::make_unique<brdf::Material>(spec);
     sm.base_color = m.base_color;
     sm.emission = m.emission;
+    sm.emissive = m.emission.max() > 0;
     sm.two_sided = m.two_sided;
     if (m.base_color_texture && *m.base_color_texture >= 0 &&
         *m.base_color_texture < static_cast<int>(scene.textures.size())) {
@@ -328,9 +335,10 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
     scene::Hit (&records)[2] = slots.records;
     scene::Hit& hit = records[0];
     const bool found = walk.trace(ray, hit);
-    Rgb L = walk.lights_along(ray.origin, r.ns, wi, found ? hit.t : kInfinity, pdf, !found);
+    Rgb L;
+    walk.add_lights_along(L, Rgb{1.0}, ray.origin, r.ns, wi, found ? hit.t : kInfinity, pdf, !found);
     if (found) {
-      L += walk.emitted(hit, ray.origin, r.ns, wi, pdf);
+      walk.add_emitted(L, Rgb{1.0}, hit, ray.origin, r.ns, wi, pdf);
       if (ctx.plan->bounces >= 1) L += walk.reflected(&records[0], &records[1], -wi);
     }
     out.ao = (!found || (ctx.ao_distance > 0 && hit.t > ctx.ao_distance)) ? 1.0 : 0.0;

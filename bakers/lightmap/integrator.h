@@ -45,9 +45,9 @@ struct ShadingMaterial {
   int texture = -1;    // into Scene::textures, or -1 (also when the plan does not sample textures)
   Rgb texture_average{1.0};  // used instead of the texture when the plan says so
   Rgb emission{0.0};
+  bool emissive = false;  // emission.max() > 0, tested at every hit
   Rgb rho{0.0};  // with `lambertian` and no texture: A + B·base_color·texture_average, the albedo at every point
   bool two_sided = false;
-  bool emissive() const { return emission.max() > 0; }
 };
 
 // Builds the shading materials for every scene material under the plan.
