@@ -183,10 +183,11 @@ struct Walk {
       const scene::Hit& hit = *hit_record;
       scene::Hit& next = *next_record;
       const ShadingMaterial& m = material(hit);
-      // Reflect on whichever side the ray arrived (one-sided geometry seen from behind still reflects).
+      // Reflect on whichever side the ray arrived (one-sided geometry seen from behind still reflects). wo is the
+      // reversed direction of the ray that found the hit, so the tracer's front_face says which side it is on.
       scene::SurfacePoint surface = hit.surface();
       Vec3 ns = hit.ns;
-      if (dot(wo, surface.ng) < 0) {
+      if (!hit.front_face) {
         surface.ng = -surface.ng;
         ns = -ns;
       }
@@ -206,7 +207,7 @@ struct Walk {
         if (!(local.z > 0)) break;  // on the rim of the hemisphere: cos θ = 0 reflects nothing
         wi = frame.from_local(local);
         pdf_wi = local.z * kInvPi;
-        beta = beta * rho;
+        beta = beta * rho;  // finite as ρ is: a non-finite texel is caught with the estimate (estimate_irradiance)
       } else {
         ++out.general_vertices;
         const Rgb t = tint(m, hit);
@@ -222,9 +223,10 @@ struct Walk {
         wi = frame.from_local(s->wi);
         pdf_wi = s->pdf;
         beta = beta * s->weight;
+        if (!finite(beta)) break;  // a sampled weight f·cos/pdf that overflowed
       }
       if (dot(wi, surface.ng) <= 0) break;  // into the surface (the shading normal disagrees with the geometry)
-      if (!finite(beta) || !(beta.max() > 0)) break;
+      if (!(beta.max() > 0)) break;         // nothing more can reach the receiver
       const scene::Ray ray = scene::spawn_ray_front(surface, wi);  // dot(wi, ng) > 0, tested above
       const bool found = trace(ray, next);
       add_lights_along(L, beta, ray.origin, ns, wi, found ? next.t : kInfinity, pdf_wi, !found);
