@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "bakers/math/constants.h"
 #include "bakers/lightmap/ray_log.h"
@@ -176,7 +177,7 @@ struct Walk {
   // Radiance leaving *hit towards wo (world), reflected there at least once: path tracing with next-event
   // estimation; `depth` counts the reflections of the light arriving at the receiver. The two records take turns
   // as the vertex shaded and the next one found (swapped, never copied; a Hit is ~170 bytes).
-  Rgb reflected(const scene::Hit* hit_record, scene::Hit* next_record, Vec3 wo) {
+  Rgb reflected(scene::Hit* hit_record, scene::Hit* next_record, Vec3 wo) {
     Rgb L, beta{1.0};
     const plan::LightmapPlan& plan = *ctx.plan;
     for (int depth = 1;; ++depth) {
@@ -239,8 +240,7 @@ struct Walk {
         beta = beta * (1.0 / (1.0 - q));  // one division, not one per channel
       }
       wo = -wi;
-      hit_record = next_record;
-      next_record = const_cast<scene::Hit*>(&hit);
+      std::swap(hit_record, next_record);
     }
     return L;
   }
