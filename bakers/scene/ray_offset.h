@@ -58,19 +58,19 @@ struct SurfacePoint {
 // ~1e-6 of the triangle's size plus ~7e-7 of the largest coordinate magnitude.
 double self_intersection_offset(const Vec3& v0, const Vec3& v1, const Vec3& v2, const Vec3& p);
 
-// s.p lifted by s.lift along ±s.ng (the side w leaves to), then rounded to the nearest float: at least s.offset off
-// the surface (origin_lift). Inline with the spawn functions below: they run for every ray a bake traces.
-[[gnu::always_inline]] inline Vec3 offset_ray_origin(const SurfacePoint& s, const Vec3& w) {
-  const Vec3 n = dot(w, s.ng) < 0 ? -s.ng : s.ng;
+// s.p lifted by s.lift along n (s.ng or −s.ng), then rounded to the nearest float: at least s.offset off the surface
+// (origin_lift). Inline with the spawn functions below: they run for every ray a bake traces.
+[[gnu::always_inline]] inline Vec3 lifted_origin(const SurfacePoint& s, const Vec3& n) {
   const Vec3 o = s.p + n * s.lift;
   return {static_cast<float>(o.x), static_cast<float>(o.y), static_cast<float>(o.z)};
 }
+// The origin of a ray leaving s in direction w: lifted to the side w leaves to.
+[[gnu::always_inline]] inline Vec3 offset_ray_origin(const SurfacePoint& s, const Vec3& w) {
+  return lifted_origin(s, dot(w, s.ng) < 0 ? -s.ng : s.ng);
+}
 // The same for a ray the caller knows leaves on ng's side (it has tested dot(w, s.ng) > 0, as transport does before
 // every ray it spawns): no second test.
-[[gnu::always_inline]] inline Vec3 offset_ray_origin_front(const SurfacePoint& s) {
-  const Vec3 o = s.p + s.ng * s.lift;
-  return {static_cast<float>(o.x), static_cast<float>(o.y), static_cast<float>(o.z)};
-}
+[[gnu::always_inline]] inline Vec3 offset_ray_origin_front(const SurfacePoint& s) { return lifted_origin(s, s.ng); }
 
 // A ray leaving s in direction w.
 [[gnu::always_inline]] inline Ray spawn_ray(const SurfacePoint& s, const Vec3& w, double tmax = INFINITY) {
@@ -84,20 +84,19 @@ double self_intersection_offset(const Vec3& v0, const Vec3& v1, const Vec3& v2, 
 // A shadow ray from s towards a point (a point light, a sample on an area light that is not scene geometry): the
 // direction is target − origin and tmax stops kShadowEpsilon short of the target, so nothing at the target counts.
 inline constexpr double kShadowEpsilon = 1e-4;
-[[gnu::always_inline]] inline Ray spawn_ray_to(const SurfacePoint& from, const Vec3& target) {
-  const Vec3 origin = offset_ray_origin(from, target - from.p);
+[[gnu::always_inline]] inline Ray shadow_ray(const Vec3& origin, const Vec3& target) {
   return {origin, target - origin, 1 - kShadowEpsilon};
+}
+[[gnu::always_inline]] inline Ray spawn_ray_to(const SurfacePoint& from, const Vec3& target) {
+  return shadow_ray(offset_ray_origin(from, target - from.p), target);
 }
 // The same for a target on ng's side (dot(target − from.p, from.ng) > 0), tested by the caller.
 [[gnu::always_inline]] inline Ray spawn_ray_to_front(const SurfacePoint& from, const Vec3& target) {
-  const Vec3 origin = offset_ray_origin_front(from);
-  return {origin, target - origin, 1 - kShadowEpsilon};
+  return shadow_ray(offset_ray_origin_front(from), target);
 }
 // The same towards a point on a scene surface (an emissive triangle), itself lifted off its surface towards `from`.
 inline Ray spawn_ray_to(const SurfacePoint& from, const SurfacePoint& to) {
-  const Vec3 origin = offset_ray_origin(from, to.p - from.p);
-  const Vec3 target = offset_ray_origin(to, from.p - to.p);
-  return {origin, target - origin, 1 - kShadowEpsilon};
+  return shadow_ray(offset_ray_origin(from, to.p - from.p), offset_ray_origin(to, from.p - to.p));
 }
 
 }  // namespace kiln::scene
