@@ -45,7 +45,7 @@ namespace {
 namespace fs = std::filesystem;
 using google::protobuf::util::MessageDifferencer;
 
-const fs::path kExamples = fs::path(__FILE__).parent_path().parent_path().parent_path() / "client" / "examples";
+const fs::path kExamples = fs::path(KILN_SOURCE_DIR) / "client" / "examples";
 
 std::vector<std::string> words(const std::string& s) {
   std::istringstream in(s);

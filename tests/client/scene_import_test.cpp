@@ -32,7 +32,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // The repository, from this file's path (tests/client/scene_import_test.cpp).
-fs::path source_dir() { return fs::path(__FILE__).parent_path().parent_path().parent_path(); }
+fs::path source_dir() { return fs::path(KILN_SOURCE_DIR); }
 
 bool same_uvs(const std::vector<Point2>& a, const std::vector<Point2>& b) {
   if (a.size() != b.size()) return false;

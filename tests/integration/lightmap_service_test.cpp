@@ -34,7 +34,7 @@ Client connect(const Daemon& d) {
   return c;
 }
 
-fs::path source_dir() { return fs::path(__FILE__).parent_path().parent_path().parent_path(); }
+fs::path source_dir() { return fs::path(KILN_SOURCE_DIR); }
 
 #ifdef KILN_BIN
 struct CliRun {
