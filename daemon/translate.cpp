@@ -5,7 +5,7 @@
 #include <sstream>
 #include <type_traits>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/image/color.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/translate_fields.h"
@@ -16,7 +16,7 @@ namespace kiln::daemon {
 
 const char* const kBakerVersion = material::kMaterialBakerVersion;
 
-using brdf::format_number;
+using bake::format_number;
 
 namespace {
 
@@ -157,12 +157,7 @@ brdf::ModelSpec model(const Message& m, const std::string& path) {
                                "ggx, beckmann, schlick, schlick_double");
   }
   // The bakers' own validation is the backstop: anything the checks above let through is still named.
-  if (auto problem = brdf::validate(s)) {
-    const std::string text = *problem;
-    const auto colon = text.find(':');
-    const std::string field = colon == std::string::npos ? path : path + "." + text.substr(0, colon);
-    throw InvalidField(field, colon == std::string::npos ? text : text.substr(colon + 2));
-  }
+  if (auto problem = brdf::validate(s)) throw baker_problem(path, *problem);
   return s;
 }
 
@@ -323,23 +318,12 @@ void translate_environment(const kiln::v1::JobSpec& spec, const store::BlobStore
   if (e.source_case() == EJ::kImage) probe.image = "(uploaded image)";
   if (e.source_case() == EJ::kFaces) probe.faces.assign(r.inputs.size(), "(uploaded face)");
   if (auto problem = envmap::validate(probe)) {
-    const std::string& text = *problem;
-    // A forced effect is named with its key, as the spec's map writes it.
-    if (text.rfind("force_effects", 0) == 0) {
-      std::string key;
-      for (const auto& [effect, on] : in.force_effects) {
-        if (text.find("'" + effect + "'") != std::string::npos || text.find("\"" + effect + "\"") != std::string::npos) key = effect;
-      }
-      const auto colon = text.find(':');
-      throw InvalidField("job.force_effects" + (key.empty() ? "" : "[" + key + "]"),
-                         colon == std::string::npos ? text : text.substr(text.find_first_not_of(' ', colon + 1)));
-    }
-    // Sources and samples live elsewhere in the spec than in the baker's input.
-    const auto colon = text.find(':');
-    const std::string field = text.substr(0, colon);
-    if (field == "samples" || field == "target_error" || field == "seed") throw baker_problem("job.quality", text);
-    if (field == "image" && !r.inputs.empty()) throw InvalidField(r.inputs[0].field, text.substr(colon + 2));
-    throw baker_problem(path, text);
+    // Forced effects, sources and samples live elsewhere in the spec than in the baker's input.
+    const std::string& field = problem->field();
+    if (field.rfind("force_effects", 0) == 0) throw baker_problem("job", *problem);
+    if (field == "samples" || field == "target_error" || field == "seed") throw baker_problem("job.quality", *problem);
+    if (field == "image" && !r.inputs.empty()) throw InvalidField(r.inputs[0].field, problem->problem());
+    throw baker_problem(path, *problem);
   }
 }
 
@@ -362,12 +346,8 @@ Rgb color(const kiln::v1::Color& c, const std::string& field, double lo, double 
   return Rgb{c.r(), c.g(), c.b()};
 }
 
-// "field: problem" from a baker's validate(), as the field under `prefix`.
-InvalidField baker_problem(const std::string& prefix, const std::string& text) {
-  const auto colon = text.find(':');
-  if (colon == std::string::npos) return InvalidField(prefix, text);
-  const auto rest = text.find_first_not_of(' ', colon + 1);
-  return InvalidField(prefix + "." + text.substr(0, colon), rest == std::string::npos ? "" : text.substr(rest));
+InvalidField baker_problem(const std::string& prefix, const bake::InvalidInput& problem) {
+  return InvalidField(problem.field().empty() ? prefix : prefix + "." + problem.field(), problem.problem());
 }
 
 // An input blob's digest: well formed, within kMaxInputBlobBytes and, when a store is given, stored whole.
@@ -482,15 +462,7 @@ void load_inputs(BakeRequest& r, store::BlobStore& blobs) {
 
 InvalidField input_error(const BakeRequest& r, const std::exception& e) {
   const std::string prefix = "job." + r.type;
-  if (dynamic_cast<const std::invalid_argument*>(&e)) {
-    const std::string text = e.what();
-    const auto colon = text.find(':');
-    // A baker's "field: problem" when the part before the colon is a plain field name.
-    if (colon != std::string::npos && colon > 0 &&
-        text.find_first_not_of("abcdefghijklmnopqrstuvwxyz_0123456789.[]", 0) >= colon) {
-      return baker_problem(prefix, text);
-    }
-  }
+  if (const auto* problem = dynamic_cast<const bake::InvalidInput*>(&e)) return baker_problem(prefix, *problem);
   // Anything else the bakers raise about their input concerns the bytes they decode.
   std::string field = prefix;
   if (r.type == "lightmap") {

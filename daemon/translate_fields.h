@@ -22,8 +22,8 @@ namespace kiln::daemon::detail {
 void check_range(const std::string& field, double v, double lo, double hi, bool lo_open);
 // Each channel in [lo, hi].
 Rgb color(const kiln::v1::Color& c, const std::string& field, double lo, double hi);
-// A baker's "field: problem" as the field under `prefix`.
-InvalidField baker_problem(const std::string& prefix, const std::string& text);
+// A baker's complaint about a field of its input, as that field under `prefix` in the spec.
+InvalidField baker_problem(const std::string& prefix, const bake::InvalidInput& problem);
 // An input blob's digest: well formed, within kMaxInputBlobBytes and, with a store, stored whole.
 BlobRef input_blob(const kiln::v1::Digest& d, const std::string& field, const store::BlobStore* blobs);
 // One model of the BRDF library.

@@ -6,7 +6,7 @@
 #include <set>
 #include <sstream>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "daemon/mesh_blob_decode.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/translate_fields.h"
@@ -19,7 +19,7 @@
 namespace kiln::daemon::detail {
 namespace {
 
-using brdf::format_number;
+using bake::format_number;
 
 constexpr std::size_t kMaxNameBytes = 256;
 constexpr int kMaxMeshes = 65536;
@@ -422,22 +422,13 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
 
   // The baker's own validation is the backstop, and knows the effects its planner decides.
   if (auto problem = lightmap::validate(in)) {
-    const std::string& text = *problem;
-    if (text.rfind("force_effects", 0) == 0) {
-      std::string key;
-      for (const auto& [effect, on] : in.force_effects) {
-        if (text.find("\"" + effect + "\"") != std::string::npos) key = effect;
-      }
-      const auto colon = text.find(':');
-      throw InvalidField("job.force_effects" + (key.empty() ? "" : "[" + key + "]"),
-                         text.substr(text.find_first_not_of(' ', colon + 1)));
-    }
-    const std::string field = text.substr(0, text.find(':'));
+    const std::string& field = problem->field();
+    if (field.rfind("force_effects", 0) == 0) throw baker_problem("job", *problem);
     if (field == "max_samples" || field == "min_samples" || field == "target_error" ||
         field == "time_limit_seconds") {
-      throw baker_problem("job.quality", text);
+      throw baker_problem("job.quality", *problem);
     }
-    throw baker_problem(path, text);
+    throw baker_problem(path, *problem);
   }
 
   // The scene part, serialized deterministically, for the cache key: settings go to the canonical text instead

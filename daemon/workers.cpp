@@ -49,7 +49,7 @@ void Workers::run(std::stop_token stop) {
 
 namespace {
 
-std::string describe_output(const material::BakeOutput& o) {
+std::string describe_output(const bake::BakeOutput& o) {
   const std::string& n = o.name;
   if (n == "albedo.exr") return "directional albedo E(mu) with standard errors, and the white-furnace E";
   if (n == "split_sum.exr") return "split-sum scale and bias on f0 over (mu, roughness), with standard errors";
@@ -78,7 +78,7 @@ std::string describe_output(const material::BakeOutput& o) {
 
 // What any bake hands back to the worker.
 struct Baked {
-  std::vector<material::BakeOutput> outputs;
+  std::vector<bake::BakeOutput> outputs;
   uint64_t samples = 0;
   uint64_t rays = 0;
   double seconds = 0;
@@ -86,7 +86,7 @@ struct Baked {
   std::vector<v1::PlanDecision> plan;
 };
 
-Baked bake_material(const BakeRequest& request, const material::BakeControl& control) {
+Baked bake_material(const BakeRequest& request, const bake::BakeControl& control) {
   material::MaterialBakeResult r = material::bake_material(request.material, control);
   Baked b;
   b.outputs = std::move(r.outputs);
@@ -109,7 +109,7 @@ template <class Bake>
 auto blaming_input(const BakeRequest& request, Bake&& bake) {
   try {
     return bake();
-  } catch (const material::BakeCancelled&) {
+  } catch (const bake::BakeCancelled&) {
     throw;
   } catch (const std::invalid_argument& e) {
     throw input_error(request, e);
@@ -126,7 +126,7 @@ void add_decision(Baked& b, const std::string& effect, bool enabled, bool forced
   d.set_reason(reason);
 }
 
-Baked bake_environment(const BakeRequest& request, const material::BakeControl& control) {
+Baked bake_environment(const BakeRequest& request, const bake::BakeControl& control) {
   envmap::EnvironmentBakeResult r =
       blaming_input(request, [&] { return envmap::bake_environment(request.environment, control); });
   Baked b;
@@ -146,7 +146,7 @@ Baked bake_environment(const BakeRequest& request, const material::BakeControl& 
   return b;
 }
 
-Baked bake_lightmap(const BakeRequest& request, const material::BakeControl& control) {
+Baked bake_lightmap(const BakeRequest& request, const bake::BakeControl& control) {
   // The baker's contract (lightmap_bake.h): undecodable textures or environment, a scene with nothing to bake.
   lightmap::LightmapBakeResult r =
       blaming_input(request, [&] { return lightmap::bake_lightmaps(request.lightmap, control); });
@@ -181,11 +181,11 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
     if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
     BakeRequest request = translate(spec);
     load_inputs(request, blobs_);
-    material::BakeControl control;
+    bake::BakeControl control;
     control.cancel = cancel.get();
     // Watchers need a few updates a second, not one per table entry.
     auto last_publish = std::chrono::steady_clock::time_point{};
-    control.progress = [&](const material::BakeProgress& p) {
+    control.progress = [&](const bake::BakeProgress& p) {
       const auto now = std::chrono::steady_clock::now();
       if (now - last_publish < std::chrono::milliseconds(100) && p.fraction < 1.0) return;
       last_publish = now;
@@ -211,7 +211,7 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
     result.set_submitted_unix(record.submitted);
     result.set_finished_unix(store::unix_now());
     std::vector<std::string> digests;
-    for (const material::BakeOutput& o : baked.outputs) {
+    for (const bake::BakeOutput& o : baked.outputs) {
       const store::BlobId blob = blobs_.put(o.bytes);
       digests.push_back(blob.digest);
       v1::Output* out = result.add_outputs();
@@ -238,7 +238,7 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
                               " samples, error estimate " + std::to_string(report->error_estimate()));
     queue_.finish(id, store::Progress{store::JobState::kSucceeded, 1.0, 0.0, report->samples(),
                                       report->error_estimate(), "done"});
-  } catch (const material::BakeCancelled&) {
+  } catch (const bake::BakeCancelled&) {
     if (requeue_) {
       db_.mark_queued(id);
       log_line("job " + id, "interrupted by the shutdown; it runs again at the next start");

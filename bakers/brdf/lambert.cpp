@@ -1,6 +1,6 @@
 #include "bakers/brdf/lambert.h"
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::brdf {
@@ -21,6 +21,6 @@ double Lambert::pdf(const Vec3& wo, const Vec3& wi) const {
   return cosine_hemisphere_pdf(wi.z);
 }
 
-std::string Lambert::describe() const { return "lambert(albedo=" + format_rgb(albedo_) + ")"; }
+std::string Lambert::describe() const { return "lambert(albedo=" + bake::format_rgb(albedo_) + ")"; }
 
 }  // namespace kiln::brdf

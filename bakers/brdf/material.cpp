@@ -4,8 +4,9 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "bakers/bake/number_format.h"
+#include "bakers/bake/range_check.h"
 #include "bakers/brdf/albedo.h"
-#include "bakers/brdf/describe.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::brdf {
@@ -39,17 +40,15 @@ Rgb lookup(const std::vector<Rgb>& table, double mu) {
 
 }  // namespace
 
-std::optional<std::string> validate(const MaterialSpec& spec) {
-  if (auto e = validate(spec.diffuse)) return "diffuse." + *e;
-  if (auto e = validate(spec.specular)) return "specular." + *e;
-  if (spec.combine == Combine::weights && !(spec.specular_weight >= 0.0 && spec.specular_weight <= 1.0)) {
-    return "specular_weight: must be in [0, 1], got " + format_number(spec.specular_weight);
-  }
+std::optional<bake::InvalidInput> validate(const MaterialSpec& spec) {
+  if (auto e = validate(spec.diffuse)) return e->under("diffuse");
+  if (auto e = validate(spec.specular)) return e->under("specular");
+  if (spec.combine == Combine::weights) return bake::check_range("specular_weight", spec.specular_weight, 0.0, 1.0);
   return std::nullopt;
 }
 
 Material::Material(const MaterialSpec& spec) : spec_(spec) {
-  if (auto e = validate(spec)) throw std::invalid_argument(*e);
+  if (auto e = validate(spec)) throw *e;
   diffuse_ = make_bxdf(spec.diffuse);
   specular_ = make_bxdf(spec.specular);
   e_specular_ = tabulate(*specular_);
@@ -126,8 +125,8 @@ double Material::pdf(const Vec3& wo, const Vec3& wi) const {
 
 std::string Material::describe() const {
   if (spec_.combine == Combine::weights) {
-    return "material(weights d=" + format_number(1.0 - spec_.specular_weight) + " s=" +
-           format_number(spec_.specular_weight) + ": " + diffuse_->describe() + " + " + specular_->describe() + ")";
+    return "material(weights d=" + bake::format_number(1.0 - spec_.specular_weight) + " s=" +
+           bake::format_number(spec_.specular_weight) + ": " + diffuse_->describe() + " + " + specular_->describe() + ")";
   }
   return "material(layered: " + specular_->describe() + " over " + diffuse_->describe() + ")";
 }

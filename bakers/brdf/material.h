@@ -28,7 +28,7 @@ struct MaterialSpec {
   double specular_weight = 0.5;  // s for Combine::weights; d = 1 − s
 };
 
-std::optional<std::string> validate(const MaterialSpec& spec);
+std::optional<bake::InvalidInput> validate(const MaterialSpec& spec);
 
 // The closed form of a material whose two lobes are both Lambertian (as the lightmap planner leaves a pruned
 // specular lobe): it reflects the same for every pair of directions above the horizon, f(wo, wi, tint) =
@@ -43,7 +43,7 @@ std::optional<LambertianForm> lambertian_form(const MaterialSpec& spec);
 
 class Material final : public Bxdf {
  public:
-  // Throws std::invalid_argument with validate()'s message if the spec is invalid.
+  // Throws validate()'s bake::InvalidInput if the spec is invalid.
   explicit Material(const MaterialSpec& spec);
 
   Rgb eval(const Vec3& wo, const Vec3& wi) const override;

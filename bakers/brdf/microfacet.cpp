@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/brdf/fresnel.h"
 #include "bakers/math/constants.h"
 
@@ -98,13 +98,13 @@ double MicrofacetBrdf::pdf(const Vec3& wo, const Vec3& wi) const {
 std::string MicrofacetBrdf::describe() const {
   std::string s = "microfacet(D=" + to_string(params_.distribution);
   if (params_.alpha_x == params_.alpha_y) {
-    s += ", alpha=" + format_number(params_.alpha_x);
+    s += ", alpha=" + bake::format_number(params_.alpha_x);
   } else {
-    s += ", alpha_x=" + format_number(params_.alpha_x) + ", alpha_y=" + format_number(params_.alpha_y);
+    s += ", alpha_x=" + bake::format_number(params_.alpha_x) + ", alpha_y=" + bake::format_number(params_.alpha_y);
   }
   s += ", G=" + to_string(params_.masking) + ", fresnel=" + to_string(params_.fresnel);
-  if (params_.fresnel == FresnelMode::schlick) s += " f0=" + format_rgb(params_.f0);
-  if (params_.fresnel == FresnelMode::exact) s += " eta=" + format_number(params_.eta);
+  if (params_.fresnel == FresnelMode::schlick) s += " f0=" + bake::format_rgb(params_.f0);
+  if (params_.fresnel == FresnelMode::exact) s += " eta=" + bake::format_number(params_.eta);
   s += ", normalization=" + to_string(params_.normalization) + ")";
   return s;
 }

@@ -5,7 +5,8 @@
 #include <stdexcept>
 #include <utility>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
+#include "bakers/bake/range_check.h"
 #include "bakers/brdf/lambert.h"
 #include "bakers/brdf/microfacet.h"
 #include "bakers/brdf/oren_nayar.h"
@@ -59,20 +60,10 @@ std::string all_names(const Names<E, N>& names) {
 
 bool is_microfacet(Model m) { return m == Model::cook_torrance || m == Model::ggx || m == Model::beckmann; }
 
-// Range checks that produce "field: must be in [lo, hi], got v". NaN fails every comparison, so it is caught too.
-std::optional<std::string> check_range(const std::string& field, double v, double lo, double hi, bool lo_open) {
-  const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
-  if (ok) return std::nullopt;
-  return field + ": must be in " + (lo_open ? "(" : "[") + format_number(lo) + ", " + format_number(hi) + "], got " +
-         format_number(v);
-}
-std::optional<std::string> check_rgb(const std::string& field, const Rgb& c, double lo, double hi) {
-  for (int i = 0; i < 3; ++i) {
-    if (auto e = check_range(field, c[i], lo, hi, false)) return e;
-  }
-  return std::nullopt;
-}
-std::optional<std::string> check_layer(const std::string& prefix, const SchlickLayer& l) {
+using bake::check_range;
+using bake::check_rgb;
+
+std::optional<bake::InvalidInput> check_layer(const std::string& prefix, const SchlickLayer& l) {
   if (auto e = check_rgb(prefix + "c", l.c, 0.0, 1.0)) return e;
   if (auto e = check_range(prefix + "r", l.r, 0.0, 1.0, false)) return e;
   return check_range(prefix + "p", l.p, 0.0, 1.0, false);
@@ -102,7 +93,7 @@ FresnelMode fresnel_mode(const ModelSpec& spec) {
   return spec.fresnel.value_or(spec.model == Model::cook_torrance ? FresnelMode::exact : FresnelMode::none);
 }
 
-std::optional<std::string> validate(const ModelSpec& spec) {
+std::optional<bake::InvalidInput> validate(const ModelSpec& spec) {
   switch (spec.model) {
     case Model::lambert:
       return check_rgb("albedo", spec.albedo, 0.0, 1.0);
@@ -130,11 +121,11 @@ std::optional<std::string> validate(const ModelSpec& spec) {
       if (auto e = check_layer("top.", spec.layer)) return e;
       return check_layer("bottom.", spec.bottom_layer);
   }
-  return "model: unknown model";
+  return bake::InvalidInput("model", "unknown model");
 }
 
 std::unique_ptr<Bxdf> make_bxdf(const ModelSpec& spec) {
-  if (auto error = validate(spec)) throw std::invalid_argument(*error);
+  if (auto error = validate(spec)) throw *error;
   switch (spec.model) {
     case Model::lambert:
       return std::make_unique<Lambert>(spec.albedo);

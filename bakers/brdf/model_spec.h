@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 
+#include "bakers/bake/invalid_input.h"
 #include "bakers/math/rgb.h"
 
 namespace kiln::brdf {
@@ -67,10 +68,10 @@ struct ModelSpec {
 // The Fresnel term the model will use: spec.fresnel, or the model's own default.
 FresnelMode fresnel_mode(const ModelSpec& spec);
 
-// nullopt if the spec is valid; otherwise "field: what is wrong, got value" for people.
-std::optional<std::string> validate(const ModelSpec& spec);
+// nullopt if the spec is valid; otherwise the first offending field ("alpha_x") and what is wrong with it.
+std::optional<bake::InvalidInput> validate(const ModelSpec& spec);
 
-// Builds the model; throws std::invalid_argument with validate()'s message if the spec is invalid.
+// Builds the model; throws validate()'s bake::InvalidInput if the spec is invalid.
 std::unique_ptr<Bxdf> make_bxdf(const ModelSpec& spec);
 
 // Names used by the CLI and job files: "lambert", "oren-nayar", ..., and back.

@@ -24,7 +24,7 @@
 #include <cmath>
 #include <limits>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::brdf {
@@ -160,7 +160,7 @@ double OrenNayar::pdf(const Vec3& wo, const Vec3& wi) const {
 }
 
 std::string OrenNayar::describe() const {
-  return "oren-nayar(albedo=" + format_rgb(albedo_) + ", sigma=" + format_number(sigma_) +
+  return "oren-nayar(albedo=" + bake::format_rgb(albedo_) + ", sigma=" + bake::format_number(sigma_) +
          ", interreflection=" + (interreflection_ ? "on" : "off") + ")";
 }
 
@@ -191,7 +191,7 @@ double OrenNayarSimple::pdf(const Vec3& wo, const Vec3& wi) const {
 }
 
 std::string OrenNayarSimple::describe() const {
-  return "oren-nayar-simple(albedo=" + format_rgb(albedo_) + ", sigma=" + format_number(sigma_) + ")";
+  return "oren-nayar-simple(albedo=" + bake::format_rgb(albedo_) + ", sigma=" + bake::format_number(sigma_) + ")";
 }
 
 }  // namespace kiln::brdf

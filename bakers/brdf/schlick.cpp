@@ -61,7 +61,7 @@
 #include <utility>
 #include <vector>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/brdf/fresnel.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/quadrature.h"
@@ -327,7 +327,7 @@ class DirectionTable {
 
 void check_layer(const SchlickLayer& l, const char* prefix) {
   auto bad = [&](const char* field, double v) {
-    return std::string(prefix) + field + ": must be in [0, 1], got " + format_number(v);
+    return std::string(prefix) + field + ": must be in [0, 1], got " + bake::format_number(v);
   };
   for (int i = 0; i < 3; ++i) {
     if (!(l.c[i] >= 0.0 && l.c[i] <= 1.0)) throw std::invalid_argument(bad("c", l.c[i]));
@@ -337,7 +337,7 @@ void check_layer(const SchlickLayer& l, const char* prefix) {
 }
 
 std::string describe_layer(const SchlickLayer& l) {
-  return "c=" + format_rgb(l.c) + ", r=" + format_number(l.r) + ", p=" + format_number(l.p);
+  return "c=" + bake::format_rgb(l.c) + ", r=" + bake::format_number(l.r) + ", p=" + bake::format_number(l.p);
 }
 
 // Unit half vector of two directions of the upper hemisphere. Scaled first, so that directions nearly opposite

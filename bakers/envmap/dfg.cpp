@@ -48,7 +48,7 @@ DfgTable compute_dfg(const brdf::ModelSpec& lobe, int size_mu, int size_roughnes
       throw std::invalid_argument(std::string(name) + ": must be in [1, 1024], got " + std::to_string(n));
     }
   }
-  if (auto problem = brdf::validate(lobe)) throw std::invalid_argument("lobe." + *problem);
+  if (auto problem = brdf::validate(lobe)) throw problem->under("lobe");
   DfgTable t;
   t.size_mu = size_mu;
   t.size_roughness = size_roughness;

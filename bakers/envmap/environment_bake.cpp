@@ -7,7 +7,8 @@
 #include <iterator>
 #include <sstream>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
+#include "bakers/bake/range_check.h"
 #include "bakers/envmap/cubemap.h"
 #include "bakers/envmap/dfg.h"
 #include "bakers/envmap/irradiance.h"
@@ -21,7 +22,7 @@
 namespace kiln::envmap {
 namespace {
 
-using brdf::format_number;
+using bake::format_number;
 
 bool is_power_of_two(int n) { return n > 0 && (n & (n - 1)) == 0; }
 
@@ -53,8 +54,8 @@ image::FloatImage face_image(const Cubemap& cube, int face, const std::string& w
   return img;
 }
 
-void check_cancel(const material::BakeControl& control) {
-  if (control.cancel && control.cancel->load()) throw material::BakeCancelled();
+void check_cancel(const bake::BakeControl& control) {
+  if (control.cancel && control.cancel->load()) throw bake::BakeCancelled();
 }
 
 // The effects force_effects may name.
@@ -116,14 +117,11 @@ std::string report_json(const EnvironmentBakeInput& in, const EnvironmentBakeRes
 
 }  // namespace
 
-std::optional<std::string> validate(const EnvironmentBakeInput& in) {
-  auto range = [](const char* field, double v, double lo, double hi) -> std::optional<std::string> {
-    if (std::isfinite(v) && v >= lo && v <= hi) return std::nullopt;
-    return std::string(field) + ": must be in [" + format_number(lo) + ", " + format_number(hi) + "], got " +
-           format_number(v);
-  };
+std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& in) {
+  using bake::InvalidInput;
+  const auto range = [](const char* field, double v, double lo, double hi) { return bake::check_range(field, v, lo, hi); };
   if (!is_power_of_two(in.size) || in.size < 4 || in.size > 2048) {
-    return "size: must be a power of two in [4, 2048], got " + std::to_string(in.size);
+    return InvalidInput("size", "must be a power of two in [4, 2048], got " + std::to_string(in.size));
   }
   if (in.levels != 0) {
     if (auto e = range("levels", in.levels, 1, default_levels(in.size))) return e;
@@ -141,16 +139,18 @@ std::optional<std::string> validate(const EnvironmentBakeInput& in) {
     }
   } else if (!in.faces.empty()) {
     if (in.faces.size() != 6) {
-      return "faces: a cube needs exactly 6 face images (+X, -X, +Y, -Y, +Z, -Z), got " + std::to_string(in.faces.size());
+      return InvalidInput("faces", "a cube needs exactly 6 face images (+X, -X, +Y, -Y, +Z, -Z), got " +
+                                       std::to_string(in.faces.size()));
     }
   } else if (in.image.empty()) {
-    return "image: no environment given (an image, six faces, or a constant colour)";
+    return InvalidInput("image", "no environment given (an image, six faces, or a constant colour)");
   }
   for (const auto& [name, on] : in.force_effects) {
     if (std::find(std::begin(kForcibleEffects), std::end(kForcibleEffects), name) == std::end(kForcibleEffects)) {
       std::string known;
       for (const char* k : kForcibleEffects) known += (known.empty() ? "" : ", ") + std::string(k);
-      return "force_effects: unknown effect '" + name + "'; the effects that can be forced are: " + known;
+      return InvalidInput("force_effects[" + name + "]",
+                          "unknown effect '" + name + "'; the effects that can be forced are: " + known);
     }
   }
   return std::nullopt;
@@ -172,8 +172,8 @@ uint64_t estimate_environment_memory(const EnvironmentBakeInput& in, int width, 
   return static_cast<uint64_t>(std::max({source, split, chain, output}) + small);
 }
 
-EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const material::BakeControl& control) {
-  if (auto problem = validate(in)) throw std::invalid_argument(*problem);
+EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bake::BakeControl& control) {
+  if (auto problem = validate(in)) throw *problem;
   const auto t0 = std::chrono::steady_clock::now();
   auto stage_t0 = t0;
   EnvironmentBakeResult result;
@@ -183,7 +183,7 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const mat
     stage_t0 = now;
     check_cancel(control);
     if (!control.progress) return;
-    material::BakeProgress p;
+    bake::BakeProgress p;
     p.fraction = fraction;
     p.samples = result.samples;
     p.stage = stage;
@@ -216,7 +216,7 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const mat
   std::string color_space = "lin_rec709";
   if (in.constant) {
     source = Cubemap(in.size, *in.constant);
-    plan("source", true, false, "a constant environment " + brdf::format_rgb(*in.constant));
+    plan("source", true, false, "a constant environment " + bake::format_rgb(*in.constant));
   } else if (from_faces) {
     CubeFacesInput faces = decode_cube_faces(in.faces, in.decode);
     result.sanitized = faces.sanitized;

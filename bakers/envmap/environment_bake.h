@@ -30,9 +30,12 @@
 #include <string>
 #include <vector>
 
+#include "bakers/bake/cancelled.h"
+#include "bakers/bake/control.h"
+#include "bakers/bake/invalid_input.h"
+#include "bakers/bake/output.h"
 #include "bakers/envmap/env_input.h"
 #include "bakers/envmap/lobe.h"  // EnvLobe
-#include "bakers/material/material_bake.h"  // BakeControl, BakeOutput, BakeCancelled (shared by the bakers)
 
 namespace kiln::envmap {
 
@@ -82,7 +85,7 @@ struct EnvironmentLevelReport {
 };
 
 struct EnvironmentBakeResult {
-  std::vector<material::BakeOutput> outputs;
+  std::vector<bake::BakeOutput> outputs;
   std::vector<double> level_roughness, level_error;
   std::vector<int> level_samples;                 // per texel, per level (0 for level 0)
   std::vector<EnvironmentLevelReport> levels;
@@ -104,11 +107,11 @@ struct EnvironmentBakeResult {
 uint64_t estimate_environment_memory(const EnvironmentBakeInput& input, int source_width, int source_height,
                                      bool source_is_faces);
 
-// nullopt if valid, else "field: problem, got value".
-std::optional<std::string> validate(const EnvironmentBakeInput& input);
+// nullopt if valid, else the first offending field and what is wrong with it.
+std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& input);
 
-// Throws std::invalid_argument (naming the field; also when the estimated memory exceeds kMaxEnvironmentMemory),
-// std::runtime_error (an undecodable image or face, naming it) or material::BakeCancelled.
-EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& input, const material::BakeControl& control = {});
+// Throws bake::InvalidInput (naming the field; also when the estimated memory exceeds kMaxEnvironmentMemory),
+// std::runtime_error (an undecodable image or face, naming it) or bake::BakeCancelled.
+EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& input, const bake::BakeControl& control = {});
 
 }  // namespace kiln::envmap

@@ -68,7 +68,7 @@ struct PrefilterOptions {
   brdf::Distribution distribution = brdf::Distribution::ggx;
   uint64_t seed = 0;  // the Cranley–Patterson shifts; the same seed gives the same bytes
   // Set (by another thread) to stop early: the chain returned is then incomplete and must be discarded; the caller
-  // checks the flag after the call (environment_bake throws material::BakeCancelled).
+  // checks the flag after the call (environment_bake throws bake::BakeCancelled).
   const std::atomic<bool>* cancel = nullptr;
 };
 

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/image/color.h"
 #include "bakers/image/display_png.h"
 #include "bakers/math/constants.h"
@@ -15,7 +15,7 @@
 namespace kiln::envmap {
 namespace {
 
-using brdf::format_number;
+using bake::format_number;
 
 // a + t (b − a): exact when a == b, so that a constant lighting stays that constant through every interpolation.
 Rgb lerp_exact(double t, const Rgb& a, const Rgb& b) { return a + (b - a) * t; }

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <numeric>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/envmap/irradiance.h"
 
 namespace kiln::envmap {
@@ -82,8 +82,8 @@ SunSplit split_sun(const Cubemap& source, SunMode mode) {
   double sun_power = 0;
   for (size_t i : picked) sun_power += y[i] * omega[i];
   s.power_fraction = total_power > 0 ? sun_power / total_power : 0.0;
-  const std::string rule = "texels with luminance > " + brdf::format_number(kSunContrast) + " x the 90th percentile (" +
-                           brdf::format_number(s.quantile_luminance) + ") = " + brdf::format_number(s.threshold);
+  const std::string rule = "texels with luminance > " + bake::format_number(kSunContrast) + " x the 90th percentile (" +
+                           bake::format_number(s.quantile_luminance) + ") = " + bake::format_number(s.threshold);
   if (picked.empty()) {
     s.reason = (mode == SunMode::forced_on ? "forced on, but no sun found (no-op): no " : "no sun: no ") + rule;
     return s;
@@ -92,9 +92,9 @@ SunSplit split_sun(const Cubemap& source, SunMode mode) {
                             (s.candidates > kMaxSunTexels ? " (the brightest " + std::to_string(kMaxSunTexels) +
                                                                 " of " + std::to_string(s.candidates) + ")"
                                                           : std::string()) +
-                            ", holding " + brdf::format_number(100.0 * s.power_fraction) + "% of the power";
+                            ", holding " + bake::format_number(100.0 * s.power_fraction) + "% of the power";
   if (mode == SunMode::automatic && s.power_fraction < kMinSunPowerFraction) {
-    s.reason = "no sun: " + found + ", below the " + brdf::format_number(100.0 * kMinSunPowerFraction) +
+    s.reason = "no sun: " + found + ", below the " + bake::format_number(100.0 * kMinSunPowerFraction) +
                "% that makes a separate light worth its cost";
     return s;
   }

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <stdexcept>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/image/color.h"
 
 namespace kiln::image {
@@ -69,7 +69,7 @@ Png8Image display_png8(std::vector<float> linear, int width, int height, double 
 }
 
 std::string describe_exposure(const AutoExposure& exposure, const std::string& what, const std::string& black) {
-  using brdf::format_number;
+  using bake::format_number;
   const std::string to_grey = " -> " + format_number(kMidGrey);
   switch (exposure.from) {
     case AutoExposure::Key::median:

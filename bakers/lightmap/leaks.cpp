@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/math/constants.h"
 #include "bakers/scene/ray_offset.h"
 
@@ -18,7 +18,7 @@ namespace {
 void check(const LeakOptions& o) {
   const auto fail = [](const std::string& field, const std::string& want, double got) {
     throw std::invalid_argument("leak handling: " + field + " must be " + want + ", got " +
-                                brdf::format_number(got));
+                                bake::format_number(got));
   };
   if (o.rings < 1 || o.rings > 64) fail("rings", "in [1, 64]", o.rings);
   if (o.sectors < 1 || o.sectors > 64) fail("sectors", "in [1, 64]", o.sectors);

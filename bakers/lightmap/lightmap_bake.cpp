@@ -10,7 +10,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
+#include "bakers/bake/range_check.h"
 #include "bakers/image/color.h"
 #include "bakers/image/display_png.h"
 #include "bakers/image/exr.h"
@@ -31,13 +32,13 @@
 namespace kiln::lightmap {
 namespace {
 
-using brdf::format_number;
+using bake::format_number;
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-void check_cancel(const material::BakeControl& control) {
-  if (control.cancel && control.cancel->load()) throw material::BakeCancelled();
+void check_cancel(const bake::BakeControl& control) {
+  if (control.cancel && control.cancel->load()) throw bake::BakeCancelled();
 }
 
 // A seed per (bake seed, lightmap, texel, pass): every estimate has its own stream, whatever thread computes it, so
@@ -226,19 +227,17 @@ std::string json_string(const std::string& s) {
 
 }  // namespace
 
-std::optional<std::string> validate(const LightmapBakeInput& in) {
-  auto range = [](const std::string& field, double v, double lo, double hi) -> std::optional<std::string> {
-    if (std::isfinite(v) && v >= lo && v <= hi) return std::nullopt;
-    return field + ": must be in [" + format_number(lo) + ", " + format_number(hi) + "], got " + format_number(v);
+std::optional<bake::InvalidInput> validate(const LightmapBakeInput& in) {
+  using bake::InvalidInput;
+  const auto range = [](const std::string& field, double v, double lo, double hi) {
+    return bake::check_range(field, v, lo, hi);
   };
   if (auto e = range("resolution", in.resolution, 4, 8192)) return e;
   for (const auto& [name, r] : in.resolutions) {
     if (auto e = range("resolutions[" + name + "]", r, 4, 8192)) return e;
   }
   if (auto e = range("padding", in.padding, 0, 64)) return e;
-  if (!(in.target_error > 0 && in.target_error <= 1)) {
-    return "target_error: must be in (0, 1], got " + format_number(in.target_error);
-  }
+  if (auto e = bake::check_range("target_error", in.target_error, 0, 1, true)) return e;
   if (auto e = range("max_samples", static_cast<double>(in.max_samples), 1, 1 << 20)) return e;
   if (auto e = range("min_samples", static_cast<double>(in.min_samples), 1, static_cast<double>(in.max_samples))) {
     return e;
@@ -246,24 +245,24 @@ std::optional<std::string> validate(const LightmapBakeInput& in) {
   if (auto e = range("time_limit_seconds", in.time_limit_seconds, 0, 7 * 86400)) return e;
   if (auto e = range("max_bounces", in.max_bounces, 0, 1024)) return e;
   if (!in.textures.empty() && !in.scene.textures.empty()) {
-    return "textures: give textures either decoded in the scene or encoded, not both";
+    return InvalidInput("textures", "give textures either decoded in the scene or encoded, not both");
   }
   if (auto e = plan::check_forced_names(in.force_effects, plan::lightmap_effect_names())) return e;
   if (in.full_simulation && !in.force_effects.empty()) {
-    return "force_effects: a full simulation simulates everything; leave force_effects empty";
+    return InvalidInput("force_effects", "a full simulation simulates everything; leave force_effects empty");
   }
   return std::nullopt;
 }
 
-LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::BakeControl& control) {
-  if (auto problem = validate(in)) throw std::invalid_argument(*problem);
+LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const bake::BakeControl& control) {
+  if (auto problem = validate(in)) throw *problem;
   const auto t0 = Clock::now();
   LightmapBakeResult result;
   double last_fraction = 0;
   auto progress = [&](double fraction, const std::string& stage, double error) {
     check_cancel(control);
     if (!control.progress) return;
-    material::BakeProgress p;
+    bake::BakeProgress p;
     last_fraction = std::max(last_fraction, std::clamp(fraction, 0.0, 1.0));  // never decreasing
     p.fraction = last_fraction;
     p.samples = result.samples;
@@ -597,7 +596,7 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const material::B
   std::ostringstream maps_json;
   for (size_t mi = 0; mi < maps.size(); ++mi) {
     const Lightmap& m = maps[mi];
-    for (material::BakeOutput& o : encode_lightmap(m.image, out_options)) result.outputs.push_back(std::move(o));
+    for (bake::BakeOutput& o : encode_lightmap(m.image, out_options)) result.outputs.push_back(std::move(o));
     const std::string& name = m.name;
     const LightmapImage& img = m.image;
     if (in.radiance) {

@@ -17,8 +17,11 @@
 #include <string>
 #include <vector>
 
+#include "bakers/bake/cancelled.h"
+#include "bakers/bake/control.h"
+#include "bakers/bake/invalid_input.h"
+#include "bakers/bake/output.h"
 #include "bakers/envmap/env_input.h"
-#include "bakers/material/material_bake.h"  // BakeControl, BakeOutput, BakeCancelled (shared by the bakers)
 #include "bakers/plan/decision.h"
 #include "bakers/scene/scene.h"
 
@@ -77,7 +80,7 @@ struct ErrorPoint {
 };
 
 struct LightmapBakeResult {
-  std::vector<material::BakeOutput> outputs;
+  std::vector<bake::BakeOutput> outputs;
   std::vector<plan::Decision> plan;
   std::vector<ErrorPoint> curve;
   uint64_t samples = 0, rays = 0;
@@ -91,11 +94,11 @@ struct LightmapBakeResult {
   std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people
 };
 
-// nullopt if valid, else "field: problem, got value".
-std::optional<std::string> validate(const LightmapBakeInput& input);
+// nullopt if valid, else the first offending field and what is wrong with it.
+std::optional<bake::InvalidInput> validate(const LightmapBakeInput& input);
 
-// Throws std::invalid_argument (naming the field), std::runtime_error (undecodable textures or environment, a
-// scene with nothing to bake) or material::BakeCancelled.
-LightmapBakeResult bake_lightmaps(const LightmapBakeInput& input, const material::BakeControl& control = {});
+// Throws bake::InvalidInput (naming the field), std::runtime_error (undecodable textures or environment, a
+// scene with nothing to bake) or bake::BakeCancelled.
+LightmapBakeResult bake_lightmaps(const LightmapBakeInput& input, const bake::BakeControl& control = {});
 
 }  // namespace kiln::lightmap

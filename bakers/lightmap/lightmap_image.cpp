@@ -5,7 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/lightmap/dilate.h"
 #include "bakers/scene/lights.h"
 
@@ -133,14 +133,14 @@ image::FloatImage LightmapImage::error_image(double floor) const {
   return img;
 }
 
-std::vector<material::BakeOutput> encode_lightmap(const LightmapImage& lm, const LightmapOutputOptions& options) {
+std::vector<bake::BakeOutput> encode_lightmap(const LightmapImage& lm, const LightmapOutputOptions& options) {
   if (options.padding < 0 || options.padding > 64) {
     throw std::invalid_argument("lightmap '" + lm.name() + "': padding must be in [0, 64] texels, got " +
                                 std::to_string(options.padding));
   }
   if (!(options.error_floor >= 0) || !std::isfinite(options.error_floor)) {
     throw std::invalid_argument("lightmap '" + lm.name() + "': error_floor must be finite and >= 0 W/m^2, got " +
-                                brdf::format_number(options.error_floor));
+                                bake::format_number(options.error_floor));
   }
   const auto common = [&](image::FloatImage& img, const char* content, const char* units, const std::string& space) {
     img.metadata["kiln:content"] = content;
@@ -160,9 +160,9 @@ std::vector<material::BakeOutput> encode_lightmap(const LightmapImage& lm, const
 
   image::FloatImage error = lm.error_image(options.error_floor);
   common(error, "relative error", "standard error of the mean luminance / max(mean luminance, floor)", "data");
-  error.metadata["kiln:error_floor"] = brdf::format_number(options.error_floor);
+  error.metadata["kiln:error_floor"] = bake::format_number(options.error_floor);
 
-  std::vector<material::BakeOutput> out;
+  std::vector<bake::BakeOutput> out;
   out.push_back({lm.name() + "_irradiance.exr", "image/x-exr", "scene_linear", image::encode_exr(irradiance)});
   out.push_back({lm.name() + "_validity.exr", "image/x-exr", "data", image::encode_exr(validity)});
   out.push_back({lm.name() + "_error.exr", "image/x-exr", "data", image::encode_exr(error)});

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "bakers/bake/output.h"
 #include "bakers/image/exr.h"
-#include "bakers/material/material_bake.h"
 #include "bakers/math/rgb.h"
 
 namespace kiln::lightmap {
@@ -95,6 +95,6 @@ struct LightmapOutputOptions {
 // metadata: kiln:content, kiln:units, kiln:colorspace, kiln:lightmap, kiln:resolution ("WxH"), kiln:uv_convention,
 // and kiln:padding / kiln:error_floor where they apply. Throws std::invalid_argument for a padding out of range or a
 // negative or non-finite floor.
-std::vector<material::BakeOutput> encode_lightmap(const LightmapImage& image, const LightmapOutputOptions& options);
+std::vector<bake::BakeOutput> encode_lightmap(const LightmapImage& image, const LightmapOutputOptions& options);
 
 }  // namespace kiln::lightmap

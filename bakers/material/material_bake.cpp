@@ -12,7 +12,7 @@
 #include <set>
 #include <utility>
 
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/brdf/fresnel.h"
 #include "bakers/image/exr.h"
 #include "bakers/material/merl.h"
@@ -116,10 +116,10 @@ struct Entry {
 // Serialises progress reports, keeps the fraction monotone, and answers "cancelled?".
 class Progress {
  public:
-  Progress(const BakeControl& control, Clock::time_point start) : control_(control), start_(start) {}
+  Progress(const bake::BakeControl& control, Clock::time_point start) : control_(control), start_(start) {}
 
   void check_cancel() const {
-    if (control_.cancel && control_.cancel->load(std::memory_order_relaxed)) throw BakeCancelled();
+    if (control_.cancel && control_.cancel->load(std::memory_order_relaxed)) throw bake::BakeCancelled();
   }
   void add_planned(double units) {
     std::lock_guard lock(mutex_);
@@ -157,7 +157,7 @@ class Progress {
     const double f = last ? 1.0 : std::min(0.999, planned_ > 0 ? done_ / planned_ : 0.0);
     fraction_ = std::max(fraction_, f);
     if (!control_.progress) return;
-    BakeProgress p;
+    bake::BakeProgress p;
     p.fraction = fraction_;
     const double elapsed = std::chrono::duration<double>(Clock::now() - start_).count();
     p.eta_seconds = last ? 0.0 : (fraction_ > 0 ? elapsed * (1.0 - fraction_) / fraction_ : -1.0);
@@ -167,7 +167,7 @@ class Progress {
     control_.progress(p);
   }
 
-  const BakeControl& control_;
+  const bake::BakeControl& control_;
   Clock::time_point start_;
   mutable std::mutex mutex_;
   double done_ = 0, planned_ = 0, fraction_ = 0;
@@ -278,7 +278,7 @@ std::vector<Comparison> approximations(const brdf::ModelSpec& spec, std::vector<
         if (std::none_of(c.exact.begin(), c.exact.end(), [](const auto& x) { return brdf::validate(x).has_value(); }))
           out.push_back(std::move(c));
       } else {
-        plan.push_back("approximation fresnel schlick vs exact: skipped, f0 " + brdf::format_rgb(spec.f0) +
+        plan.push_back("approximation fresnel schlick vs exact: skipped, f0 " + bake::format_rgb(spec.f0) +
                        " is beyond any dielectric (eta > 10); a metal needs a complex index for its exact Fresnel");
       }
     }
@@ -326,34 +326,37 @@ void check_finite(const Estimate& e, const std::string& what) {
 
 }  // namespace
 
-std::optional<std::string> validate(const MaterialBakeInput& in) {
+std::optional<bake::InvalidInput> validate(const MaterialBakeInput& in) {
+  using bake::InvalidInput;
   if (in.material) {
-    return std::string("material: two-lobe materials are not supported by the material bake yet; describe one model "
-                       "in model");
+    return InvalidInput("material",
+                        "two-lobe materials are not supported by the material bake yet; describe one model in model");
   }
-  if (auto e = brdf::validate(in.model)) return "model." + *e;
+  if (auto e = brdf::validate(in.model)) return e->under("model");
   if (in.table_mu < 1 || in.table_mu > kMaxTable) {
-    return "table_mu: must be in [1, " + std::to_string(kMaxTable) + "], got " + std::to_string(in.table_mu);
+    return InvalidInput("table_mu",
+                        "must be in [1, " + std::to_string(kMaxTable) + "], got " + std::to_string(in.table_mu));
   }
   if (in.table_roughness < 1 || in.table_roughness > kMaxTable) {
-    return "table_roughness: must be in [1, " + std::to_string(kMaxTable) + "], got " +
-           std::to_string(in.table_roughness);
+    return InvalidInput("table_roughness", "must be in [1, " + std::to_string(kMaxTable) + "], got " +
+                                               std::to_string(in.table_roughness));
   }
   if (in.samples > kMaxSamples) {
-    return "samples: must be at most " + std::to_string(kMaxSamples) + " per table entry, got " +
-           std::to_string(in.samples);
+    return InvalidInput("samples", "must be at most " + std::to_string(kMaxSamples) + " per table entry, got " +
+                                       std::to_string(in.samples));
   }
   if (!std::isfinite(in.target_error) || in.target_error < 0) {
-    return "target_error: must be a finite number >= 0 (0: off), got " + describe_number(in.target_error);
+    return InvalidInput("target_error", "must be a finite number >= 0 (0: off), got " + describe_number(in.target_error));
   }
   if (!std::isfinite(in.time_limit_seconds) || in.time_limit_seconds < 0) {
-    return "time_limit_seconds: must be a finite number >= 0 (0: none), got " + describe_number(in.time_limit_seconds);
+    return InvalidInput("time_limit_seconds",
+                        "must be a finite number >= 0 (0: none), got " + describe_number(in.time_limit_seconds));
   }
   return std::nullopt;
 }
 
-MaterialBakeResult bake_material(const MaterialBakeInput& input, const BakeControl& control) {
-  if (auto error = validate(input)) throw std::invalid_argument(*error);
+MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::BakeControl& control) {
+  if (auto error = validate(input)) throw *error;
   const Clock::time_point start = Clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   Progress progress(control, start);

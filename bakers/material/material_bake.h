@@ -18,7 +18,7 @@
 // Threads: tbb::parallel_for over entries (and over MERL rows), inside whatever TBB arena the caller runs in; the
 // caller limits the thread count with a tbb::task_arena or tbb::global_control.
 //
-// Outputs (BakeOutput.name):
+// Outputs (bake::BakeOutput.name):
 //   albedo.exr     width table_mu, height 1, 8 float channels: R, G, B = E(μ); err.R, err.G, err.B = their standard
 //                  errors; white = E(μ) of the white-furnace form; white_err. Pixel x ↔ μ = (x + 0.5) / table_mu.
 //   split_sum.exr  width table_mu, height table_roughness, channels scale, bias, scale_err, bias_err. Pixel (x, y) ↔
@@ -37,6 +37,10 @@
 #include <string>
 #include <vector>
 
+#include "bakers/bake/cancelled.h"
+#include "bakers/bake/control.h"
+#include "bakers/bake/invalid_input.h"
+#include "bakers/bake/output.h"
 #include "bakers/brdf/albedo.h"
 #include "bakers/brdf/material.h"
 #include "bakers/brdf/model_spec.h"
@@ -44,30 +48,6 @@
 #include "bakers/math/vec3.h"
 
 namespace kiln::material {
-
-// --- Shared with the other bakers (may move to a common header). ---------------------------------------------------
-
-struct BakeProgress {
-  double fraction = 0;       // of the planned work, in [0, 1], never decreasing; 1 only in the last call
-  double eta_seconds = -1;   // remaining time estimated from the rate so far; negative while unknown
-  uint64_t samples = 0;      // Monte Carlo samples taken so far
-  double error_estimate = 0;  // largest standard error among the entries estimated so far
-  std::string stage;         // "tables", "validation", "merl", "encoding", "done"
-};
-
-struct BakeControl {
-  // Called after each estimated entry (and each MERL row, each validation step), from the bake's worker threads
-  // but never concurrently (the bake serialises the calls). It may set *cancel.
-  std::function<void(const BakeProgress&)> progress;
-  // Polled before every block of at most 65 536 samples; once true the bake throws BakeCancelled.
-  const std::atomic<bool>* cancel = nullptr;
-};
-
-// Thrown when BakeControl::cancel was set. Nothing is returned: a cancelled bake has no partial result.
-class BakeCancelled : public std::runtime_error {
- public:
-  BakeCancelled() : std::runtime_error("the bake was cancelled before it finished") {}
-};
 
 // --- The material bake. ----------------------------------------------------------------------------------------
 
@@ -89,14 +69,6 @@ struct MaterialBakeInput {
   // 0: none.
   double time_limit_seconds = 0;
   uint64_t seed = 1;              // the same input and seed give the same tables
-};
-
-// One output file.
-struct BakeOutput {
-  std::string name;         // "albedo.exr", "split_sum.exr", "brdf.merl", "report.json"
-  std::string media_type;   // "image/x-exr", "application/x-merl-brdf", "application/json"
-  std::string color_space;  // "scene_linear" for RGB reflectances, "data" for non-colour numbers, "" for reports
-  std::string bytes;
 };
 
 struct EnergyCheck {
@@ -132,7 +104,7 @@ struct ValidationReport {
 };
 
 struct MaterialBakeResult {
-  std::vector<BakeOutput> outputs;  // in the order listed above; report.json last
+  std::vector<bake::BakeOutput> outputs;  // in the order listed above; report.json last
   std::string description;          // Bxdf::describe() of the model
 
   brdf::AlbedoTable albedo;         // E(μ) as configured, and average (E_avg with its error)
@@ -150,11 +122,11 @@ struct MaterialBakeResult {
   std::vector<std::string> plan;    // what was computed and why, for people
 };
 
-// Throws std::invalid_argument naming the field ("table_mu: must be in [1, 1024], got 0",
-// "model.alpha_x: must be in (0, 1], got -0.2"); BakeCancelled when cancelled; std::runtime_error otherwise.
-MaterialBakeResult bake_material(const MaterialBakeInput& input, const BakeControl& control = {});
+// Throws bake::InvalidInput naming the field ("table_mu": "must be in [1, 1024], got 0", "model.alpha_x": "must be in
+// (0, 1], got -0.2"); bake::BakeCancelled when cancelled; std::runtime_error otherwise.
+MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::BakeControl& control = {});
 
-// nullopt if the input is valid, else the first problem as "field: what is wrong, got value".
-std::optional<std::string> validate(const MaterialBakeInput& input);
+// nullopt if the input is valid, else the first offending field and what is wrong with it.
+std::optional<bake::InvalidInput> validate(const MaterialBakeInput& input);
 
 }  // namespace kiln::material

@@ -4,13 +4,13 @@
 
 namespace kiln::plan {
 
-std::optional<std::string> check_forced_names(const std::map<std::string, bool>& forced,
-                                              const std::vector<std::string>& known) {
+std::optional<bake::InvalidInput> check_forced_names(const std::map<std::string, bool>& forced,
+                                                    const std::vector<std::string>& known) {
   for (const auto& [name, value] : forced) {
     if (std::find(known.begin(), known.end(), name) != known.end()) continue;
     std::string list;
     for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
-    return "force_effects: unknown effect \"" + name + "\"; known effects: " + list;
+    return bake::InvalidInput("force_effects[" + name + "]", "unknown effect \"" + name + "\"; known effects: " + list);
   }
   return std::nullopt;
 }

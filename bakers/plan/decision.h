@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "bakers/bake/invalid_input.h"
+
 namespace kiln::plan {
 
 struct Decision {
@@ -16,8 +18,9 @@ struct Decision {
   std::string reason;   // for people: what in the scene led to this
 };
 
-// nullopt if every name in `forced` is one of `known`, else "force_effects: unknown effect "x"; known: a, b, ...".
-std::optional<std::string> check_forced_names(const std::map<std::string, bool>& forced,
+// nullopt if every name in `forced` is one of `known`, else the field "force_effects[x]" with the problem
+// 'unknown effect "x"; known effects: a, b, ...'.
+std::optional<bake::InvalidInput> check_forced_names(const std::map<std::string, bool>& forced,
                                               const std::vector<std::string>& known);
 
 // Records the planner's decision for `effect`, or the job's forced value with both reasons kept.

@@ -7,7 +7,8 @@
 #include <stdexcept>
 
 #include "bakers/brdf/albedo.h"
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
+#include "bakers/bake/range_check.h"
 #include "bakers/brdf/material.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/sampling.h"
@@ -15,7 +16,7 @@
 namespace kiln::plan {
 namespace {
 
-using brdf::format_number;
+using bake::format_number;
 
 constexpr double kBudgetShare = 0.25;  // of the target error, per pruning (see the header)
 constexpr int kMuSteps = 16;           // directions at which albedos are evaluated, μ = (i + 0.5)/16
@@ -96,7 +97,7 @@ MaterialAnalysis analyse(const scene::SceneMaterial& m, const std::vector<scene:
   }
   const double w_s = m.bsdf.combine == brdf::Combine::weights ? m.bsdf.specular_weight : 1.0;
   // An invalid spec throws, as brdf::Material's constructor below would.
-  if (const auto error = brdf::validate(m.bsdf)) throw std::invalid_argument(*error);
+  if (const auto error = brdf::validate(m.bsdf)) throw *error;
   if (const std::optional<brdf::LambertianForm> form = brdf::lambertian_form(m.bsdf)) {
     // Both lobes Lambertian: the albedo is A + B·tint at every μ, the specular lobe's is its albedo, and a
     // Lambertian lobe is at distance 0 from a Lambertian one. Exact, where the estimates below would spend
@@ -191,13 +192,9 @@ SceneFacts gather(const scene::Scene& scene) {
 }
 
 void check_options(const LightmapPlanOptions& o) {
-  if (!(o.target_error > 0 && o.target_error <= 1)) {
-    throw std::invalid_argument("target_error: must be in (0, 1], got " + format_number(o.target_error));
-  }
-  if (o.max_bounces < 0 || o.max_bounces > 1024) {
-    throw std::invalid_argument("max_bounces: must be in [0, 1024], got " + std::to_string(o.max_bounces));
-  }
-  if (auto e = check_forced_names(o.force_effects, lightmap_effect_names())) throw std::invalid_argument(*e);
+  if (auto e = bake::check_range("target_error", o.target_error, 0, 1, true)) throw *e;
+  if (auto e = bake::check_range("max_bounces", o.max_bounces, 0, 1024)) throw *e;
+  if (auto e = check_forced_names(o.force_effects, lightmap_effect_names())) throw *e;
 }
 
 // The flags of the plan from its decisions.
@@ -278,7 +275,7 @@ LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions&
   const scene::Environment& env = scene.environment;
   const bool has_env = env.constant ? env.constant->max() > 0 : !env.equirect.empty();
   p.decisions.push_back(decide("environment_sampling", has_env,
-                               has_env ? (env.constant ? "a constant environment " + brdf::format_rgb(*env.constant)
+                               has_env ? (env.constant ? "a constant environment " + bake::format_rgb(*env.constant)
                                                        : "an environment image " + std::to_string(env.width) + "x" +
                                                              std::to_string(env.height))
                                        : "no environment (or a black one)",

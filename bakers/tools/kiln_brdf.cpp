@@ -15,13 +15,14 @@
 
 #include "bakers/brdf/albedo.h"
 #include "bakers/brdf/bxdf.h"
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 #include "bakers/brdf/model_spec.h"
 
 namespace {
 
 using namespace kiln;
 using namespace kiln::brdf;
+using kiln::bake::format_number;
 
 // A usage error: printed as one line, exit status 2.
 struct UsageError : std::runtime_error {
@@ -178,7 +179,7 @@ Command parse_command(int argc, char** argv) {
     if (auto v = take(flag)) cmd.options[flag] = *v;
   }
   if (!args.empty()) throw UsageError("unknown option '" + args.begin()->first + "' (see --help)");
-  if (auto error = validate(s)) throw UsageError(*error);
+  if (auto error = validate(s)) throw UsageError(error->what());
   return cmd;
 }
 

@@ -159,7 +159,7 @@ struct Run {
 // The bake `repeats` times (the same bytes each time), each followed at once by raw Embree on its ray count and mix;
 // the fastest of each. The machine this runs on is shared: measuring the two back to back and keeping the best of a
 // few keeps other load out of the ratio (measured apart, it moved by ±30 % between runs).
-Run bake(const std::string& label, LightmapBakeInput in, const RayPools& pools, int repeats = 1,
+Run timed_bake(const std::string& label, LightmapBakeInput in, const RayPools& pools, int repeats = 1,
          bool with_baseline = true) {
   Run run{label, {}, {}, INFINITY, {INFINITY, INFINITY}};
   for (int i = 0; i < repeats; ++i) {
@@ -177,7 +177,7 @@ Run bake(const std::string& label, LightmapBakeInput in, const RayPools& pools, 
     run.raw.wall = std::min(run.raw.wall, t.wall);
     run.raw.cpu = std::min(run.raw.cpu, t.cpu);
   }
-  for (const material::BakeOutput& o : run.result.outputs) {
+  for (const bake::BakeOutput& o : run.result.outputs) {
     const std::string suffix = "_irradiance.exr";
     if (o.name.size() <= suffix.size() || o.name.compare(o.name.size() - suffix.size(), suffix.size(), suffix) != 0)
       continue;
@@ -317,7 +317,7 @@ int main(int argc, char** argv) {
   }
   if (profile > 0) {
     // One budget bake and its baseline, for profiling and quick comparisons: no reference, no table.
-    const Run r = bake("profile", budget(profile, 1), pools, 3, !bake_only);
+    const Run r = timed_bake("profile", budget(profile, 1), pools, 3, !bake_only);
     if (bake_only) {
       std::printf("budget %d: %.3f CPU s, %llu rays, %.2f Mrays/cpu_s\n", profile, r.cpu_seconds,
                   static_cast<unsigned long long>(r.result.rays), r.result.rays / r.cpu_seconds * 1e-6);
@@ -333,15 +333,15 @@ int main(int argc, char** argv) {
 
   std::fprintf(stderr, "reference: %llu estimates per texel at %d^2...\n",
                static_cast<unsigned long long>(reference_samples), resolution);
-  const Run reference = bake("reference", budget(reference_samples, 987654321), pools);
+  const Run reference = timed_bake("reference", budget(reference_samples, 987654321), pools);
 
   std::vector<Run> runs;
   for (const uint64_t n : {4, 16, 64, 256}) {
     std::fprintf(stderr, "budget %llu...\n", static_cast<unsigned long long>(n));
-    runs.push_back(bake("max_samples " + std::to_string(n), budget(n, 1), pools, 3));
+    runs.push_back(timed_bake("max_samples " + std::to_string(n), budget(n, 1), pools, 3));
   }
   std::fprintf(stderr, "default target...\n");
-  runs.push_back(bake("target 0.01 (default)", input(4096, 0.01, 1), pools, 3));
+  runs.push_back(timed_bake("target 0.01 (default)", input(4096, 0.01, 1), pools, 3));
   // The planner: the same target, planned and as a full simulation (every effect, max_bounces bounces), on the box
   // as `kiln bake lightmap` imports it from the glTF: every material gets glTF's dielectric coat, GGX with α =
   // roughness² = 1 and Schlick's f0 = 0.04, layered over the tinted Lambertian base (client/import/scene_import.cpp).
@@ -361,10 +361,10 @@ int main(int argc, char** argv) {
     return in;
   };
   std::fprintf(stderr, "planned vs full simulation...\n");
-  const Run planned = bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1), pools, 3);
+  const Run planned = timed_bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1), pools, 3);
   LightmapBakeInput full_in = imported(4096, plan_target, 1);
   full_in.full_simulation = true;
-  const Run full = bake("imported box, full simulation, target " + fmt("%.2f", plan_target), full_in, pools, 3);
+  const Run full = timed_bake("imported box, full simulation, target " + fmt("%.2f", plan_target), full_in, pools, 3);
 
 
   std::string table;

@@ -222,7 +222,7 @@ TEST(StabilityCatalogue, EveryEntryIsValidAndNamedUniquely) {
   for (const CatalogEntry* e : all_entries()) {
     EXPECT_TRUE(names.insert(e->name).second) << "duplicate name " << e->name;
     const auto error = brdf::validate(e->spec);
-    EXPECT_FALSE(error.has_value()) << e->name << ": " << error.value_or("");
+    EXPECT_FALSE(error.has_value()) << e->name << ": " << (error ? error->what() : "");
   }
 }
 

@@ -348,7 +348,7 @@ TEST(TranslateEnvironment, BakerComplaintsNameTheJobsField) {
   EXPECT_EQ(undecodable.field(), "job.environment.image");
   EXPECT_EQ(std::string(undecodable.what()), "job.environment.image: not an image: the bytes start with 'GIF8'");
   // A baker's "field: problem".
-  EXPECT_EQ(input_error(image, std::invalid_argument("size: must be a power of two")).field(), "job.environment.size");
+  EXPECT_EQ(input_error(image, bake::InvalidInput("size", "must be a power of two")).field(), "job.environment.size");
   const BakeRequest faces = translate(spec_from("environment { " + faces_text(6) + " }"));
   EXPECT_EQ(input_error(faces, std::runtime_error("face 3 is not square")).field(), "job.environment.faces");
 }

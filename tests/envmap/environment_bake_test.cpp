@@ -14,7 +14,7 @@
 namespace kiln::envmap {
 namespace {
 
-const material::BakeOutput& output(const EnvironmentBakeResult& r, const std::string& name) {
+const bake::BakeOutput& output(const EnvironmentBakeResult& r, const std::string& name) {
   for (const auto& o : r.outputs) {
     if (o.name == name) return o;
   }
@@ -183,24 +183,24 @@ TEST(EnvironmentBake, RejectsBadSettings) {
   EnvironmentBakeInput in;
   in.constant = Rgb{1.0};
   in.size = 100;
-  EXPECT_NE(validate(in)->find("size"), std::string::npos);
+  EXPECT_NE(std::string(validate(in)->what()).find("size"), std::string::npos);
   in.size = 16;
   in.samples = 1;
-  EXPECT_NE(validate(in)->find("samples"), std::string::npos);
+  EXPECT_NE(std::string(validate(in)->what()).find("samples"), std::string::npos);
   in.samples = 64;
   in.constant.reset();
-  EXPECT_NE(validate(in)->find("image"), std::string::npos);
+  EXPECT_NE(std::string(validate(in)->what()).find("image"), std::string::npos);
   in.image = "not an image";
   EXPECT_THROW(bake_environment(in), std::runtime_error);
   in.force_effects["sunlight"] = true;
-  EXPECT_NE(validate(in)->find("force_effects"), std::string::npos);
+  EXPECT_NE(std::string(validate(in)->what()).find("force_effects"), std::string::npos);
   in.force_effects.clear();
   in.target_error = 0;
-  EXPECT_NE(validate(in)->find("target_error"), std::string::npos);
+  EXPECT_NE(std::string(validate(in)->what()).find("target_error"), std::string::npos);
   in.target_error = 0.01;
   in.image.clear();
   in.faces = {"a", "b"};
-  EXPECT_NE(validate(in)->find("faces"), std::string::npos);
+  EXPECT_NE(std::string(validate(in)->what()).find("faces"), std::string::npos);
 }
 
 // Cancelling from the progress callback (here at the end of the sun stage, before the chain) throws BakeCancelled.
@@ -210,12 +210,12 @@ TEST(EnvironmentBake, CancelFromProgressThrows) {
   in.size = 16;
   in.preview = false;
   std::atomic<bool> cancel{false};
-  material::BakeControl control;
+  bake::BakeControl control;
   control.cancel = &cancel;
-  control.progress = [&](const material::BakeProgress& p) {
+  control.progress = [&](const bake::BakeProgress& p) {
     if (p.stage == "sun") cancel = true;
   };
-  EXPECT_THROW(bake_environment(in, control), material::BakeCancelled);
+  EXPECT_THROW(bake_environment(in, control), bake::BakeCancelled);
 }
 
 }  // namespace

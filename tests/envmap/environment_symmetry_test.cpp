@@ -107,7 +107,7 @@ TEST(EnvironmentSymmetry, TheHandDerivedFaceMapAgreesWithTheTexelDirections) {
       }
 }
 
-const material::BakeOutput& output(const EnvironmentBakeResult& r, const std::string& name) {
+const bake::BakeOutput& output(const EnvironmentBakeResult& r, const std::string& name) {
   for (const auto& o : r.outputs) {
     if (o.name == name) return o;
   }

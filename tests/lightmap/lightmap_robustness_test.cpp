@@ -45,7 +45,7 @@ long dropped_samples(const LightmapBakeResult& r) {
 // Every pixel of every EXR output of lightmap `map` is finite, and non-negative except in the SH (whose order-1
 // coefficients are signed).
 void expect_outputs_finite(const LightmapBakeResult& r, const std::string& map) {
-  for (const material::BakeOutput& o : r.outputs) {
+  for (const bake::BakeOutput& o : r.outputs) {
     if (o.name.rfind(map + "_", 0) != 0 || o.media_type != "image/x-exr") continue;
     const image::FloatImage img = image::decode_exr(o.bytes);
     const bool signed_values = o.name == map + "_sh.exr";

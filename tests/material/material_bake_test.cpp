@@ -177,7 +177,7 @@ TEST(JsonChecker, AcceptsValidAndRejectsInvalidJson) {
 
 // --- Helpers. ----------------------------------------------------------------------------------------------------
 
-const BakeOutput* find_output(const MaterialBakeResult& r, const std::string& name) {
+const bake::BakeOutput* find_output(const MaterialBakeResult& r, const std::string& name) {
   for (const auto& o : r.outputs)
     if (o.name == name) return &o;
   return nullptr;
@@ -212,7 +212,7 @@ TEST(MaterialBake, LambertTablesAreExactlyRho) {
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.average_albedo[c], in.model.albedo[c], 1e-14);
   EXPECT_NEAR(r.white_furnace.average.value.g, 1.0, 1e-14);
 
-  const BakeOutput* albedo = find_output(r, "albedo.exr");
+  const bake::BakeOutput* albedo = find_output(r, "albedo.exr");
   ASSERT_NE(albedo, nullptr);
   EXPECT_EQ(albedo->media_type, "image/x-exr");
   const image::FloatImage img = image::decode_exr(albedo->bytes);
@@ -398,9 +398,9 @@ TEST(MaterialBake, ProgressIsMonotoneAndEndsAtOne) {
   in.table_mu = 8;
   in.table_roughness = 4;
   in.target_error = 2e-3;
-  std::vector<BakeProgress> seen;
-  BakeControl control;
-  control.progress = [&](const BakeProgress& p) { seen.push_back(p); };  // calls are serialised by the bake
+  std::vector<bake::BakeProgress> seen;
+  bake::BakeControl control;
+  control.progress = [&](const bake::BakeProgress& p) { seen.push_back(p); };  // calls are serialised by the bake
   bake_material(in, control);
   ASSERT_GE(seen.size(), 2u);
   for (size_t k = 1; k < seen.size(); ++k) {
@@ -424,15 +424,15 @@ TEST(MaterialBake, CancelFromTheProgressCallbackStopsPromptly) {
   std::atomic<bool> cancel{false};
   int calls = 0, calls_after_cancel = 0;
   double last_fraction = 0;
-  BakeControl control;
+  bake::BakeControl control;
   control.cancel = &cancel;
-  control.progress = [&](const BakeProgress& p) {
+  control.progress = [&](const bake::BakeProgress& p) {
     ++calls;
     if (cancel) ++calls_after_cancel;
     last_fraction = p.fraction;
     cancel = true;  // after the first entry
   };
-  EXPECT_THROW(bake_material(in, control), BakeCancelled);
+  EXPECT_THROW(bake_material(in, control), bake::BakeCancelled);
   EXPECT_GE(calls, 1);
   // Entries already running on the other threads may finish and report; no new one starts. With 2 cores a couple;
   // 16 leaves room for a machine with more.
@@ -442,10 +442,10 @@ TEST(MaterialBake, CancelFromTheProgressCallbackStopsPromptly) {
 
 TEST(MaterialBake, CancelBeforeStartThrowsAtOnce) {
   std::atomic<bool> cancel{true};
-  BakeControl control;
+  bake::BakeControl control;
   control.cancel = &cancel;
   MaterialBakeInput in;
-  EXPECT_THROW(bake_material(in, control), BakeCancelled);
+  EXPECT_THROW(bake_material(in, control), bake::BakeCancelled);
 }
 
 // --- Outputs and the report. -------------------------------------------------------------------------------------
@@ -491,7 +491,7 @@ TEST(MaterialBake, MerlOutputWhenAsked) {
   in.samples = 256;
   in.merl = true;
   const MaterialBakeResult r = bake_material(in);
-  const BakeOutput* m = find_output(r, "brdf.merl");
+  const bake::BakeOutput* m = find_output(r, "brdf.merl");
   ASSERT_NE(m, nullptr);
   EXPECT_EQ(m->bytes.size(), kMerlFileBytes);
   const MerlTable t = decode_merl(m->bytes);
@@ -539,7 +539,7 @@ TEST(MaterialBake, InvalidInputNamesTheField) {
   in = {};
   in.table_mu = 0;
   ASSERT_TRUE(validate(in).has_value());
-  EXPECT_EQ(validate(in)->rfind("table_mu:", 0), 0u);
+  EXPECT_EQ(std::string(validate(in)->what()).rfind("table_mu:", 0), 0u);
   EXPECT_FALSE(validate(MaterialBakeInput{}).has_value());
 }
 

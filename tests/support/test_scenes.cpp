@@ -212,8 +212,8 @@ lightmap::LightmapBakeInput lightmap_input(scene::Scene s, int resolution, doubl
   return in;
 }
 
-const material::BakeOutput& find_output(const lightmap::LightmapBakeResult& result, const std::string& name) {
-  for (const material::BakeOutput& o : result.outputs) {
+const bake::BakeOutput& find_output(const lightmap::LightmapBakeResult& result, const std::string& name) {
+  for (const bake::BakeOutput& o : result.outputs) {
     if (o.name == name) return o;
   }
   throw std::runtime_error("the bake has no output named " + name);

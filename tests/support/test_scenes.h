@@ -59,7 +59,7 @@ std::string equirect_exr(int width, int height, const std::function<Rgb(const Ve
 lightmap::LightmapBakeInput lightmap_input(scene::Scene s, int resolution, double target_error);
 
 // The output named `name` (throws std::runtime_error naming it when absent), and the same decoded as an EXR.
-const material::BakeOutput& find_output(const lightmap::LightmapBakeResult& result, const std::string& name);
+const bake::BakeOutput& find_output(const lightmap::LightmapBakeResult& result, const std::string& name);
 image::FloatImage exr_output(const lightmap::LightmapBakeResult& result, const std::string& name);
 
 // The bundled Cornell-box-like scene exactly as client/examples/scenes/cornell_box.py writes it (keep the two in step):

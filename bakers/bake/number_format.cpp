@@ -1,9 +1,9 @@
-#include "bakers/brdf/describe.h"
+#include "bakers/bake/number_format.h"
 
 #include <cstdio>
 #include <cstdlib>
 
-namespace kiln::brdf {
+namespace kiln::bake {
 
 std::string format_number(double v) {
   char buf[32];
@@ -19,4 +19,4 @@ std::string format_rgb(const Rgb& c) {
   return format_number(c.r) + "," + format_number(c.g) + "," + format_number(c.b);
 }
 
-}  // namespace kiln::brdf
+}  // namespace kiln::bake
