@@ -245,7 +245,7 @@ TEST(Energy, OrenNayarSimpleGrazingExcess) {
   }
   std::printf("[energy] oren-nayar-simple: max E = %.5f +- %.5f (reference %.5f) at sigma %g, theta_o %g\n", max_e,
               max_se, max_ref, max_sigma, max_theta);
-  // The documented excess (SEED-NOTES: slightly above 1 at grazing for some σ) is there, and no larger than the
+  // The documented excess (eq 27 is slightly above 1 at grazing for some σ) is there, and no larger than the
   // θo → 90° supremum A + B/2 ≤ 1.0152.
   EXPECT_GT(max_e, 1.0 + kSigmas * max_se);
   EXPECT_LE(max_e, 1.0152 + kSigmas * max_se);
@@ -411,8 +411,8 @@ TEST(Energy, SchlickBeckmannDistributionExcess) {
 // The full Oren–Nayar model (first order, and with the two-bounce term, ρ = 1) against an independent 2-D quadrature
 // of the paper's formula (written here with angles: θ = acos, Δφ = atan2), with breakpoints at its kinks (θi = θo;
 // Δφ = ±90°, where |cos Δφ| and the C2 branch switch) and the same clamp at 0 the model documents. The first-order
-// fit exceeds 1 at grazing angles for small σ (up to ≈ 1.0037 near σ = 0.14 as θo → 90°), contrary to SEED-NOTES'
-// "holds for the full first-order Oren–Nayar"; the two-bounce term adds up to ≈ 5% (σ ≈ 0.3, θo → 90°).
+// fit exceeds 1 at grazing angles for small σ (up to ≈ 1.0037 near σ = 0.14 as θo → 90°), contrary to the
+// survey's section 6, which calls it energy conserving; the two-bounce term adds up to ≈ 5% (σ ≈ 0.3, θo → 90°).
 
 double oren_nayar_integrand(double sigma, bool ir, double theta_o, const Vec3& wi) {
   const double s2 = sigma * sigma;

@@ -561,7 +561,7 @@ TEST(MicrofacetBrdf, SchlickG1AgainstExactSmithBeckmann) {
   // Documented (measured) bounds: 64.6 % at α = 1, θ = 89.9°, where both are small (0.0022 vs 0.0062); the mean over
   // the grid and the error up to 80° are much smaller. These bounds document the approximation, they are not a goal.
   EXPECT_LT(worst, 0.65);
-  EXPECT_GT(worst, 0.10);  // "tens of percent off in places" (SEED-NOTES): if this fails the approximation changed
+  EXPECT_GT(worst, 0.10);  // eq 19 is a loose approximation, tens of percent off in places: if this fails it changed
   // Both are exactly 1 at normal incidence.
   for (double alpha : {0.1, 0.5, 1.0}) EXPECT_EQ(g1_schlick(1.0, alpha), 1.0);
 }

@@ -1,4 +1,4 @@
-// Numerical stability of every model under adversarial and random inputs (DESIGN.md promise 2, bxdf.h contract):
+// Numerical stability of every model under adversarial and random inputs (hard cases stay stable; bxdf.h contract):
 // for the catalogue and for extreme parameters (α = 1e-6 and 1, σ = 0 and π/2, η = 1, η → 1, η ≪ 1, η = 10,
 // f0 = 0 and 1, Schlick r and p = 0 and 1), with directions on and near the normal and the horizon, below it,
 // opposite (wi = −wo), equal, mirrored, with NaN, Inf and denormal components:

@@ -18,7 +18,7 @@ struct CatalogEntry {
   brdf::ModelSpec spec;
   // The directional albedo of the white, Fresnel-free form (brdf::without_fresnel(spec)) is ≤ 1 at every wo.
   // False for Cook–Torrance with the π normalisation (4/π too bright), the simplified Oren–Nayar (≈1.5% over 1 at
-  // grazing angles for σ ≈ 0.2; see SEED-NOTES), Oren–Nayar with the two-bounce term (≈5% over at grazing for ρ = 1)
+  // grazing angles for σ ≈ 0.2; survey eq 27), Oren–Nayar with the two-bounce term (≈5% over at grazing for ρ = 1)
   // and Schlick's rational Beckmann D paired with the Beckmann Smith Λ (tens of percent over at grazing). These are
   // measured in energy_test.cpp. True means: at this entry's own parameters; the energy test sweeps roughness only for
   // the models whose conservation holds at every roughness (microfacet forms with normalisation 4, Schlick).
