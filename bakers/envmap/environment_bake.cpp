@@ -4,13 +4,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <iterator>
 #include <sstream>
 
 #include "bakers/bake/number_format.h"
 #include "bakers/bake/range_check.h"
 #include "bakers/envmap/cubemap.h"
 #include "bakers/envmap/dfg.h"
+#include "bakers/envmap/environment_effect.h"
 #include "bakers/envmap/irradiance.h"
 #include "bakers/envmap/prefilter.h"
 #include "bakers/envmap/preview.h"
@@ -57,9 +57,6 @@ image::FloatImage face_image(const Cubemap& cube, int face, const std::string& w
 void check_cancel(const bake::BakeControl& control) {
   if (control.cancel && control.cancel->load()) throw bake::BakeCancelled();
 }
-
-// The effects force_effects may name.
-constexpr const char* kForcibleEffects[] = {"sun_light"};
 
 std::string json_string(const std::string& s) {
   std::string out = "\"";
@@ -146,11 +143,11 @@ std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& in) {
     return InvalidInput("image", "no environment given (an image, six faces, or a constant colour)");
   }
   for (const auto& [name, on] : in.force_effects) {
-    if (std::find(std::begin(kForcibleEffects), std::end(kForcibleEffects), name) == std::end(kForcibleEffects)) {
-      std::string known;
-      for (const char* k : kForcibleEffects) known += (known.empty() ? "" : ", ") + std::string(k);
-      return InvalidInput("force_effects[" + name + "]",
-                          "unknown effect '" + name + "'; the effects that can be forced are: " + known);
+    const std::optional<EnvironmentEffect> effect = effect_from_name(name);
+    if (!effect || !forcible(*effect)) {
+      return InvalidInput("force_effects[" + name + "]", "unknown effect '" + name +
+                                                             "'; the effects that can be forced are: " +
+                                                             forcible_effect_names());
     }
   }
   return std::nullopt;
@@ -190,9 +187,10 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bak
     for (double e : result.level_error) p.error_estimate = std::max(p.error_estimate, e);
     control.progress(p);
   };
-  auto plan = [&](const std::string& effect, bool enabled, bool forced, const std::string& reason) {
-    result.plan_entries.push_back({effect, enabled, forced, reason});
-    result.plan.push_back(effect + ": " + (enabled ? "on" : "off") + (forced ? " (forced)" : "") + " - " + reason);
+  auto plan = [&](EnvironmentEffect effect, bool enabled, bool forced, const std::string& reason) {
+    const std::string name(effect_name(effect));
+    result.plan_entries.push_back({name, enabled, forced, reason});
+    result.plan.push_back(name + ": " + (enabled ? "on" : "off") + (forced ? " (forced)" : "") + " - " + reason);
   };
 
   // 0. Memory, from the headers alone.
@@ -216,31 +214,31 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bak
   std::string color_space = "lin_rec709";
   if (in.constant) {
     source = Cubemap(in.size, *in.constant);
-    plan("source", true, false, "a constant environment " + bake::format_rgb(*in.constant));
+    plan(EnvironmentEffect::source, true, false, "a constant environment " + bake::format_rgb(*in.constant));
   } else if (from_faces) {
     CubeFacesInput faces = decode_cube_faces(in.faces, in.decode);
     result.sanitized = faces.sanitized;
     color_space = faces.working_space;
     source = faces_to_cube(faces, in.size);
-    plan("source", true, false, "six " + faces.format + " faces " + std::to_string(faces.face_size) + "^2 in " +
-                                    faces.color_space + ", rotated " + format_number(in.decode.rotation_degrees) +
-                                    " deg about +Y, intensity " + format_number(in.decode.intensity) +
-                                    ", resampled to a " + std::to_string(in.size) + "^2 cube");
+    plan(EnvironmentEffect::source, true, false,
+         "six " + faces.format + " faces " + std::to_string(faces.face_size) + "^2 in " + faces.color_space +
+             ", rotated " + format_number(in.decode.rotation_degrees) + " deg about +Y, intensity " +
+             format_number(in.decode.intensity) + ", resampled to a " + std::to_string(in.size) + "^2 cube");
   } else {
     const EnvironmentInput env = decode_environment(in.image, in.decode);
     result.sanitized = env.sanitized;
     color_space = env.working_space;
     source = environment_to_cube(env, in.size);
-    plan("source", true, false, "equirectangular " + env.format + " " + std::to_string(env.width) + "x" +
-                                    std::to_string(env.height) + " in " + env.color_space + ", rotated " +
-                                    format_number(in.decode.rotation_degrees) + " deg about +Y, intensity " +
-                                    format_number(in.decode.intensity) + ", resampled to a " +
-                                    std::to_string(in.size) + "^2 cube");
+    plan(EnvironmentEffect::source, true, false,
+         "equirectangular " + env.format + " " + std::to_string(env.width) + "x" + std::to_string(env.height) +
+             " in " + env.color_space + ", rotated " + format_number(in.decode.rotation_degrees) +
+             " deg about +Y, intensity " + format_number(in.decode.intensity) + ", resampled to a " +
+             std::to_string(in.size) + "^2 cube");
   }
   progress(0.1, "source");
 
   // 2. The sun as an explicit light (sun.h); the source is not needed after the split (sky + sun = source).
-  const auto forced = in.force_effects.find("sun_light");
+  const auto forced = in.force_effects.find(std::string(effect_name(EnvironmentEffect::sun_light)));
   const SunMode mode = forced == in.force_effects.end() ? SunMode::automatic
                        : forced->second                 ? SunMode::forced_on
                                                         : SunMode::forced_off;
@@ -250,7 +248,7 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bak
   result.sun_texels = static_cast<int>(split.sun.size());
   result.sun_power_fraction = split.enabled ? split.power_fraction : 0.0;
   if (!split.enabled) split.sun.clear();
-  plan("sun_light", split.enabled, mode != SunMode::automatic, split.reason);
+  plan(EnvironmentEffect::sun_light, split.enabled, mode != SunMode::automatic, split.reason);
   progress(0.15, "sun");
 
   // 3. The specular chain.
@@ -262,8 +260,8 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bak
   options.distribution = lobe_distribution(in.lobe);
   options.seed = in.seed;
   options.cancel = control.cancel;
-  plan("lobe", true, false, lobe_description(in.lobe));
-  plan("samples", true, false,
+  plan(EnvironmentEffect::lobe, true, false, lobe_description(in.lobe));
+  plan(EnvironmentEffect::samples, true, false,
        in.samples == 0 ? "per level, the smallest tried N whose error against brute force on a checked subset of "
                          "texels meets target_error " + format_number(in.target_error) +
                          " (from 64, scaled by the 1/sqrt(N) law; within [16, 65536])"
@@ -351,9 +349,10 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bak
   result.outputs.push_back({"dfg.exr", "image/x-exr", "data", image::encode_exr(dfg_image)});
   if (in.preview) {
     result.outputs.push_back({"preview.png", "image/png", "", render_preview(chain, irradiance, dfg, color_space)});
-    plan("preview", true, false, "preview.png: spheres at roughness 0, 0.25, 0.5, 0.75, 1 and a diffuse one");
+    plan(EnvironmentEffect::preview, true, false,
+         "preview.png: spheres at roughness 0, 0.25, 0.5, 0.75, 1 and a diffuse one");
   } else {
-    plan("preview", false, false, "not asked for");
+    plan(EnvironmentEffect::preview, false, false, "not asked for");
   }
   progress(0.95, "outputs");
 
