@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
-#include <cstdio>
 #include <sstream>
 
 #include "bakers/bake/number_format.h"
@@ -11,6 +9,7 @@
 #include "bakers/envmap/cubemap.h"
 #include "bakers/envmap/dfg.h"
 #include "bakers/envmap/environment_effect.h"
+#include "bakers/envmap/environment_report.h"
 #include "bakers/envmap/irradiance.h"
 #include "bakers/envmap/prefilter.h"
 #include "bakers/envmap/preview.h"
@@ -56,60 +55,6 @@ image::FloatImage face_image(const Cubemap& cube, int face, const std::string& w
 
 void check_cancel(const bake::BakeControl& control) {
   if (control.cancel && control.cancel->load()) throw bake::BakeCancelled();
-}
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\', out += c;
-    else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else out += c;
-  }
-  return out + "\"";
-}
-std::string json_number(double v) { return std::isfinite(v) ? format_number(v) : "null"; }
-std::string json_bool(bool b) { return b ? "true" : "false"; }
-
-std::string report_json(const EnvironmentBakeInput& in, const EnvironmentBakeResult& r, int levels,
-                        const std::string& color_space) {
-  std::ostringstream j;
-  j << "{\n  \"baker\": " << json_string(kEnvironmentBakerVersion) << ",\n  \"size\": " << in.size
-    << ",\n  \"lobe\": " << json_string(to_string(in.lobe)) << ",\n  \"roughness_mapping\": "
-    << json_string("rho_k = k/(levels-1), alpha = rho^2 (Schlick's rational Beckmann: m = rho^2)")
-    << ",\n  \"target_error\": " << json_number(in.target_error) << ",\n  \"seed\": " << in.seed
-    << ",\n  \"levels\": [";
-  for (int k = 0; k < levels; ++k) {
-    const EnvironmentLevelReport& l = r.levels[k];
-    j << (k ? ",\n    " : "\n    ") << "{\"level\": " << k << ", \"size\": " << l.size
-      << ", \"roughness\": " << json_number(l.roughness) << ", \"samples\": " << l.samples
-      << ", \"error_estimate\": " << json_number(l.error_estimate) << ", \"noise_estimate\": "
-      << json_number(l.noise_estimate) << ", \"checked_error\": " << json_number(l.checked_error)
-      << ", \"seconds\": " << json_number(l.seconds) << "}";
-  }
-  j << "\n  ],\n  \"samples\": {\"total\": " << r.samples << ", \"per_level\": [";
-  for (size_t k = 0; k < r.level_samples.size(); ++k) j << (k ? ", " : "") << r.level_samples[k];
-  j << "], \"dfg_per_entry\": " << in.dfg_samples << "},\n  \"time\": {\"total_seconds\": " << json_number(r.seconds)
-    << ", \"stages\": {";
-  for (size_t i = 0; i < r.stage_seconds.size(); ++i)
-    j << (i ? ", " : "") << json_string(r.stage_seconds[i].first) << ": " << json_number(r.stage_seconds[i].second);
-  j << "}},\n  \"plan\": [";
-  for (size_t i = 0; i < r.plan_entries.size(); ++i) {
-    const EnvironmentPlanEntry& e = r.plan_entries[i];
-    j << (i ? ",\n    " : "\n    ") << "{\"effect\": " << json_string(e.effect) << ", \"enabled\": "
-      << json_bool(e.enabled) << ", \"forced\": " << json_bool(e.forced) << ", \"reason\": " << json_string(e.reason)
-      << "}";
-  }
-  j << "\n  ],\n  \"sun\": {\"found\": " << json_bool(r.sun_found) << ", \"texels\": " << r.sun_texels
-    << ", \"power_fraction\": " << json_number(r.sun_power_fraction) << "},\n  \"conventions\": {\"up\": \"+Y\", "
-    << "\"cubemap\": " << json_string(std::string(kCubemapConvention)) << ", \"equirect\": "
-    << json_string(std::string(kEquirectConvention)) << "},\n  \"color_space\": " << json_string(color_space)
-    << ",\n  \"memory\": {\"estimated_peak_bytes\": " << r.memory_bytes << ", \"bound_bytes\": "
-    << kMaxEnvironmentMemory << "},\n  \"sanitized\": {\"nan\": " << r.sanitized.nan << ", \"inf\": "
-    << r.sanitized.inf << ", \"negative\": " << r.sanitized.negative << "}\n}\n";
-  return j.str();
 }
 
 }  // namespace
@@ -357,7 +302,7 @@ EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bak
   progress(0.95, "outputs");
 
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  result.outputs.push_back({"report.json", "application/json", "", report_json(in, result, levels, color_space)});
+  result.outputs.push_back({"report.json", "application/json", "", environment_report_json(in, result, color_space)});
   progress(1.0, "done");
   return result;
 }
