@@ -29,16 +29,6 @@ namespace {
 constexpr const char* kAccepted = image::kAcceptedImageFormats;
 using Format = image::ImageFormat;
 
-std::string hex_prefix(const std::string& bytes) {
-  std::string out;
-  char buf[4];
-  for (size_t i = 0; i < std::min<size_t>(bytes.size(), 8); ++i) {
-    std::snprintf(buf, sizeof buf, "%s%02x", i ? " " : "", static_cast<unsigned char>(bytes[i]));
-    out += buf;
-  }
-  return out.empty() ? "nothing" : out;
-}
-
 std::string dims(int64_t w, int64_t h) { return std::to_string(w) + "x" + std::to_string(h); }
 
 // A temporary copy of the bytes for plugins that cannot read from memory; removed when it goes out of scope.
@@ -142,8 +132,9 @@ EnvironmentInput decode_image(const std::string& bytes, const EnvDecodeOptions& 
   const Format* format = image::detect_image_format(bytes);
   if (!format) {
     throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
-                             " bytes are not an image kiln reads (they start with " + hex_prefix(bytes) + "); upload " +
-                             (shape == Shape::equirect ? "an equirectangular " : "a square ") + kAccepted + " file");
+                             " bytes are not an image kiln reads (they start with " + image::hex_prefix(bytes, 8) +
+                             "); upload " + (shape == Shape::equirect ? "an equirectangular " : "a square ") +
+                             kAccepted + " file");
   }
   const image::ColorConfig& cfg = image::ColorConfig::active();
   const std::string space =

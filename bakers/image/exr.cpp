@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <cstdio>
 #include <set>
 #include <stdexcept>
 
+#include "bakers/image/image_format.h"
 #include "bakers/image/oiio_memory.h"
 
 namespace kiln::image {
@@ -76,16 +76,6 @@ void check_image(const FloatImage& image) {
   }
 }
 
-std::string hex_prefix(const std::string& bytes) {
-  std::string out;
-  char buf[4];
-  for (size_t i = 0; i < std::min<size_t>(bytes.size(), 4); ++i) {
-    std::snprintf(buf, sizeof buf, "%s%02x", i ? " " : "", static_cast<unsigned char>(bytes[i]));
-    out += buf;
-  }
-  return out.empty() ? "nothing" : out;
-}
-
 // Puts the channels back in the writer's order (`order`, as written by encode_exr) when the file says what it was
 // and it fits.
 void restore_channel_order(FloatImage& image, const std::string& order) {
@@ -133,7 +123,7 @@ FloatImage decode_exr(const std::string& bytes) {
   static constexpr unsigned char kMagic[4] = {0x76, 0x2f, 0x31, 0x01};
   if (bytes.size() < 4 || !std::equal(kMagic, kMagic + 4, reinterpret_cast<const unsigned char*>(bytes.data()))) {
     throw std::runtime_error("decode_exr: the " + std::to_string(bytes.size()) +
-                             " bytes are not an OpenEXR image: they start with " + hex_prefix(bytes) +
+                             " bytes are not an OpenEXR image: they start with " + hex_prefix(bytes, 4) +
                              ", an EXR file starts with 76 2f 31 01");
   }
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
