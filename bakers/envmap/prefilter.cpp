@@ -67,7 +67,11 @@ void for_each_texel(int size, Fn&& fn) {
 }
 
 // Filtered importance sampling of one level: the sample pattern in the local frame (normal +z, v = +z) is the same
-// for every texel, precomputed with its n·l and lod.
+// for every texel, precomputed with its n·l and lod. Sampling h from D(h)(n·h) and reflecting v = n about it gives l
+// with density p(l) = D(h)(n·h)/(4 v·h) = D(h)/4, so Σ L(l_i)(n·l_i) / Σ (n·l_i) converges to L_pre. Each sample
+// reads the sky's mip chain at lod = ½ log2(Ω_s/Ω_p) + 1, Ω_s = 1/(N p(l)), Ω_p = 4π/(6 size0²). The N samples are
+// 4 groups of N/4: the same Hammersley set, each group with its own Cranley–Patterson shift from the seed (the same
+// for every texel, so the output has no per-texel noise); the spread of the group means is the noise estimate.
 class LevelSampler {
  public:
   LevelSampler(const std::vector<Cubemap>& mips, double alpha, brdf::Distribution distribution, int samples,
@@ -183,7 +187,7 @@ std::vector<Checked> checked_subset(int size) {
   return out;
 }
 
-// The relative RMS error of the header over (value, reference) pairs.
+// The relative RMS error (relative_rms_error in the header) over (value, reference) pairs.
 double relative_rms_pairs(size_t n, const std::function<Rgb(size_t)>& value, const std::function<Rgb(size_t)>& ref) {
   if (n == 0) return 0.0;
   double mean_sq = 0.0;
@@ -228,9 +232,11 @@ std::vector<Checked> checked_reference(const std::vector<Cubemap>& mips, const s
   return subset;
 }
 
-// N per texel: the job's, else chosen from the target error (see the header) by `check`, which measures the checked
-// error of N: scale by the 1/√N law until the target is bracketed between a failing and a passing N, then bisect
-// geometrically; keep the smallest N that met the target, else the last (capped) one.
+// N per texel: the job's, else chosen from the target error by `check`, which measures the checked error of N.
+// From kPilotSamples, N is scaled by (e/target)² × kStepMargin (the 1/√N law of noise, which overestimates N since
+// the bias of filtered importance sampling and the QMC noise fall faster) until the target is bracketed between a
+// failing and a passing N, which are then bisected geometrically (within 50 %), at most kMaxTrials trials; the
+// smallest N that met the target is kept, else the last (capped) one.
 int choose_samples(const PrefilterOptions& opt, const std::function<double(int)>& check) {
   if (opt.samples != 0) return round_samples(opt.samples);
   int n = kPilotSamples, passed = 0, failed = 0;
