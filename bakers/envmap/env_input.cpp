@@ -29,16 +29,6 @@ namespace {
 constexpr const char* kAccepted = image::kAcceptedImageFormats;
 using Format = image::ImageFormat;
 
-std::string hex_prefix(const std::string& bytes) {
-  std::string out;
-  char buf[4];
-  for (size_t i = 0; i < std::min<size_t>(bytes.size(), 8); ++i) {
-    std::snprintf(buf, sizeof buf, "%s%02x", i ? " " : "", static_cast<unsigned char>(bytes[i]));
-    out += buf;
-  }
-  return out.empty() ? "nothing" : out;
-}
-
 std::string dims(int64_t w, int64_t h) { return std::to_string(w) + "x" + std::to_string(h); }
 
 // A temporary copy of the bytes for plugins that cannot read from memory; removed when it goes out of scope.
@@ -136,83 +126,78 @@ void sanitize_non_finite(std::vector<float>& rgb, SanitizeReport& report) {
 
 namespace {
 
-// Decodes, sanitises and converts one image (see the header); `who` starts every message.
-EnvironmentInput decode_image(const std::string& bytes, const EnvDecodeOptions& options, const std::string& who,
-                              Shape shape, bool header_only = false) {
+// The bytes' format, or an error naming what they start with.
+const Format& detect_format(const std::string& bytes, const std::string& who, Shape shape) {
   const Format* format = image::detect_image_format(bytes);
   if (!format) {
     throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
-                             " bytes are not an image kiln reads (they start with " + hex_prefix(bytes) + "); upload " +
-                             (shape == Shape::equirect ? "an equirectangular " : "a square ") + kAccepted + " file");
+                             " bytes are not an image kiln reads (they start with " + image::hex_prefix(bytes, 8) +
+                             "); upload " + (shape == Shape::equirect ? "an equirectangular " : "a square ") +
+                             kAccepted + " file");
   }
-  const image::ColorConfig& cfg = image::ColorConfig::active();
-  const std::string space =
-      !options.color_space.empty() ? options.color_space : (format->is_float ? "lin_rec709" : "srgb_texture");
-  check_color_space(cfg, space);
+  return *format;
+}
 
-  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+// An image reader open on the bytes: through `proxy` when the plugin reads from memory, else through a temporary
+// copy kept in `temp`. Fills `spec` with the header.
+std::unique_ptr<OIIO::ImageInput> open_image(const std::string& bytes, const Format& format,
+                                             OIIO::Filesystem::IOMemReader& proxy, std::unique_ptr<TempFile>& temp,
+                                             OIIO::ImageSpec& spec, const std::string& who) {
   // With the proxy given, create() looks at the bytes in memory rather than for a file of that name.
-  std::unique_ptr<OIIO::ImageInput> in =
-      OIIO::ImageInput::create(format->virtual_name, false, nullptr, &proxy);
+  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::create(format.virtual_name, false, nullptr, &proxy);
   if (!in) {
     // Either the reader is missing or (usually) it rejected the start of the bytes.
     throw std::runtime_error(who + ": could not open the " + std::to_string(bytes.size()) + "-byte " +
-                             format->name + " image (truncated or corrupt?): " + OIIO::geterror() +
+                             format.name + " image (truncated or corrupt?): " + OIIO::geterror() +
                              "; re-export the file and upload it again");
   }
-  std::unique_ptr<TempFile> temp;
-  std::string open_name = format->virtual_name;
+  std::string open_name = format.virtual_name;
   if (in->supports("ioproxy")) {
     in->set_ioproxy(&proxy);
   } else {
-    temp = std::make_unique<TempFile>(bytes, std::strrchr(format->virtual_name, '.'));
+    temp = std::make_unique<TempFile>(bytes, std::strrchr(format.virtual_name, '.'));
     open_name = temp->path;
   }
-  OIIO::ImageSpec spec;
   if (!in->open(open_name, spec)) {
     throw std::runtime_error(who + ": could not read the header of the " + std::to_string(bytes.size()) +
-                             "-byte " + format->name + " image (truncated or corrupt?): " + in->geterror() +
+                             "-byte " + format.name + " image (truncated or corrupt?): " + in->geterror() +
                              "; re-export the file and upload it again");
   }
-  check_size(spec.width, spec.height, std::max(1, spec.depth), *format, who, shape);
-  const int w = spec.width, h = spec.height;
-  if (header_only) {
-    EnvironmentInput header;
-    header.format = format->name;
-    header.width = w;
-    header.height = h;
-    return header;
-  }
-  const int nch = spec.nchannels;
-  if (nch < 1) throw std::runtime_error(who + ": the " + format->name + " image has no channels");
-  const int take = nch >= 3 ? 3 : 1;  // RGB, or the grey channel (alpha and the rest are dropped)
+  return in;
+}
+
+// The pixels as interleaved RGB floats: the first three channels, or the grey channel repeated (alpha and the rest
+// are dropped).
+std::vector<float> read_rgb(OIIO::ImageInput& in, const Format& format, const std::string& who) {
+  const OIIO::ImageSpec& spec = in.spec();
+  const int w = spec.width, h = spec.height, nch = spec.nchannels;
+  if (nch < 1) throw std::runtime_error(who + ": the " + format.name + " image has no channels");
+  const int take = nch >= 3 ? 3 : 1;
   const size_t pixels = static_cast<size_t>(w) * static_cast<size_t>(h);
   std::vector<float> data(pixels * take);
-  if (!in->read_image(0, 0, 0, take, OIIO::TypeDesc::FLOAT, data.data())) {
+  if (!in.read_image(0, 0, 0, take, OIIO::TypeDesc::FLOAT, data.data())) {
     throw std::runtime_error(who + ": could not read the pixels of the " + dims(w, h) + " " +
-                             format->name + " image (truncated or corrupt?): " + in->geterror() +
+                             format.name + " image (truncated or corrupt?): " + in.geterror() +
                              "; re-export the file and upload it again");
   }
-  in->close();
+  in.close();
   if (take == 1) {
     std::vector<float> rgb(pixels * 3);
     for (size_t p = 0; p < pixels; ++p) rgb[3 * p] = rgb[3 * p + 1] = rgb[3 * p + 2] = data[p];
     data = std::move(rgb);
   }
+  return data;
+}
 
-  EnvironmentInput env;
-  env.format = format->name;
-  env.width = w;
-  env.height = h;
-  env.color_space = space;
-  env.working_space = cfg.working_space();
-  env.rotation_degrees = options.rotation_degrees;
-  env.intensity = options.intensity;
-
+// env.image from decoded RGB in `space`: non-finite values sanitised, converted to the working space, negatives
+// clamped to 0 and scaled by the intensity (the rule of the header), with the counts in env.sanitized.
+void to_working_radiance(std::vector<float>& data, const std::string& space, const EnvDecodeOptions& options,
+                         EnvironmentInput& env) {
+  const image::ColorConfig& cfg = image::ColorConfig::active();
+  const size_t pixels = static_cast<size_t>(env.width) * static_cast<size_t>(env.height);
   sanitize_non_finite(data, env.sanitized);
   if (space != env.working_space) cfg.convert(data.data(), pixels, 3, space, env.working_space);
-
-  env.image = RgbImage(w, h);
+  env.image = RgbImage(env.width, env.height);
   for (size_t p = 0; p < pixels; ++p) {
     bool nan = false, negative = false;
     double c[3];
@@ -226,6 +211,33 @@ EnvironmentInput decode_image(const std::string& bytes, const EnvDecodeOptions& 
     env.sanitized.negative += negative;
     env.image.pixels[p] = Rgb(c[0], c[1], c[2]);
   }
+}
+
+// Decodes, sanitises and converts one image (see the header); `who` starts every message.
+EnvironmentInput decode_image(const std::string& bytes, const EnvDecodeOptions& options, const std::string& who,
+                              Shape shape, bool header_only = false) {
+  const Format& format = detect_format(bytes, who, shape);
+  const image::ColorConfig& cfg = image::ColorConfig::active();
+  const std::string space =
+      !options.color_space.empty() ? options.color_space : (format.is_float ? "lin_rec709" : "srgb_texture");
+  check_color_space(cfg, space);
+
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  std::unique_ptr<TempFile> temp;
+  OIIO::ImageSpec spec;
+  std::unique_ptr<OIIO::ImageInput> in = open_image(bytes, format, proxy, temp, spec, who);
+  check_size(spec.width, spec.height, std::max(1, spec.depth), format, who, shape);
+  EnvironmentInput env;
+  env.format = format.name;
+  env.width = spec.width;
+  env.height = spec.height;
+  if (header_only) return env;
+  std::vector<float> data = read_rgb(*in, format, who);
+  env.color_space = space;
+  env.working_space = cfg.working_space();
+  env.rotation_degrees = options.rotation_degrees;
+  env.intensity = options.intensity;
+  to_working_radiance(data, space, options, env);
   return env;
 }
 

@@ -2,15 +2,15 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
-#include <cstdio>
-#include <iterator>
-#include <sstream>
+#include <stdexcept>
+#include <utility>
 
 #include "bakers/bake/number_format.h"
 #include "bakers/bake/range_check.h"
 #include "bakers/envmap/cubemap.h"
 #include "bakers/envmap/dfg.h"
+#include "bakers/envmap/environment_effect.h"
+#include "bakers/envmap/environment_report.h"
 #include "bakers/envmap/irradiance.h"
 #include "bakers/envmap/prefilter.h"
 #include "bakers/envmap/preview.h"
@@ -54,65 +54,267 @@ image::FloatImage face_image(const Cubemap& cube, int face, const std::string& w
   return img;
 }
 
-void check_cancel(const bake::BakeControl& control) {
-  if (control.cancel && control.cancel->load()) throw bake::BakeCancelled();
+// The state a bake carries from stage to stage; each stage releases what the later ones no longer need.
+struct EnvironmentRun {
+  const EnvironmentBakeInput& in;
+  const bake::BakeControl& control;
+  EnvironmentBakeResult result;
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now(), stage_start = start;
+  bool from_faces = false;
+  int levels = 0;
+  std::string color_space = "lin_rec709";
+  Cubemap source;                        // the source stage's cube; empty after the sun split
+  SunSplit split;                        // sky and sun; empty after the diffuse stage
+  std::vector<PrefilteredLevel> chain;   // the specular levels
+  Cubemap irradiance;
+  ShCoefficients sh{};
+  DfgTable dfg;
+
+  EnvironmentRun(const EnvironmentBakeInput& input, const bake::BakeControl& bake_control)
+      : in(input), control(bake_control), from_faces(!input.constant && !input.faces.empty()),
+        levels(input.levels == 0 ? default_levels(input.size) : input.levels) {}
+
+  // Ends a stage: records its time, honours a cancel request and reports progress.
+  void end_stage(double fraction, const std::string& stage) {
+    const auto now = std::chrono::steady_clock::now();
+    result.stage_seconds.push_back({stage, std::chrono::duration<double>(now - stage_start).count()});
+    stage_start = now;
+    if (control.cancel && control.cancel->load()) throw bake::BakeCancelled();
+    if (!control.progress) return;
+    bake::BakeProgress p;
+    p.fraction = fraction;
+    p.samples = result.samples;
+    p.stage = stage;
+    for (double e : result.level_error) p.error_estimate = std::max(p.error_estimate, e);
+    control.progress(p);
+  }
+
+  void plan(EnvironmentEffect effect, bool enabled, bool forced, const std::string& reason) {
+    const std::string name(effect_name(effect));
+    result.plan_entries.push_back({name, enabled, forced, reason});
+    result.plan.push_back(name + ": " + (enabled ? "on" : "off") + (forced ? " (forced)" : "") + " - " + reason);
+  }
+
+  void add_output(std::string name, std::string media_type, std::string space, std::string bytes) {
+    result.outputs.push_back({std::move(name), std::move(media_type), std::move(space), std::move(bytes)});
+  }
+};
+
+// Memory, from the headers alone: refused above kMaxEnvironmentMemory before anything large is allocated.
+void check_memory(EnvironmentRun& run) {
+  const EnvironmentBakeInput& in = run.in;
+  EnvImageHeader header;
+  if (!in.constant) header = run.from_faces ? probe_cube_faces(in.faces) : probe_environment(in.image);
+  run.result.memory_bytes = estimate_environment_memory(in, header.width, header.height, run.from_faces);
+  if (run.result.memory_bytes <= kMaxEnvironmentMemory) return;
+  const std::string what = in.constant ? std::string("a constant") :
+                           run.from_faces ? "faces (6 x " + std::to_string(header.width) + "^2)" :
+                                            "image (" + std::to_string(header.width) + "x" + std::to_string(header.height) + ")";
+  throw std::invalid_argument("size, " + std::string(run.from_faces ? "faces" : "image") + ": baking " + what +
+                              " to a " + std::to_string(in.size) + "^2 cube needs about " +
+                              format_number(run.result.memory_bytes / double(1 << 30)) +
+                              " GiB of working memory, more than the 4 GiB bound; lower size or upload a smaller "
+                              "environment");
 }
 
-// The effects force_effects may name.
-constexpr const char* kForcibleEffects[] = {"sun_light"};
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\', out += c;
-    else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else out += c;
-  }
-  return out + "\"";
+// ", rotated R deg about +Y, intensity I, resampled to a N^2 cube": how a decoded source became the source cube.
+std::string resampling_description(const EnvironmentBakeInput& in) {
+  return ", rotated " + format_number(in.decode.rotation_degrees) + " deg about +Y, intensity " +
+         format_number(in.decode.intensity) + ", resampled to a " + std::to_string(in.size) + "^2 cube";
 }
-std::string json_number(double v) { return std::isfinite(v) ? format_number(v) : "null"; }
-std::string json_bool(bool b) { return b ? "true" : "false"; }
 
-std::string report_json(const EnvironmentBakeInput& in, const EnvironmentBakeResult& r, int levels,
-                        const std::string& color_space) {
-  std::ostringstream j;
-  j << "{\n  \"baker\": " << json_string(kEnvironmentBakerVersion) << ",\n  \"size\": " << in.size
-    << ",\n  \"lobe\": " << json_string(to_string(in.lobe)) << ",\n  \"roughness_mapping\": "
-    << json_string("rho_k = k/(levels-1), alpha = rho^2 (Schlick's rational Beckmann: m = rho^2)")
-    << ",\n  \"target_error\": " << json_number(in.target_error) << ",\n  \"seed\": " << in.seed
-    << ",\n  \"levels\": [";
-  for (int k = 0; k < levels; ++k) {
-    const EnvironmentLevelReport& l = r.levels[k];
-    j << (k ? ",\n    " : "\n    ") << "{\"level\": " << k << ", \"size\": " << l.size
-      << ", \"roughness\": " << json_number(l.roughness) << ", \"samples\": " << l.samples
-      << ", \"error_estimate\": " << json_number(l.error_estimate) << ", \"noise_estimate\": "
-      << json_number(l.noise_estimate) << ", \"checked_error\": " << json_number(l.checked_error)
-      << ", \"seconds\": " << json_number(l.seconds) << "}";
+// The source cube in the working space.
+void decode_source(EnvironmentRun& run) {
+  const EnvironmentBakeInput& in = run.in;
+  if (in.constant) {
+    run.source = Cubemap(in.size, *in.constant);
+    run.plan(EnvironmentEffect::source, true, false, "a constant environment " + bake::format_rgb(*in.constant));
+  } else if (run.from_faces) {
+    CubeFacesInput faces = decode_cube_faces(in.faces, in.decode);
+    run.result.sanitized = faces.sanitized;
+    run.color_space = faces.working_space;
+    run.source = faces_to_cube(faces, in.size);
+    run.plan(EnvironmentEffect::source, true, false,
+             "six " + faces.format + " faces " + std::to_string(faces.face_size) + "^2 in " + faces.color_space +
+                 resampling_description(in));
+  } else {
+    const EnvironmentInput env = decode_environment(in.image, in.decode);
+    run.result.sanitized = env.sanitized;
+    run.color_space = env.working_space;
+    run.source = environment_to_cube(env, in.size);
+    run.plan(EnvironmentEffect::source, true, false,
+             "equirectangular " + env.format + " " + std::to_string(env.width) + "x" + std::to_string(env.height) +
+                 " in " + env.color_space + resampling_description(in));
   }
-  j << "\n  ],\n  \"samples\": {\"total\": " << r.samples << ", \"per_level\": [";
-  for (size_t k = 0; k < r.level_samples.size(); ++k) j << (k ? ", " : "") << r.level_samples[k];
-  j << "], \"dfg_per_entry\": " << in.dfg_samples << "},\n  \"time\": {\"total_seconds\": " << json_number(r.seconds)
-    << ", \"stages\": {";
-  for (size_t i = 0; i < r.stage_seconds.size(); ++i)
-    j << (i ? ", " : "") << json_string(r.stage_seconds[i].first) << ": " << json_number(r.stage_seconds[i].second);
-  j << "}},\n  \"plan\": [";
-  for (size_t i = 0; i < r.plan_entries.size(); ++i) {
-    const EnvironmentPlanEntry& e = r.plan_entries[i];
-    j << (i ? ",\n    " : "\n    ") << "{\"effect\": " << json_string(e.effect) << ", \"enabled\": "
-      << json_bool(e.enabled) << ", \"forced\": " << json_bool(e.forced) << ", \"reason\": " << json_string(e.reason)
-      << "}";
+  run.end_stage(0.1, "source");
+}
+
+// The sun as an explicit light (sun.h); the source is not needed after the split (sky + sun = source).
+void split_sun_light(EnvironmentRun& run) {
+  const auto forced = run.in.force_effects.find(std::string(effect_name(EnvironmentEffect::sun_light)));
+  const SunMode mode = forced == run.in.force_effects.end() ? SunMode::automatic
+                       : forced->second                     ? SunMode::forced_on
+                                                            : SunMode::forced_off;
+  run.split = split_sun(run.source, mode);
+  run.source = Cubemap();
+  EnvironmentBakeResult& result = run.result;
+  result.sun_found = run.split.enabled;
+  result.sun_texels = static_cast<int>(run.split.sun.size());
+  result.sun_power_fraction = run.split.enabled ? run.split.power_fraction : 0.0;
+  if (!run.split.enabled) run.split.sun.clear();
+  run.plan(EnvironmentEffect::sun_light, run.split.enabled, mode != SunMode::automatic, run.split.reason);
+  run.end_stage(0.15, "sun");
+}
+
+std::string samples_description(const EnvironmentBakeInput& in) {
+  if (in.samples != 0) {
+    return "fixed by the job: " + std::to_string(in.samples) + " per texel (rounded up to a multiple of 4)";
   }
-  j << "\n  ],\n  \"sun\": {\"found\": " << json_bool(r.sun_found) << ", \"texels\": " << r.sun_texels
-    << ", \"power_fraction\": " << json_number(r.sun_power_fraction) << "},\n  \"conventions\": {\"up\": \"+Y\", "
-    << "\"cubemap\": " << json_string(std::string(kCubemapConvention)) << ", \"equirect\": "
-    << json_string(std::string(kEquirectConvention)) << "},\n  \"color_space\": " << json_string(color_space)
-    << ",\n  \"memory\": {\"estimated_peak_bytes\": " << r.memory_bytes << ", \"bound_bytes\": "
-    << kMaxEnvironmentMemory << "},\n  \"sanitized\": {\"nan\": " << r.sanitized.nan << ", \"inf\": "
-    << r.sanitized.inf << ", \"negative\": " << r.sanitized.negative << "}\n}\n";
-  return j.str();
+  return "per level, the smallest tried N whose error against brute force on a checked subset of texels meets "
+         "target_error " + format_number(in.target_error) +
+         " (from 64, scaled by the 1/sqrt(N) law; within [16, 65536])";
+}
+
+// The specular chain, and each level's figures in the result.
+void prefilter_chain(EnvironmentRun& run) {
+  const EnvironmentBakeInput& in = run.in;
+  PrefilterOptions options;
+  options.levels = run.levels;
+  options.samples = in.samples;
+  options.target_error = in.target_error;
+  options.distribution = lobe_distribution(in.lobe);
+  options.seed = in.seed;
+  options.cancel = run.control.cancel;
+  run.plan(EnvironmentEffect::lobe, true, false, lobe_description(in.lobe));
+  run.plan(EnvironmentEffect::samples, true, false, samples_description(in));
+  run.chain = prefilter_specular(run.split.sky, run.split.sun, in.size, options);
+  EnvironmentBakeResult& result = run.result;
+  for (const PrefilteredLevel& l : run.chain) {
+    result.level_roughness.push_back(l.roughness);
+    result.level_error.push_back(l.error_estimate);
+    result.level_samples.push_back(l.samples);
+    result.levels.push_back({l.cube.size(), l.roughness, l.samples, l.error_estimate, l.noise_estimate,
+                             l.checked_error, l.seconds});
+    result.samples += static_cast<uint64_t>(l.samples) * 6 * l.cube.size() * l.cube.size() +
+                      static_cast<uint64_t>(l.pilot_samples) * l.checked_texels;
+  }
+  run.end_stage(0.6, "specular");
+}
+
+// Diffuse: the irradiance cube by convolution of a downsampled sky plus the exact sun; the SH of the full sky plus
+// the sun texels' exact projections.
+void convolve_diffuse(EnvironmentRun& run) {
+  run.irradiance = irradiance_with_sun(run.split.sky, run.split.sun, run.in.irradiance_size, kIrradianceSourceSize);
+  run.sh = sh_radiance_to_irradiance(project_sh_with_sun(run.split.sky, run.split.sun));
+  run.split = SunSplit();  // the sky and its sun are no longer needed
+  run.end_stage(0.7, "irradiance");
+}
+
+// The DFG table of the same lobe.
+void compute_dfg_table(EnvironmentRun& run) {
+  const EnvironmentBakeInput& in = run.in;
+  brdf::AlbedoOptions options;
+  options.samples = in.dfg_samples;
+  options.seed = in.seed;
+  run.dfg = compute_dfg(lobe_model(in.lobe), in.dfg_size, in.dfg_size, options);
+  run.result.samples += static_cast<uint64_t>(in.dfg_size) * in.dfg_size * in.dfg_samples;
+  run.end_stage(0.85, "dfg");
+}
+
+// specular.ktx2: every level and face, RGBA16F, with the conventions in its key/value data.
+void encode_specular_ktx2(EnvironmentRun& run) {
+  image::Ktx2Image ktx;
+  ktx.width = ktx.height = run.in.size;
+  ktx.faces = 6;
+  ktx.levels = run.levels;
+  ktx.format = image::Ktx2Image::rgba16f;
+  ktx.data.resize(static_cast<size_t>(run.levels) * 6);
+  std::string roughness;
+  for (int k = 0; k < run.levels; ++k) {
+    roughness += (k ? "," : "") + format_number(run.chain[k].roughness);
+    for (int f = 0; f < 6; ++f) {
+      std::vector<float>& px = ktx.image(k, f);
+      for (const Rgb& c : run.chain[k].cube.face(f)) px.insert(px.end(), {float(c.r), float(c.g), float(c.b), 1.0f});
+    }
+  }
+  const EnvLobe lobe = run.in.lobe;
+  ktx.key_values["KTXorientation"] = "rd";
+  ktx.key_values["kiln:roughness_per_level"] = roughness;
+  ktx.key_values["kiln:roughness_mapping"] = "perceptual roughness rho_k = k/(levels-1), alpha = rho^2";
+  ktx.key_values["kiln:lobe"] = to_string(lobe);
+  ktx.key_values["kiln:lobe_description"] = lobe_description(lobe);
+  ktx.key_values["kiln:cubemap_convention"] = std::string(kCubemapConvention);
+  ktx.key_values["kiln:equirect_convention"] = std::string(kEquirectConvention);
+  ktx.key_values["kiln:color_space"] = run.color_space;
+  run.add_output("specular.ktx2", "image/ktx2", run.color_space, image::encode_ktx2(ktx));
+}
+
+// specular_L{k}_{face}.exr: the same levels as EXR faces.
+void encode_specular_faces(EnvironmentRun& run) {
+  for (int k = 0; k < run.levels; ++k) {
+    const PrefilteredLevel& level = run.chain[k];
+    const std::string what = "specular prefiltered (" + std::string(to_string(run.in.lobe)) + "), level " +
+                             std::to_string(k) + ", roughness " + format_number(level.roughness);
+    for (int f = 0; f < 6; ++f) {
+      run.add_output("specular_L" + std::to_string(k) + "_" + std::string(kFaceNames[f]) + ".exr", "image/x-exr",
+                     run.color_space, image::encode_exr(face_image(level.cube, f, what)));
+    }
+  }
+}
+
+// irradiance_{face}.exr and sh.txt.
+void encode_diffuse(EnvironmentRun& run) {
+  for (int f = 0; f < 6; ++f) {
+    run.add_output("irradiance_" + std::string(kFaceNames[f]) + ".exr", "image/x-exr", run.color_space,
+                   image::encode_exr(face_image(run.irradiance, f, "irradiance E(n), W/m^2")));
+  }
+  std::string sh_text = std::string(kShIrradianceHeader) + "\n";
+  for (const Rgb& c : run.sh) {
+    sh_text += format_number(c.r) + " " + format_number(c.g) + " " + format_number(c.b) + "\n";
+  }
+  run.add_output("sh.txt", "text/plain", run.color_space, sh_text);
+}
+
+// dfg.exr: (μ, ρ) → scale, bias, energy.
+void encode_dfg(EnvironmentRun& run) {
+  const int size = run.in.dfg_size;
+  image::FloatImage image;
+  image.width = image.height = size;
+  image.channels = 3;
+  image.channel_names = {"scale", "bias", "energy"};
+  for (int j = 0; j < size; ++j) {
+    for (int i = 0; i < size; ++i) {
+      const DfgEntry& e = run.dfg.at(i, j);
+      image.pixels.insert(image.pixels.end(), {float(e.scale), float(e.bias), float(e.energy)});
+    }
+  }
+  image.metadata["kiln:axes"] = "x: mu = n.v = (x + 0.5)/width; y: perceptual roughness (y + 0.5)/height, alpha = rho^2";
+  image.metadata["kiln:lobe"] = to_string(run.in.lobe);
+  run.add_output("dfg.exr", "image/x-exr", "data", image::encode_exr(image));
+}
+
+void encode_preview(EnvironmentRun& run) {
+  if (!run.in.preview) {
+    run.plan(EnvironmentEffect::preview, false, false, "not asked for");
+    return;
+  }
+  run.add_output("preview.png", "image/png", "", render_preview(run.chain, run.irradiance, run.dfg, run.color_space));
+  run.plan(EnvironmentEffect::preview, true, false,
+           "preview.png: spheres at roughness 0, 0.25, 0.5, 0.75, 1 and a diffuse one");
+}
+
+void encode_outputs(EnvironmentRun& run) {
+  encode_specular_ktx2(run);
+  encode_specular_faces(run);
+  encode_diffuse(run);
+  encode_dfg(run);
+  encode_preview(run);
+  run.end_stage(0.95, "outputs");
+}
+
+void write_report(EnvironmentRun& run) {
+  run.result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.start).count();
+  run.add_output("report.json", "application/json", "", environment_report_json(run.in, run.result, run.color_space));
 }
 
 }  // namespace
@@ -146,11 +348,11 @@ std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& in) {
     return InvalidInput("image", "no environment given (an image, six faces, or a constant colour)");
   }
   for (const auto& [name, on] : in.force_effects) {
-    if (std::find(std::begin(kForcibleEffects), std::end(kForcibleEffects), name) == std::end(kForcibleEffects)) {
-      std::string known;
-      for (const char* k : kForcibleEffects) known += (known.empty() ? "" : ", ") + std::string(k);
-      return InvalidInput("force_effects[" + name + "]",
-                          "unknown effect '" + name + "'; the effects that can be forced are: " + known);
+    const std::optional<EnvironmentEffect> effect = effect_from_name(name);
+    if (!effect || !forcible(*effect)) {
+      return InvalidInput("force_effects[" + name + "]", "unknown effect '" + name +
+                                                             "'; the effects that can be forced are: " +
+                                                             forcible_effect_names());
     }
   }
   return std::nullopt;
@@ -174,193 +376,17 @@ uint64_t estimate_environment_memory(const EnvironmentBakeInput& in, int width, 
 
 EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bake::BakeControl& control) {
   if (auto problem = validate(in)) throw *problem;
-  const auto t0 = std::chrono::steady_clock::now();
-  auto stage_t0 = t0;
-  EnvironmentBakeResult result;
-  auto progress = [&](double fraction, const std::string& stage) {
-    const auto now = std::chrono::steady_clock::now();
-    result.stage_seconds.push_back({stage, std::chrono::duration<double>(now - stage_t0).count()});
-    stage_t0 = now;
-    check_cancel(control);
-    if (!control.progress) return;
-    bake::BakeProgress p;
-    p.fraction = fraction;
-    p.samples = result.samples;
-    p.stage = stage;
-    for (double e : result.level_error) p.error_estimate = std::max(p.error_estimate, e);
-    control.progress(p);
-  };
-  auto plan = [&](const std::string& effect, bool enabled, bool forced, const std::string& reason) {
-    result.plan_entries.push_back({effect, enabled, forced, reason});
-    result.plan.push_back(effect + ": " + (enabled ? "on" : "off") + (forced ? " (forced)" : "") + " - " + reason);
-  };
-
-  // 0. Memory, from the headers alone.
-  const bool from_faces = !in.constant && !in.faces.empty();
-  EnvImageHeader header;
-  if (!in.constant) header = from_faces ? probe_cube_faces(in.faces) : probe_environment(in.image);
-  result.memory_bytes = estimate_environment_memory(in, header.width, header.height, from_faces);
-  if (result.memory_bytes > kMaxEnvironmentMemory) {
-    const std::string what = in.constant ? std::string("a constant") :
-                             from_faces ? "faces (6 x " + std::to_string(header.width) + "^2)" :
-                                          "image (" + std::to_string(header.width) + "x" + std::to_string(header.height) + ")";
-    throw std::invalid_argument("size, " + std::string(from_faces ? "faces" : "image") + ": baking " + what +
-                                " to a " + std::to_string(in.size) + "^2 cube needs about " +
-                                format_number(result.memory_bytes / double(1 << 30)) +
-                                " GiB of working memory, more than the 4 GiB bound; lower size or upload a smaller "
-                                "environment");
-  }
-
-  // 1. The source cube in the working space.
-  Cubemap source;
-  std::string color_space = "lin_rec709";
-  if (in.constant) {
-    source = Cubemap(in.size, *in.constant);
-    plan("source", true, false, "a constant environment " + bake::format_rgb(*in.constant));
-  } else if (from_faces) {
-    CubeFacesInput faces = decode_cube_faces(in.faces, in.decode);
-    result.sanitized = faces.sanitized;
-    color_space = faces.working_space;
-    source = faces_to_cube(faces, in.size);
-    plan("source", true, false, "six " + faces.format + " faces " + std::to_string(faces.face_size) + "^2 in " +
-                                    faces.color_space + ", rotated " + format_number(in.decode.rotation_degrees) +
-                                    " deg about +Y, intensity " + format_number(in.decode.intensity) +
-                                    ", resampled to a " + std::to_string(in.size) + "^2 cube");
-  } else {
-    const EnvironmentInput env = decode_environment(in.image, in.decode);
-    result.sanitized = env.sanitized;
-    color_space = env.working_space;
-    source = environment_to_cube(env, in.size);
-    plan("source", true, false, "equirectangular " + env.format + " " + std::to_string(env.width) + "x" +
-                                    std::to_string(env.height) + " in " + env.color_space + ", rotated " +
-                                    format_number(in.decode.rotation_degrees) + " deg about +Y, intensity " +
-                                    format_number(in.decode.intensity) + ", resampled to a " +
-                                    std::to_string(in.size) + "^2 cube");
-  }
-  progress(0.1, "source");
-
-  // 2. The sun as an explicit light (sun.h); the source is not needed after the split (sky + sun = source).
-  const auto forced = in.force_effects.find("sun_light");
-  const SunMode mode = forced == in.force_effects.end() ? SunMode::automatic
-                       : forced->second                 ? SunMode::forced_on
-                                                        : SunMode::forced_off;
-  SunSplit split = split_sun(source, mode);
-  source = Cubemap();
-  result.sun_found = split.enabled;
-  result.sun_texels = static_cast<int>(split.sun.size());
-  result.sun_power_fraction = split.enabled ? split.power_fraction : 0.0;
-  if (!split.enabled) split.sun.clear();
-  plan("sun_light", split.enabled, mode != SunMode::automatic, split.reason);
-  progress(0.15, "sun");
-
-  // 3. The specular chain.
-  const int levels = in.levels == 0 ? default_levels(in.size) : in.levels;
-  PrefilterOptions options;
-  options.levels = levels;
-  options.samples = in.samples;
-  options.target_error = in.target_error;
-  options.distribution = lobe_distribution(in.lobe);
-  options.seed = in.seed;
-  options.cancel = control.cancel;
-  plan("lobe", true, false, lobe_description(in.lobe));
-  plan("samples", true, false,
-       in.samples == 0 ? "per level, the smallest tried N whose error against brute force on a checked subset of "
-                         "texels meets target_error " + format_number(in.target_error) +
-                         " (from 64, scaled by the 1/sqrt(N) law; within [16, 65536])"
-                       : "fixed by the job: " + std::to_string(in.samples) + " per texel (rounded up to a multiple of 4)");
-  std::vector<PrefilteredLevel> chain = prefilter_specular(split.sky, split.sun, in.size, options);
-  for (const PrefilteredLevel& l : chain) {
-    result.level_roughness.push_back(l.roughness);
-    result.level_error.push_back(l.error_estimate);
-    result.level_samples.push_back(l.samples);
-    result.levels.push_back({l.cube.size(), l.roughness, l.samples, l.error_estimate, l.noise_estimate,
-                             l.checked_error, l.seconds});
-    result.samples += static_cast<uint64_t>(l.samples) * 6 * l.cube.size() * l.cube.size() +
-                      static_cast<uint64_t>(l.pilot_samples) * l.checked_texels;
-  }
-  progress(0.6, "specular");
-
-  // 4. Diffuse: the irradiance cube by convolution of a downsampled sky plus the exact sun; the SH of the full sky
-  //    plus the sun texels' exact projections.
-  Cubemap irradiance = irradiance_with_sun(split.sky, split.sun, in.irradiance_size, kIrradianceSourceSize);
-  const ShCoefficients sh_radiance = project_sh_with_sun(split.sky, split.sun);
-  const ShCoefficients sh = sh_radiance_to_irradiance(sh_radiance);
-  split = SunSplit();  // the sky and its sun are no longer needed
-  progress(0.7, "irradiance");
-
-  // 5. The DFG table of the same lobe.
-  brdf::AlbedoOptions dfg_options;
-  dfg_options.samples = in.dfg_samples;
-  dfg_options.seed = in.seed;
-  const DfgTable dfg = compute_dfg(lobe_model(in.lobe), in.dfg_size, in.dfg_size, dfg_options);
-  result.samples += static_cast<uint64_t>(in.dfg_size) * in.dfg_size * in.dfg_samples;
-  progress(0.85, "dfg");
-
-  // 6. Outputs.
-  image::Ktx2Image ktx;
-  ktx.width = ktx.height = in.size;
-  ktx.faces = 6;
-  ktx.levels = levels;
-  ktx.format = image::Ktx2Image::rgba16f;
-  ktx.data.resize(static_cast<size_t>(levels) * 6);
-  std::ostringstream roughness;
-  for (int k = 0; k < levels; ++k) {
-    const Cubemap& cube = chain[k].cube;
-    roughness << (k ? "," : "") << format_number(chain[k].roughness);
-    for (int f = 0; f < 6; ++f) {
-      std::vector<float>& px = ktx.image(k, f);
-      for (const Rgb& c : cube.face(f)) px.insert(px.end(), {float(c.r), float(c.g), float(c.b), 1.0f});
-      result.outputs.push_back({"specular_L" + std::to_string(k) + "_" + std::string(kFaceNames[f]) + ".exr",
-                                "image/x-exr", color_space,
-                                image::encode_exr(face_image(cube, f, "specular prefiltered (" +
-                                                                          std::string(to_string(in.lobe)) +
-                                                                          "), level " + std::to_string(k) +
-                                                                          ", roughness " +
-                                                                          format_number(chain[k].roughness)))});
-    }
-  }
-  ktx.key_values["KTXorientation"] = "rd";
-  ktx.key_values["kiln:roughness_per_level"] = roughness.str();
-  ktx.key_values["kiln:roughness_mapping"] = "perceptual roughness rho_k = k/(levels-1), alpha = rho^2";
-  ktx.key_values["kiln:lobe"] = to_string(in.lobe);
-  ktx.key_values["kiln:lobe_description"] = lobe_description(in.lobe);
-  ktx.key_values["kiln:cubemap_convention"] = std::string(kCubemapConvention);
-  ktx.key_values["kiln:equirect_convention"] = std::string(kEquirectConvention);
-  ktx.key_values["kiln:color_space"] = color_space;
-  result.outputs.insert(result.outputs.begin(), {"specular.ktx2", "image/ktx2", color_space, image::encode_ktx2(ktx)});
-  for (int f = 0; f < 6; ++f) {
-    result.outputs.push_back({"irradiance_" + std::string(kFaceNames[f]) + ".exr", "image/x-exr", color_space,
-                              image::encode_exr(face_image(irradiance, f, "irradiance E(n), W/m^2"))});
-  }
-  std::ostringstream sh_text;
-  sh_text << kShIrradianceHeader << "\n";
-  for (const Rgb& c : sh) sh_text << format_number(c.r) << " " << format_number(c.g) << " " << format_number(c.b) << "\n";
-  result.outputs.push_back({"sh.txt", "text/plain", color_space, sh_text.str()});
-  image::FloatImage dfg_image;
-  dfg_image.width = dfg_image.height = in.dfg_size;
-  dfg_image.channels = 3;
-  dfg_image.channel_names = {"scale", "bias", "energy"};
-  for (int j = 0; j < in.dfg_size; ++j) {
-    for (int i = 0; i < in.dfg_size; ++i) {
-      const DfgEntry& e = dfg.at(i, j);
-      dfg_image.pixels.insert(dfg_image.pixels.end(), {float(e.scale), float(e.bias), float(e.energy)});
-    }
-  }
-  dfg_image.metadata["kiln:axes"] = "x: mu = n.v = (x + 0.5)/width; y: perceptual roughness (y + 0.5)/height, alpha = rho^2";
-  dfg_image.metadata["kiln:lobe"] = to_string(in.lobe);
-  result.outputs.push_back({"dfg.exr", "image/x-exr", "data", image::encode_exr(dfg_image)});
-  if (in.preview) {
-    result.outputs.push_back({"preview.png", "image/png", "", render_preview(chain, irradiance, dfg, color_space)});
-    plan("preview", true, false, "preview.png: spheres at roughness 0, 0.25, 0.5, 0.75, 1 and a diffuse one");
-  } else {
-    plan("preview", false, false, "not asked for");
-  }
-  progress(0.95, "outputs");
-
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  result.outputs.push_back({"report.json", "application/json", "", report_json(in, result, levels, color_space)});
-  progress(1.0, "done");
-  return result;
+  EnvironmentRun run(in, control);
+  check_memory(run);
+  decode_source(run);
+  split_sun_light(run);
+  prefilter_chain(run);
+  convolve_diffuse(run);
+  compute_dfg_table(run);
+  encode_outputs(run);
+  write_report(run);
+  run.end_stage(1.0, "done");
+  return std::move(run.result);
 }
 
 }  // namespace kiln::envmap

@@ -59,16 +59,16 @@ struct EnvironmentBakeInput {
   bool preview = true;           // also write preview.png (a sphere at several roughnesses, display-transformed)
   uint64_t seed = 1;             // the same input and seed give the same bytes
   // Effects forced on (true) or off (false) whatever the planner decides, by the names the report's plan uses
-  // Forcible: "sun_light" (on: use the sun split whenever a texel passes the threshold, and say so when none does;
-  // off: the sun stays in the importance-sampled map; sun.h). Unknown names are an error.
+  // (environment_effect.h). Forcible: "sun_light" (on: use the sun split whenever a texel passes the threshold, and
+  // say so when none does; off: the sun stays in the importance-sampled map; sun.h). Unknown names are an error.
   std::map<std::string, bool> force_effects;
 };
 
 inline constexpr uint64_t kMaxEnvironmentMemory = uint64_t{4} << 30;  // 4 GiB
 
-// One decision of the bake's plan: effects "source", "sun_light", "lobe", "samples", "preview".
+// One decision of the bake's plan, for the effects of environment_effect.h.
 struct EnvironmentPlanEntry {
-  std::string effect;
+  std::string effect;  // effect_name(): "source", "sun_light", "lobe", "samples", "preview"
   bool enabled = false;
   bool forced = false;  // set by force_effects
   std::string reason;

@@ -67,7 +67,11 @@ void for_each_texel(int size, Fn&& fn) {
 }
 
 // Filtered importance sampling of one level: the sample pattern in the local frame (normal +z, v = +z) is the same
-// for every texel, precomputed with its n·l and lod.
+// for every texel, precomputed with its n·l and lod. Sampling h from D(h)(n·h) and reflecting v = n about it gives l
+// with density p(l) = D(h)(n·h)/(4 v·h) = D(h)/4, so Σ L(l_i)(n·l_i) / Σ (n·l_i) converges to L_pre. Each sample
+// reads the sky's mip chain at lod = ½ log2(Ω_s/Ω_p) + 1, Ω_s = 1/(N p(l)), Ω_p = 4π/(6 size0²). The N samples are
+// 4 groups of N/4: the same Hammersley set, each group with its own Cranley–Patterson shift from the seed (the same
+// for every texel, so the output has no per-texel noise); the spread of the group means is the noise estimate.
 class LevelSampler {
  public:
   LevelSampler(const std::vector<Cubemap>& mips, double alpha, brdf::Distribution distribution, int samples,
@@ -183,7 +187,7 @@ std::vector<Checked> checked_subset(int size) {
   return out;
 }
 
-// The relative RMS error of the header over (value, reference) pairs.
+// The relative RMS error (relative_rms_error in the header) over (value, reference) pairs.
 double relative_rms_pairs(size_t n, const std::function<Rgb(size_t)>& value, const std::function<Rgb(size_t)>& ref) {
   if (n == 0) return 0.0;
   double mean_sq = 0.0;
@@ -206,31 +210,89 @@ int round_samples(double n) {
   return std::min(kMaxSamples, (static_cast<int>(clamped) + kGroups - 1) / kGroups * kGroups);
 }
 
+// The lobe of one level: its width α, its weight D(h)(n·l) and that weight's integral W.
+struct LevelLobe {
+  double alpha;
+  SplitSumLobe lobe;
+  double w_norm;
+};
+
+// The checked subset of a level of size out_size, each with its reference: brute force over the sky mip of size
+// ≥ min(size0, 16/α), plus the sun.
+std::vector<Checked> checked_reference(const std::vector<Cubemap>& mips, const std::vector<SunTexel>& sun,
+                                       const LevelLobe& l, int out_size) {
+  std::vector<Checked> subset = checked_subset(out_size);
+  const double wanted = std::min<double>(mips[0].size(), std::ceil(kReferenceTexelsPerAlpha / l.alpha));
+  size_t m = 0;
+  while (m + 1 < mips.size() && mips[m + 1].size() >= wanted) ++m;
+  const BruteForce reference(mips[m], l.lobe);
+  tbb::parallel_for(size_t{0}, subset.size(), [&](size_t i) {
+    subset[i].reference = reference.at(subset[i].n) + sun_specular_at(sun, l.lobe, l.w_norm, subset[i].n);
+  });
+  return subset;
+}
+
+// N per texel: the job's, else chosen from the target error by `check`, which measures the checked error of N.
+// From kPilotSamples, N is scaled by (e/target)² × kStepMargin (the 1/√N law of noise, which overestimates N since
+// the bias of filtered importance sampling and the QMC noise fall faster) until the target is bracketed between a
+// failing and a passing N, which are then bisected geometrically (within 50 %), at most kMaxTrials trials; the
+// smallest N that met the target is kept, else the last (capped) one.
+int choose_samples(const PrefilterOptions& opt, const std::function<double(int)>& check) {
+  if (opt.samples != 0) return round_samples(opt.samples);
+  int n = kPilotSamples, passed = 0, failed = 0;
+  for (int trial = 0; trial < kMaxTrials; ++trial) {
+    if (opt.cancel && opt.cancel->load()) break;
+    const double e = check(n);
+    const double step = (e / opt.target_error) * (e / opt.target_error) * kStepMargin;
+    if (e <= opt.target_error) passed = n;
+    else failed = n;
+    int next;
+    if (passed && failed) {
+      if (passed < failed * 3 / 2) break;  // bracketed within 50 %: good enough
+      next = round_samples(std::sqrt(double(passed) * failed));
+    } else if (passed) {
+      if (n <= kMinAutoSamples) break;
+      next = std::max(kMinAutoSamples, round_samples(n * step));
+      if (next >= n * 3 / 4) break;  // not worth another trial
+    } else {
+      if (n >= kMaxSamples) break;
+      next = std::min(kMaxSamples, std::max(round_samples(n * step), n + kGroups));
+    }
+    if (next == n || next == passed || next == failed) break;
+    n = next;
+  }
+  return passed ? passed : n;
+}
+
+// Every texel of the level with N = level.samples, plus the exact sun; sets the cube and the noise estimate.
+void sample_level(PrefilteredLevel& level, const std::vector<Cubemap>& mips, const std::vector<SunTexel>& sun,
+                  const LevelLobe& l, int out_size, const PrefilterOptions& opt, uint64_t level_seed) {
+  const LevelSampler sampler(mips, l.alpha, opt.distribution, level.samples, level_seed);
+  level.cube = Cubemap(out_size);
+  std::vector<double> rel_var(static_cast<size_t>(kFaceCount) * out_size * out_size, 0.0);
+  for_each_texel(out_size, [&](int f, int x, int y, int idx) {
+    if (opt.cancel && opt.cancel->load()) return;  // stop early: the chain is discarded
+    level.cube.at(f, x, y) = sampler.eval(texel_direction(f, x, y, out_size), &rel_var[idx]);
+  });
+  add_sun_specular(level.cube, sun, l.lobe, l.w_norm);
+  double acc = 0.0;
+  for (double r : rel_var) acc += r;
+  level.noise_estimate = std::sqrt(acc / rel_var.size());
+}
+
 PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const std::vector<SunTexel>& sun, int out_size,
                                  double rho, const PrefilterOptions& opt, uint64_t level_seed) {
   const auto t0 = std::chrono::steady_clock::now();
   PrefilteredLevel level;
   level.roughness = rho;
   const double alpha = lobe_alpha(rho);
-  const SplitSumLobe lobe(opt.distribution, alpha);
-  const double w_norm = lobe_normalization(opt.distribution, alpha);
+  const LevelLobe l{alpha, SplitSumLobe(opt.distribution, alpha), lobe_normalization(opt.distribution, alpha)};
 
-  // The checked subset and its reference: brute force over the sky mip of size ≥ min(size0, 16/α), plus the sun.
-  std::vector<Checked> subset = checked_subset(out_size);
-  {
-    const double wanted = std::min<double>(mips[0].size(), std::ceil(kReferenceTexelsPerAlpha / alpha));
-    size_t m = 0;
-    while (m + 1 < mips.size() && mips[m + 1].size() >= wanted) ++m;
-    const BruteForce reference(mips[m], lobe);
-    tbb::parallel_for(size_t{0}, subset.size(), [&](size_t i) {
-      subset[i].reference = reference.at(subset[i].n) + sun_specular_at(sun, lobe, w_norm, subset[i].n);
-    });
-  }
+  const std::vector<Checked> subset = checked_reference(mips, sun, l, out_size);
   level.checked_texels = static_cast<int>(subset.size());
   std::vector<Rgb> sun_at_subset(subset.size());
-  for (size_t i = 0; i < subset.size(); ++i) sun_at_subset[i] = sun_specular_at(sun, lobe, w_norm, subset[i].n);
-
-  auto check = [&](int samples) {
+  for (size_t i = 0; i < subset.size(); ++i) sun_at_subset[i] = sun_specular_at(sun, l.lobe, l.w_norm, subset[i].n);
+  const auto check = [&](int samples) {
     const LevelSampler sampler(mips, alpha, opt.distribution, samples, level_seed);
     std::vector<Rgb> values(subset.size());
     tbb::parallel_for(size_t{0}, subset.size(), [&](size_t i) {
@@ -239,48 +301,9 @@ PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const std::ve
     level.pilot_samples += samples;
     return relative_rms(subset, values);
   };
+  level.samples = choose_samples(opt, check);
 
-  int samples = round_samples(opt.samples);
-  if (opt.samples == 0) {
-    // Choose N (see the header): scale by the 1/√N law until the target is bracketed between a failing and a
-    // passing N, then bisect geometrically; keep the smallest N that met the target, else the last (capped) one.
-    int n = kPilotSamples, passed = 0, failed = 0;
-    for (int trial = 0; trial < kMaxTrials; ++trial) {
-      if (opt.cancel && opt.cancel->load()) break;
-      const double e = check(n);
-      const double step = (e / opt.target_error) * (e / opt.target_error) * kStepMargin;
-      if (e <= opt.target_error) passed = n;
-      else failed = n;
-      int next;
-      if (passed && failed) {
-        if (passed < failed * 3 / 2) break;  // bracketed within 50 %: good enough
-        next = round_samples(std::sqrt(double(passed) * failed));
-      } else if (passed) {
-        if (n <= kMinAutoSamples) break;
-        next = std::max(kMinAutoSamples, round_samples(n * step));
-        if (next >= n * 3 / 4) break;  // not worth another trial
-      } else {
-        if (n >= kMaxSamples) break;
-        next = std::min(kMaxSamples, std::max(round_samples(n * step), n + kGroups));
-      }
-      if (next == n || next == passed || next == failed) break;
-      n = next;
-    }
-    samples = passed ? passed : n;
-  }
-  level.samples = samples;
-
-  const LevelSampler sampler(mips, alpha, opt.distribution, samples, level_seed);
-  level.cube = Cubemap(out_size);
-  std::vector<double> rel_var(static_cast<size_t>(kFaceCount) * out_size * out_size, 0.0);
-  for_each_texel(out_size, [&](int f, int x, int y, int idx) {
-    if (opt.cancel && opt.cancel->load()) return;  // stop early: the chain is discarded
-    level.cube.at(f, x, y) = sampler.eval(texel_direction(f, x, y, out_size), &rel_var[idx]);
-  });
-  add_sun_specular(level.cube, sun, lobe, w_norm);
-  double acc = 0.0;
-  for (double r : rel_var) acc += r;
-  level.noise_estimate = std::sqrt(acc / rel_var.size());
+  sample_level(level, mips, sun, l, out_size, opt, level_seed);
   std::vector<Rgb> values(subset.size());
   for (size_t i = 0; i < subset.size(); ++i) values[i] = level.cube.at(subset[i].face, subset[i].x, subset[i].y);
   level.checked_error = relative_rms(subset, values);

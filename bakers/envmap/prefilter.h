@@ -1,53 +1,13 @@
-// The specular prefiltered mip chain of an environment under the split-sum assumption n = v = r (Karis 2013,
-// "Real Shading in Unreal Engine 4"): level k holds the environment convolved with the chosen lobe's D weighted by n·l,
+// The specular prefiltered mip chain of an environment under the split-sum assumption n = v = r (Karis 2013): level k
+// of L has perceptual roughness ρ_k = k/(L − 1) (α = ρ², lobe.h), size max(1, out_size >> k), and holds
 //
 //     L_pre(n) = ∫ L(l) D(h) (n·l) dω_l / W,    W = ∫ D(h) (n·l) dω_l,    h = (n + l)/|n + l|,
 //
-// normalised by the integral of the weights (so a constant environment stays exactly that constant). The lobes (GGX,
-// Beckmann, Schlick's rational Beckmann; Cook–Torrance's is Beckmann's) and W are in lobe.h.
-// Why D(h)(n·l): sampling h from D(h)(n·h) (bakers/brdf's samplers: GGX visible normals seen from v = n, Heitz 2018,
-// which is D(h)(n·h) there; Beckmann's and Schlick's D(h)(n·h) directly) and reflecting v about h gives l with density
-// p(l) = D(h)(n·h)/(4 v·h) = D(h)/4, so Karis's estimator Σ L(l_i)(n·l_i) / Σ (n·l_i) converges to the ratio above.
-//
-// ## Roughness of each level (the one mapping)
-// Level k of L levels has perceptual roughness ρ_k = k/(L − 1) (level 0 = mirror, the last level ρ = 1), and the
-// lobe's width is α = ρ² (lobe.h, dfg.h). Level k has size max(1, out_size >> k) (a mip chain).
-//
-// ## The sun (sun.h)
-// The chain is computed from a sky/sun split: the sky is importance sampled, the sun texels are summed exactly at every
-// output texel with the same normalisation W, so sky + sun converges to the convolution of the whole map. Level 0 (the
-// mirror) is the sky's mip of that size with the sun texels' power deposited back (exactly the source at its size).
-//
-// ## Filtered importance sampling (Křivánek & Colbert 2008, GPU Gems 3 ch. 20)
-// Each sample reads the sky's own mip chain (built with downsample_2x) at
-//     lod = ½ log2(Ω_s/Ω_p) + 1,   Ω_s = 1/(N p(l)),   Ω_p = 4π/(6 size0²),
-// clamped to [0, last source level], trilinear (bilinear on each face with seamless edges, linear between levels).
-//
-// ## Error estimate (honest: noise and filtering bias)
-// The N samples are 4 groups of N/4: each group is the same N/4-point Hammersley set with its own Cranley–Patterson
-// rotation (a pseudo-random shift per group from the seed, the same for every texel, so the output has no per-texel
-// noise). noise_estimate is the relative RMS over all texels of the standard error of the 4 group means.
-// Filtered importance sampling also blurs (bias), which the groups cannot see. So each level is also CHECKED: at a
-// stratified subset of texels (all texels of faces up to 8², else a 4 × 4 grid per face: 96) the estimate is compared
-// with a brute-force convolution of the sky (every texel of the sky mip of size ≥ min(size0, 16/α), whose box filter
-// is ≤ 1/16 of the lobe's width) plus the same exact sun. checked_error is relative_rms_error (below) over the subset,
-// error_estimate = max(checked_error, noise_estimate).
-//
-// ## Relative RMS error (the one definition: reports, targets, tests and the benchmark)
-//     e = sqrt( mean_i |v_i − ref_i|² / max(|ref_i|², (0.01 · RMS_i |ref_i|)²) )      (RGB vector norms)
-// i.e. each texel's error relative to its own value, except that texels darker than 1/100 of the level's RMS value
-// are measured against that floor (a relative error of a near-black texel, e.g. below a lit horizon, means nothing
-// and would otherwise dominate).
-// tests/envmap/prefilter_test.cpp shows that error_estimate is within a factor 3 of the error measured against a
-// full brute-force convolution.
-//
-// ## Samples from a target error
-// samples = 0 chooses N per level: starting from 64, the checked error e(N) of the subset is measured and N is scaled
-// by (e/target)² × 1.2 (the 1/√N law of noise; the bias of filtered importance sampling and the QMC noise fall
-// faster, so the law overestimates N rather than under) until the target is bracketed between a failing and a
-// passing N, which are then bisected geometrically (within 50 %), at most 6 trials in all; the smallest N that met
-// the target is kept, within [16, 65536] (a multiple of 4). A level at the cap that still misses the target reports
-// its larger error.
+// so a constant environment stays exactly that constant. The sky is importance sampled with filtered importance
+// sampling (Křivánek & Colbert 2008) in 4 randomised groups; the sun (sun.h) is summed exactly. Each level's
+// error_estimate is max(noise of the groups, error against brute force on a checked subset of texels), and
+// samples = 0 chooses N per level to meet target_error. The derivations, the error estimate and the choice of N are
+// in docs/ENVIRONMENT.md.
 #pragma once
 
 #include <atomic>
@@ -99,8 +59,12 @@ std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& sky, const std::
 std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& source, int out_size,
                                                  const PrefilterOptions& options = {});
 
+// The relative RMS error (the one definition: reports, targets, tests and the benchmark), RGB vector norms:
+//     e = sqrt( mean_i |v_i − ref_i|² / max(|ref_i|², (kRelativeErrorFloor · RMS_i |ref_i|)²) )
+// each texel's error relative to its own value, except that texels darker than 1/100 of the RMS value are measured
+// against that floor (the relative error of a near-black texel means nothing and would otherwise dominate).
 inline constexpr double kRelativeErrorFloor = 0.01;
-// e above over all texels of two cubes of the same size (throws std::invalid_argument otherwise).
+// e over all texels of two cubes of the same size (throws std::invalid_argument otherwise).
 double relative_rms_error(const Cubemap& value, const Cubemap& reference);
 
 // The source mip chain used by filtered importance sampling: source, then downsample_2x while the size is even.

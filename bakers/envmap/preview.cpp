@@ -137,79 +137,85 @@ void check_inputs(const Chain& chain, const Cubemap& irradiance, const DfgTable&
   }
 }
 
-std::string render(const Chain& chain, const Cubemap& irradiance, const DfgTable& dfg, const std::string& color_space,
-                   const PreviewOptions& options) {
-  check_inputs(chain, irradiance, dfg, options);
-  // The colour space, display and view, checked before any work (no pixels: nothing is converted).
-  image::ColorConfig::active().convert_to_display(nullptr, 0, 3, color_space, options.display, options.view);
-  const Shader shader{chain, irradiance, dfg, options};
-  constexpr int kW = kPreviewWidth, kH = kPreviewHeight, kS = kPreviewSupersampling;
-  const auto sub = [](int pixel, int i) { return pixel + (i + 0.5) / kS; };
+constexpr int kW = kPreviewWidth, kH = kPreviewHeight, kS = kPreviewSupersampling;
 
-  // 1. The background everywhere (for the exposure, and for pixels no sphere touches).
+// The centre of subpixel i of a pixel (kS × kS subpixels a pixel).
+double subpixel(int pixel, int i) { return pixel + (i + 0.5) / kS; }
+
+// The background everywhere (for the exposure, and for pixels no sphere touches).
+std::vector<Rgb> render_background(const Shader& shader) {
   std::vector<Rgb> background(static_cast<size_t>(kW) * kH);
   tbb::parallel_for(tbb::blocked_range<int>(0, kH), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
       for (int x = 0; x < kW; ++x) {
         Rgb sum;
         for (int j = 0; j < kS; ++j)
-          for (int i = 0; i < kS; ++i) sum += shader.background(sub(x, i), sub(y, j));
+          for (int i = 0; i < kS; ++i) sum += shader.background(subpixel(x, i), subpixel(y, j));
         background[static_cast<size_t>(y) * kW + x] = sum / (kS * kS);
       }
     }
   });
+  return background;
+}
 
-  // 2. Exposure: median background luminance → mid-grey (image::auto_exposure's rule).
-  double exposure = 1.0;
-  std::string rule;
-  if (options.exposure) {
-    exposure = *options.exposure;
-    rule = "given";
-  } else {
-    std::vector<double> lum(background.size());
-    std::transform(background.begin(), background.end(), lum.begin(), luminance);
-    const image::AutoExposure automatic = image::auto_exposure(std::move(lum));
-    exposure = automatic.multiplier;
-    rule = image::describe_exposure(automatic, "background", "a black environment");
+struct Exposure {
+  double multiplier = 1.0;
+  std::string rule;  // how it was chosen, for the PNG's metadata
+};
+
+// The given exposure, else the median background luminance → mid-grey (image::auto_exposure's rule).
+Exposure choose_exposure(const std::vector<Rgb>& background, const PreviewOptions& options) {
+  if (options.exposure) return {*options.exposure, "given"};
+  std::vector<double> lum(background.size());
+  std::transform(background.begin(), background.end(), lum.begin(), luminance);
+  const image::AutoExposure automatic = image::auto_exposure(std::move(lum));
+  return {automatic.multiplier, image::describe_exposure(automatic, "background", "a black environment")};
+}
+
+// Pixel (x, y): the spheres' subpixels, and the background's where a sphere covers only part of the pixel.
+Rgb pixel_value(const Shader& shader, const std::vector<Rgb>& background, int x, int y) {
+  Rgb sphere_sum;
+  int hits = 0;
+  for (int j = 0; j < kS; ++j)
+    for (int i = 0; i < kS; ++i) {
+      Rgb c;
+      if (shader.sphere(subpixel(x, i), subpixel(y, j), c)) {
+        sphere_sum += c;
+        ++hits;
+      }
+    }
+  if (hits == 0) return background[static_cast<size_t>(y) * kW + x];
+  Rgb sum = sphere_sum;
+  if (hits < kS * kS) {
+    for (int j = 0; j < kS; ++j)
+      for (int i = 0; i < kS; ++i) {
+        Rgb c;
+        if (!shader.sphere(subpixel(x, i), subpixel(y, j), c)) sum += shader.background(subpixel(x, i), subpixel(y, j));
+      }
   }
+  return sum / (kS * kS);
+}
 
-  // 3. Spheres over the background, as floats for OpenColorIO.
+// Spheres over the background, as floats for OpenColorIO.
+std::vector<float> render_spheres(const Shader& shader, const std::vector<Rgb>& background) {
   std::vector<float> linear(static_cast<size_t>(kW) * kH * 3);
   tbb::parallel_for(tbb::blocked_range<int>(0, kH), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
       for (int x = 0; x < kW; ++x) {
-        Rgb sphere_sum, value;
-        int hits = 0;
-        for (int j = 0; j < kS; ++j)
-          for (int i = 0; i < kS; ++i) {
-            Rgb c;
-            if (shader.sphere(sub(x, i), sub(y, j), c)) {
-              sphere_sum += c;
-              ++hits;
-            }
-          }
-        if (hits == 0) {
-          value = background[static_cast<size_t>(y) * kW + x];
-        } else {
-          Rgb sum = sphere_sum;
-          if (hits < kS * kS) {
-            for (int j = 0; j < kS; ++j)
-              for (int i = 0; i < kS; ++i) {
-                Rgb c;
-                if (!shader.sphere(sub(x, i), sub(y, j), c)) sum += shader.background(sub(x, i), sub(y, j));
-              }
-          }
-          value = sum / (kS * kS);
-        }
+        const Rgb value = pixel_value(shader, background, x, y);
         float* out = &linear[(static_cast<size_t>(y) * kW + x) * 3];
         for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(value[c]);  // NaN guarded by display_png8
       }
     }
   });
+  return linear;
+}
 
-  // 4. Exposure, display transform and quantisation.
-  image::Png8Image png =
-      image::display_png8(std::move(linear), kW, kH, exposure, color_space, options.display, options.view);
+// Exposure, display transform and quantisation, with what the picture shows in its metadata.
+std::string encode_preview(std::vector<float> linear, const Exposure& exposure, const std::string& color_space,
+                           const PreviewOptions& options) {
+  image::Png8Image png = image::display_png8(std::move(linear), kW, kH, exposure.multiplier, color_space,
+                                             options.display, options.view);
   png.metadata["Description"] =
       "kiln environment preview, " + std::to_string(kW) + "x" + std::to_string(kH) +
       ". Background: the environment, longitude 360 deg across (centre column looks along -Z), latitude +45 deg "
@@ -217,11 +223,22 @@ std::string render(const Chain& chain, const Cubemap& irradiance, const DfgTable
       " at perceptual roughness 0, 0.25, 0.5, 0.75, 1 (split sum: prefiltered(r) * (f0 * scale + bias)); diffuse "
       "albedo " + format_number(options.diffuse_albedo) + " lit by the irradiance cube (albedo * E / pi). "
       "Orthographic camera along -Z.";
-  png.metadata["kiln:exposure"] = format_number(exposure);
-  png.metadata["kiln:exposure_ev"] = format_number(std::log2(exposure));
-  png.metadata["kiln:exposure_rule"] = rule;
+  png.metadata["kiln:exposure"] = format_number(exposure.multiplier);
+  png.metadata["kiln:exposure_ev"] = format_number(std::log2(exposure.multiplier));
+  png.metadata["kiln:exposure_rule"] = exposure.rule;
   png.metadata["kiln:color_space"] = color_space;
   return image::encode_png(png);
+}
+
+std::string render(const Chain& chain, const Cubemap& irradiance, const DfgTable& dfg, const std::string& color_space,
+                   const PreviewOptions& options) {
+  check_inputs(chain, irradiance, dfg, options);
+  // The colour space, display and view, checked before any work (no pixels: nothing is converted).
+  image::ColorConfig::active().convert_to_display(nullptr, 0, 3, color_space, options.display, options.view);
+  const Shader shader{chain, irradiance, dfg, options};
+  const std::vector<Rgb> background = render_background(shader);
+  const Exposure exposure = choose_exposure(background, options);
+  return encode_preview(render_spheres(shader, background), exposure, color_space, options);
 }
 
 }  // namespace

@@ -38,40 +38,55 @@ void for_each_texel(Cubemap& out, Fn&& fn) {
   });
 }
 
-}  // namespace
+// A texel of a cube of size n by its index (face-major, then row, then column).
+struct TexelIndex {
+  int face, x, y;
+};
+TexelIndex texel_at(size_t i, int n) {
+  const size_t per_face = static_cast<size_t>(n) * n;
+  const int rem = static_cast<int>(i % per_face);
+  return {static_cast<int>(i / per_face), rem % n, rem / n};
+}
 
+// Per texel, by index: the luminance Y and the exact solid angle, and the sums ∫ Y dω and ∫ dω.
+struct LuminanceMap {
+  std::vector<double> y, omega;
+  double total_power = 0, total_omega = 0;
+};
 
-SunSplit split_sun(const Cubemap& source, SunMode mode) {
-  SunSplit s;
-  s.sky = source;
+LuminanceMap measure_luminance(const Cubemap& source) {
   const int n = source.size();
   const size_t count = static_cast<size_t>(kFaceCount) * n * n;
-  std::vector<double> y(count), omega(count);
-  double total_power = 0, total_omega = 0;
+  LuminanceMap m;
+  m.y.resize(count);
+  m.omega.resize(count);
   for (int f = 0; f < kFaceCount; ++f)
     for (int ty = 0; ty < n; ++ty)
       for (int tx = 0; tx < n; ++tx) {
         const size_t i = (static_cast<size_t>(f) * n + ty) * n + tx;
-        y[i] = luminance(source.at(f, tx, ty));
-        omega[i] = texel_solid_angle(tx, ty, n);
-        total_power += y[i] * omega[i];
-        total_omega += omega[i];
+        m.y[i] = luminance(source.at(f, tx, ty));
+        m.omega[i] = texel_solid_angle(tx, ty, n);
+        m.total_power += m.y[i] * m.omega[i];
+        m.total_omega += m.omega[i];
       }
-  if (mode == SunMode::forced_off) {
-    s.reason = "forced off: the whole map, sun included, is importance sampled";
-    return s;
-  }
+  return m;
+}
+
+// The texels above the threshold T = kSunContrast · Q, brightest first, at most kMaxSunTexels; sets Q, T and the
+// candidate count of `s`.
+std::vector<size_t> pick_sun_texels(const LuminanceMap& m, SunSplit& s) {
+  const std::vector<double>& y = m.y;
   // Q: the solid-angle-weighted 90th percentile of Y.
-  std::vector<size_t> order(count);
+  std::vector<size_t> order(y.size());
   std::iota(order.begin(), order.end(), size_t{0});
   // Ties broken by index: the same map always picks the same texels (the same input and seed give the same bytes).
   tbb::parallel_sort(order.begin(), order.end(),
                      [&](size_t a, size_t b) { return y[a] < y[b] || (y[a] == y[b] && a < b); });
   double acc = 0;
   for (size_t i : order) {
-    acc += omega[i];
+    acc += m.omega[i];
     s.quantile_luminance = y[i];
-    if (acc >= kSunQuantile * total_omega) break;
+    if (acc >= kSunQuantile * m.total_omega) break;
   }
   s.threshold = kSunContrast * s.quantile_luminance;
   std::vector<size_t> picked;
@@ -79,14 +94,19 @@ SunSplit split_sun(const Cubemap& source, SunMode mode) {
     ++s.candidates;
     if (static_cast<int>(picked.size()) < kMaxSunTexels) picked.push_back(*it);
   }
+  return picked;
+}
+
+// Whether the picked texels are used as the sun (s.enabled), with the power fraction and the reason in words.
+void decide_sun(const LuminanceMap& m, const std::vector<size_t>& picked, SunMode mode, SunSplit& s) {
   double sun_power = 0;
-  for (size_t i : picked) sun_power += y[i] * omega[i];
-  s.power_fraction = total_power > 0 ? sun_power / total_power : 0.0;
+  for (size_t i : picked) sun_power += m.y[i] * m.omega[i];
+  s.power_fraction = m.total_power > 0 ? sun_power / m.total_power : 0.0;
   const std::string rule = "texels with luminance > " + bake::format_number(kSunContrast) + " x the 90th percentile (" +
                            bake::format_number(s.quantile_luminance) + ") = " + bake::format_number(s.threshold);
   if (picked.empty()) {
     s.reason = (mode == SunMode::forced_on ? "forced on, but no sun found (no-op): no " : "no sun: no ") + rule;
-    return s;
+    return;
   }
   const std::string found = std::to_string(picked.size()) + " texel(s) " + rule +
                             (s.candidates > kMaxSunTexels ? " (the brightest " + std::to_string(kMaxSunTexels) +
@@ -96,30 +116,33 @@ SunSplit split_sun(const Cubemap& source, SunMode mode) {
   if (mode == SunMode::automatic && s.power_fraction < kMinSunPowerFraction) {
     s.reason = "no sun: " + found + ", below the " + bake::format_number(100.0 * kMinSunPowerFraction) +
                "% that makes a separate light worth its cost";
-    return s;
+    return;
   }
   s.enabled = true;
   s.reason = (mode == SunMode::forced_on ? "forced on: " : "sun found: ") + found +
              "; taken out of the sampled map and added exactly to every output";
+}
 
-  // Fill the sun texels' sky from their non-sun neighbours, peeling the sun from its border inwards.
-  std::vector<char> is_sun(count, 0), filled(count, 1);
-  for (size_t i : picked) is_sun[i] = 1, filled[i] = 0;
+// Fills the sun texels' sky from their non-sun neighbours, peeling the sun from its border inwards.
+void fill_sky_under_sun(SunSplit& s, const Cubemap& source, const std::vector<size_t>& picked,
+                        const std::vector<double>& y) {
+  const int n = source.size();
+  std::vector<char> filled(y.size(), 1);
+  for (size_t i : picked) filled[i] = 0;
   std::vector<size_t> pending(picked);
   std::vector<std::pair<size_t, Rgb>> fills;
   while (!pending.empty()) {
     fills.clear();
     std::vector<size_t> still;
     for (size_t i : pending) {
-      const int f = static_cast<int>(i / (static_cast<size_t>(n) * n)), rem = static_cast<int>(i % (size_t(n) * n));
-      const int tx = rem % n, ty = rem / n;
+      const TexelIndex t = texel_at(i, n);
       Rgb sum;
       int k = 0;
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           if (!dx && !dy) continue;
           int f2, x2, y2;
-          neighbour(f, tx, ty, dx, dy, n, f2, x2, y2);
+          neighbour(t.face, t.x, t.y, dx, dy, n, f2, x2, y2);
           const size_t j = (static_cast<size_t>(f2) * n + y2) * n + x2;
           if (filled[j]) sum += s.sky.at(f2, x2, y2), ++k;
         }
@@ -130,28 +153,50 @@ SunSplit split_sun(const Cubemap& source, SunMode mode) {
     // cube of a few texels) has none: its sky keeps the texel scaled down to the threshold.
     if (fills.empty()) {
       for (size_t i : still) {
-        const int f = static_cast<int>(i / (size_t(n) * n)), rem = static_cast<int>(i % (size_t(n) * n));
+        const TexelIndex t = texel_at(i, n);
         const double scale = y[i] > 0 ? std::min(1.0, s.threshold / y[i]) : 0.0;
-        fills.push_back({i, source.at(f, rem % n, rem / n) * scale});
+        fills.push_back({i, source.at(t.face, t.x, t.y) * scale});
       }
       still.clear();
     }
     for (const auto& [i, v] : fills) {
-      const int f = static_cast<int>(i / (size_t(n) * n)), rem = static_cast<int>(i % (size_t(n) * n));
-      s.sky.at(f, rem % n, rem / n) = v;
+      const TexelIndex t = texel_at(i, n);
+      s.sky.at(t.face, t.x, t.y) = v;
       filled[i] = 1;
     }
     pending = std::move(still);
   }
+}
+
+// The sun texels: each keeps what its texel has above the sky.
+void take_out_sun(SunSplit& s, const Cubemap& source, const std::vector<size_t>& picked,
+                  const std::vector<double>& omega) {
+  const int n = source.size();
   for (size_t i : picked) {
-    const int f = static_cast<int>(i / (size_t(n) * n)), rem = static_cast<int>(i % (size_t(n) * n));
-    const int tx = rem % n, ty = rem / n;
-    const Rgb& l = source.at(f, tx, ty);
-    Rgb& sky = s.sky.at(f, tx, ty);
+    const TexelIndex t = texel_at(i, n);
+    const Rgb& l = source.at(t.face, t.x, t.y);
+    Rgb& sky = s.sky.at(t.face, t.x, t.y);
     // The sky is never above the texel itself, so the sun's part is ≥ 0 in every channel.
     sky = Rgb(std::min(sky.r, l.r), std::min(sky.g, l.g), std::min(sky.b, l.b));
-    s.sun.push_back({f, tx, ty, texel_direction(f, tx, ty, n), omega[i], l - sky});
+    s.sun.push_back({t.face, t.x, t.y, texel_direction(t.face, t.x, t.y, n), omega[i], l - sky});
   }
+}
+
+}  // namespace
+
+SunSplit split_sun(const Cubemap& source, SunMode mode) {
+  SunSplit s;
+  s.sky = source;
+  const LuminanceMap m = measure_luminance(source);
+  if (mode == SunMode::forced_off) {
+    s.reason = "forced off: the whole map, sun included, is importance sampled";
+    return s;
+  }
+  const std::vector<size_t> picked = pick_sun_texels(m, s);
+  decide_sun(m, picked, mode, s);
+  if (!s.enabled) return s;
+  fill_sky_under_sun(s, source, picked, m.y);
+  take_out_sun(s, source, picked, m.omega);
   return s;
 }
 

@@ -1,13 +1,12 @@
 #include "bakers/image/exr.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <cstdint>
-#include <cstdio>
 #include <set>
 #include <stdexcept>
+
+#include "bakers/image/image_format.h"
+#include "bakers/image/oiio_memory.h"
 
 namespace kiln::image {
 namespace {
@@ -77,14 +76,29 @@ void check_image(const FloatImage& image) {
   }
 }
 
-std::string hex_prefix(const std::string& bytes) {
-  std::string out;
-  char buf[4];
-  for (size_t i = 0; i < std::min<size_t>(bytes.size(), 4); ++i) {
-    std::snprintf(buf, sizeof buf, "%s%02x", i ? " " : "", static_cast<unsigned char>(bytes[i]));
-    out += buf;
+// Puts the channels back in the writer's order (`order`, as written by encode_exr) when the file says what it was
+// and it fits.
+void restore_channel_order(FloatImage& image, const std::string& order) {
+  if (order.empty()) return;
+  const std::vector<std::string> wanted = split(order);
+  std::vector<int> source;
+  for (const auto& name : wanted) {
+    const auto it = std::find(image.channel_names.begin(), image.channel_names.end(), name);
+    if (it == image.channel_names.end()) break;
+    source.push_back(static_cast<int>(it - image.channel_names.begin()));
   }
-  return out.empty() ? "nothing" : out;
+  if (source.size() != image.channel_names.size() ||
+      std::set<int>(source.begin(), source.end()).size() != source.size()) {
+    return;
+  }
+  std::vector<float> reordered(image.pixels.size());
+  const size_t n = static_cast<size_t>(image.width) * image.height;
+  const int c = image.channels;
+  for (size_t p = 0; p < n; ++p) {
+    for (int k = 0; k < c; ++k) reordered[p * c + k] = image.pixels[p * c + source[k]];
+  }
+  image.pixels = std::move(reordered);
+  image.channel_names = wanted;
 }
 
 }  // namespace
@@ -100,21 +114,8 @@ std::string encode_exr(const FloatImage& image) {
   for (const auto& [key, value] : image.metadata) spec.attribute(key, value);
   spec.attribute(kChannelOrderKey, join(spec.channelnames));
 
-  std::vector<unsigned char> buffer;
-  OIIO::Filesystem::IOVecOutput proxy(buffer);
-  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(kVirtualName);
-  if (!out) throw std::runtime_error("encode_exr: OpenImageIO has no OpenEXR writer: " + OIIO::geterror());
-  out->threads(1);  // tiny images; the caller owns the thread budget
-  const auto fail = [&](const std::string& what) {
-    throw std::runtime_error("encode_exr: could not " + what + " a " + std::to_string(image.width) + "x" +
-                             std::to_string(image.height) + " EXR image with " + std::to_string(image.channels) +
-                             " channels: " + out->geterror());
-  };
-  if (!out->set_ioproxy(&proxy)) fail("attach the memory buffer to");
-  if (!out->open(kVirtualName, spec)) fail("start");
-  if (!out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data())) fail("write the pixels of");
-  if (!out->close()) fail("finish");
-  return std::string(buffer.begin(), buffer.end());
+  return detail::write_to_memory(kVirtualName, spec, OIIO::TypeDesc::FLOAT, image.pixels.data(), "encode_exr", "EXR",
+                                 "OpenEXR");
 }
 
 FloatImage decode_exr(const std::string& bytes) {
@@ -122,68 +123,31 @@ FloatImage decode_exr(const std::string& bytes) {
   static constexpr unsigned char kMagic[4] = {0x76, 0x2f, 0x31, 0x01};
   if (bytes.size() < 4 || !std::equal(kMagic, kMagic + 4, reinterpret_cast<const unsigned char*>(bytes.data()))) {
     throw std::runtime_error("decode_exr: the " + std::to_string(bytes.size()) +
-                             " bytes are not an OpenEXR image: they start with " + hex_prefix(bytes) +
+                             " bytes are not an OpenEXR image: they start with " + hex_prefix(bytes, 4) +
                              ", an EXR file starts with 76 2f 31 01");
   }
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  void* proxy_ptr = &proxy;
-  OIIO::ImageSpec config;
-  config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy_ptr);
-  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(kVirtualName, &config);
-  if (!in) {
-    throw std::runtime_error("decode_exr: could not read the header of the " + std::to_string(bytes.size()) +
-                             "-byte EXR image (truncated or corrupt?): " + OIIO::geterror());
-  }
-  in->threads(1);
+  std::unique_ptr<OIIO::ImageInput> in =
+      detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_exr", "EXR");
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.deep) throw std::runtime_error("decode_exr: deep EXR images are not supported; expected flat pixels");
   const uint64_t values = static_cast<uint64_t>(std::max(0, spec.width)) * std::max(0, spec.height) *
                           std::max(0, spec.depth) * std::max(0, spec.nchannels);
-  if (values == 0 || values > kMaxDecodedValues) {
-    throw std::runtime_error("decode_exr: the header describes a " + std::to_string(spec.width) + "x" +
-                             std::to_string(spec.height) + " image with " + std::to_string(spec.nchannels) +
-                             " channels, which is empty or larger than the limit of " +
-                             std::to_string(kMaxDecodedValues) + " values");
-  }
+  detail::check_decoded_values(spec, values, kMaxDecodedValues, "decode_exr");
   FloatImage image;
   image.width = spec.width;
   image.height = spec.height * std::max(1, spec.depth);
   image.channels = spec.nchannels;
   image.pixels.resize(values);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data())) {
-    throw std::runtime_error("decode_exr: could not read the pixels of the " + std::to_string(spec.width) + "x" +
-                             std::to_string(spec.height) + " EXR image (truncated or corrupt?): " + in->geterror());
-  }
+  detail::read_pixels(*in, OIIO::TypeDesc::FLOAT, image.pixels.data(), "decode_exr", "EXR");
   image.channel_names = spec.channelnames;
   std::string order;
-  for (const auto& attr : spec.extra_attribs) {
-    if (attr.type() != OIIO::TypeDesc::STRING) continue;
-    const std::string name = attr.name().string();
-    if (name == kChannelOrderKey) order = attr.get_string();
+  for (const auto& [name, value] : detail::string_attributes(spec)) {
+    if (name == kChannelOrderKey) order = value;
     if (reserved_key(name)) continue;
-    image.metadata[name] = attr.get_string();
+    image.metadata[name] = value;
   }
-  // Put the channels back in the writer's order when the file says what it was and it fits.
-  if (!order.empty()) {
-    const std::vector<std::string> wanted = split(order);
-    std::vector<int> source;
-    for (const auto& name : wanted) {
-      const auto it = std::find(image.channel_names.begin(), image.channel_names.end(), name);
-      if (it == image.channel_names.end()) break;
-      source.push_back(static_cast<int>(it - image.channel_names.begin()));
-    }
-    if (source.size() == image.channel_names.size() &&
-        std::set<int>(source.begin(), source.end()).size() == source.size()) {
-      std::vector<float> reordered(image.pixels.size());
-      const size_t n = static_cast<size_t>(image.width) * image.height;
-      const int c = image.channels;
-      for (size_t p = 0; p < n; ++p) {
-        for (int k = 0; k < c; ++k) reordered[p * c + k] = image.pixels[p * c + source[k]];
-      }
-      image.pixels = std::move(reordered);
-      image.channel_names = wanted;
-    }
-  }
+  restore_channel_order(image, order);
   in->close();
   return image;
 }

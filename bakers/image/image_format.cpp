@@ -1,5 +1,7 @@
 #include "bakers/image/image_format.h"
 
+#include <algorithm>
+#include <cstdio>
 #include <cstring>
 
 namespace kiln::image {
@@ -17,6 +19,16 @@ const ImageFormat* detect_image_format(const std::string& bytes) {
   if (starts_with("\x89PNG\r\n\x1a\n", 8)) return &png;
   if (starts_with("\xff\xd8\xff", 3)) return &jpeg;
   return nullptr;
+}
+
+std::string hex_prefix(const std::string& bytes, size_t count) {
+  std::string out;
+  char buf[4];
+  for (size_t i = 0; i < std::min(bytes.size(), count); ++i) {
+    std::snprintf(buf, sizeof buf, "%s%02x", i ? " " : "", static_cast<unsigned char>(bytes[i]));
+    out += buf;
+  }
+  return out.empty() ? "nothing" : out;
 }
 
 }  // namespace kiln::image

@@ -2,6 +2,7 @@
 // the environment decoder (bakers/envmap/env_input.cpp) and the texture decoder (texture_decode.cpp).
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 namespace kiln::image {
@@ -16,5 +17,8 @@ inline constexpr const char* kAcceptedImageFormats = "OpenEXR, Radiance HDR, PNG
 
 // The format whose signature `bytes` start with, or nullptr.
 const ImageFormat* detect_image_format(const std::string& bytes);
+
+// The first `count` bytes in hex ("76 2f 31 01"), or "nothing": what bytes with the wrong signature start with.
+std::string hex_prefix(const std::string& bytes, size_t count);
 
 }  // namespace kiln::image

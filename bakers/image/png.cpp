@@ -59,7 +59,8 @@ std::string encode_png(const Png8Image& image) {
   for (const auto& [key, value] : image.metadata) spec.attribute(key, value);
 
   // Small images: one thread, the caller owns the thread budget.
-  return detail::write_to_memory(kVirtualName, spec, OIIO::TypeDesc::UINT8, image.pixels.data(), "encode_png", "PNG");
+  return detail::write_to_memory(kVirtualName, spec, OIIO::TypeDesc::UINT8, image.pixels.data(), "encode_png", "PNG",
+                                 "PNG");
 }
 
 Png8Image decode_png(const std::string& bytes) {
@@ -69,35 +70,22 @@ Png8Image decode_png(const std::string& bytes) {
                              " bytes are not a PNG image (a PNG file starts with 89 50 4e 47 0d 0a 1a 0a)");
   }
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  std::unique_ptr<OIIO::ImageInput> in = detail::open_from_memory(kVirtualName, proxy);
-  if (!in) {
-    throw std::runtime_error("decode_png: could not read the header of the " + std::to_string(bytes.size()) +
-                             "-byte PNG image (truncated or corrupt?): " + OIIO::geterror());
-  }
+  std::unique_ptr<OIIO::ImageInput> in =
+      detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_png", "PNG");
   const OIIO::ImageSpec& spec = in->spec();
   const uint64_t values = static_cast<uint64_t>(std::max(0, spec.width)) * std::max(0, spec.height) *
                           std::max(0, spec.nchannels);
-  if (values == 0 || values > kMaxDecodedValues) {
-    throw std::runtime_error("decode_png: the header describes a " + std::to_string(spec.width) + "x" +
-                             std::to_string(spec.height) + " image with " + std::to_string(spec.nchannels) +
-                             " channels, which is empty or larger than the limit of " +
-                             std::to_string(kMaxDecodedValues) + " values");
-  }
+  detail::check_decoded_values(spec, values, kMaxDecodedValues, "decode_png");
   Png8Image image;
   image.width = spec.width;
   image.height = spec.height;
   image.channels = spec.nchannels;
   image.pixels.resize(values);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, image.pixels.data())) {
-    throw std::runtime_error("decode_png: could not read the pixels of the " + std::to_string(spec.width) + "x" +
-                             std::to_string(spec.height) + " PNG image (truncated or corrupt?): " + in->geterror());
-  }
-  for (const auto& attr : spec.extra_attribs) {
-    if (attr.type() != OIIO::TypeDesc::STRING) continue;
-    const std::string name = attr.name().string();
+  detail::read_pixels(*in, OIIO::TypeDesc::UINT8, image.pixels.data(), "decode_png", "PNG");
+  for (const auto& [name, value] : detail::string_attributes(spec)) {
     if (reserved_key(name)) continue;
     // OpenImageIO reads the PNG keyword "Description" as its own "ImageDescription": give back the keyword.
-    image.metadata[name == "ImageDescription" ? "Description" : name] = attr.get_string();
+    image.metadata[name == "ImageDescription" ? "Description" : name] = value;
   }
   in->close();
   return image;

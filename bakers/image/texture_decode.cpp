@@ -9,22 +9,14 @@
 #include "bakers/image/oiio_memory.h"
 
 namespace kiln::image {
-DecodedTexture decode_texture(const std::string& bytes, const std::string& color_space, const std::string& name) {
-  const std::string who = "texture " + name;
-  const ImageFormat* format = detect_image_format(bytes);
-  if (!format) {
-    throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
-                             " bytes are not an image kiln reads; upload an " + kAcceptedImageFormats + " file");
-  }
-  const ColorConfig& config = ColorConfig::active();
-  const std::string space = !color_space.empty() ? color_space : (format->is_float ? "lin_rec709" : "srgb_texture");
-  if (!config.has_space(space)) {
-    throw std::invalid_argument(who + ": colour space '" + space + "' is not in the active OpenColorIO config");
-  }
-  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  std::unique_ptr<OIIO::ImageInput> in = detail::open_from_memory(format->virtual_name, proxy);
+namespace {
+
+// The reader on the bytes, its header checked against the texture limits.
+std::unique_ptr<OIIO::ImageInput> open_texture(const ImageFormat& format, OIIO::Filesystem::IOMemReader& proxy,
+                                               const std::string& who) {
+  std::unique_ptr<OIIO::ImageInput> in = detail::open_from_memory(format.virtual_name, proxy);
   if (!in) {
-    throw std::runtime_error(who + ": could not read the " + std::string(format->name) +
+    throw std::runtime_error(who + ": could not read the " + std::string(format.name) +
                              " header (truncated or corrupt?): " + OIIO::geterror());
   }
   const OIIO::ImageSpec& spec = in->spec();
@@ -34,22 +26,31 @@ DecodedTexture decode_texture(const std::string& bytes, const std::string& color
                              " pixels; textures may be at most " + std::to_string(kMaxTextureDimension) + " on a side");
   }
   if (spec.nchannels < 1) throw std::runtime_error(who + ": the image has no channels");
+  return in;
+}
+
+// The pixels as interleaved RGB floats: the first three channels, or the grey channel repeated.
+std::vector<float> read_texture_rgb(OIIO::ImageInput& in, const std::string& who) {
+  const OIIO::ImageSpec& spec = in.spec();
   const int take = spec.nchannels >= 3 ? 3 : 1;
   const size_t pixels = static_cast<size_t>(spec.width) * spec.height;
   std::vector<float> data(pixels * take);
-  if (!in->read_image(0, 0, 0, take, OIIO::TypeDesc::FLOAT, data.data())) {
-    throw std::runtime_error(who + ": could not read the pixels (truncated or corrupt?): " + in->geterror());
+  if (!in.read_image(0, 0, 0, take, OIIO::TypeDesc::FLOAT, data.data())) {
+    throw std::runtime_error(who + ": could not read the pixels (truncated or corrupt?): " + in.geterror());
   }
-  in->close();
+  in.close();
   std::vector<float> rgb(pixels * 3);
   for (size_t p = 0; p < pixels; ++p) {
     for (int c = 0; c < 3; ++c) rgb[3 * p + c] = data[p * take + (take == 3 ? c : 0)];
   }
-  DecodedTexture out;
-  out.width = spec.width;
-  out.height = spec.height;
-  out.format = format->name;
-  // Non-finite values first: OpenColorIO's transforms do not define them.
+  return rgb;
+}
+
+// out.texels from RGB in `space`: non-finite values replaced by 0 (OpenColorIO's transforms do not define them),
+// converted to the working space, then negatives (and NaN made by the conversion) replaced by 0 and values above 1
+// clamped, with the counts.
+void to_texels(std::vector<float>& rgb, const ColorConfig& config, const std::string& space, DecodedTexture& out) {
+  const size_t pixels = rgb.size() / 3;
   for (size_t p = 0; p < pixels; ++p) {
     bool bad = false;
     for (int c = 0; c < 3; ++c) {
@@ -73,6 +74,30 @@ DecodedTexture decode_texture(const std::string& bytes, const std::string& color
     out.clamped += above;
     out.texels[p] = Rgb{v[0], v[1], v[2]};
   }
+}
+
+}  // namespace
+
+DecodedTexture decode_texture(const std::string& bytes, const std::string& color_space, const std::string& name) {
+  const std::string who = "texture " + name;
+  const ImageFormat* format = detect_image_format(bytes);
+  if (!format) {
+    throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
+                             " bytes are not an image kiln reads; upload an " + kAcceptedImageFormats + " file");
+  }
+  const ColorConfig& config = ColorConfig::active();
+  const std::string space = !color_space.empty() ? color_space : (format->is_float ? "lin_rec709" : "srgb_texture");
+  if (!config.has_space(space)) {
+    throw std::invalid_argument(who + ": colour space '" + space + "' is not in the active OpenColorIO config");
+  }
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  std::unique_ptr<OIIO::ImageInput> in = open_texture(*format, proxy, who);
+  DecodedTexture out;
+  out.width = in->spec().width;
+  out.height = in->spec().height;
+  out.format = format->name;
+  std::vector<float> rgb = read_texture_rgb(*in, who);
+  to_texels(rgb, config, space, out);
   return out;
 }
 
