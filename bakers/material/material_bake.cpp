@@ -4,7 +4,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -15,7 +14,9 @@
 #include "bakers/bake/number_format.h"
 #include "bakers/brdf/fresnel.h"
 #include "bakers/image/exr.h"
+#include "bakers/material/material_report.h"
 #include "bakers/material/merl.h"
+#include "bakers/material/number_text.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/rng.h"
 #include "bakers/math/sampling.h"
@@ -175,62 +176,6 @@ class Progress {
   std::multiset<double> errors_;
 };
 
-// --- JSON, by hand: small, valid, locale-independent. --------------------------------------------------------------
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (const char ch : s) {
-    const auto c = static_cast<unsigned char>(ch);
-    if (c == '"') out += "\\\"";
-    else if (c == '\\') out += "\\\\";
-    else if (c == '\n') out += "\\n";
-    else if (c == '\t') out += "\\t";
-    else if (c < 0x20) {
-      static const char* hex = "0123456789abcdef";
-      out += "\\u00";
-      out += hex[c >> 4];
-      out += hex[c & 15];
-    } else {
-      out += ch;
-    }
-  }
-  return out + "\"";
-}
-std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";  // JSON has no NaN or Inf
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);  // shortest text that reads back as v
-  return std::string(buf, r.ptr);
-}
-std::string json_number(uint64_t v) { return std::to_string(v); }
-std::string json_number(int v) { return std::to_string(v); }
-std::string json_bool(bool v) { return v ? "true" : "false"; }
-std::string json_rgb(const Rgb& c) {
-  return "[" + json_number(c.r) + ", " + json_number(c.g) + ", " + json_number(c.b) + "]";
-}
-std::string json_vec(const Vec3& v) {
-  return "[" + json_number(v.x) + ", " + json_number(v.y) + ", " + json_number(v.z) + "]";
-}
-std::string indent(int depth) { return std::string(2 * depth, ' '); }
-using JsonFields = std::vector<std::pair<std::string, std::string>>;
-std::string json_object(const JsonFields& fields, int depth) {
-  if (fields.empty()) return "{}";
-  std::string out = "{\n";
-  for (size_t i = 0; i < fields.size(); ++i) {
-    out += indent(depth + 1) + json_string(fields[i].first) + ": " + fields[i].second;
-    out += i + 1 < fields.size() ? ",\n" : "\n";
-  }
-  return out + indent(depth) + "}";
-}
-std::string json_array(const std::vector<std::string>& items, int depth) {
-  if (items.empty()) return "[]";
-  std::string out = "[\n";
-  for (size_t i = 0; i < items.size(); ++i) {
-    out += indent(depth + 1) + items[i] + (i + 1 < items.size() ? ",\n" : "\n");
-  }
-  return out + indent(depth) + "]";
-}
-
 // --- Input checks. ------------------------------------------------------------------------------------------------
 
 bool has_roughness(brdf::Model m) { return std::string(brdf::roughness_name(m)) != "none"; }
@@ -243,8 +188,6 @@ bool anisotropic(const brdf::ModelSpec& s) {
   if (s.model == brdf::Model::schlick_double) return s.layer.p < 1 || s.bottom_layer.p < 1;
   return false;
 }
-
-std::string describe_number(double v) { return json_number(v); }
 
 // --- Approximations the model uses, each with the exact form to compare against. ------------------------------------
 
@@ -346,11 +289,11 @@ std::optional<bake::InvalidInput> validate(const MaterialBakeInput& in) {
                                        std::to_string(in.samples));
   }
   if (!std::isfinite(in.target_error) || in.target_error < 0) {
-    return InvalidInput("target_error", "must be a finite number >= 0 (0: off), got " + describe_number(in.target_error));
+    return InvalidInput("target_error", "must be a finite number >= 0 (0: off), got " + shortest_number(in.target_error));
   }
   if (!std::isfinite(in.time_limit_seconds) || in.time_limit_seconds < 0) {
     return InvalidInput("time_limit_seconds",
-                        "must be a finite number >= 0 (0: none), got " + describe_number(in.time_limit_seconds));
+                        "must be a finite number >= 0 (0: none), got " + shortest_number(in.time_limit_seconds));
   }
   return std::nullopt;
 }
@@ -398,7 +341,7 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
                  " (F = 1, white), for the strict energy check and energy compensation");
   if (rough_axis) {
     plan.push_back("split-sum table: " + std::to_string(n_mu) + " x " + std::to_string(n_r) + " over (mu, " +
-                   brdf::roughness_name(spec.model) + " in (0, " + json_number(brdf::max_roughness(spec.model)) +
+                   brdf::roughness_name(spec.model) + " in (0, " + shortest_number(brdf::max_roughness(spec.model)) +
                    "]), white model without Fresnel, E ~= f0 * scale + bias");
   } else {
     plan.push_back("split-sum table: " + std::to_string(n_mu) + " x " + std::to_string(n_r) + "; " +
@@ -582,11 +525,11 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
     const Estimate est = estimate_of(e);
     switch (e.kind) {
       case Kind::albedo:
-        check_finite(est, "the directional albedo at mu = " + json_number(mu_at(e.i_mu)));
+        check_finite(est, "the directional albedo at mu = " + shortest_number(mu_at(e.i_mu)));
         result.albedo.e.push_back(est);
         break;
       case Kind::white:
-        check_finite(est, "the white-furnace albedo at mu = " + json_number(mu_at(e.i_mu)));
+        check_finite(est, "the white-furnace albedo at mu = " + shortest_number(mu_at(e.i_mu)));
         result.white_furnace.e.push_back(est);
         break;
       case Kind::average:
@@ -598,7 +541,7 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
         result.white_furnace.average = est;
         break;
       case Kind::split_sum:
-        check_finite(est, "the split-sum entry at mu = " + json_number(mu_at(e.i_mu)));
+        check_finite(est, "the split-sum entry at mu = " + shortest_number(mu_at(e.i_mu)));
         // Rows of a model without roughness are all the same row.
         for (int j = rough_axis ? e.i_roughness : 0; j < (rough_axis ? e.i_roughness + 1 : n_r); ++j) {
           const size_t idx = static_cast<size_t>(j) * n_mu + e.i_mu;
@@ -622,16 +565,16 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
                    " samples per entry requested, " + per_entry + " taken (whole stratified replicates) for " +
                    n_entries + " entries");
   } else if (result.target_reached) {
-    plan.push_back("sampling: target_error " + json_number(input.target_error) + " reached for all " + n_entries +
+    plan.push_back("sampling: target_error " + shortest_number(input.target_error) + " reached for all " + n_entries +
                    " entries after " + per_entry + " samples per entry (" + std::to_string(passes) + " passes)");
   } else {
-    plan.push_back("sampling: target_error " + json_number(input.target_error) + " not reached for " +
+    plan.push_back("sampling: target_error " + shortest_number(input.target_error) + " not reached for " +
                    std::to_string(above_target) + " of " + n_entries + " entries (largest error " +
-                   json_number(result.max_error_estimate) + ") after " + per_entry + " samples per entry: " +
+                   shortest_number(result.max_error_estimate) + ") after " + per_entry + " samples per entry: " +
                    (time_up ? "time limit reached" : "cap of " + std::to_string(goal) + " samples per entry reached"));
   }
   if (input.time_limit_seconds > 0) {
-    plan.push_back("time limit " + json_number(input.time_limit_seconds) + " s: " +
+    plan.push_back("time limit " + shortest_number(input.time_limit_seconds) + " s: " +
                    (time_up ? "reached, refinement stopped after " + std::to_string(passes) + " passes"
                             : "not reached"));
   }
@@ -762,7 +705,7 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
   progress.check_cancel();
   const std::string settings = "table_mu=" + std::to_string(n_mu) + " table_roughness=" + std::to_string(n_r) +
                                " samples=" + std::to_string(input.samples) +
-                               " target_error=" + json_number(input.target_error) +
+                               " target_error=" + shortest_number(input.target_error) +
                                " seed=" + std::to_string(input.seed);
   {
     image::FloatImage img;
@@ -783,7 +726,7 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
     img.metadata["kiln:channels"] =
         "R,G,B: E(mu) as configured; err.*: standard errors; white: E(mu) with F = 1, white; white_err";
     img.metadata["kiln:model"] = result.description;
-    img.metadata["kiln:average_albedo"] = json_rgb(result.average_albedo);
+    img.metadata["kiln:average_albedo"] = rgb_list(result.average_albedo);
     img.metadata["kiln:settings"] = settings;
     result.outputs.push_back({"albedo.exr", "image/x-exr", "scene_linear", image::encode_exr(img)});
   }
@@ -807,7 +750,7 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
     img.metadata["kiln:table"] = "split sum: E ~= f0 * scale + bias, white model without Fresnel";
     img.metadata["kiln:x_axis"] = "mu = cos(theta_o) = (x + 0.5) / " + std::to_string(n_mu);
     img.metadata["kiln:y_axis"] = std::string(brdf::roughness_name(spec.model)) + " = (y + 0.5) / " +
-                                  std::to_string(n_r) + " * " + json_number(brdf::max_roughness(spec.model)) +
+                                  std::to_string(n_r) + " * " + shortest_number(brdf::max_roughness(spec.model)) +
                                   (rough_axis ? "" : " (no roughness parameter: every row is the same)");
     img.metadata["kiln:model"] = "white, Fresnel-free form of " + result.description;
     img.metadata["kiln:settings"] = settings;
@@ -818,85 +761,7 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
   }
   result.seconds = elapsed();
 
-  // --- report.json. ---
-  {
-    const EnergyCheck& en = v.energy;
-    const ReciprocityCheck& rc = v.reciprocity;
-    // null: no pair differed at all
-    const std::string worst_wo = rc.max_relative_difference > 0 ? json_vec(rc.worst_wo) : "null";
-    const std::string worst_wi = rc.max_relative_difference > 0 ? json_vec(rc.worst_wi) : "null";
-    std::vector<std::string> approx;
-    for (const auto& a : v.approximations) {
-      approx.push_back(json_object({{"name", json_string(a.name)},
-                                    {"max_abs_albedo_difference", json_number(a.max_abs_difference)},
-                                    {"at_mu", json_number(a.at_mu)},
-                                    {"mean_abs_albedo_difference", json_number(a.mean_abs_difference)},
-                                    {"std_error_bound", json_number(a.std_error)}},
-                                   3));
-    }
-    std::vector<std::string> outputs;
-    for (const auto& o : result.outputs) {
-      outputs.push_back(json_object({{"name", json_string(o.name)},
-                                     {"media_type", json_string(o.media_type)},
-                                     {"color_space", json_string(o.color_space)},
-                                     {"bytes", json_number(static_cast<uint64_t>(o.bytes.size()))}},
-                                    2));
-    }
-    std::vector<std::string> plan_items;
-    for (const auto& p : plan) plan_items.push_back(json_string(p));
-    const JsonFields fields = {
-        {"baker", json_string(kMaterialBakerVersion)},
-        {"model", json_object({{"description", json_string(result.description)},
-                               {"name", json_string(brdf::to_string(spec.model))},
-                               {"roughness_parameter", json_string(brdf::roughness_name(spec.model))}},
-                              1)},
-        {"settings", json_object({{"table_mu", json_number(n_mu)},
-                                  {"table_roughness", json_number(n_r)},
-                                  {"merl", json_bool(input.merl)},
-                                  {"samples", json_number(input.samples)},
-                                  {"target_error", json_number(input.target_error)},
-                                  {"time_limit_seconds", json_number(input.time_limit_seconds)},
-                                  {"seed", json_number(input.seed)}},
-                                 1)},
-        {"average_albedo", json_object({{"value", json_rgb(result.albedo.average.value)},
-                                        {"std_error", json_rgb(result.albedo.average.std_error)},
-                                        {"white_furnace", json_number(result.white_furnace.average.value.max())},
-                                        {"white_furnace_std_error",
-                                         json_number(result.white_furnace.average.std_error.max())}},
-                                       1)},
-        {"validation",
-         json_object(
-             {{"energy", json_object({{"max_albedo", json_number(en.max_albedo)},
-                                      {"max_albedo_mu", json_number(en.max_albedo_mu)},
-                                      {"max_albedo_channel", json_string(std::string(1, "RGB"[en.max_albedo_channel]))},
-                                      {"max_albedo_std_error", json_number(en.max_albedo_error)},
-                                      {"white_furnace_max_albedo", json_number(en.white_max_albedo)},
-                                      {"white_furnace_max_albedo_mu", json_number(en.white_max_albedo_mu)},
-                                      {"white_furnace_max_albedo_std_error", json_number(en.white_max_albedo_error)},
-                                      {"conserves_energy", json_bool(en.conserves_energy)}},
-                                     2)},
-              {"reciprocity", json_object({{"pairs", json_number(rc.pairs)},
-                                           {"max_relative_difference", json_number(rc.max_relative_difference)},
-                                           {"worst_wo", worst_wo},
-                                           {"worst_wi", worst_wi},
-                                           {"model_claims_reciprocal", json_bool(rc.model_claims_reciprocal)}},
-                                          2)},
-              {"approximations", json_array(approx, 2)}},
-             1)},
-        {"cost", json_object({{"samples", json_number(result.samples)},
-                              {"validation_samples", json_number(result.validation_samples)},
-                              {"seconds", json_number(result.seconds)},
-                              {"max_error_estimate", json_number(result.max_error_estimate)},
-                              {"min_samples_per_entry", json_number(result.min_samples_per_entry)},
-                              {"max_samples_per_entry", json_number(result.max_samples_per_entry)},
-                              {"entries", json_number(static_cast<uint64_t>(entries.size()))},
-                              {"target_reached", json_bool(result.target_reached)}},
-                             1)},
-        {"plan", json_array(plan_items, 1)},
-        {"outputs", json_array(outputs, 1)},
-    };
-    result.outputs.push_back({"report.json", "application/json", "", json_object(fields, 0) + "\n"});
-  }
+  result.outputs.push_back(material_report(input, result, entries.size()));
   progress.finish();
   return result;
 }
