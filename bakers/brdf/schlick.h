@@ -1,6 +1,6 @@
 // Schlick 1994, "An Inexpensive BRDF Model for Physically-based Rendering": the single-layer model with roughness r
-// and isotropy p, and the double-layer model. See schlick.cpp for the energy-conserving form kiln implements and
-// where and why it departs from the survey's printed eq 23 and eq 25.
+// and isotropy p, and the double-layer model, in an energy-conserving form (schlick.cpp). Where and why it departs
+// from the survey's printed eq 23 and eq 25: docs/BRDF.md, section "Schlick's model".
 #pragma once
 
 #include "bakers/brdf/bxdf.h"
