@@ -1,87 +1,85 @@
 #include "bakers/lightmap/lightmap_report.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <sstream>
 
-#include "bakers/bake/number_format.h"
+#include <nlohmann/json.hpp>
 
 namespace kiln::lightmap {
 namespace {
 
-using bake::format_number;
+using Json = nlohmann::ordered_json;
 
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else {
-      out += c;
-    }
+Json plan_json(const std::vector<plan::Decision>& decisions) {
+  Json plan = Json::array();
+  for (const plan::Decision& d : decisions) {
+    plan.push_back({{"effect", d.effect}, {"enabled", d.enabled}, {"forced", d.forced}, {"reason", d.reason}});
   }
-  return out + "\"";
+  return plan;
 }
 
-std::string lightmap_json(const LightmapReportEntry& m) {
-  std::ostringstream o;
-  o << "{\"name\": " << json_string(m.name) << ", \"resolution\": " << m.resolution
-    << ", \"valid_texels\": " << m.error.valid << ", \"samples_per_texel_point\": "
-    << format_number(m.memory.samples_per_valid_texel) << ", \"error_rms\": " << format_number(m.error.rms)
-    << ", \"error_max\": " << format_number(m.error.max) << ", \"above_target\": " << m.error.above_target;
-  if (m.sh) {
-    o << ", \"sh_error_rms\": " << format_number(m.sh->rms) << ", \"sh_error_max\": " << format_number(m.sh->max);
+Json curve_json(const std::vector<ErrorPoint>& curve) {
+  Json points = Json::array();
+  for (const ErrorPoint& p : curve) {
+    points.push_back({{"seconds", p.seconds}, {"samples", p.samples}, {"error", p.error}});
   }
-  o << ", \"leaks\": {\"moved\": " << m.leaks.moved << ", \"invalidated\": " << m.leaks.invalidated
-    << ", \"texels_invalidated\": " << m.leaks.texels_invalidated << "}, \"memory_bytes\": " << m.memory.total_bytes
-    << ", \"memory\": " << json_string(m.memory.describe()) << "}";
-  return o.str();
+  return points;
+}
+
+Json lightmap_json(const LightmapReportEntry& m) {
+  Json j;
+  j["name"] = m.name;
+  j["resolution"] = m.resolution;
+  j["valid_texels"] = m.error.valid;
+  j["samples_per_texel_point"] = m.memory.samples_per_valid_texel;
+  j["error_rms"] = m.error.rms;
+  j["error_max"] = m.error.max;
+  j["above_target"] = m.error.above_target;
+  if (m.sh) {
+    j["sh_error_rms"] = m.sh->rms;
+    j["sh_error_max"] = m.sh->max;
+  }
+  j["leaks"] = {{"moved", m.leaks.moved},
+                {"invalidated", m.leaks.invalidated},
+                {"texels_invalidated", m.leaks.texels_invalidated}};
+  j["memory_bytes"] = m.memory.total_bytes;
+  j["memory"] = m.memory.describe();
+  return j;
+}
+
+Json tracer_json(const LightmapReport& report) {
+  const double per_triangle =
+      report.tracer_triangles ? static_cast<double>(report.tracer_bytes) / report.tracer_triangles : 0.0;
+  return {{"triangles", report.tracer_triangles},
+          {"memory_bytes", report.tracer_bytes},
+          {"bytes_per_triangle", per_triangle}};
 }
 
 }  // namespace
 
 std::string report_json(const LightmapBakeResult& result, const LightmapReport& report) {
-  const plan::LightmapPlan& plan = *report.plan;
-  std::ostringstream json;
-  json << "{\n  \"baker\": \"" << kLightmapBakerVersion << "\",\n  \"seconds\": " << format_number(result.seconds)
-       << ",\n  \"samples\": " << result.samples << ",\n  \"rays\": " << result.rays
-       << ",\n  \"occlusion_rays\": " << result.occlusion_rays
-       << ",\n  \"general_bsdf_vertices\": " << result.general_vertices
-       << ",\n  \"mrays_per_second\": " << format_number(result.rays / std::max(result.seconds, 1e-9) / 1e6)
-       << ",\n  \"target_error\": " << format_number(report.target_error)
-       << ",\n  \"error_estimate\": " << format_number(result.error_estimate)
-       << ",\n  \"dropped_samples\": " << report.dropped_samples
-       << ",\n  \"color_space\": " << json_string(report.color_space)
-       << ",\n  \"units\": \"irradiance W/m^2\",\n  \"plan\": [";
-  for (size_t i = 0; i < plan.decisions.size(); ++i) {
-    const plan::Decision& d = plan.decisions[i];
-    json << (i ? "," : "") << "\n    {\"effect\": " << json_string(d.effect) << ", \"enabled\": "
-         << (d.enabled ? "true" : "false") << ", \"forced\": " << (d.forced ? "true" : "false")
-         << ", \"reason\": " << json_string(d.reason) << "}";
-  }
-  json << "\n  ],\n  \"bounces\": " << plan.bounces << ",\n  \"albedo_max\": " << format_number(plan.albedo_max)
-       << ",\n  \"curve\": [";
-  for (size_t i = 0; i < result.curve.size(); ++i) {
-    json << (i ? ", " : "") << "{\"seconds\": " << format_number(result.curve[i].seconds) << ", \"samples\": "
-         << result.curve[i].samples << ", \"error\": " << format_number(result.curve[i].error) << "}";
-  }
-  json << "],\n  \"lightmaps\": [\n    ";
-  for (size_t i = 0; i < report.lightmaps.size(); ++i) {
-    json << (i ? ",\n    " : "") << lightmap_json(report.lightmaps[i]);
-  }
-  json << "\n  ],\n  \"tracer\": {\"triangles\": " << report.tracer_triangles << ", \"memory_bytes\": "
-       << report.tracer_bytes << ", \"bytes_per_triangle\": "
-       << format_number(report.tracer_triangles ? static_cast<double>(report.tracer_bytes) / report.tracer_triangles
-                                                : 0.0)
-       << "},\n  \"scene_problems\": {\"total\": " << report.scene_problems << ", \"listed\": [";
-  for (size_t i = 0; i < result.skipped.size(); ++i) json << (i ? ", " : "") << json_string(result.skipped[i]);
-  json << "]}\n}\n";
-  return json.str();
+  Json j;
+  j["baker"] = kLightmapBakerVersion;
+  j["seconds"] = result.seconds;
+  j["samples"] = result.samples;
+  j["rays"] = result.rays;
+  j["occlusion_rays"] = result.occlusion_rays;
+  j["general_bsdf_vertices"] = result.general_vertices;
+  j["mrays_per_second"] = result.rays / std::max(result.seconds, 1e-9) / 1e6;
+  j["target_error"] = report.target_error;
+  j["error_estimate"] = result.error_estimate;
+  j["dropped_samples"] = report.dropped_samples;
+  j["color_space"] = report.color_space;
+  j["units"] = "irradiance W/m^2";
+  j["plan"] = plan_json(report.plan->decisions);
+  j["bounces"] = report.plan->bounces;
+  j["albedo_max"] = report.plan->albedo_max;
+  j["curve"] = curve_json(result.curve);
+  j["lightmaps"] = Json::array();
+  for (const LightmapReportEntry& m : report.lightmaps) j["lightmaps"].push_back(lightmap_json(m));
+  j["tracer"] = tracer_json(report);
+  j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
+  // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
+  return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace kiln::lightmap
