@@ -78,9 +78,26 @@ struct LightmapBakeRun {
 
 // ---- 1. The scene: textures and environment decoded, then checked and cleaned ----
 
+// Runs a decoder of input bytes; what it throws about them (not a cancellation) becomes an InvalidInput naming
+// `field`, with the decoder's message as the problem.
+template <class Decode>
+auto decode_field(const std::string& field, const Decode& decode) {
+  try {
+    return decode();
+  } catch (const bake::BakeCancelled&) {
+    throw;
+  } catch (const std::runtime_error& e) {
+    throw bake::InvalidInput(field, e.what());
+  } catch (const std::invalid_argument& e) {
+    throw bake::InvalidInput(field, e.what());
+  }
+}
+
 void decode_textures(LightmapBakeRun& run, scene::Scene& scene) {
-  for (const EncodedTexture& t : run.in.textures) {
-    image::DecodedTexture d = image::decode_texture(t.bytes, t.color_space, t.name);
+  for (size_t i = 0; i < run.in.textures.size(); ++i) {
+    const EncodedTexture& t = run.in.textures[i];
+    image::DecodedTexture d = decode_field("textures[" + std::to_string(i) + "]",
+                                           [&] { return image::decode_texture(t.bytes, t.color_space, t.name); });
     if (d.replaced + d.clamped > 0) {
       run.result.skipped.push_back("texture " + t.name + ": " + std::to_string(d.replaced) +
                                    " texels not usable as a reflectance (NaN, infinite or negative) set to 0, " +
@@ -92,7 +109,9 @@ void decode_textures(LightmapBakeRun& run, scene::Scene& scene) {
 
 void decode_environment(LightmapBakeRun& run, scene::Scene& scene) {
   if (run.in.environment_image.empty()) return;
-  const envmap::EnvironmentInput env = envmap::decode_environment(run.in.environment_image, run.in.environment_decode);
+  const envmap::EnvironmentInput env = decode_field("environment_image", [&] {
+    return envmap::decode_environment(run.in.environment_image, run.in.environment_decode);
+  });
   scene.environment = scene::Environment{};
   scene.environment.width = env.image.width;
   scene.environment.height = env.image.height;
@@ -181,8 +200,8 @@ void rasterize_texels(LightmapBakeRun& run) {
     run.check_cancel();
   }
   if (run.maps.empty()) {
-    throw std::runtime_error("nothing to bake: no instance has a lightmap (meshes need lightmap UVs, TEXCOORD_1 or "
-                             "TEXCOORD_0, and instances with bake set); " + run.checked.report.summary());
+    throw bake::InvalidInput("", "nothing to bake: no instance has a lightmap (meshes need lightmap UVs, TEXCOORD_1 "
+                                 "or TEXCOORD_0, and instances with bake set); " + run.checked.report.summary());
   }
   run.progress(0.05, "texels", -1);
 }
