@@ -223,7 +223,7 @@ TEST(LightmapBake, AWallStopsLightFromLeakingToTheDarkSide) {
 }
 
 // 3. The estimated error is honest: on the rectangle light, the RMS relative error measured against Lambert's formula
-// is within a factor of 2 of the reported estimate (the criterion). Texels far from the light's footprint
+// is within a factor of 2 of the reported estimate. Texels far from the light's footprint
 // have tiny irradiance; all texels count, as the report's RMS does.
 TEST(LightmapBake, TheEstimatedErrorIsHonest) {
   const scene::Scene s = rect_light_scene(0.0);
