@@ -97,8 +97,9 @@ struct LightmapBakeResult {
 // nullopt if valid, else the first offending field and what is wrong with it.
 std::optional<bake::InvalidInput> validate(const LightmapBakeInput& input);
 
-// Throws bake::InvalidInput (naming the field), std::runtime_error (undecodable textures or environment, a
-// scene with nothing to bake) or bake::BakeCancelled.
+// Throws bake::InvalidInput for a bad input: a field out of range (validate()), bytes that do not decode (field
+// "textures[I]", I the index in `textures`, or "environment_image"; the problem is the decoder's message, which
+// names the texture), or a scene with nothing to bake (an empty field). Throws bake::BakeCancelled when cancelled.
 LightmapBakeResult bake_lightmaps(const LightmapBakeInput& input, const bake::BakeControl& control = {});
 
 }  // namespace kiln::lightmap

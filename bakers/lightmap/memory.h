@@ -1,5 +1,4 @@
-// What the texel layer of a lightmap costs in memory, for the bake report (issue 5: "memory per texel and per
-// triangle stated").
+// What the texel layer of a lightmap costs in memory, per texel, per sample and per triangle, for the bake report.
 #pragma once
 
 #include <cstddef>

@@ -171,49 +171,129 @@ void note_skip(RasterReport& report, const TriangleRef& ref, SkipReason reason) 
   }
 }
 
+// The texel-space box a triangle's UVs span, clamped to the lightmap: texels [x0, x1] × [y0, y1] (empty when
+// x0 > x1 or y0 > y1).
+struct TexelRange {
+  int x0, y0, x1, y1;
+};
+
+TexelRange texel_range(const std::array<Point2, 3>& uv, int w, int h) {
+  const double lo_x = std::min({uv[0].x, uv[1].x, uv[2].x}), hi_x = std::max({uv[0].x, uv[1].x, uv[2].x});
+  const double lo_y = std::min({uv[0].y, uv[1].y, uv[2].y}), hi_y = std::max({uv[0].y, uv[1].y, uv[2].y});
+  // (Clamped to [−1, size + 1] before the conversion: UVs far outside must not overflow an int.)
+  const auto clamp_to = [](double v, int size) { return std::clamp(v, -1.0, size + 1.0); };
+  return {std::max(0, static_cast<int>(std::floor(clamp_to(lo_x, w)))),
+          std::max(0, static_cast<int>(std::floor(clamp_to(lo_y, h)))),
+          std::min(w - 1, static_cast<int>(std::ceil(clamp_to(hi_x, w))) - 1),
+          std::min(h - 1, static_cast<int>(std::ceil(clamp_to(hi_y, h))) - 1)};
+}
+
+enum class Coverage { none, partial, whole };
+
+// How triangle (a, b, c), relative to a texel's corner, covers the unit square, from its edge functions at the four
+// corners: all corners outside one edge (≤ 0: an edge contact has no area) is none, all inside every edge is the
+// whole texel; anything else needs a clip. `orientation` is the sign of the triangle's UV area.
+Coverage corner_coverage(Point2 a, Point2 b, Point2 c, double orientation) {
+  bool whole = true;
+  for (int e = 0; e < 3; ++e) {
+    const Point2 from = e == 0 ? a : e == 1 ? b : c, to = e == 0 ? b : e == 1 ? c : a;
+    const Point2 edge = sub(to, from);
+    int inside_corners = 0, outside_corners = 0;
+    for (const Point2 q : {Point2{0, 0}, Point2{1, 0}, Point2{0, 1}, Point2{1, 1}}) {
+      const double f = orientation * cross2(edge, sub(q, from));
+      inside_corners += f >= 0 ? 1 : 0;
+      outside_corners += f <= 0 ? 1 : 0;
+    }
+    if (outside_corners == 4) return Coverage::none;
+    whole = whole && inside_corners == 4;
+  }
+  return whole ? Coverage::whole : Coverage::partial;
+}
+
+// The mean of a polygon's vertices: inside it when it is convex.
+Point2 vertex_mean(const Polygon& p) {
+  Point2 mean{0, 0};
+  for (int m = 0; m < p.n; ++m) mean = {mean.x + p.v[m].x, mean.y + p.v[m].y};
+  return {mean.x / p.n, mean.y / p.n};
+}
+
 class Rasterizer {
  public:
   Rasterizer(const scene::Scene& scene, const RasterOptions& options)
       : scene_(scene), w_(options.width), h_(options.height), k_(options.samples_per_axis) {}
 
   void triangle(const InstanceJob& job, uint32_t t, BlockResult& out) const {
-    const scene::Mesh& mesh = scene_.meshes[job.mesh];
-    const scene::Transform& to_world = scene_.instances[job.instance].to_world;
-    const TriangleRef ref{job.instance, job.mesh, t};
     RasterReport& report = out.report;
     if (job.mask && t < job.mask->size() && !(*job.mask)[t]) {
       ++report.masked;
       return;
     }
-
     std::array<uint32_t, 3> idx;
+    std::array<Point2, 3> uv;  // texel space
+    WorldTriangle world;
+    world.ref = {job.instance, job.mesh, t};
+    if (!vertices(job, world, idx, uv, report)) return;
+    const double d = cross2(sub(uv[1], uv[0]), sub(uv[2], uv[0]));  // twice the signed texel-space area
+    if (!(0.5 * std::fabs(d) > kMinCoverage)) return note_skip(report, world.ref, SkipReason::degenerate_uv);
+    if (!frame(job, d, world)) return note_skip(report, world.ref, SkipReason::degenerate_world);
+    normals(job, idx, world);
+    if (!world.normals_ok) ++report.unusable_normals;
+    for (const Point2& q : uv) {
+      if (q.x < 0 || q.x > w_ || q.y < 0 || q.y > h_) {
+        ++report.outside_unit_square;
+        break;
+      }
+    }
+    const TexelRange r = texel_range(uv, w_, h_);
+    const auto world_index = static_cast<uint32_t>(out.triangles.size());
+    bool covered_any = false;
+    for (int y = r.y0; y <= r.y1; ++y) {
+      for (int x = r.x0; x <= r.x1; ++x) covered_any |= texel(x, y, uv, d, world_index, out.fragments);
+    }
+    if (covered_any) {
+      ++report.rasterized;
+      out.triangles.push_back(world);
+    }
+  }
+
+ private:
+  // The vertex indices, texel-space UVs and world positions; false (and noted) when an index is out of range or a
+  // value is not finite.
+  bool vertices(const InstanceJob& job, WorldTriangle& world, std::array<uint32_t, 3>& idx,
+                std::array<Point2, 3>& uv, RasterReport& report) const {
+    const scene::Mesh& mesh = scene_.meshes[job.mesh];
+    const scene::Transform& to_world = scene_.instances[job.instance].to_world;
+    const uint32_t t = world.ref.triangle;
     for (int i = 0; i < 3; ++i) {
       idx[i] = mesh.indices[3 * static_cast<size_t>(t) + i];
-      if (idx[i] >= mesh.positions.size()) return note_skip(report, ref, SkipReason::index_out_of_range);
+      if (idx[i] >= mesh.positions.size()) {
+        note_skip(report, world.ref, SkipReason::index_out_of_range);
+        return false;
+      }
     }
-    std::array<Point2, 3> uv;  // texel space
-    std::array<Vec3, 3> p;     // world space
     for (int i = 0; i < 3; ++i) {
       const Point2 l = mesh.lightmap_uv[idx[i]];
       const auto& so = job.scale_offset;
       uv[i] = {(so[0] * l.x + so[2]) * w_, (so[1] * l.y + so[3]) * h_};
-      p[i] = to_world.point(mesh.positions[idx[i]]);
-      if (!finite(uv[i]) || !is_finite(p[i])) return note_skip(report, ref, SkipReason::non_finite_vertex);
+      world.p[i] = to_world.point(mesh.positions[idx[i]]);
+      if (!finite(uv[i]) || !is_finite(world.p[i])) {
+        note_skip(report, world.ref, SkipReason::non_finite_vertex);
+        return false;
+      }
     }
-    const double d = cross2(sub(uv[1], uv[0]), sub(uv[2], uv[0]));  // twice the signed texel-space area
-    if (!(0.5 * std::fabs(d) > kMinCoverage)) return note_skip(report, ref, SkipReason::degenerate_uv);
+    return true;
+  }
 
+  // The front normal, the texel size and the ray offset from the world positions and `d`, twice the signed
+  // texel-space area; false when the triangle has no area in world space.
+  static bool frame(const InstanceJob& job, double d, WorldTriangle& world) {
+    const std::array<Vec3, 3>& p = world.p;
     // Front-side world normal; a zero (or underflowing) cross product has no direction.
     const Vec3 cross_w = cross(p[1] - p[0], p[2] - p[0]) * (job.normal_transform.det < 0 ? -1.0 : 1.0);
     const double twice_world_area = length(cross_w);
-    if (!(twice_world_area > 0) || !std::isfinite(twice_world_area)) {
-      return note_skip(report, ref, SkipReason::degenerate_world);
-    }
-    WorldTriangle world;
-    world.p = p;
+    if (!(twice_world_area > 0) || !std::isfinite(twice_world_area)) return false;
     world.ng = cross_w / twice_world_area;
-    if (!is_finite(world.ng)) return note_skip(report, ref, SkipReason::degenerate_world);
-    world.ref = ref;
+    if (!is_finite(world.ng)) return false;
     // Both areas are positive and finite here; the ratio can still overflow a float for absurd UV layouts.
     const double texel_size = std::sqrt(twice_world_area / std::fabs(d));
     world.texel_size =
@@ -225,6 +305,12 @@ class Rasterizer {
     };
     world.ray_offset = static_cast<float>(
         scene::self_intersection_offset(to_float(p[0]), to_float(p[1]), to_float(p[2]), to_float(p[0])));
+    return true;
+  }
+
+  // The unit world vertex normals, or normals_ok = false when the mesh has none or one is unusable.
+  void normals(const InstanceJob& job, const std::array<uint32_t, 3>& idx, WorldTriangle& world) const {
+    const scene::Mesh& mesh = scene_.meshes[job.mesh];
     world.normals_ok = job.normals_usable;
     for (int i = 0; i < 3 && world.normals_ok; ++i) {
       const Vec3 n = job.normal_transform.apply(mesh.normals[idx[i]]);
@@ -232,96 +318,58 @@ class Rasterizer {
       world.normals_ok = len > 0 && std::isfinite(len) && is_finite(n / len);
       if (world.normals_ok) world.n[i] = n / len;
     }
-    if (!world.normals_ok) ++report.unusable_normals;
-
-    for (const Point2& q : uv) {
-      if (q.x < 0 || q.x > w_ || q.y < 0 || q.y > h_) {
-        ++report.outside_unit_square;
-        break;
-      }
-    }
-
-    // Texels the triangle's bounding box touches, clamped to the lightmap.
-    const double lo_x = std::min({uv[0].x, uv[1].x, uv[2].x}), hi_x = std::max({uv[0].x, uv[1].x, uv[2].x});
-    const double lo_y = std::min({uv[0].y, uv[1].y, uv[2].y}), hi_y = std::max({uv[0].y, uv[1].y, uv[2].y});
-    // (Clamped to [−1, size + 1] before the conversion: UVs far outside must not overflow an int.)
-    const auto clamp_to = [](double v, int size) { return std::clamp(v, -1.0, size + 1.0); };
-    const int x0 = std::max(0, static_cast<int>(std::floor(clamp_to(lo_x, w_))));
-    const int y0 = std::max(0, static_cast<int>(std::floor(clamp_to(lo_y, h_))));
-    const int x1 = std::min(w_ - 1, static_cast<int>(std::ceil(clamp_to(hi_x, w_))) - 1);
-    const int y1 = std::min(h_ - 1, static_cast<int>(std::ceil(clamp_to(hi_y, h_))) - 1);
-
-    const uint32_t world_index = static_cast<uint32_t>(out.triangles.size());
-    const auto emit = [&](int x, int y, const std::array<double, 3>& b_raw, double weight) {
-      const std::array<double, 3> b = clamp_barycentric(b_raw);
-      out.fragments.push_back({static_cast<uint32_t>(static_cast<size_t>(y) * w_ + x), world_index, b[1], b[2],
-                               weight});
-    };
-
-    bool covered_any = false;
-    const double inv_k = 1.0 / k_;
-    const double orientation = d > 0 ? 1.0 : -1.0;  // UV charts may be mirrored: either winding is fine
-    for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1; ++x) {
-        // Relative to the texel's corner: small coordinates keep the clip and the barycentrics accurate.
-        const Point2 corner{static_cast<double>(x), static_cast<double>(y)};
-        const Point2 a = sub(uv[0], corner), b = sub(uv[1], corner), c = sub(uv[2], corner);
-        // The edge functions at the texel's corners settle most texels without a clip: all corners outside one
-        // edge (≤ 0: an edge contact has no area) is no coverage, all inside every edge is the whole texel.
-        bool outside = false, whole = true;
-        for (int e = 0; e < 3 && !outside; ++e) {
-          const Point2 from = e == 0 ? a : e == 1 ? b : c, to = e == 0 ? b : e == 1 ? c : a;
-          const Point2 edge = sub(to, from);
-          int inside_corners = 0, outside_corners = 0;
-          for (const Point2 q : {Point2{0, 0}, Point2{1, 0}, Point2{0, 1}, Point2{1, 1}}) {
-            const double f = orientation * cross2(edge, sub(q, from));
-            inside_corners += f >= 0 ? 1 : 0;
-            outside_corners += f <= 0 ? 1 : 0;
-          }
-          outside = outside_corners == 4;
-          whole = whole && inside_corners == 4;
-        }
-        if (outside) continue;
-        Polygon clipped;
-        double covered = 1.0;
-        if (!whole) {
-          clipped = clip_to_unit_square(a, b, c);
-          covered = area(clipped);
-          if (!(covered > kMinCoverage)) continue;
-        }
-        covered_any = true;
-
-        // The pattern points inside the triangle share its coverage equally.
-        std::array<std::array<double, 3>, 16 * 16> inside;
-        int n_inside = 0;
-        for (int j = 0; j < k_; ++j) {
-          for (int i = 0; i < k_; ++i) {
-            const Point2 q{(i + 0.5) * inv_k, (j + 0.5) * inv_k};
-            const auto bary = barycentric(q, a, b, c, d);
-            if (bary[0] >= 0 && bary[1] >= 0 && bary[2] >= 0) inside[n_inside++] = bary;
-          }
-        }
-        if (n_inside > 0) {
-          for (int m = 0; m < n_inside; ++m) emit(x, y, inside[m], covered / n_inside);
-        } else {
-          // A sliver between the pattern points: the mean of the clipped polygon's vertices is in the covered
-          // region (a convex combination of its vertices). (A whole texel always holds the pattern's points, so the
-          // clip was made; it is made here should rounding ever say otherwise.)
-          if (whole) clipped = clip_to_unit_square(a, b, c);
-          Point2 mean{0, 0};
-          for (int m = 0; m < clipped.n; ++m) mean = {mean.x + clipped.v[m].x, mean.y + clipped.v[m].y};
-          mean = {mean.x / clipped.n, mean.y / clipped.n};
-          emit(x, y, barycentric(mean, a, b, c, d), covered);
-        }
-      }
-    }
-    if (covered_any) {
-      ++report.rasterized;
-      out.triangles.push_back(world);
-    }
   }
 
- private:
+  // The fragments of texel (x, y) for the triangle with texel-space vertices uv and twice-signed-area d; false when
+  // the triangle does not cover the texel.
+  bool texel(int x, int y, const std::array<Point2, 3>& uv, double d, uint32_t world_index,
+             std::vector<Fragment>& out) const {
+    // Relative to the texel's corner: small coordinates keep the clip and the barycentrics accurate.
+    const Point2 corner{static_cast<double>(x), static_cast<double>(y)};
+    const Point2 a = sub(uv[0], corner), b = sub(uv[1], corner), c = sub(uv[2], corner);
+    const double orientation = d > 0 ? 1.0 : -1.0;  // UV charts may be mirrored: either winding is fine
+    const Coverage coverage = corner_coverage(a, b, c, orientation);
+    if (coverage == Coverage::none) return false;
+    Polygon clipped;
+    double covered = 1.0;
+    if (coverage == Coverage::partial) {
+      clipped = clip_to_unit_square(a, b, c);
+      covered = area(clipped);
+      if (!(covered > kMinCoverage)) return false;
+    }
+    const uint32_t texel = static_cast<uint32_t>(static_cast<size_t>(y) * w_ + x);
+    const auto emit = [&](const std::array<double, 3>& b_raw, double weight) {
+      const std::array<double, 3> bary = clamp_barycentric(b_raw);
+      out.push_back({texel, world_index, bary[1], bary[2], weight});
+    };
+    // The pattern points inside the triangle share its coverage equally.
+    std::array<std::array<double, 3>, 16 * 16> inside;
+    const int n_inside = pattern_points(a, b, c, d, inside);
+    for (int m = 0; m < n_inside; ++m) emit(inside[m], covered / n_inside);
+    if (n_inside == 0) {
+      // A sliver between the pattern points: the mean of the clipped polygon's vertices is in the covered region (a
+      // convex combination of its vertices). (A whole texel always holds the pattern's points, so the clip was made;
+      // it is made here should rounding ever say otherwise.)
+      if (coverage == Coverage::whole) clipped = clip_to_unit_square(a, b, c);
+      emit(barycentric(vertex_mean(clipped), a, b, c, d), covered);
+    }
+    return true;
+  }
+
+  // The barycentrics of the points of the texel's k×k pattern that lie in the triangle; their count.
+  int pattern_points(Point2 a, Point2 b, Point2 c, double d, std::array<std::array<double, 3>, 16 * 16>& inside) const {
+    const double inv_k = 1.0 / k_;
+    int n_inside = 0;
+    for (int j = 0; j < k_; ++j) {
+      for (int i = 0; i < k_; ++i) {
+        const Point2 q{(i + 0.5) * inv_k, (j + 0.5) * inv_k};
+        const auto bary = barycentric(q, a, b, c, d);
+        if (bary[0] >= 0 && bary[1] >= 0 && bary[2] >= 0) inside[n_inside++] = bary;
+      }
+    }
+    return n_inside;
+  }
+
   const scene::Scene& scene_;
   int w_, h_, k_;
 };
@@ -347,6 +395,122 @@ void check_options(const RasterOptions& o) {
   range("width", o.width, 1, 16384);
   range("height", o.height, 1, 16384);
   range("samples_per_axis", o.samples_per_axis, 1, 16);
+}
+
+// The instances of lightmap `name`, and their triangles as one global sequence of `total`; instances that cannot
+// bake at all are noted in the report.
+std::vector<InstanceJob> instance_jobs(const scene::Scene& scene, const std::string& name,
+                                       const RasterOptions& options, RasterReport& report, size_t& total) {
+  std::vector<InstanceJob> jobs;
+  total = 0;
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const scene::Instance& inst = scene.instances[i];
+    if (!inst.bake || scene::resolved_lightmap_name(scene, inst) != name) continue;
+    ++report.instances;
+    const TriangleRef whole{static_cast<uint32_t>(i), static_cast<uint32_t>(std::max(inst.mesh, 0)), 0};
+    if (inst.mesh < 0 || static_cast<size_t>(inst.mesh) >= scene.meshes.size()) {
+      note_skip(report, whole, SkipReason::no_mesh);
+      continue;
+    }
+    const scene::Mesh& mesh = scene.meshes[inst.mesh];
+    const size_t triangles = mesh.indices.size() / 3;
+    report.triangles += triangles;
+    if (mesh.lightmap_uv.empty() || mesh.lightmap_uv.size() != mesh.positions.size()) {
+      // Counted per triangle, reported once for the instance.
+      report.skipped[static_cast<int>(SkipReason::no_lightmap_uv)] += triangles;
+      if (report.skipped_examples.size() < RasterReport::kMaxSkippedExamples) {
+        report.skipped_examples.push_back({whole, SkipReason::no_lightmap_uv});
+      }
+      continue;
+    }
+    if (mesh.indices.size() % 3 != 0) {
+      // The trailing indices form no triangle; the whole ones still bake.
+      note_skip(report, {whole.instance, whole.mesh, static_cast<uint32_t>(triangles)},
+                SkipReason::index_out_of_range);
+    }
+    InstanceJob job;
+    job.instance = static_cast<uint32_t>(i);
+    job.mesh = static_cast<uint32_t>(inst.mesh);
+    job.first_triangle = total;
+    job.triangles = triangles;
+    job.normal_transform = NormalTransform(inst.to_world);
+    job.normals_usable = mesh.normals.size() == mesh.positions.size();
+    job.scale_offset = inst.lightmap_scale_offset;
+    if (options.bake_mask && static_cast<size_t>(inst.mesh) < options.bake_mask->size()) {
+      job.mask = &(*options.bake_mask)[inst.mesh];
+    }
+    jobs.push_back(job);
+    total += triangles;
+  }
+  return jobs;
+}
+
+// Rasterizes the global triangle sequence in fixed blocks, in parallel: concatenated in order, the blocks' results
+// do not depend on the thread count.
+std::vector<BlockResult> rasterize_blocks(const Rasterizer& rasterizer, const std::vector<InstanceJob>& jobs,
+                                          size_t total) {
+  constexpr size_t kBlock = 2048;
+  const size_t blocks = (total + kBlock - 1) / kBlock;
+  std::vector<BlockResult> results(blocks);
+  tbb::parallel_for(size_t{0}, blocks, [&](size_t block) {
+    const size_t begin = block * kBlock, end = std::min(total, begin + kBlock);
+    BlockResult& result = results[block];
+    // The instance holding `begin`, then walk forward.
+    size_t j = static_cast<size_t>(
+        std::upper_bound(jobs.begin(), jobs.end(), begin,
+                         [](size_t g, const InstanceJob& job) { return g < job.first_triangle; }) -
+        jobs.begin() - 1);
+    for (size_t g = begin; g < end; ++g) {
+      while (g >= jobs[j].first_triangle + jobs[j].triangles) ++j;
+      rasterizer.triangle(jobs[j], static_cast<uint32_t>(g - jobs[j].first_triangle), result);
+    }
+  });
+  return results;
+}
+
+// Counting sort of the blocks' fragments by texel, stable (scene order within a texel), with out.first set; the
+// blocks' triangles are joined into `world` and the fragments renumbered to match. Merges the blocks' reports.
+std::vector<Fragment> sort_fragments(std::vector<BlockResult>& results, const std::string& name, LightmapTexels& out,
+                                     std::vector<WorldTriangle>& world) {
+  const size_t texels = out.texel_count();
+  std::vector<uint64_t> count(texels + 1, 0);
+  uint64_t fragments = 0;
+  for (BlockResult& r : results) {
+    merge(out.report, r.report);
+    for (Fragment& f : r.fragments) {
+      ++count[f.texel + 1];
+      f.world += static_cast<uint32_t>(world.size());
+    }
+    fragments += r.fragments.size();
+    world.insert(world.end(), r.triangles.begin(), r.triangles.end());
+    r.triangles = {};
+  }
+  if (fragments > std::numeric_limits<uint32_t>::max()) {
+    throw std::invalid_argument("lightmap '" + name + "': " + std::to_string(fragments) +
+                                " sample points exceed the limit of 2^32 - 1; lower the resolution or "
+                                "samples_per_axis");
+  }
+  for (size_t i = 0; i < texels; ++i) count[i + 1] += count[i];
+  out.first.assign(count.begin(), count.end());
+  std::vector<Fragment> sorted(fragments);
+  std::vector<uint64_t> cursor(count.begin(), count.end() - 1);
+  for (BlockResult& r : results) {
+    for (const Fragment& f : r.fragments) sorted[cursor[f.texel]++] = f;
+    r.fragments = {};
+  }
+  return sorted;
+}
+
+// Texels whose weights sum above 1: overlapping charts. 1e-9 is far above the rounding of summing the clipped areas
+// of the few triangles sharing a texel (~10⁻¹⁵) and far below any real overlap worth reporting.
+size_t overlapping_texels(const LightmapTexels& texels) {
+  size_t n = 0;
+  for (size_t t = 0; t < texels.texel_count(); ++t) {
+    double sum = 0;
+    for (const TexelSample& s : texels.at(t)) sum += s.weight;
+    if (sum > 1.0 + 1e-9) ++n;
+  }
+  return n;
 }
 
 }  // namespace
@@ -417,115 +581,20 @@ LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& 
   LightmapTexels out;
   out.width = options.width;
   out.height = options.height;
-  RasterReport& report = out.report;
-
-  // The instances of this lightmap, and their triangles as one global sequence.
-  std::vector<InstanceJob> jobs;
   size_t total = 0;
-  for (size_t i = 0; i < scene.instances.size(); ++i) {
-    const scene::Instance& inst = scene.instances[i];
-    if (!inst.bake || scene::resolved_lightmap_name(scene, inst) != name) continue;
-    ++report.instances;
-    const TriangleRef whole{static_cast<uint32_t>(i), static_cast<uint32_t>(std::max(inst.mesh, 0)), 0};
-    if (inst.mesh < 0 || static_cast<size_t>(inst.mesh) >= scene.meshes.size()) {
-      note_skip(report, whole, SkipReason::no_mesh);
-      continue;
-    }
-    const scene::Mesh& mesh = scene.meshes[inst.mesh];
-    const size_t triangles = mesh.indices.size() / 3;
-    report.triangles += triangles;
-    if (mesh.lightmap_uv.empty() || mesh.lightmap_uv.size() != mesh.positions.size()) {
-      // Counted per triangle, reported once for the instance.
-      report.skipped[static_cast<int>(SkipReason::no_lightmap_uv)] += triangles;
-      if (report.skipped_examples.size() < RasterReport::kMaxSkippedExamples) {
-        report.skipped_examples.push_back({whole, SkipReason::no_lightmap_uv});
-      }
-      continue;
-    }
-    if (mesh.indices.size() % 3 != 0) {
-      // The trailing indices form no triangle; the whole ones still bake.
-      note_skip(report, {whole.instance, whole.mesh, static_cast<uint32_t>(triangles)},
-                SkipReason::index_out_of_range);
-    }
-    InstanceJob job;
-    job.instance = static_cast<uint32_t>(i);
-    job.mesh = static_cast<uint32_t>(inst.mesh);
-    job.first_triangle = total;
-    job.triangles = triangles;
-    job.normal_transform = NormalTransform(inst.to_world);
-    job.normals_usable = mesh.normals.size() == mesh.positions.size();
-    job.scale_offset = inst.lightmap_scale_offset;
-    if (options.bake_mask && static_cast<size_t>(inst.mesh) < options.bake_mask->size()) {
-      job.mask = &(*options.bake_mask)[inst.mesh];
-    }
-    jobs.push_back(job);
-    total += triangles;
-  }
-
-  // Fixed blocks of the global sequence, concatenated in order: the result does not depend on the thread count.
-  constexpr size_t kBlock = 2048;
-  const size_t blocks = (total + kBlock - 1) / kBlock;
-  std::vector<BlockResult> results(blocks);
-  const Rasterizer rasterizer(scene, options);
-  tbb::parallel_for(size_t{0}, blocks, [&](size_t block) {
-    const size_t begin = block * kBlock, end = std::min(total, begin + kBlock);
-    BlockResult& result = results[block];
-    // The instance holding `begin`, then walk forward.
-    size_t j = static_cast<size_t>(
-        std::upper_bound(jobs.begin(), jobs.end(), begin,
-                         [](size_t g, const InstanceJob& job) { return g < job.first_triangle; }) -
-        jobs.begin() - 1);
-    for (size_t g = begin; g < end; ++g) {
-      while (g >= jobs[j].first_triangle + jobs[j].triangles) ++j;
-      rasterizer.triangle(jobs[j], static_cast<uint32_t>(g - jobs[j].first_triangle), result);
-    }
-  });
-
-  // Counting sort of the fragments by texel, stable (scene order within a texel); the blocks' triangles are joined
-  // and the fragments renumbered to match.
-  const size_t texels = out.texel_count();
-  std::vector<uint64_t> count(texels + 1, 0);
-  uint64_t fragments = 0;
+  const std::vector<InstanceJob> jobs = instance_jobs(scene, name, options, out.report, total);
+  std::vector<BlockResult> results = rasterize_blocks(Rasterizer(scene, options), jobs, total);
   std::vector<WorldTriangle> world;
-  for (BlockResult& r : results) {
-    merge(report, r.report);
-    for (Fragment& f : r.fragments) {
-      ++count[f.texel + 1];
-      f.world += static_cast<uint32_t>(world.size());
-    }
-    fragments += r.fragments.size();
-    world.insert(world.end(), r.triangles.begin(), r.triangles.end());
-    r.triangles = {};
-  }
-  if (fragments > std::numeric_limits<uint32_t>::max()) {
-    throw std::invalid_argument("lightmap '" + name + "': " + std::to_string(fragments) +
-                                " sample points exceed the limit of 2^32 - 1; lower the resolution or "
-                                "samples_per_axis");
-  }
-  for (size_t i = 0; i < texels; ++i) count[i + 1] += count[i];
-  out.first.assign(count.begin(), count.end());
-  std::vector<Fragment> sorted(fragments);
-  std::vector<uint64_t> cursor(count.begin(), count.end() - 1);
-  for (BlockResult& r : results) {
-    for (const Fragment& f : r.fragments) sorted[cursor[f.texel]++] = f;
-    r.fragments = {};
-  }
+  const std::vector<Fragment> sorted = sort_fragments(results, name, out, world);
   // The samples, each written once, in parallel.
-  out.samples.resize(fragments);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, fragments, 4096), [&](const tbb::blocked_range<size_t>& range) {
+  out.samples.resize(sorted.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, sorted.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t j = range.begin(); j != range.end(); ++j) {
       const Fragment& f = sorted[j];
       out.samples[j] = world[f.world].sample({1.0 - f.b1 - f.b2, f.b1, f.b2}, f.weight);
     }
   });
-
-  // Overlapping charts: more than the whole texel covered. 1e-9 is far above the rounding of summing the clipped
-  // areas of the few triangles sharing a texel (~10⁻¹⁵) and far below any real overlap worth reporting.
-  for (size_t t = 0; t < texels; ++t) {
-    double sum = 0;
-    for (const TexelSample& s : out.at(t)) sum += s.weight;
-    if (sum > 1.0 + 1e-9) ++report.overlapping_texels;
-  }
+  out.report.overlapping_texels = overlapping_texels(out);
   return out;
 }
 

@@ -18,8 +18,8 @@
 // does not cover it. For each covered texel the triangle gives the points of a stratified k×k pattern of the texel
 // (cell centres, k = samples_per_axis) that lie in the triangle, each with weight (clipped area)/(points inside);
 // when no pattern point lies in it (a sliver), one point: the mean of the clipped polygon's vertices, a point of the
-// covered region and so of both the triangle and the texel. (The issue suggested the triangle's point nearest the
-// texel centre; that point can lie outside the texel when a thin triangle cuts a corner, so we do not use it.)
+// covered region and so of both the triangle and the texel. (Not the triangle's point nearest the texel centre: that
+// point can lie outside the texel when a thin triangle cuts a corner.)
 // Weights are fractions of the texel's area: they sum to 1 over a texel its triangles cover entirely and to the
 // covered fraction at chart edges; a sum above 1 means overlapping charts (counted in the report).
 //

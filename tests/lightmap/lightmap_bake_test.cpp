@@ -223,7 +223,7 @@ TEST(LightmapBake, AWallStopsLightFromLeakingToTheDarkSide) {
 }
 
 // 3. The estimated error is honest: on the rectangle light, the RMS relative error measured against Lambert's formula
-// is within a factor of 2 of the reported estimate (the criterion). Texels far from the light's footprint
+// is within a factor of 2 of the reported estimate. Texels far from the light's footprint
 // have tiny irradiance; all texels count, as the report's RMS does.
 TEST(LightmapBake, TheEstimatedErrorIsHonest) {
   const scene::Scene s = rect_light_scene(0.0);
@@ -382,7 +382,36 @@ TEST(LightmapBake, BadInputIsRefusedByName) {
   // Nothing with lightmap UVs: a clear error, not an empty result.
   in = lightmap_input(s, 16, 0.01);
   in.scene.meshes[0].lightmap_uv.clear();
-  EXPECT_THROW(bake_lightmaps(in), std::runtime_error);
+  EXPECT_THROW(bake_lightmaps(in), bake::InvalidInput);
+}
+
+// Bytes that do not decode are named by their field, with the decoder's message; a scene with nothing to bake is the
+// whole input's fault.
+TEST(LightmapBake, UndecodableBytesAreNamedByField) {
+  scene::Scene s;
+  s.materials.push_back(lambert_material("grey", 0.5));
+  add_floor(s, 2.0, 0);
+  const auto invalid_input = [](const LightmapBakeInput& in) {
+    try {
+      bake_lightmaps(in);
+    } catch (const bake::InvalidInput& e) {
+      return e;
+    }
+    return bake::InvalidInput("(none)", "no error");
+  };
+  LightmapBakeInput in = lightmap_input(s, 16, 0.01);
+  in.textures.push_back({"bricks.png", "these bytes are no image", ""});
+  const bake::InvalidInput texture = invalid_input(in);
+  EXPECT_EQ(texture.field(), "textures[0]") << texture.what();
+  EXPECT_EQ(texture.problem().rfind("texture bricks.png: ", 0), 0u) << texture.problem();
+  in = lightmap_input(s, 16, 0.01);
+  in.environment_image = "these bytes are no image either";
+  EXPECT_EQ(invalid_input(in).field(), "environment_image");
+  in = lightmap_input(s, 16, 0.01);
+  in.scene.meshes[0].lightmap_uv.clear();
+  const bake::InvalidInput nothing = invalid_input(in);
+  EXPECT_EQ(nothing.field(), "");
+  EXPECT_EQ(nothing.problem().rfind("nothing to bake", 0), 0u) << nothing.problem();
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
-// Hard cases stay numerically stable (issue 5: "no NaN ever reaching a texel", "degenerate and sliver triangles and a
-// mesh touching itself do not produce NaN, black speckles or acne", "a scene scaled by 1e-3 or 1e4 bakes the same"):
+// Hard cases stay numerically stable (no NaN ever reaches a texel; degenerate and sliver triangles and a mesh
+// touching itself do not produce NaN, black speckles or acne; a scene scaled by 1e-3 or 1e4 bakes the same):
 // self-intersecting meshes, slivers, degenerate triangles, extreme scales and offsets, bad environment texels, NaN
 // inputs, a grazing sun, chart edges, the shadow terminator of a sphere, and the honesty of the error estimate on a
 // second analytic scene.
@@ -454,7 +454,7 @@ TEST(LightmapRobustness, NaNEmissionEmitsNothing) {
 
 // The worst case of the same rule: inside a closed sphere whose emission has a NaN channel, every path meets the
 // emitter. By lights.h's rule nothing emits, so E = 0 exactly at every texel, and the bake ends by itself (no time
-// limit: a bake whose estimates were all dropped once never ended; estimates tried now bound every texel's work).
+// limit needed: estimates tried, kept or dropped, bound every texel's work).
 TEST(LightmapRobustness, NaNEmissionEverywhereStillBakesZero) {
   scene::Scene s;
   s.materials.push_back(lambert_material("bad glow", 0.5, Rgb{1.0, kNaN, 1.0}));
@@ -592,7 +592,7 @@ TEST(LightmapRobustness, SphereUnderASunHasNoAcne) {
 
 // The estimated error is honest on a second analytic scene: the sun with a 0.5 rad disc (noise from cos θ across the
 // disc) over a floor, E = E_n cos θ_c exactly. The measured RMS relative error over all texels is within a factor of
-// 2 of the reported estimate (the issue's criterion), at two targets.
+// 2 of the reported estimate, at two targets.
 TEST(LightmapRobustness, TheEstimatedErrorIsHonestUnderASunDisc) {
   scene::Scene s;
   s.materials.push_back(lambert_material("black", 0.0));

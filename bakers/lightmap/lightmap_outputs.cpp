@@ -1,0 +1,183 @@
+#include "bakers/lightmap/lightmap_outputs.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "bakers/bake/number_format.h"
+#include "bakers/image/color.h"
+#include "bakers/image/display_png.h"
+#include "bakers/image/exr.h"
+#include "bakers/image/png.h"
+#include "bakers/math/constants.h"
+#include "bakers/math/sampling.h"
+
+namespace kiln::lightmap {
+namespace {
+
+using bake::format_number;
+
+// The base colour times the texture at a texel sample's texture UV (nearest texel, wrapped), or times the texture's
+// average when the sample's mesh has no texture UVs.
+Rgb tint_at(const scene::Scene& s, const ShadingMaterial& m, const TexelSample& t) {
+  const scene::Mesh& mesh = s.meshes[t.triangle.mesh];
+  if (m.texture < 0 || mesh.uv.empty()) return m.base_color * m.texture_average;
+  const scene::Texture& tex = s.textures[m.texture];
+  const uint32_t* idx = &mesh.indices[3 * t.triangle.triangle];
+  const double b1 = t.barycentric.x, b2 = t.barycentric.y, b0 = 1 - b1 - b2;
+  const Point2 uv{b0 * mesh.uv[idx[0]].x + b1 * mesh.uv[idx[1]].x + b2 * mesh.uv[idx[2]].x,
+                  b0 * mesh.uv[idx[0]].y + b1 * mesh.uv[idx[1]].y + b2 * mesh.uv[idx[2]].y};
+  const int x = std::clamp(static_cast<int>((uv.x - std::floor(uv.x)) * tex.width), 0, tex.width - 1);
+  const int y = std::clamp(static_cast<int>((uv.y - std::floor(uv.y)) * tex.height), 0, tex.height - 1);
+  return m.base_color * tex.texels[static_cast<size_t>(y) * tex.width + x];
+}
+
+// Diffuse reflectance at a texel sample (for NAME_radiance.exr, ρE/π): the material's directional-hemispherical
+// albedo at normal incidence with its base colour and texture — what a Lambertian approximation of it reflects.
+Rgb reflectance(const scene::Scene& s, const std::vector<ShadingMaterial>& materials, const TexelSample& t) {
+  const scene::Mesh& mesh = s.meshes[t.triangle.mesh];
+  const uint32_t index = mesh.material.empty() ? 0 : mesh.material[t.triangle.triangle];
+  const ShadingMaterial& m = materials[index];
+  const Rgb tint = tint_at(s, m, t);
+  if (m.lambertian) return m.lambertian->A + m.lambertian->B * tint;  // the same albedo in every direction
+  // The albedo of the material seen from the normal (μ = 1), with the tint on its diffuse part.
+  const Vec3 n{0, 0, 1};
+  Rgb albedo;
+  constexpr int kDirections = 64;  // a fixed stratified cosine quadrature: ample for a preview-grade ρ
+  for (int i = 0; i < kDirections; ++i) {
+    for (int j = 0; j < 4; ++j) {
+      const Vec3 wi = sample_cosine_hemisphere({(i + 0.5) / kDirections, (j + 0.5) / 4});
+      albedo += m.bsdf->eval(n, wi, tint) * kPi;  // f cos / (cos/π)
+    }
+  }
+  return albedo / (4.0 * kDirections);
+}
+
+image::FloatImage texel_image(const LightmapImage& img, int channels, const std::vector<std::string>& names,
+                              const std::function<void(size_t, float*)>& fill) {
+  image::FloatImage out;
+  out.width = img.width();
+  out.height = img.height();
+  out.channels = channels;
+  out.channel_names = names;
+  out.pixels.assign(static_cast<size_t>(out.width) * out.height * channels, 0.0f);
+  for (size_t t = 0; t < img.texel_count(); ++t) {
+    if (img.valid(t)) fill(t, &out.pixels[t * channels]);
+  }
+  return out;
+}
+
+// The estimated relative error of a texel's SH from the spread of its n estimates (luminance throughout): the
+// standard error of L00 relative to L00, and that of the L1 vector relative to √3·L00 (the largest |L1| a
+// non-negative radiance has: all of it arriving from one direction), whichever is larger. +∞ below two estimates;
+// 0 for a black texel (all estimates 0).
+double sh_relative_error(const std::array<Rgb, 4>& sum, const std::array<double, 4>& sum_y2, uint32_t n) {
+  if (n < 2) return std::numeric_limits<double>::infinity();
+  double se[4];
+  for (int c = 0; c < 4; ++c) se[c] = standard_error_of_mean(luminance(sum[c]), sum_y2[c], n);
+  const double l00 = luminance(sum[0]) / n;
+  if (!(l00 > 0)) return 0;  // no radiance arrives: every estimate was 0
+  return std::max(se[0] / l00, std::hypot(se[1], se[2], se[3]) / (std::sqrt(3.0) * l00));
+}
+
+// The irradiance through the display transform, exposed by image::auto_exposure's rule over the valid texels
+// (the median to mid-grey, else the mean, else 1); the Description and kiln:exposure_rule say which applied.
+std::string preview_png(const image::FloatImage& irradiance, const std::vector<uint8_t>& validity,
+                        const std::string& color_space, const std::string& name) {
+  // The key: the valid texels' luminances (invalid texels are not part of any surface).
+  std::vector<double> luma;
+  for (size_t t = 0; t < validity.size(); ++t) {
+    if (!validity[t]) continue;
+    const float* p = &irradiance.pixels[t * 3];
+    luma.push_back(luminance(Rgb(p[0], p[1], p[2])));
+  }
+  const image::AutoExposure auto_exposure = image::auto_exposure(std::move(luma));
+  const double exposure = auto_exposure.multiplier;
+  const std::string rule = image::describe_exposure(auto_exposure, "valid texel", "every valid texel is black");
+  image::Png8Image png =
+      image::display_png8(irradiance.pixels, irradiance.width, irradiance.height, exposure, color_space);
+  png.metadata["Description"] = "kiln lightmap " + name + ": irradiance, exposure " + rule;
+  png.metadata["kiln:exposure"] = format_number(exposure);
+  png.metadata["kiln:exposure_rule"] = rule;
+  return image::encode_png(png);
+}
+
+}  // namespace
+
+bake::BakeOutput radiance_output(const LightmapState& m, const scene::Scene& scene,
+                                 const std::vector<ShadingMaterial>& materials, const std::string& color_space) {
+  const LightmapImage& img = m.image;
+  image::FloatImage rad = texel_image(img, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
+    Rgb rho;
+    double w = 0;
+    for (const TexelSample& ts : m.texels.at(t)) {
+      rho += reflectance(scene, materials, ts) * ts.weight;
+      w += ts.weight;
+    }
+    const Rgb L = img.mean(t) * (w > 0 ? rho / w : Rgb{}) / kPi;
+    px[0] = static_cast<float>(L.r);
+    px[1] = static_cast<float>(L.g);
+    px[2] = static_cast<float>(L.b);
+  });
+  rad.metadata["kiln:content"] = "baked diffuse radiance rho*E/pi, W/(m^2 sr)";
+  rad.metadata["kiln:lightmap"] = m.name;
+  return {m.name + "_radiance.exr", "image/x-exr", color_space, image::encode_exr(rad)};
+}
+
+bake::BakeOutput ao_output(const LightmapState& m, double ao_distance) {
+  const LightmapImage& img = m.image;
+  image::FloatImage ao = texel_image(img, 1, {"Y"}, [&](size_t t, float* px) {
+    px[0] = img.count(t) ? static_cast<float>(m.ao_sum[t].r / img.count(t)) : 0.0f;
+  });
+  ao.metadata["kiln:content"] =
+      "ambient occlusion: cosine-weighted fraction of rays unoccluded within " + format_number(ao_distance);
+  ao.metadata["kiln:lightmap"] = m.name;
+  return {m.name + "_ao.exr", "image/x-exr", "data", image::encode_exr(ao)};
+}
+
+ShError sh_error(const LightmapState& m) {
+  const LightmapImage& img = m.image;
+  ShError error;
+  double sum_sq = 0;
+  size_t estimated = 0;
+  for (size_t t = 0; t < img.texel_count(); ++t) {
+    if (!img.valid(t)) continue;
+    const double e = sh_relative_error(m.sh_sum[t], m.sh_y2[t], img.count(t));
+    if (!std::isfinite(e)) continue;
+    sum_sq += e * e;
+    error.max = std::max(error.max, e);
+    ++estimated;
+  }
+  error.rms = estimated ? std::sqrt(sum_sq / static_cast<double>(estimated)) : -1;
+  return error;
+}
+
+bake::BakeOutput sh_output(const LightmapState& m, const ShError& error, const std::string& color_space) {
+  const LightmapImage& img = m.image;
+  image::FloatImage sh = texel_image(
+      img, 12, {"L00.R", "L00.G", "L00.B", "L1m1.R", "L1m1.G", "L1m1.B", "L10.R", "L10.G", "L10.B", "L11.R",
+                "L11.G", "L11.B"},
+      [&](size_t t, float* px) {
+        const double n = img.count(t);
+        for (int c = 0; c < 4; ++c) {
+          for (int k = 0; k < 3; ++k) px[3 * c + k] = n ? static_cast<float>(m.sh_sum[t][c][k] / n) : 0.0f;
+        }
+      });
+  sh.metadata["kiln:content"] =
+      "order-1 SH of incoming radiance L(w), world axes: L00 (Y00 = 0.282095), L1m1 (0.488603 y), L10 "
+      "(0.488603 z), L11 (0.488603 x)";
+  sh.metadata["kiln:lightmap"] = m.name;
+  sh.metadata["kiln:error_rms"] = format_number(error.rms);
+  sh.metadata["kiln:error"] =
+      "estimated relative standard error per texel: of L00, and of the L1 vector relative to sqrt(3) L00, the "
+      "larger; RMS over valid texels in kiln:error_rms, also in report.json";
+  return {m.name + "_sh.exr", "image/x-exr", color_space, image::encode_exr(sh)};
+}
+
+bake::BakeOutput preview_output(const LightmapState& m, int padding, const std::string& color_space) {
+  return {m.name + "_preview.png", "image/png", "srgb_display",
+          preview_png(m.image.irradiance_image(padding), m.image.validity(), color_space, m.name)};
+}
+
+}  // namespace kiln::lightmap

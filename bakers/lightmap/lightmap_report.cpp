@@ -1,0 +1,85 @@
+#include "bakers/lightmap/lightmap_report.h"
+
+#include <algorithm>
+
+#include <nlohmann/json.hpp>
+
+namespace kiln::lightmap {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+Json plan_json(const std::vector<plan::Decision>& decisions) {
+  Json plan = Json::array();
+  for (const plan::Decision& d : decisions) {
+    plan.push_back({{"effect", d.effect}, {"enabled", d.enabled}, {"forced", d.forced}, {"reason", d.reason}});
+  }
+  return plan;
+}
+
+Json curve_json(const std::vector<ErrorPoint>& curve) {
+  Json points = Json::array();
+  for (const ErrorPoint& p : curve) {
+    points.push_back({{"seconds", p.seconds}, {"samples", p.samples}, {"error", p.error}});
+  }
+  return points;
+}
+
+Json lightmap_json(const LightmapReportEntry& m) {
+  Json j;
+  j["name"] = m.name;
+  j["resolution"] = m.resolution;
+  j["valid_texels"] = m.error.valid;
+  j["samples_per_texel_point"] = m.memory.samples_per_valid_texel;
+  j["error_rms"] = m.error.rms;
+  j["error_max"] = m.error.max;
+  j["above_target"] = m.error.above_target;
+  if (m.sh) {
+    j["sh_error_rms"] = m.sh->rms;
+    j["sh_error_max"] = m.sh->max;
+  }
+  j["leaks"] = {{"moved", m.leaks.moved},
+                {"invalidated", m.leaks.invalidated},
+                {"texels_invalidated", m.leaks.texels_invalidated}};
+  j["memory_bytes"] = m.memory.total_bytes;
+  j["memory"] = m.memory.describe();
+  return j;
+}
+
+Json tracer_json(const LightmapReport& report) {
+  const double per_triangle =
+      report.tracer_triangles ? static_cast<double>(report.tracer_bytes) / report.tracer_triangles : 0.0;
+  return {{"triangles", report.tracer_triangles},
+          {"memory_bytes", report.tracer_bytes},
+          {"bytes_per_triangle", per_triangle}};
+}
+
+}  // namespace
+
+std::string report_json(const LightmapBakeResult& result, const LightmapReport& report) {
+  Json j;
+  j["baker"] = kLightmapBakerVersion;
+  j["seconds"] = result.seconds;
+  j["samples"] = result.samples;
+  j["rays"] = result.rays;
+  j["occlusion_rays"] = result.occlusion_rays;
+  j["general_bsdf_vertices"] = result.general_vertices;
+  j["mrays_per_second"] = result.rays / std::max(result.seconds, 1e-9) / 1e6;
+  j["target_error"] = report.target_error;
+  j["error_estimate"] = result.error_estimate;
+  j["dropped_samples"] = report.dropped_samples;
+  j["color_space"] = report.color_space;
+  j["units"] = "irradiance W/m^2";
+  j["plan"] = plan_json(report.plan->decisions);
+  j["bounces"] = report.plan->bounces;
+  j["albedo_max"] = report.plan->albedo_max;
+  j["curve"] = curve_json(result.curve);
+  j["lightmaps"] = Json::array();
+  for (const LightmapReportEntry& m : report.lightmaps) j["lightmaps"].push_back(lightmap_json(m));
+  j["tracer"] = tracer_json(report);
+  j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
+  // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
+  return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
+}
+
+}  // namespace kiln::lightmap

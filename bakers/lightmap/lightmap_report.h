@@ -1,0 +1,45 @@
+// report.json of the lightmap bake: the plan, the samples and rays, the time, the error estimate and its curve over
+// the passes, per lightmap its texels, error, leaks and memory, the tracer's size and the scene's problems.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bakers/lightmap/leaks.h"
+#include "bakers/lightmap/lightmap_bake.h"
+#include "bakers/lightmap/lightmap_image.h"
+#include "bakers/lightmap/lightmap_outputs.h"
+#include "bakers/lightmap/memory.h"
+#include "bakers/plan/lightmap_plan.h"
+
+namespace kiln::lightmap {
+
+// One lightmap's entry.
+struct LightmapReportEntry {
+  std::string name;
+  int resolution = 0;
+  LightmapImage::ErrorSummary error;
+  std::optional<ShError> sh;  // when the SH output was asked for
+  LeakReport leaks;
+  LightmapMemory memory;
+};
+
+// What the report says beside the bake's result.
+struct LightmapReport {
+  double target_error = 0;
+  uint64_t dropped_samples = 0;
+  std::string color_space;
+  const plan::LightmapPlan* plan = nullptr;
+  std::vector<LightmapReportEntry> lightmaps;
+  size_t tracer_triangles = 0;
+  size_t tracer_bytes = 0;
+  int64_t scene_problems = 0;  // all of them; result.skipped lists the ones that are listed
+};
+
+// The JSON text, ending in a newline.
+std::string report_json(const LightmapBakeResult& result, const LightmapReport& report);
+
+}  // namespace kiln::lightmap

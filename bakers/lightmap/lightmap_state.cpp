@@ -1,0 +1,53 @@
+#include "bakers/lightmap/lightmap_state.h"
+
+#include <utility>
+
+namespace kiln::lightmap {
+namespace {
+
+// The receiver of a texel sample, with the lift that clears its own float triangle.
+Receiver receiver(const TexelSample& t) {
+  Receiver r;
+  r.surface = t.surface();
+  r.ns = dot(t.shading_normal, t.geometric_normal) > 0 ? t.shading_normal : t.geometric_normal;
+  return r;
+}
+
+// The element sizes are read off the members themselves, so the figures follow the struct.
+template <class Vector>
+constexpr size_t element_bytes() {
+  return sizeof(typename Vector::value_type);
+}
+
+}  // namespace
+
+LightmapState make_lightmap_state(std::string name, LightmapTexels texels, const LeakReport& leaks, bool ao,
+                                  bool directional) {
+  std::vector<uint8_t> validity = texels.validity();
+  const int width = texels.width, height = texels.height;
+  LightmapState m{name, std::move(texels), {}, LightmapImage(name, width, height, std::move(validity)), leaks,
+                  {},   {},               {}, {}};
+  m.attempts.assign(m.texels.texel_count(), 0);
+  m.receivers.reserve(m.texels.samples.size());
+  for (const TexelSample& t : m.texels.samples) m.receivers.push_back(receiver(t));
+  if (ao) m.ao_sum.assign(m.texels.texel_count(), Rgb{});
+  if (directional) {
+    m.sh_sum.assign(m.texels.texel_count(), {});
+    m.sh_y2.assign(m.texels.texel_count(), {});
+  }
+  return m;
+}
+
+BakeStateBytes lightmap_state_bytes(bool ao, bool directional) {
+  BakeStateBytes b;
+  b.per_texel = element_bytes<decltype(LightmapState::attempts)>();
+  if (ao) b.per_texel += element_bytes<decltype(LightmapState::ao_sum)>();
+  if (directional) {
+    b.per_texel +=
+        element_bytes<decltype(LightmapState::sh_sum)>() + element_bytes<decltype(LightmapState::sh_y2)>();
+  }
+  b.per_sample = element_bytes<decltype(LightmapState::receivers)>();
+  return b;
+}
+
+}  // namespace kiln::lightmap

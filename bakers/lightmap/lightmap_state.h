@@ -1,0 +1,40 @@
+// One lightmap while it bakes: its texels and their receivers, the image its estimates accumulate into, and the
+// per-texel sums of the optional outputs (AO, SH). The bake's stages (lightmap_bake.cpp), the adaptive sampler and
+// the outputs all work on it.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "bakers/lightmap/integrator.h"
+#include "bakers/lightmap/leaks.h"
+#include "bakers/lightmap/lightmap_image.h"
+#include "bakers/lightmap/memory.h"
+#include "bakers/lightmap/texels.h"
+#include "bakers/math/rgb.h"
+
+namespace kiln::lightmap {
+
+struct LightmapState {
+  std::string name;
+  LightmapTexels texels;
+  std::vector<Receiver> receivers;  // parallel to texels.samples
+  LightmapImage image;
+  LeakReport leaks;
+  std::vector<Rgb> ao_sum;                   // per texel, sum over estimates (AO in every channel)
+  std::vector<std::array<Rgb, 4>> sh_sum;    // per texel
+  std::vector<std::array<double, 4>> sh_y2;  // per texel, sum over estimates of each coefficient's luminance²
+  std::vector<uint32_t> attempts;            // per texel, estimates tried (kept or dropped)
+};
+
+// A lightmap ready to sample: its texels after leak handling, each sample's receiver, an empty image of its valid
+// texels, and the AO and SH sums when those outputs are asked for.
+LightmapState make_lightmap_state(std::string name, LightmapTexels texels, const LeakReport& leaks, bool ao,
+                                  bool directional);
+
+// What a LightmapState holds beside its texels and image, per texel and per sample, for the report's memory figures.
+BakeStateBytes lightmap_state_bytes(bool ao, bool directional);
+
+}  // namespace kiln::lightmap
