@@ -95,8 +95,8 @@ std::string bake_type_of(const std::vector<std::string>& rest) {
 
 // The help of `command` (for `kiln bake`, of the bake type).
 const char* help_of(const Command& command, const std::string& bake_type) {
-  if (is_env_type(bake_type)) return kBakeEnvHelp;
-  return bake_type == "lightmap" ? kBakeLightmapHelp : command.help;
+  if (is_env_type(bake_type)) return kBakeEnvHelp.c_str();
+  return bake_type == "lightmap" ? kBakeLightmapHelp.c_str() : command.help;
 }
 
 // `kiln help [COMMAND [TYPE]]`, from the words after `help`.
