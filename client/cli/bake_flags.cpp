@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "client/cli/job_flags.h"
 #include "proto/kiln.pb.h"
 
 namespace kiln::cli {
@@ -69,12 +70,6 @@ constexpr std::array<ModelName, 8> kModels{{{Model::lambert, "lambert"},
                                             {Model::schlick, "schlick"},
                                             {Model::schlick_double, "schlick-double"}}};
 
-// Job files spell names with underscores (oren_nayar), kiln-brdf with hyphens: both are accepted.
-std::string hyphenated(std::string s) {
-  std::replace(s.begin(), s.end(), '_', '-');
-  return s;
-}
-
 std::string model_names() {
   std::string out;
   for (const auto& m : kModels) out += (out.empty() ? "" : ", ") + std::string(m.name);
@@ -121,7 +116,6 @@ const char* const kJobFlags[] = {"--albedo",        "--sigma",   "--interreflect
                                  "--time-limit",    "--seed",    "--table-mu",        "--table-roughness"};
 
 constexpr double kHalfPi = 1.5707963267948966;
-constexpr std::size_t kMaxNameBytes = 256;  // JobSpec.name
 
 void set_color(const std::string& flag, const std::string& text, v1::Color* c) { parse_color(flag, text, 1.0, c); }
 
@@ -212,91 +206,8 @@ void oren_nayar(const Flags& f, Model model, v1::OrenNayar* on) {
   }
 }
 
-std::string default_name(const Flags& f, const std::string& model_name) {
-  std::string name = model_name;
-  for (const char* flag : kJobFlags) {
-    if (auto v = f.get(flag)) name += " " + std::string(flag + 2) + "=" + *v;
-  }
-  if (f.has("--merl")) name += " merl";
-  if (name.size() > kMaxNameBytes) name = name.substr(0, kMaxNameBytes - 3) + "...";
-  return name;
-}
-
-}  // namespace
-
-void parse_color(const std::string& flag, const std::string& text, double hi, v1::Color* c) {
-  std::vector<std::string> parts;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) parts.push_back(item);
-  if (!text.empty() && text.back() == ',') parts.push_back("");
-  if (parts.size() != 1 && parts.size() != 3) {
-    throw UsageError(flag + ": expected one value or three (R,G,B), got '" + text + "'");
-  }
-  double v[3];
-  for (std::size_t i = 0; i < 3; ++i) v[i] = parse_number_in(flag, parts[parts.size() == 1 ? 0 : i], 0.0, hi);
-  c->set_r(v[0]);
-  c->set_g(v[1]);
-  c->set_b(v[2]);
-}
-
-void add_forced_effects(const Flags& f, v1::JobSpec& spec) {
-  for (const std::string& force : f.all("--force")) {
-    const auto eq = force.find('=');
-    const std::string effect = force.substr(0, eq), value = eq == std::string::npos ? "" : force.substr(eq + 1);
-    if (effect.empty() || (value != "on" && value != "off")) {
-      throw UsageError("--force: expected EFFECT=on or EFFECT=off, got '" + force + "'");
-    }
-    if (effect.size() > 64) throw UsageError("--force: effect names are at most 64 bytes, got '" + effect + "'");
-    if (spec.force_effects().count(effect)) throw UsageError("--force: effect '" + effect + "' given twice");
-    (*spec.mutable_force_effects())[effect] = value == "on";
-  }
-  if (spec.force_effects_size() > 64) throw UsageError("--force: at most 64 effects");
-}
-
-void set_name(const Flags& f, v1::JobSpec& spec, const std::string& fallback) {
-  if (auto v = f.get("--name")) {
-    if (v->size() > kMaxNameBytes) {
-      throw UsageError("--name: at most " + std::to_string(kMaxNameBytes) + " bytes, got " +
-                       std::to_string(v->size()));
-    }
-    spec.set_name(*v);
-  } else {
-    spec.set_name(fallback.size() > kMaxNameBytes ? fallback.substr(0, kMaxNameBytes - 3) + "..." : fallback);
-  }
-}
-
-std::vector<FlagSpec> bake_material_flag_specs() {
-  std::vector<FlagSpec> specs = global_flag_specs();
-  for (const char* flag : {"--model", "--name", "--out", "--priority", "--idempotency-key"}) specs.push_back({flag});
-  for (const char* flag : kJobFlags) specs.push_back({flag});
-  specs.push_back({"--merl", false});
-  specs.push_back({"--force", true, true});
-  return specs;
-}
-
-v1::JobSpec material_spec_from_flags(const std::vector<std::string>& args) {
-  return material_spec_from_flags(parse_flags(args, bake_material_flag_specs(), "kiln bake material"));
-}
-
-v1::JobSpec material_spec_from_flags(const Flags& f) {
-  const auto model_text = f.get("--model");
-  if (!model_text) throw UsageError("--model: missing; expected one of " + model_names());
-  const auto found = std::find_if(kModels.begin(), kModels.end(),
-                                  [&](const ModelName& m) { return hyphenated(*model_text) == m.name; });
-  if (found == kModels.end()) {
-    throw UsageError("--model: expected one of " + model_names() + ", got '" + *model_text + "'");
-  }
-  const Model model = found->model;
-  const std::string model_name = found->name;
-  for (const auto& a : kApplies) {
-    if (f.has(a.flag) && !a.applies(model)) {
-      throw UsageError(std::string(a.flag) + ": --model " + model_name + " has no such parameter (" + a.flag +
-                       " is for " + a.models + ")");
-    }
-  }
-
-  v1::JobSpec spec;
-  v1::MaterialJob* job = spec.mutable_material();
+// The model's own parameters (the flags were already checked to belong to it).
+void set_model_fields(const Flags& f, Model model, const std::string& model_name, v1::MaterialJob* job) {
   switch (model) {
     case Model::lambert:
       if (auto v = f.get("--albedo")) set_color("--albedo", *v, job->mutable_lambert()->mutable_albedo());
@@ -332,12 +243,13 @@ v1::JobSpec material_spec_from_flags(const Flags& f) {
     }
   }
 
-  if (auto v = f.get("--table-mu")) {
-    job->set_table_mu(static_cast<std::uint32_t>(parse_whole("--table-mu", *v, 2, 1024)));
-  }
-  if (auto v = f.get("--table-roughness")) {
-    job->set_table_roughness(static_cast<std::uint32_t>(parse_whole("--table-roughness", *v, 2, 1024)));
-  }
+}
+
+// The table sizes, --merl, and the quality: samples, target error, time limit, seed.
+void set_tables_and_quality(const Flags& f, v1::JobSpec& spec) {
+  v1::MaterialJob* job = spec.mutable_material();
+  if (f.has("--table-mu")) job->set_table_mu(whole_flag(f, "--table-mu", 2, 1024));
+  if (f.has("--table-roughness")) job->set_table_roughness(whole_flag(f, "--table-roughness", 2, 1024));
   job->set_merl(f.has("--merl"));
 
   v1::Quality* q = spec.mutable_quality();
@@ -346,21 +258,15 @@ v1::JobSpec material_spec_from_flags(const Flags& f) {
   if (auto v = f.get("--time-limit")) {
     q->set_time_limit_seconds(parse_number_in("--time-limit", *v, 0.0, 86400.0, true));
   }
-  if (auto v = f.get("--seed")) {
-    // Whole numbers a double holds exactly: the flag is parsed as a number like the others.
-    q->set_seed(static_cast<std::uint64_t>(parse_whole("--seed", *v, 0, std::int64_t{1} << 53)));
-  }
-  if (!q->has_samples() && !q->has_target_error() && !q->has_time_limit_seconds() && q->seed() == 0) {
-    spec.clear_quality();
-  }
-
-  add_forced_effects(f, spec);
-  set_name(f, spec, default_name(f, model_name));
-  return spec;
+  set_seed_and_drop_empty_quality(f, spec);
 }
 
-std::string flag_for_field(const std::string& field_path) {
-  // Components without their [index] or [key].
+std::string default_name(const Flags& f, const std::string& model_name) {
+  return model_name + given_flag_words(f, kJobFlags) + (f.has("--merl") ? " merl" : "");
+}
+
+// The components of a field path without their [index] or [key]: "job.lights[2].color" -> job, lights, color.
+std::vector<std::string> path_components(const std::string& field_path) {
   std::vector<std::string> parts;
   std::stringstream ss(field_path);
   for (std::string item; std::getline(ss, item, '.');) {
@@ -368,24 +274,90 @@ std::string flag_for_field(const std::string& field_path) {
     if (bracket != std::string::npos) item = item.substr(0, bracket);
     parts.push_back(item);
   }
+  return parts;
+}
+
+// `kiln bake env`: the flag of job.environment.FIELD; none for the image, which is the command's argument.
+std::string environment_flag_for(const std::vector<std::string>& parts) {
+  static const std::pair<const char*, const char*> kEnvironment[] = {
+      {"faces", "--faces"},           {"constant", "--constant"},       {"color_space", "--color-space"},
+      {"rotation_degrees", "--rotation"}, {"intensity", "--intensity"}, {"lobe", "--lobe"},
+      {"size", "--size"},             {"levels", "--levels"},           {"irradiance_size", "--irradiance-size"},
+      {"dfg_size", "--dfg-size"},     {"dfg_samples", "--dfg-samples"}, {"preview", "--no-preview"},
+  };
+  if (parts.size() == 2) return "";
+  for (const auto& [field, flag] : kEnvironment) {
+    if (parts[2] == field) return flag;
+  }
+  return "";
+}
+
+// The material and quality fields that a flag of the same name sets.
+const std::pair<const char*, const char*> kFieldFlags[] = {
+    {"albedo", "--albedo"},
+    {"sigma", "--sigma"},
+    {"interreflection", "--interreflection"},
+    {"alpha", "--alpha"},
+    {"alpha_x", "--alpha-x"},
+    {"alpha_y", "--alpha-y"},
+    {"fresnel", "--fresnel"},
+    {"f0", "--f0"},
+    {"eta", "--eta"},
+    {"distribution", "--distribution"},
+    {"masking", "--masking"},
+    {"normalization", "--normalization"},
+    {"table_mu", "--table-mu"},
+    {"table_roughness", "--table-roughness"},
+    {"merl", "--merl"},
+    {"samples", "--samples"},
+    {"target_error", "--target-error"},
+    {"time_limit_seconds", "--time-limit"},
+    {"seed", "--seed"},
+};
+
+}  // namespace
+
+std::vector<FlagSpec> bake_material_flag_specs() {
+  return bake_flag_specs({"--model", "--name", "--out", "--priority", "--idempotency-key"}, kJobFlags, {"--merl"});
+}
+
+v1::JobSpec material_spec_from_flags(const std::vector<std::string>& args) {
+  return material_spec_from_flags(parse_flags(args, bake_material_flag_specs(), "kiln bake material"));
+}
+
+v1::JobSpec material_spec_from_flags(const Flags& f) {
+  const auto model_text = f.get("--model");
+  if (!model_text) throw UsageError("--model: missing; expected one of " + model_names());
+  const auto found = std::find_if(kModels.begin(), kModels.end(),
+                                  [&](const ModelName& m) { return hyphenated(*model_text) == m.name; });
+  if (found == kModels.end()) {
+    throw UsageError("--model: expected one of " + model_names() + ", got '" + *model_text + "'");
+  }
+  const Model model = found->model;
+  const std::string model_name = found->name;
+  for (const auto& a : kApplies) {
+    if (f.has(a.flag) && !a.applies(model)) {
+      throw UsageError(std::string(a.flag) + ": --model " + model_name + " has no such parameter (" + a.flag +
+                       " is for " + a.models + ")");
+    }
+  }
+
+  v1::JobSpec spec;
+  v1::MaterialJob* job = spec.mutable_material();
+  set_model_fields(f, model, model_name, job);
+  set_tables_and_quality(f, spec);
+  add_forced_effects(f, spec);
+  set_name(f, spec, default_name(f, model_name));
+  return spec;
+}
+
+std::string flag_for_field(const std::string& field_path) {
+  std::vector<std::string> parts = path_components(field_path);
   if (parts.empty() || parts[0] != "job") return "";
   if (std::find(parts.begin(), parts.end(), "force_effects") != parts.end()) return "--force";
   if (parts.size() == 2 && parts[1] == "name") return "--name";
   if (parts.size() == 2 && parts[1] == "material") return "--model";  // no model given
-  if (parts.size() >= 2 && parts[1] == "environment") {
-    // `kiln bake env`: the image is the command's argument, not a flag.
-    static const std::pair<const char*, const char*> kEnvironment[] = {
-        {"faces", "--faces"},           {"constant", "--constant"},       {"color_space", "--color-space"},
-        {"rotation_degrees", "--rotation"}, {"intensity", "--intensity"}, {"lobe", "--lobe"},
-        {"size", "--size"},             {"levels", "--levels"},           {"irradiance_size", "--irradiance-size"},
-        {"dfg_size", "--dfg-size"},     {"dfg_samples", "--dfg-samples"}, {"preview", "--no-preview"},
-    };
-    if (parts.size() == 2) return "";
-    for (const auto& [field, flag] : kEnvironment) {
-      if (parts[2] == field) return flag;
-    }
-    return "";
-  }
+  if (parts.size() >= 2 && parts[1] == "environment") return environment_flag_for(parts);
   std::string last = parts.back();
   // A colour channel: the colour's flag ("albedo.r" is red, but "schlick.r" is roughness).
   if ((last == "r" || last == "g" || last == "b") && parts.size() >= 2) {
@@ -397,28 +369,7 @@ std::string flag_for_field(const std::string& field_path) {
   }
   const bool bottom = std::find(parts.begin(), parts.end(), "bottom") != parts.end();
   if (last == "c" || last == "r" || last == "p") return (bottom ? "--bottom-" : "--") + last;
-  static const std::pair<const char*, const char*> kFields[] = {
-      {"albedo", "--albedo"},
-      {"sigma", "--sigma"},
-      {"interreflection", "--interreflection"},
-      {"alpha", "--alpha"},
-      {"alpha_x", "--alpha-x"},
-      {"alpha_y", "--alpha-y"},
-      {"fresnel", "--fresnel"},
-      {"f0", "--f0"},
-      {"eta", "--eta"},
-      {"distribution", "--distribution"},
-      {"masking", "--masking"},
-      {"normalization", "--normalization"},
-      {"table_mu", "--table-mu"},
-      {"table_roughness", "--table-roughness"},
-      {"merl", "--merl"},
-      {"samples", "--samples"},
-      {"target_error", "--target-error"},
-      {"time_limit_seconds", "--time-limit"},
-      {"seed", "--seed"},
-  };
-  for (const auto& [field, flag] : kFields) {
+  for (const auto& [field, flag] : kFieldFlags) {
     if (last == field) return flag;
   }
   return "";

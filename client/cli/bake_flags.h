@@ -8,7 +8,6 @@
 #include "client/cli/args.h"
 
 namespace kiln::v1 {
-class Color;
 class JobSpec;
 }
 
@@ -29,14 +28,6 @@ v1::JobSpec material_spec_from_flags(const std::vector<std::string>& args);
 // "job.material.ggx.alpha" -> "--alpha", "job.material.schlick_double.bottom.c.g" -> "--bottom-c";
 // "" when no flag sets it.
 std::string flag_for_field(const std::string& field_path);
-
-// Shared by the bake commands: --force EFFECT=on|off (repeatable) into spec.force_effects, and --name (else
-// `default_name`, shortened to the protocol's 256 bytes). Throw UsageError naming the flag.
-void add_forced_effects(const Flags& flags, v1::JobSpec& spec);
-void set_name(const Flags& flags, v1::JobSpec& spec, const std::string& default_name);
-
-// A colour flag: one value (grey) or three (R,G,B), each in [0, hi]. Throws UsageError naming the flag.
-void parse_color(const std::string& flag, const std::string& text, double hi, v1::Color* c);
 
 extern const char* const kBakeMaterialHelp;
 

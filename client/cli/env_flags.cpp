@@ -4,11 +4,11 @@
 #include <filesystem>
 #include <sstream>
 
-#include "client/cli/bake_flags.h"
+#include "client/cli/job_flags.h"
 
 namespace kiln::cli {
 
-const char* const kBakeEnvHelp = R"(usage: kiln bake env IMAGE [options]
+const std::string kBakeEnvHelp = std::string(R"(usage: kiln bake env IMAGE [options]
        kiln bake env --constant R,G,B [options]
        kiln bake env --faces PX NX PY NY PZ NZ [options]
 
@@ -42,14 +42,7 @@ the bake:
   --force EFFECT=on|off        make the planner simulate or skip an effect, by the name its plan reports
                                (repeatable)
   --name TEXT                  a name for people in `kiln jobs` (default: the source and its flags)
-options:
-  --out DIR                    wait, then write the outputs and report.json into DIR (created if missing)
-  --wait                       wait and print what the bake cost, without writing the outputs
-                               (neither: print the job id and return; `kiln watch ID` follows it)
-  --priority N                 higher runs first, [-100, 100]; default 0
-  --idempotency-key KEY        resubmitting with the same key and spec returns the first job
-  --server HOST:PORT | unix:PATH, --token-file FILE   see `kiln --help`
-
+)") + kWaitingBakeOptionsHelp + R"(
 example:
   kiln bake env out/sky.exr --size 128 --out out/sky_env
 )";
@@ -62,13 +55,8 @@ const char* const kJobFlags[] = {"--constant",    "--color-space", "--rotation",
                                  "--dfg-size",    "--dfg-samples", "--samples",         "--target-error",
                                  "--seed"};
 
-std::uint32_t whole(const Flags& f, const char* flag, std::int64_t lo, std::int64_t hi) {
-  return static_cast<std::uint32_t>(parse_whole(flag, *f.get(flag), lo, hi));
-}
-
-
-v1::EnvironmentLobe lobe_of(std::string text) {
-  std::replace(text.begin(), text.end(), '_', '-');  // job files spell cook_torrance, flags cook-torrance
+v1::EnvironmentLobe lobe_of(const std::string& flag_text) {
+  const std::string text = hyphenated(flag_text);
   const std::pair<const char*, v1::EnvironmentLobe> kLobes[] = {{"ggx", v1::ENVIRONMENT_LOBE_GGX},
                                                                 {"beckmann", v1::ENVIRONMENT_LOBE_BECKMANN},
                                                                 {"cook-torrance", v1::ENVIRONMENT_LOBE_COOK_TORRANCE},
@@ -83,31 +71,11 @@ std::string default_name(const Flags& f, const std::vector<std::string>& files) 
   std::string name = "environment";
   if (files.size() == 1) name += " " + std::filesystem::path(files[0]).filename().string();
   if (files.size() == 6) name += " faces " + std::filesystem::path(files[0]).filename().string() + "...";
-  for (const char* flag : kJobFlags) {
-    if (auto v = f.get(flag)) name += " " + std::string(flag + 2) + "=" + *v;
-  }
-  if (f.has("--no-preview")) name += " no-preview";
-  return name;
+  return name + given_flag_words(f, kJobFlags) + (f.has("--no-preview") ? " no-preview" : "");
 }
 
-}  // namespace
-
-std::vector<FlagSpec> bake_env_flag_specs() {
-  std::vector<FlagSpec> specs = global_flag_specs();
-  for (const char* flag : {"--name", "--out", "--priority", "--idempotency-key"}) specs.push_back({flag});
-  for (const char* flag : kJobFlags) specs.push_back({flag});
-  for (const char* flag : {"--faces", "--no-preview", "--wait"}) specs.push_back({flag, false});
-  specs.push_back({"--force", true, true});
-  return specs;
-}
-
-EnvironmentBake environment_bake_from_flags(const std::vector<std::string>& args) {
-  return environment_bake_from_flags(parse_flags(args, bake_env_flag_specs(), "kiln bake env"));
-}
-
-EnvironmentBake environment_bake_from_flags(const Flags& f) {
-  EnvironmentBake bake;
-  bake.files.assign(f.positional.begin() + (f.positional.empty() ? 0 : 1), f.positional.end());
+// The environment: an image, six faces or a constant, exactly one.
+void set_source(const Flags& f, EnvironmentBake& bake) {
   v1::EnvironmentJob* job = bake.spec.mutable_environment();
   const bool constant = f.has("--constant"), faces = f.has("--faces");
   if (constant && faces) throw UsageError("--constant: give one environment: an image, --constant or --faces");
@@ -137,32 +105,49 @@ EnvironmentBake environment_bake_from_flags(const Flags& f) {
   } else {
     job->mutable_image();
   }
+}
 
+// The image's colour space, rotation and intensity, and the sizes and lobe of the bake.
+void set_image_and_bake_settings(const Flags& f, v1::EnvironmentJob& env) {
   if (auto v = f.get("--color-space")) {
     if (v->empty() || v->size() > 64) throw UsageError("--color-space: expected a name of 1 to 64 bytes");
-    job->set_color_space(*v);
+    env.set_color_space(*v);
   }
-  if (auto v = f.get("--rotation")) job->set_rotation_degrees(parse_number_in("--rotation", *v, -360, 360));
-  if (auto v = f.get("--intensity")) job->set_intensity(parse_number_in("--intensity", *v, 0, 1e6, true));
-  if (auto v = f.get("--lobe")) job->set_lobe(lobe_of(*v));
+  if (auto v = f.get("--rotation")) env.set_rotation_degrees(parse_number_in("--rotation", *v, -360, 360));
+  if (auto v = f.get("--intensity")) env.set_intensity(parse_number_in("--intensity", *v, 0, 1e6, true));
+  if (auto v = f.get("--lobe")) env.set_lobe(lobe_of(*v));
   if (f.has("--size")) {
-    const std::uint32_t n = whole(f, "--size", 4, 2048);
+    const std::uint32_t n = whole_flag(f, "--size", 4, 2048);
     if ((n & (n - 1)) != 0) throw UsageError("--size: must be a power of two in [4, 2048], got " + *f.get("--size"));
-    job->set_size(n);
+    env.set_size(n);
   }
-  if (f.has("--levels")) job->set_levels(whole(f, "--levels", 1, 10));  // the server checks it against --size
-  if (f.has("--irradiance-size")) job->set_irradiance_size(whole(f, "--irradiance-size", 1, 256));
-  if (f.has("--dfg-size")) job->set_dfg_size(whole(f, "--dfg-size", 2, 1024));
-  if (f.has("--dfg-samples")) job->set_dfg_samples(whole(f, "--dfg-samples", 16, 1 << 20));
-  if (f.has("--no-preview")) job->set_preview(false);
+  if (f.has("--levels")) env.set_levels(whole_flag(f, "--levels", 1, 10));  // the server checks it against --size
+  if (f.has("--irradiance-size")) env.set_irradiance_size(whole_flag(f, "--irradiance-size", 1, 256));
+  if (f.has("--dfg-size")) env.set_dfg_size(whole_flag(f, "--dfg-size", 2, 1024));
+  if (f.has("--dfg-samples")) env.set_dfg_samples(whole_flag(f, "--dfg-samples", 16, 1 << 20));
+  if (f.has("--no-preview")) env.set_preview(false);
+}
 
+}  // namespace
+
+std::vector<FlagSpec> bake_env_flag_specs() {
+  return bake_flag_specs({"--name", "--out", "--priority", "--idempotency-key"}, kJobFlags,
+                         {"--faces", "--no-preview", "--wait"});
+}
+
+EnvironmentBake environment_bake_from_flags(const std::vector<std::string>& args) {
+  return environment_bake_from_flags(parse_flags(args, bake_env_flag_specs(), "kiln bake env"));
+}
+
+EnvironmentBake environment_bake_from_flags(const Flags& f) {
+  EnvironmentBake bake;
+  bake.files.assign(f.positional.begin() + (f.positional.empty() ? 0 : 1), f.positional.end());
+  set_source(f, bake);
+  set_image_and_bake_settings(f, *bake.spec.mutable_environment());
   v1::Quality* q = bake.spec.mutable_quality();
   if (auto v = f.get("--samples")) q->set_samples(static_cast<std::uint64_t>(parse_whole("--samples", *v, 4, 65536)));
   if (auto v = f.get("--target-error")) q->set_target_error(parse_number_in("--target-error", *v, 1e-4, 1.0));
-  if (auto v = f.get("--seed")) {
-    q->set_seed(static_cast<std::uint64_t>(parse_whole("--seed", *v, 0, std::int64_t{1} << 53)));
-  }
-  if (!q->has_samples() && !q->has_target_error() && q->seed() == 0) bake.spec.clear_quality();
+  set_seed_and_drop_empty_quality(f, bake.spec);
   add_forced_effects(f, bake.spec);
   set_name(f, bake.spec, default_name(f, bake.files));
   return bake;

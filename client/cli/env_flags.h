@@ -28,6 +28,6 @@ EnvironmentBake environment_bake_from_flags(const std::vector<std::string>& args
 // Puts the uploaded files' digests (in the order of `files`) into the spec.
 void set_input_digests(EnvironmentBake& bake, const std::vector<v1::Digest>& digests);
 
-extern const char* const kBakeEnvHelp;
+extern const std::string kBakeEnvHelp;
 
 }  // namespace kiln::cli

@@ -66,6 +66,28 @@ std::string format_error(double e) {
   return buf;
 }
 
+std::string json_string(std::string_view s) {
+  std::string out = "\"";
+  for (const char c : s) {
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\r': out += "\\r"; break;
+      case '\t': out += "\\t"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
+          out += buf;
+        } else {
+          out += c;  // UTF-8 passes through; protobuf strings are UTF-8
+        }
+    }
+  }
+  return out + "\"";
+}
+
 std::string format_time(double unix_seconds) {
   if (!(unix_seconds > 0) || !std::isfinite(unix_seconds)) return "-";
   const std::time_t t = static_cast<std::time_t>(unix_seconds);

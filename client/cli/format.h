@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 namespace kiln::cli {
 
@@ -16,6 +17,9 @@ std::string format_count(std::uint64_t n);
 std::string format_bytes(std::uint64_t n);
 // A standard error: "3.1e-04"; "unknown" for a negative one.
 std::string format_error(double e);
+// A string quoted as a JSON string literal, for a message that names a string the server sent ("a\u0001b").
+// Messages keep this escaping (\u0008 rather than nlohmann::json's \b); report.json is written by nlohmann::json.
+std::string json_string(std::string_view s);
 // Local time of a Unix timestamp: "2026-11-22 14:03:07"; "-" for 0.
 std::string format_time(double unix_seconds);
 

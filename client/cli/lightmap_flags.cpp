@@ -4,13 +4,14 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string_view>
 
-#include "client/cli/bake_flags.h"
+#include "client/cli/job_flags.h"
 #include "client/cli/job_file.h"
 
 namespace kiln::cli {
 
-const char* const kBakeLightmapHelp = R"(usage: kiln bake lightmap SCENE [options] --out DIR
+const std::string kBakeLightmapHelp = std::string(R"(usage: kiln bake lightmap SCENE [options] --out DIR
 
 Bakes the lightmaps of a scene on the server: imports SCENE (glTF 2.0, OBJ or FBX, through Assimp: meshes with their
 lightmap UVs from TEXCOORD_1, else TEXCOORD_0; instances; metallic-roughness materials as GGX over Lambert; base-colour
@@ -44,14 +45,7 @@ the bake:
                                used where no flag is given; meshes, instances, materials and textures come from SCENE
   --force EFFECT=on|off        make the planner simulate or skip an effect, by the name its plan reports (repeatable)
   --name TEXT                  a name for people in `kiln jobs` (default: the scene file and its flags)
-options:
-  --out DIR                    wait, then write the outputs and report.json into DIR (created if missing)
-  --wait                       wait and print what the bake cost, without writing the outputs
-                               (neither: print the job id and return; `kiln watch ID` follows it)
-  --priority N                 higher runs first, [-100, 100]; default 0
-  --idempotency-key KEY        resubmitting with the same key and spec returns the first job
-  --server HOST:PORT | unix:PATH, --token-file FILE   see `kiln --help`
-
+)") + kWaitingBakeOptionsHelp + R"(
 example:
   /usr/bin/python3 client/examples/scenes/cornell_box.py out/cornell_box.gltf
   kiln bake lightmap out/cornell_box.gltf --resolution 64 --target-error 0.05 --out out/cornell_box
@@ -63,17 +57,10 @@ const char* const kJobFlags[] = {"--env-constant", "--env-rotation", "--env-inte
                                  "--target-error", "--max-samples",  "--time-limit",    "--seed",
                                  "--padding",      "--max-bounces"};
 
-
-std::uint32_t whole(const Flags& f, const char* flag, std::int64_t lo, std::int64_t hi) {
-  return static_cast<std::uint32_t>(parse_whole(flag, *f.get(flag), lo, hi));
-}
-
 std::string default_name(const Flags& f, const std::string& scene) {
   std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
   if (auto v = f.get("--env")) name += " env=" + std::filesystem::path(*v).filename().string();
-  for (const char* flag : kJobFlags) {
-    if (auto v = f.get(flag)) name += " " + std::string(flag + 2) + "=" + *v;
-  }
+  name += given_flag_words(f, kJobFlags);
   for (const char* flag : {"--radiance", "--ao", "--directional", "--no-preview"}) {
     if (f.has(flag)) name += " " + std::string(flag + 2);
   }
@@ -81,8 +68,18 @@ std::string default_name(const Flags& f, const std::string& scene) {
   return name;
 }
 
-// The job file: a LightmapJob in text format, parsed as the `lightmap` of a JobSpec so that errors carry its lines
-// (the wrapper sits on the first line; only that line's columns shift).
+// The job file is a LightmapJob in text format, parsed as the `lightmap` of a JobSpec so that errors carry its lines:
+// the wrapper sits on the first line, and only that line's columns shift.
+constexpr std::string_view kOverlayWrapper = "lightmap { ";
+
+std::string wrapped_overlay(const std::string& job_text) {
+  return std::string(kOverlayWrapper) + job_text + "\n}";
+}
+
+// A column of the wrapped text's first line, in the job file.
+int unwrapped_column(int column) { return std::max(column - static_cast<int>(kOverlayWrapper.size()), 1); }
+
+// Reads and checks the job file.
 void read_overlay(LightmapBake& bake) {
   std::ifstream in(bake.job_file, std::ios::binary);
   if (!in) throw UsageError("--job: cannot read " + bake.job_file);
@@ -90,16 +87,15 @@ void read_overlay(LightmapBake& bake) {
   s << in.rdbuf();
   bake.job_text = s.str();
   v1::JobSpec wrapped;
-  const std::string wrapper = "lightmap { ";
   try {
-    parse_job_text(wrapper + bake.job_text + "\n}", bake.job_file, wrapped);
+    parse_job_text(wrapped_overlay(bake.job_text), bake.job_file, wrapped);
   } catch (const UsageError& e) {
     // "FILE:1:COLUMN: ..." counts the wrapper's columns on the first line: take them off.
     const std::string text = e.what(), head = bake.job_file + ":1:";
     if (text.rfind(head, 0) != 0) throw;
     const std::size_t end = text.find(':', head.size());
-    const int column = std::stoi(text.substr(head.size(), end - head.size())) - static_cast<int>(wrapper.size());
-    throw UsageError(head + std::to_string(std::max(column, 1)) + text.substr(end));
+    const int column = unwrapped_column(std::stoi(text.substr(head.size(), end - head.size())));
+    throw UsageError(head + std::to_string(column) + text.substr(end));
   }
   bake.overlay = wrapped.lightmap();
   const v1::LightmapJob& o = bake.overlay;
@@ -113,19 +109,37 @@ void read_overlay(LightmapBake& bake) {
   }
 }
 
+// The environment: an image (uploaded later) or a constant, turned and scaled.
+void set_environment(const Flags& f, LightmapBake& bake) {
+  v1::LightmapJob* job = bake.spec.mutable_lightmap();
+  if (f.has("--env") && f.has("--env-constant")) {
+    throw UsageError("--env-constant: give one environment: --env IMAGE or --env-constant R,G,B");
+  }
+  if (f.has("--env-rotation") && !f.has("--env")) {
+    throw UsageError("--env-rotation: turns an --env image; a constant environment has no direction");
+  }
+  v1::SceneEnvironment* env = nullptr;
+  if (auto v = f.get("--env")) {
+    bake.env_file = *v;
+    env = job->mutable_environment();
+    env->mutable_image();  // its digest once uploaded
+  }
+  if (auto v = f.get("--env-constant")) {
+    env = job->mutable_environment();
+    parse_color("--env-constant", *v, 1e6, env->mutable_constant());
+  }
+  if (auto v = f.get("--env-rotation")) env->set_rotation_degrees(parse_number_in("--env-rotation", *v, -360, 360));
+  if (auto v = f.get("--env-intensity")) {
+    if (!env) throw UsageError("--env-intensity: multiplies an environment: add --env IMAGE or --env-constant");
+    env->set_intensity(parse_number_in("--env-intensity", *v, 0, 1e6, true));
+  }
+}
+
 }  // namespace
 
 std::vector<FlagSpec> bake_lightmap_flag_specs() {
-  std::vector<FlagSpec> specs = global_flag_specs();
-  for (const char* flag : {"--name", "--out", "--priority", "--idempotency-key", "--env", "--job"}) {
-    specs.push_back({flag});
-  }
-  for (const char* flag : kJobFlags) specs.push_back({flag});
-  for (const char* flag : {"--radiance", "--ao", "--directional", "--no-preview", "--wait"}) {
-    specs.push_back({flag, false});
-  }
-  specs.push_back({"--force", true, true});
-  return specs;
+  return bake_flag_specs({"--name", "--out", "--priority", "--idempotency-key", "--env", "--job"}, kJobFlags,
+                         {"--radiance", "--ao", "--directional", "--no-preview", "--wait"});
 }
 
 LightmapBake lightmap_bake_from_flags(const std::vector<std::string>& args) {
@@ -148,30 +162,10 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
   }
   v1::LightmapJob* job = bake.spec.mutable_lightmap();
 
-  if (f.has("--env") && f.has("--env-constant")) {
-    throw UsageError("--env-constant: give one environment: --env IMAGE or --env-constant R,G,B");
-  }
-  if (f.has("--env-rotation") && !f.has("--env")) {
-    throw UsageError("--env-rotation: turns an --env image; a constant environment has no direction");
-  }
-  v1::SceneEnvironment* env = nullptr;
-  if (auto v = f.get("--env")) {
-    bake.env_file = *v;
-    env = job->mutable_environment();
-    env->mutable_image();  // its digest once uploaded
-  }
-  if (auto v = f.get("--env-constant")) {
-    env = job->mutable_environment();
-    parse_color("--env-constant", *v, 1e6, env->mutable_constant());
-  }
-  if (auto v = f.get("--env-rotation")) env->set_rotation_degrees(parse_number_in("--env-rotation", *v, -360, 360));
-  if (auto v = f.get("--env-intensity")) {
-    if (!env) throw UsageError("--env-intensity: multiplies an environment: add --env IMAGE or --env-constant");
-    env->set_intensity(parse_number_in("--env-intensity", *v, 0, 1e6, true));
-  }
-  if (f.has("--resolution")) job->set_resolution(whole(f, "--resolution", 4, 8192));
-  if (f.has("--padding")) job->set_padding(whole(f, "--padding", 0, 64));
-  if (f.has("--max-bounces")) job->set_max_bounces(whole(f, "--max-bounces", 0, 1024));
+  set_environment(f, bake);
+  if (f.has("--resolution")) job->set_resolution(whole_flag(f, "--resolution", 4, 8192));
+  if (f.has("--padding")) job->set_padding(whole_flag(f, "--padding", 0, 64));
+  if (f.has("--max-bounces")) job->set_max_bounces(whole_flag(f, "--max-bounces", 0, 1024));
   if (f.has("--radiance")) job->set_radiance(true);
   if (f.has("--ao")) job->set_ao(true);
   if (f.has("--directional")) job->set_directional(true);
@@ -183,12 +177,7 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
   }
   if (auto v = f.get("--target-error")) q->set_target_error(parse_number_in("--target-error", *v, 0, 1.0, true));
   if (auto v = f.get("--time-limit")) q->set_time_limit_seconds(parse_number_in("--time-limit", *v, 0, 604800, true));
-  if (auto v = f.get("--seed")) {
-    q->set_seed(static_cast<std::uint64_t>(parse_whole("--seed", *v, 0, std::int64_t{1} << 53)));
-  }
-  if (!q->has_samples() && !q->has_target_error() && !q->has_time_limit_seconds() && q->seed() == 0) {
-    bake.spec.clear_quality();
-  }
+  set_seed_and_drop_empty_quality(f, bake.spec);
   add_forced_effects(f, bake.spec);
   set_name(f, bake.spec, default_name(f, bake.scene_file));
   return bake;
@@ -235,14 +224,9 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
     if (i < bake.imported_lights || bake.job_file.empty()) return bake.scene_file;
   }
   if (!bake.job_file.empty()) {
-    // The job file's fields, located in its text ("lightmap { " shifts only the first line's columns).
-    const std::string wrapper = "lightmap { ";
-    if (auto at = locate_field(wrapper + bake.job_text + "\n}", field)) {
-      // The wrapper shifts the first line's columns.
-      if (at->rfind("1:", 0) == 0) {
-        const int column = std::stoi(at->substr(2)) - static_cast<int>(wrapper.size());
-        *at = "1:" + std::to_string(std::max(column, 1));
-      }
+    // The job file's fields, located in its text.
+    if (auto at = locate_field(wrapped_overlay(bake.job_text), field)) {
+      if (at->rfind("1:", 0) == 0) *at = "1:" + std::to_string(unwrapped_column(std::stoi(at->substr(2))));
       return bake.job_file + ":" + *at;
     }
     return bake.job_file;

@@ -39,6 +39,6 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported);
 // environment image or the job file (with its line when it wrote the field).
 std::string lightmap_field_origin(const LightmapBake& bake, const std::string& field_path);
 
-extern const char* const kBakeLightmapHelp;
+extern const std::string kBakeLightmapHelp;
 
 }  // namespace kiln::cli

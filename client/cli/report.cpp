@@ -1,7 +1,7 @@
 #include "client/cli/report.h"
 
 #include <cmath>
-#include <cstdio>
+#include <nlohmann/json.hpp>
 
 #include "client/cli/format.h"
 #include "client/cli/progress.h"
@@ -10,70 +10,84 @@
 namespace kiln::cli {
 namespace {
 
+using Json = nlohmann::ordered_json;
+
 // JSON has no NaN or infinity: an unknown figure is null.
-std::string json_number(double v) { return std::isfinite(v) ? format_number(v) : "null"; }
+Json number_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+
+// A string as JSON; bytes that are not UTF-8 (protobuf strings are) become U+FFFD rather than an exception.
+std::string dumped(const Json& v) { return v.dump(-1, ' ', false, Json::error_handler_t::replace); }
+
+// A value on one line, objects as {"key": value, ...}: the spacing of the reports kiln has always written (the
+// compact dump has none after ':' and ',').
+std::string one_line(const Json& v) {
+  if (!v.is_object() || v.empty()) return dumped(v);
+  std::string s;
+  for (const auto& item : v.items()) s += (s.empty() ? "{" : ", ") + dumped(item.key()) + ": " + one_line(item.value());
+  return s + "}";
+}
+
+// An object a key a line, the entries of a non-empty array a line each.
+std::string laid_out(const Json& report) {
+  std::string s = "{";
+  for (const auto& item : report.items()) {
+    s += (s.size() == 1 ? "\n  " : ",\n  ") + dumped(item.key()) + ": ";
+    const Json& value = item.value();
+    if (!value.is_array() || value.empty()) {
+      s += one_line(value);
+      continue;
+    }
+    for (std::size_t i = 0; i < value.size(); ++i) s += (i ? ",\n    " : "[\n    ") + one_line(value[i]);
+    s += "\n  ]";
+  }
+  return s + "\n}\n";
+}
+
+Json plan_json(const v1::BakeReport& b) {
+  Json plan = Json::array();
+  for (const auto& d : b.plan()) {
+    plan.push_back({{"effect", d.effect()}, {"enabled", d.enabled()}, {"forced", d.forced()}, {"reason", d.reason()}});
+  }
+  return plan;
+}
+
+Json outputs_json(const v1::JobResult& r) {
+  Json outputs = Json::array();
+  for (const auto& o : r.outputs()) {
+    outputs.push_back({{"name", o.name()},
+                       {"media_type", o.media_type()},
+                       {"color_space", o.color_space()},
+                       {"sha256", o.digest().sha256()},
+                       {"size", o.digest().size()},
+                       {"description", o.description()}});
+  }
+  return outputs;
+}
 
 }  // namespace
 
-std::string json_string(std::string_view s) {
-  std::string out = "\"";
-  for (const char c : s) {
-    switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
-          out += buf;
-        } else {
-          out += c;  // UTF-8 passes through; protobuf strings are UTF-8
-        }
-    }
-  }
-  return out + "\"";
-}
-
 std::string result_json(const v1::JobResult& r) {
   const v1::BakeReport& b = r.report();
-  std::string j = "{\n";
-  j += "  \"job_id\": " + json_string(r.job_id()) + ",\n";
-  j += "  \"name\": " + json_string(r.name()) + ",\n";
-  j += "  \"state\": " + json_string(state_name(r.state())) + ",\n";
+  Json j;
+  j["job_id"] = r.job_id();
+  j["name"] = r.name();
+  j["state"] = state_name(r.state());
   if (r.has_error()) {
-    j += "  \"error\": {\"code\": " + json_string(v1::Error::Code_Name(r.error().code())) +
-         ", \"message\": " + json_string(r.error().message()) + ", \"field\": " + json_string(r.error().field()) +
-         "},\n";
+    j["error"] = {{"code", v1::Error::Code_Name(r.error().code())},
+                  {"message", r.error().message()},
+                  {"field", r.error().field()}};
   }
-  j += "  \"submitted_unix\": " + json_number(r.submitted_unix()) + ",\n";
-  j += "  \"finished_unix\": " + json_number(r.finished_unix()) + ",\n";
-  j += "  \"samples\": " + std::to_string(b.samples()) + ",\n";
-  j += "  \"rays\": " + std::to_string(b.rays()) + ",\n";
-  j += "  \"seconds\": " + json_number(b.seconds()) + ",\n";
-  j += "  \"error_estimate\": " + json_number(b.error_estimate()) + ",\n";
-  j += std::string("  \"cache_hit\": ") + (b.cache_hit() ? "true" : "false") + ",\n";
-  j += "  \"baker_version\": " + json_string(b.baker_version()) + ",\n";
-  j += "  \"plan\": [";
-  for (int i = 0; i < b.plan_size(); ++i) {
-    const auto& d = b.plan(i);
-    j += std::string(i ? "," : "") + "\n    {\"effect\": " + json_string(d.effect()) +
-         ", \"enabled\": " + (d.enabled() ? "true" : "false") + ", \"forced\": " + (d.forced() ? "true" : "false") +
-         ", \"reason\": " + json_string(d.reason()) + "}";
-  }
-  j += b.plan_size() ? "\n  ],\n" : "],\n";
-  j += "  \"outputs\": [";
-  for (int i = 0; i < r.outputs_size(); ++i) {
-    const auto& o = r.outputs(i);
-    j += std::string(i ? "," : "") + "\n    {\"name\": " + json_string(o.name()) +
-         ", \"media_type\": " + json_string(o.media_type()) + ", \"color_space\": " + json_string(o.color_space()) +
-         ", \"sha256\": " + json_string(o.digest().sha256()) + ", \"size\": " + std::to_string(o.digest().size()) +
-         ", \"description\": " + json_string(o.description()) + "}";
-  }
-  j += r.outputs_size() ? "\n  ]\n" : "]\n";
-  return j + "}\n";
+  j["submitted_unix"] = number_or_null(r.submitted_unix());
+  j["finished_unix"] = number_or_null(r.finished_unix());
+  j["samples"] = b.samples();
+  j["rays"] = b.rays();
+  j["seconds"] = number_or_null(b.seconds());
+  j["error_estimate"] = number_or_null(b.error_estimate());
+  j["cache_hit"] = b.cache_hit();
+  j["baker_version"] = b.baker_version();
+  j["plan"] = plan_json(b);
+  j["outputs"] = outputs_json(r);
+  return laid_out(j);
 }
 
 std::optional<std::string> report_json_for(const v1::JobResult& r) {

@@ -13,9 +13,6 @@ class JobResult;
 
 namespace kiln::cli {
 
-// A JSON string literal, quotes included.
-std::string json_string(std::string_view s);
-
 // The result as JSON, from its fields: job, state, cost (samples, rays, seconds, error estimate, cache hit), the
 // planner's decisions and the outputs with their digests.
 std::string result_json(const v1::JobResult& result);
