@@ -170,12 +170,12 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
   } catch (const std::exception& e) {
     // Cancelled or removed between the queue and here: nothing to run.
     log_line("job " + id, std::string("not run: ") + e.what());
-    queue_.finish(id, store::Progress{store::JobState::kCancelled, 0, {}, 0, {}, e.what()});
+    queue_.finish(id, store::Progress{store::JobState::cancelled, 0, {}, 0, {}, e.what()});
     return;
   }
   log_line("job " + id, "running (" + record.type + (record.name.empty() ? "" : ", " + record.name) + ", attempt " +
                             std::to_string(record.attempts) + ")");
-  queue_.publish(id, store::Progress{store::JobState::kRunning, 0, {}, 0, {}, "started"});
+  queue_.publish(id, store::Progress{store::JobState::running, 0, {}, 0, {}, "started"});
   try {
     v1::JobSpec spec;
     if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
@@ -189,7 +189,7 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
       const auto now = std::chrono::steady_clock::now();
       if (now - last_publish < std::chrono::milliseconds(100) && p.fraction < 1.0) return;
       last_publish = now;
-      store::Progress progress{store::JobState::kRunning, p.fraction, {}, p.samples, {}, p.stage};
+      store::Progress progress{store::JobState::running, p.fraction, {}, p.samples, {}, p.stage};
       if (p.eta_seconds >= 0) progress.eta_seconds = p.eta_seconds;
       if (p.error_estimate > 0) progress.error_estimate = p.error_estimate;
       queue_.publish(id, progress);
@@ -236,17 +236,17 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     log_line("job " + id, "succeeded in " + std::to_string(seconds) + " s, " + std::to_string(report->samples()) +
                               " samples, error estimate " + std::to_string(report->error_estimate()));
-    queue_.finish(id, store::Progress{store::JobState::kSucceeded, 1.0, 0.0, report->samples(),
+    queue_.finish(id, store::Progress{store::JobState::succeeded, 1.0, 0.0, report->samples(),
                                       report->error_estimate(), "done"});
   } catch (const bake::BakeCancelled&) {
     if (requeue_) {
       db_.mark_queued(id);
       log_line("job " + id, "interrupted by the shutdown; it runs again at the next start");
-      queue_.finish(id, store::Progress{store::JobState::kQueued, 0, {}, 0, {}, "re-queued by a daemon shutdown"});
+      queue_.finish(id, store::Progress{store::JobState::queued, 0, {}, 0, {}, "re-queued by a daemon shutdown"});
     } else {
       db_.mark_cancelled(id);
       log_line("job " + id, "cancelled");
-      queue_.finish(id, store::Progress{store::JobState::kCancelled, 0, {}, 0, {}, "cancelled"});
+      queue_.finish(id, store::Progress{store::JobState::cancelled, 0, {}, 0, {}, "cancelled"});
     }
   } catch (const std::exception& e) {
     try {
@@ -255,7 +255,7 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
       log_line("job " + id, std::string("could not record the failure: ") + e2.what());
     }
     log_line("job " + id, std::string("failed: ") + e.what());
-    queue_.finish(id, store::Progress{store::JobState::kFailed, 0, {}, 0, {}, e.what()});
+    queue_.finish(id, store::Progress{store::JobState::failed, 0, {}, 0, {}, e.what()});
   }
 }
 

@@ -18,18 +18,18 @@ namespace kiln::store {
 
 std::string_view to_string(JobState s) {
   switch (s) {
-    case JobState::kQueued: return "queued";
-    case JobState::kRunning: return "running";
-    case JobState::kSucceeded: return "succeeded";
-    case JobState::kFailed: return "failed";
-    case JobState::kCancelled: return "cancelled";
+    case JobState::queued: return "queued";
+    case JobState::running: return "running";
+    case JobState::succeeded: return "succeeded";
+    case JobState::failed: return "failed";
+    case JobState::cancelled: return "cancelled";
   }
   return "unknown";
 }
 
 std::optional<JobState> parse_job_state(std::string_view s) {
-  for (JobState st : {JobState::kQueued, JobState::kRunning, JobState::kSucceeded, JobState::kFailed,
-                      JobState::kCancelled})
+  for (JobState st : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed,
+                      JobState::cancelled})
     if (s == to_string(st)) return st;
   return std::nullopt;
 }
@@ -63,13 +63,13 @@ constexpr size_t kMaxIdempotencyKey = 256;
 // --- Minimal RAII over the SQLite C API. ----------------------------------------------------------------------
 
 StoreErrc errc_for_sqlite(int rc) {
-  if (rc == SQLITE_CONSTRAINT_UNIQUE || rc == SQLITE_CONSTRAINT_PRIMARYKEY) return StoreErrc::kAlreadyExists;
+  if (rc == SQLITE_CONSTRAINT_UNIQUE || rc == SQLITE_CONSTRAINT_PRIMARYKEY) return StoreErrc::already_exists;
   switch (rc & 0xff) {
-    case SQLITE_FULL: return StoreErrc::kResourceExhausted;
+    case SQLITE_FULL: return StoreErrc::resource_exhausted;
     case SQLITE_CORRUPT:
-    case SQLITE_NOTADB: return StoreErrc::kDataLoss;
-    case SQLITE_CONSTRAINT: return StoreErrc::kInvalidArgument;
-    default: return StoreErrc::kIo;
+    case SQLITE_NOTADB: return StoreErrc::data_loss;
+    case SQLITE_CONSTRAINT: return StoreErrc::invalid_argument;
+    default: return StoreErrc::io;
   }
 }
 
@@ -217,7 +217,7 @@ void check_digests(const std::vector<std::string>& v, const char* field) {
     bool ok = d.size() == 64 &&
               std::all_of(d.begin(), d.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
     if (!ok)
-      throw StoreError(StoreErrc::kInvalidArgument, std::string(field) + "[" + std::to_string(i) + "]: '" +
+      throw StoreError(StoreErrc::invalid_argument, std::string(field) + "[" + std::to_string(i) + "]: '" +
                                                         d.substr(0, 80) +
                                                         "' is not a SHA-256 digest (64 lowercase hex digits)");
   }
@@ -244,7 +244,7 @@ JobRecord row_to_record(const Stmt& s, const fs::path& file) {
   std::string state = s.str(7);
   auto st = parse_job_state(state);
   if (!st)
-    throw StoreError(StoreErrc::kDataLoss, "job database " + file.string() + ": job " + r.id +
+    throw StoreError(StoreErrc::data_loss, "job database " + file.string() + ": job " + r.id +
                                                " has an unknown state '" + state + "'; the file was edited or damaged");
   r.state = *st;
   r.submitted = s.dbl(8);
@@ -310,14 +310,14 @@ JobDb::JobDb(const fs::path& file, JobDbOptions options)
   lock_path += ".lock";
   impl_->lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (impl_->lock_fd < 0)
-    throw StoreError(StoreErrc::kIo, "cannot create lock file " + lock_path.string() + ": " + std::strerror(errno) +
+    throw StoreError(StoreErrc::io, "cannot create lock file " + lock_path.string() + ": " + std::strerror(errno) +
                                          "; check that the store directory exists and is writable");
   if (::flock(impl_->lock_fd, LOCK_EX | LOCK_NB) != 0) {
     char buf[32] = {};
     ssize_t n = ::pread(impl_->lock_fd, buf, sizeof buf - 1, 0);
     std::string holder = n > 0 ? " (pid " + std::string(buf, static_cast<size_t>(n)) + ")" : "";
     while (!holder.empty() && (holder.back() == '\n')) holder.pop_back();
-    throw StoreError(StoreErrc::kFailedPrecondition,
+    throw StoreError(StoreErrc::failed_precondition,
                      "job database " + file_.string() + " is in use by another kilnd process" + holder +
                          "; stop that daemon or give this one another --store directory");
   }
@@ -341,7 +341,7 @@ JobDb::JobDb(const fs::path& file, JobDbOptions options)
     version = static_cast<int>(s.i64(0));
   }
   if (version > kSchemaVersion)
-    throw StoreError(StoreErrc::kFailedPrecondition,
+    throw StoreError(StoreErrc::failed_precondition,
                      "job database " + file_.string() + " has schema version " + std::to_string(version) +
                          ", written by a newer kilnd; this one knows up to version " + std::to_string(kSchemaVersion) +
                          ". Run the newer kilnd, or point --store at another directory");
@@ -349,7 +349,7 @@ JobDb::JobDb(const fs::path& file, JobDbOptions options)
     Stmt s(db, file_, "PRAGMA journal_mode = WAL");
     s.step();
     if (s.str(0) != "wal")
-      throw StoreError(StoreErrc::kIo, "job database " + file_.string() +
+      throw StoreError(StoreErrc::io, "job database " + file_.string() +
                                            ": cannot switch to write-ahead logging (journal mode stays '" + s.str(0) +
                                            "'); the store must be on a local file system");
   }
@@ -366,7 +366,7 @@ JobDb::JobDb(const fs::path& file, JobDbOptions options)
       has_tables = s.i64(0) > 0;
     }
     if (has_tables)
-      throw StoreError(StoreErrc::kFailedPrecondition,
+      throw StoreError(StoreErrc::failed_precondition,
                        "job database " + file_.string() +
                            " is an SQLite database, but not one kilnd created (it has tables and no schema version); "
                            "point --store at another directory");
@@ -407,14 +407,14 @@ std::string shown_id(std::string_view id) { return "job " + std::string(id.subst
 }  // namespace
 
 InsertOutcome JobDb::insert(const NewJob& job) {
-  if (job.type.empty()) throw StoreError(StoreErrc::kInvalidArgument, "job type is empty; name the kind of bake");
+  if (job.type.empty()) throw StoreError(StoreErrc::invalid_argument, "job type is empty; name the kind of bake");
   if (job.spec_key.empty())
-    throw StoreError(StoreErrc::kInvalidArgument, "job spec_key is empty; it must identify the canonical spec");
+    throw StoreError(StoreErrc::invalid_argument, "job spec_key is empty; it must identify the canonical spec");
   if (job.idempotency_key) {
     if (job.idempotency_key->empty())
-      throw StoreError(StoreErrc::kInvalidArgument, "idempotency key is empty; leave it unset or give a value");
+      throw StoreError(StoreErrc::invalid_argument, "idempotency key is empty; leave it unset or give a value");
     if (job.idempotency_key->size() > kMaxIdempotencyKey)
-      throw StoreError(StoreErrc::kInvalidArgument, "idempotency key is " +
+      throw StoreError(StoreErrc::invalid_argument, "idempotency key is " +
                                                         std::to_string(job.idempotency_key->size()) +
                                                         " bytes long; at most " + std::to_string(kMaxIdempotencyKey) +
                                                         " are allowed");
@@ -428,7 +428,7 @@ InsertOutcome JobDb::insert(const NewJob& job) {
   if (job.idempotency_key) {
     if (auto existing = find_by_key_locked(db, file_, *job.idempotency_key)) {
       if (existing->spec_key != job.spec_key)
-        throw StoreError(StoreErrc::kAlreadyExists,
+        throw StoreError(StoreErrc::already_exists,
                          "idempotency key '" + *job.idempotency_key + "' was already used for job " + existing->id +
                              " with a different spec; use a new key for a different job");
       return {std::move(*existing), false};
@@ -446,7 +446,7 @@ InsertOutcome JobDb::insert(const NewJob& job) {
   for (int attempt = 0;; ++attempt) {
     id = new_job_id();
     if (!get_locked(db, file_, id)) break;
-    if (attempt == 8) throw StoreError(StoreErrc::kIo, "cannot draw an unused job id; the random source is broken");
+    if (attempt == 8) throw StoreError(StoreErrc::io, "cannot draw an unused job id; the random source is broken");
   }
   Stmt s(db, file_,
          "INSERT INTO jobs (id, seq, name, type, spec, spec_key, priority, state, submitted, started, finished, "
@@ -456,10 +456,10 @@ InsertOutcome JobDb::insert(const NewJob& job) {
   s.bind(7, int64_t{job.priority}).bind(9, now).bind_opt(12, job.idempotency_key);
   s.bind(13, join_digests(job.input_digests));
   if (job.cached) {
-    s.bind(8, to_string(JobState::kSucceeded)).bind(10, now).bind_blob(11, job.cached->result);
+    s.bind(8, to_string(JobState::succeeded)).bind(10, now).bind_blob(11, job.cached->result);
     s.bind(14, join_digests(job.cached->output_digests)).bind(15, job.cached->source_job_id);
   } else {
-    s.bind(8, to_string(JobState::kQueued)).bind_null(10).bind_null(11).bind(14, std::string_view()).bind_null(15);
+    s.bind(8, to_string(JobState::queued)).bind_null(10).bind_null(11).bind(14, std::string_view()).bind_null(15);
   }
   s.run();
   if (job.cached) {
@@ -502,11 +502,11 @@ JobRecord transition(sqlite3* db, const fs::path& file, std::string_view id, std
                      JobState to, Update&& update) {
   Transaction t(db, file);
   auto rec = get_locked(db, file, id);
-  if (!rec) throw StoreError(StoreErrc::kNotFound, "no " + shown_id(id) + " in the job database");
+  if (!rec) throw StoreError(StoreErrc::not_found, "no " + shown_id(id) + " in the job database");
   if (std::find(from.begin(), from.end(), rec->state) == from.end()) {
     std::string allowed;
     for (JobState s : from) allowed += (allowed.empty() ? "" : " or ") + std::string(to_string(s));
-    throw StoreError(StoreErrc::kFailedPrecondition, "cannot mark " + shown_id(id) + " " +
+    throw StoreError(StoreErrc::failed_precondition, "cannot mark " + shown_id(id) + " " +
                                                          std::string(to_string(to)) + ": it is " +
                                                          std::string(to_string(rec->state)) + ", not " + allowed);
   }
@@ -520,7 +520,7 @@ JobRecord transition(sqlite3* db, const fs::path& file, std::string_view id, std
 
 JobRecord JobDb::mark_running(std::string_view id) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kQueued}, JobState::kRunning, [&] {
+  return transition(impl_->db, file_, id, {JobState::queued}, JobState::running, [&] {
     Stmt s(impl_->db, file_,
            "UPDATE jobs SET state = 'running', started = ?2, attempts = attempts + 1 WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).run();
@@ -531,7 +531,7 @@ JobRecord JobDb::mark_succeeded(std::string_view id, std::string_view result,
                                 const std::vector<std::string>& output_digests) {
   check_digests(output_digests, "output_digests");
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kRunning}, JobState::kSucceeded, [&] {
+  return transition(impl_->db, file_, id, {JobState::running}, JobState::succeeded, [&] {
     Stmt s(impl_->db, file_,
            "UPDATE jobs SET state = 'succeeded', finished = ?2, last_used = ?2, result = ?3, output_digests = ?4, "
            "error = '' WHERE id = ?1");
@@ -541,7 +541,7 @@ JobRecord JobDb::mark_succeeded(std::string_view id, std::string_view result,
 
 JobRecord JobDb::mark_failed(std::string_view id, std::string_view error) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kQueued, JobState::kRunning}, JobState::kFailed, [&] {
+  return transition(impl_->db, file_, id, {JobState::queued, JobState::running}, JobState::failed, [&] {
     Stmt s(impl_->db, file_, "UPDATE jobs SET state = 'failed', finished = ?2, error = ?3 WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).bind(3, error).run();
   });
@@ -549,7 +549,7 @@ JobRecord JobDb::mark_failed(std::string_view id, std::string_view error) {
 
 JobRecord JobDb::mark_cancelled(std::string_view id) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kQueued, JobState::kRunning}, JobState::kCancelled, [&] {
+  return transition(impl_->db, file_, id, {JobState::queued, JobState::running}, JobState::cancelled, [&] {
     Stmt s(impl_->db, file_, "UPDATE jobs SET state = 'cancelled', finished = ?2 WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).run();
   });
@@ -557,7 +557,7 @@ JobRecord JobDb::mark_cancelled(std::string_view id) {
 
 JobRecord JobDb::mark_queued(std::string_view id) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kRunning}, JobState::kQueued, [&] {
+  return transition(impl_->db, file_, id, {JobState::running}, JobState::queued, [&] {
     // Handed back by a graceful shutdown: that run was not a crash, so it does not count against the job.
     Stmt s(impl_->db, file_,
            "UPDATE jobs SET state = 'queued', started = NULL, attempts = MAX(attempts - 1, 0) WHERE id = ?1");
@@ -611,7 +611,7 @@ Recovery JobDb::recover_unfinished() {
     while (s.step()) out.queued.push_back(row_to_record(s, file_));
   }
   for (const auto& r : running)
-    if (auto rec = get_locked(db, file_, r.id); rec && rec->state == JobState::kFailed)
+    if (auto rec = get_locked(db, file_, r.id); rec && rec->state == JobState::failed)
       out.gave_up.push_back(std::move(*rec));
   t.commit();
   return out;
@@ -626,14 +626,14 @@ JobCounts JobDb::counts() {
     uint64_t n = static_cast<uint64_t>(s.i64(1));
     if (!st) continue;
     switch (*st) {
-      case JobState::kQueued: c.queued = n; break;
-      case JobState::kRunning: c.running = n; break;
-      case JobState::kSucceeded:
+      case JobState::queued: c.queued = n; break;
+      case JobState::running: c.running = n; break;
+      case JobState::succeeded:
         c.succeeded = n;
         c.cache_hits = static_cast<uint64_t>(s.i64(2));
         break;
-      case JobState::kFailed: c.failed = n; break;
-      case JobState::kCancelled: c.cancelled = n; break;
+      case JobState::failed: c.failed = n; break;
+      case JobState::cancelled: c.cancelled = n; break;
     }
   }
   return c;
