@@ -7,6 +7,7 @@
 #include "daemon/log.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/store/job_db.h"
+#include "daemon/store/retention.h"
 #include "daemon/translate.h"
 #include "daemon/workers.h"
 #include "proto/digest.h"

@@ -56,7 +56,7 @@ StoreErrc errc_for(int err) { return (err == ENOSPC || err == EDQUOT) ? StoreErr
 
 [[noreturn]] void throw_errno(int err, const std::string& what) {
   std::string msg = what + ": " + std::strerror(err);
-  if (err == ENOSPC || err == EDQUOT) msg += "; free disk space or lower the store's retention limit";
+  if (err == ENOSPC || err == EDQUOT) msg += kDiskFullAdvice;
   throw StoreError(errc_for(err), msg);
 }
 
@@ -404,7 +404,31 @@ namespace {
   throw StoreError(StoreErrc::not_found, describe(id) + " is not in the store; upload it (or re-run the job that "
                                                         "produced it) first");
 }
+// Fills `out` from the file at `offset`; returns how many bytes it got (fewer where the file ends).
+size_t read_at(int fd, const fs::path& file, uint64_t offset, std::string& out) {
+  size_t done = 0;
+  while (done < out.size()) {
+    ssize_t n = ::pread(fd, out.data() + done, out.size() - done, static_cast<off_t>(offset + done));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw_errno(errno, "cannot read " + file.string());
+    }
+    if (n == 0) break;
+    done += static_cast<size_t>(n);
+  }
+  return done;
+}
+
 }  // namespace
+
+void BlobStore::refuse_size(const BlobId& id, const fs::path& file) {
+  FileDigest got = sha256_file(file);
+  if (got.digest == id.digest)
+    throw StoreError(StoreErrc::not_found, "blob " + id.digest + " is stored with " + std::to_string(got.size) +
+                                               " bytes, not " + std::to_string(id.size) +
+                                               "; ask for it with its real size");
+  quarantine_and_throw(id, "its file holds " + std::to_string(got.size) + " bytes and hashes to " + got.digest);
+}
 
 std::string BlobStore::read(const BlobId& id) {
   check_declared(id);
@@ -419,25 +443,10 @@ std::string BlobStore::read(const BlobId& id) {
   if (::fstat(fd, &st) != 0) throw_errno(errno, "cannot inspect " + file.string());
   if (static_cast<uint64_t>(st.st_size) != id.size) {
     guard.close();
-    // Either the caller has the size wrong or the file is damaged; the hash decides which.
-    FileDigest got = sha256_file(file);
-    if (got.digest == id.digest)
-      throw StoreError(StoreErrc::not_found, "blob " + id.digest + " is stored with " + std::to_string(got.size) +
-                                                 " bytes, not " + std::to_string(id.size) +
-                                                 "; ask for it with its real size");
-    quarantine_and_throw(id, "its file holds " + std::to_string(got.size) + " bytes and hashes to " + got.digest);
+    refuse_size(id, file);
   }
   std::string out(id.size, '\0');
-  size_t done = 0;
-  while (done < out.size()) {
-    ssize_t n = ::pread(fd, out.data() + done, out.size() - done, static_cast<off_t>(done));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw_errno(errno, "cannot read " + file.string());
-    }
-    if (n == 0) break;
-    done += static_cast<size_t>(n);
-  }
+  const size_t done = read_at(fd, file, 0, out);
   guard.close();
   // Hash what is returned, not a second read of the file: the bytes handed out are the bytes checked.
   if (done != out.size()) quarantine_and_throw(id, "its file ended after " + std::to_string(done) + " bytes");
@@ -456,14 +465,7 @@ std::string BlobStore::read_range(const BlobId& id, uint64_t offset, uint64_t le
   fs::path file = blob_path(id.digest);
   FileStat st = stat_path(file);
   if (!st.exists) throw_not_found(id);
-  if (st.size != id.size) {
-    FileDigest got = sha256_file(file);
-    if (got.digest == id.digest)
-      throw StoreError(StoreErrc::not_found, "blob " + id.digest + " is stored with " + std::to_string(got.size) +
-                                                 " bytes, not " + std::to_string(id.size) +
-                                                 "; ask for it with its real size");
-    quarantine_and_throw(id, "its file holds " + std::to_string(got.size) + " bytes and hashes to " + got.digest);
-  }
+  if (st.size != id.size) refuse_size(id, file);
   if (offset > id.size)
     throw StoreError(StoreErrc::out_of_range, "read of " + describe(id) + " at offset " + std::to_string(offset) +
                                                  " is past its end");
@@ -476,16 +478,7 @@ std::string BlobStore::read_range(const BlobId& id, uint64_t offset, uint64_t le
   }
   Fd guard(fd);
   std::string out(n_want, '\0');
-  size_t done = 0;
-  while (done < out.size()) {
-    ssize_t n = ::pread(fd, out.data() + done, out.size() - done, static_cast<off_t>(offset + done));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw_errno(errno, "cannot read " + file.string());
-    }
-    if (n == 0) break;
-    done += static_cast<size_t>(n);
-  }
+  const size_t done = read_at(fd, file, offset, out);
   guard.close();
   if (done != out.size()) quarantine_and_throw(id, "its file ended after " + std::to_string(offset + done) + " bytes");
   if (offset == 0) touch(id);  // once per fetch, not once per chunk

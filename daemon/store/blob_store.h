@@ -37,6 +37,9 @@ enum class StoreErrc {
 };
 std::string_view to_string(StoreErrc code);
 
+// What a message about a full disk adds: what the operator can do.
+inline constexpr char kDiskFullAdvice[] = "; free disk space or lower the store's retention limit";
+
 // Every error of the store: a code for programs and a message for people that names what failed and what to do.
 class StoreError : public std::runtime_error {
  public:
@@ -142,6 +145,9 @@ class BlobStore {
   // Hashes the stored file unless this process already did; on damage, quarantines it and throws data_loss.
   void verify_once(const BlobId& id, const std::filesystem::path& file);
   [[noreturn]] void quarantine_and_throw(const BlobId& id, const std::string& why);
+  // A stored file whose size is not id.size: either the caller has the size wrong (not_found, naming the real size)
+  // or the file is damaged (quarantined, data_loss); the hash decides which.
+  [[noreturn]] void refuse_size(const BlobId& id, const std::filesystem::path& file);
 
   std::filesystem::path dir_;
   BlobStoreOptions options_;

@@ -2,7 +2,6 @@
 
 #include <fcntl.h>
 #include <openssl/rand.h>
-#include <sqlite3.h>
 #include <sys/file.h>
 #include <unistd.h>
 
@@ -12,9 +11,15 @@
 #include <ctime>
 #include <random>
 
+#include "daemon/store/sqlite.h"
+
 namespace fs = std::filesystem;
 
 namespace kiln::store {
+
+using sqlite::exec;
+using sqlite::Stmt;
+using sqlite::Transaction;
 
 std::string_view to_string(JobState s) {
   switch (s) {
@@ -59,135 +64,6 @@ std::string new_job_id() {
 namespace {
 
 constexpr size_t kMaxIdempotencyKey = 256;
-
-// --- Minimal RAII over the SQLite C API. ----------------------------------------------------------------------
-
-StoreErrc errc_for_sqlite(int rc) {
-  if (rc == SQLITE_CONSTRAINT_UNIQUE || rc == SQLITE_CONSTRAINT_PRIMARYKEY) return StoreErrc::already_exists;
-  switch (rc & 0xff) {
-    case SQLITE_FULL: return StoreErrc::resource_exhausted;
-    case SQLITE_CORRUPT:
-    case SQLITE_NOTADB: return StoreErrc::data_loss;
-    case SQLITE_CONSTRAINT: return StoreErrc::invalid_argument;
-    default: return StoreErrc::io;
-  }
-}
-
-[[noreturn]] void throw_sqlite(sqlite3* db, int rc, const fs::path& file, const std::string& doing) {
-  std::string msg = "job database " + file.string() + ": " + doing + " failed: " +
-                    (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
-  switch (rc & 0xff) {
-    case SQLITE_FULL: msg += "; free disk space or lower the store's retention limit"; break;
-    case SQLITE_CORRUPT:
-    case SQLITE_NOTADB:
-      msg += "; the file is damaged or is not a kiln job database. Move it aside (kilnd will create a new one) "
-             "or point --store at another directory";
-      break;
-    case SQLITE_READONLY:
-    case SQLITE_CANTOPEN:
-    case SQLITE_PERM: msg += "; check the permissions of the store directory"; break;
-    default: break;
-  }
-  throw StoreError(errc_for_sqlite(rc), msg);
-}
-
-class Stmt {
- public:
-  Stmt(sqlite3* db, const fs::path& file, const char* sql) : db_(db), file_(file) {
-    int rc = sqlite3_prepare_v2(db, sql, -1, &st_, nullptr);
-    if (rc != SQLITE_OK) throw_sqlite(db, rc, file, "preparing a query");
-  }
-  ~Stmt() { sqlite3_finalize(st_); }
-  Stmt(const Stmt&) = delete;
-  Stmt& operator=(const Stmt&) = delete;
-
-  Stmt& bind(int i, std::string_view v) {
-    // A null pointer would bind NULL; an empty string is a value.
-    check(sqlite3_bind_text(st_, i, v.empty() ? "" : v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
-    return *this;
-  }
-  Stmt& bind_blob(int i, std::string_view v) {
-    // A zero-length blob must still be a blob, not NULL: an empty spec or result is a value.
-    check(sqlite3_bind_blob(st_, i, v.empty() ? "" : v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
-    return *this;
-  }
-  Stmt& bind(int i, int64_t v) {
-    check(sqlite3_bind_int64(st_, i, v));
-    return *this;
-  }
-  Stmt& bind(int i, double v) {
-    check(sqlite3_bind_double(st_, i, v));
-    return *this;
-  }
-  Stmt& bind_null(int i) {
-    check(sqlite3_bind_null(st_, i));
-    return *this;
-  }
-  template <class T>
-  Stmt& bind_opt(int i, const std::optional<T>& v) {
-    return v ? bind(i, *v) : bind_null(i);
-  }
-
-  // True while there is a row.
-  bool step() {
-    int rc = sqlite3_step(st_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    throw_sqlite(db_, rc, file_, "a query");
-  }
-  void run() {
-    while (step()) {
-    }
-  }
-
-  bool is_null(int c) const { return sqlite3_column_type(st_, c) == SQLITE_NULL; }
-  int64_t i64(int c) const { return sqlite3_column_int64(st_, c); }
-  double dbl(int c) const { return sqlite3_column_double(st_, c); }
-  std::string str(int c) const {
-    const void* p = sqlite3_column_blob(st_, c);
-    int n = sqlite3_column_bytes(st_, c);
-    return p ? std::string(static_cast<const char*>(p), static_cast<size_t>(n)) : std::string();
-  }
-  std::optional<std::string> opt_str(int c) const { return is_null(c) ? std::nullopt : std::optional(str(c)); }
-  std::optional<double> opt_dbl(int c) const { return is_null(c) ? std::nullopt : std::optional(dbl(c)); }
-
- private:
-  void check(int rc) {
-    if (rc != SQLITE_OK) throw_sqlite(db_, rc, file_, "binding a query parameter");
-  }
-  sqlite3* db_;
-  const fs::path& file_;
-  sqlite3_stmt* st_ = nullptr;
-};
-
-void exec(sqlite3* db, const fs::path& file, const char* sql, const char* doing) {
-  char* err = nullptr;
-  int rc = sqlite3_exec(db, sql, nullptr, nullptr, &err);
-  if (rc != SQLITE_OK) {
-    sqlite3_free(err);
-    throw_sqlite(db, rc, file, doing);
-  }
-}
-
-// BEGIN IMMEDIATE … COMMIT, rolled back if anything throws in between.
-class Transaction {
- public:
-  Transaction(sqlite3* db, const fs::path& file) : db_(db), file_(file) {
-    exec(db, file, "BEGIN IMMEDIATE", "starting a transaction");
-  }
-  ~Transaction() {
-    if (!done_) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-  }
-  void commit() {
-    exec(db_, file_, "COMMIT", "committing a transaction");
-    done_ = true;
-  }
-
- private:
-  sqlite3* db_;
-  const fs::path& file_;
-  bool done_ = false;
-};
 
 // Digest lists are stored as comma-separated lowercase hex: plain text, readable with the sqlite3 shell.
 std::string join_digests(const std::vector<std::string>& v) {
@@ -292,88 +168,97 @@ CREATE INDEX jobs_last_used ON jobs (state, last_used);
 PRAGMA user_version = 1;
 )sql";
 
+// One process per database: two daemons would both "recover" and run the same jobs. Returns the lock file's
+// descriptor, holding the lock until it is closed.
+int lock_database(const fs::path& file) {
+  fs::path lock_path = file;
+  lock_path += ".lock";
+  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0)
+    throw StoreError(StoreErrc::io, "cannot create lock file " + lock_path.string() + ": " + std::strerror(errno) +
+                                        "; check that the store directory exists and is writable");
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    char buf[32] = {};
+    ssize_t n = ::pread(fd, buf, sizeof buf - 1, 0);
+    ::close(fd);
+    std::string holder = n > 0 ? " (pid " + std::string(buf, static_cast<size_t>(n)) + ")" : "";
+    while (!holder.empty() && (holder.back() == '\n')) holder.pop_back();
+    throw StoreError(StoreErrc::failed_precondition,
+                     "job database " + file.string() + " is in use by another kilnd process" + holder +
+                         "; stop that daemon or give this one another --store directory");
+  }
+  std::string pid = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(fd, 0) == 0) {
+    [[maybe_unused]] ssize_t w = ::pwrite(fd, pid.data(), pid.size(), 0);  // a hint for people only
+  }
+  return fd;
+}
+
+// The first read of the file: a file that is not a database fails here, before anything is written to it.
+int schema_version_of(sqlite3* db, const fs::path& file) {
+  Stmt s(db, file, "PRAGMA user_version");
+  s.step();
+  const int version = static_cast<int>(s.i64(0));
+  if (version > JobDb::kSchemaVersion)
+    throw StoreError(StoreErrc::failed_precondition,
+                     "job database " + file.string() + " has schema version " + std::to_string(version) +
+                         ", written by a newer kilnd; this one knows up to version " +
+                         std::to_string(JobDb::kSchemaVersion) +
+                         ". Run the newer kilnd, or point --store at another directory");
+  return version;
+}
+
+void set_durability(sqlite3* db, const fs::path& file) {
+  {
+    Stmt s(db, file, "PRAGMA journal_mode = WAL");
+    s.step();
+    if (s.str(0) != "wal")
+      throw StoreError(StoreErrc::io, "job database " + file.string() +
+                                          ": cannot switch to write-ahead logging (journal mode stays '" + s.str(0) +
+                                          "'); the store must be on a local file system");
+  }
+  // FULL rather than NORMAL: in WAL mode NORMAL survives a process crash but may lose the last commits on power
+  // loss, and a lost commit here is a submit the client was told succeeded. Commits are a handful per job, so the
+  // fsync per commit costs nothing next to a bake.
+  exec(db, file, "PRAGMA synchronous = FULL", "setting synchronous mode");
+}
+
+// A new file gets the schema; an SQLite file with tables but no version is someone else's and is left alone.
+void create_schema(sqlite3* db, const fs::path& file) {
+  bool has_tables;
+  {
+    Stmt s(db, file, "SELECT count(*) FROM sqlite_master");
+    s.step();
+    has_tables = s.i64(0) > 0;
+  }
+  if (has_tables)
+    throw StoreError(StoreErrc::failed_precondition,
+                     "job database " + file.string() +
+                         " is an SQLite database, but not one kilnd created (it has tables and no schema version); "
+                         "point --store at another directory");
+  Transaction t(db, file);
+  exec(db, file, kSchemaV1, "creating the schema");
+  t.commit();
+}
+
 }  // namespace
 
 struct JobDb::Impl {
   sqlite3* db = nullptr;
   int lock_fd = -1;
   ~Impl() {
-    if (db) sqlite3_close_v2(db);
+    if (db) sqlite::close(db);
     if (lock_fd >= 0) ::close(lock_fd);  // releases the flock
   }
 };
 
 JobDb::JobDb(const fs::path& file, JobDbOptions options)
     : impl_(std::make_unique<Impl>()), file_(file), options_(options) {
-  // One process per database: two daemons would both "recover" and run the same jobs.
-  fs::path lock_path = file_;
-  lock_path += ".lock";
-  impl_->lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (impl_->lock_fd < 0)
-    throw StoreError(StoreErrc::io, "cannot create lock file " + lock_path.string() + ": " + std::strerror(errno) +
-                                         "; check that the store directory exists and is writable");
-  if (::flock(impl_->lock_fd, LOCK_EX | LOCK_NB) != 0) {
-    char buf[32] = {};
-    ssize_t n = ::pread(impl_->lock_fd, buf, sizeof buf - 1, 0);
-    std::string holder = n > 0 ? " (pid " + std::string(buf, static_cast<size_t>(n)) + ")" : "";
-    while (!holder.empty() && (holder.back() == '\n')) holder.pop_back();
-    throw StoreError(StoreErrc::failed_precondition,
-                     "job database " + file_.string() + " is in use by another kilnd process" + holder +
-                         "; stop that daemon or give this one another --store directory");
-  }
-  std::string pid = std::to_string(::getpid()) + "\n";
-  if (::ftruncate(impl_->lock_fd, 0) == 0) {
-    [[maybe_unused]] ssize_t w = ::pwrite(impl_->lock_fd, pid.data(), pid.size(), 0);  // a hint for people only
-  }
-
-  int rc = sqlite3_open_v2(file_.c_str(), &impl_->db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                           nullptr);
-  if (rc != SQLITE_OK) throw_sqlite(impl_->db, rc, file_, "opening");
-  sqlite3* db = impl_->db;
-  sqlite3_extended_result_codes(db, 1);
-  sqlite3_busy_timeout(db, 5000);
-
-  // The first read of the file: a file that is not a database fails here, before anything is written to it.
-  int version;
-  {
-    Stmt s(db, file_, "PRAGMA user_version");
-    s.step();
-    version = static_cast<int>(s.i64(0));
-  }
-  if (version > kSchemaVersion)
-    throw StoreError(StoreErrc::failed_precondition,
-                     "job database " + file_.string() + " has schema version " + std::to_string(version) +
-                         ", written by a newer kilnd; this one knows up to version " + std::to_string(kSchemaVersion) +
-                         ". Run the newer kilnd, or point --store at another directory");
-  {
-    Stmt s(db, file_, "PRAGMA journal_mode = WAL");
-    s.step();
-    if (s.str(0) != "wal")
-      throw StoreError(StoreErrc::io, "job database " + file_.string() +
-                                           ": cannot switch to write-ahead logging (journal mode stays '" + s.str(0) +
-                                           "'); the store must be on a local file system");
-  }
-  // FULL rather than NORMAL: in WAL mode NORMAL survives a process crash but may lose the last commits on power
-  // loss, and a lost commit here is a submit the client was told succeeded. Commits are a handful per job, so the
-  // fsync per commit costs nothing next to a bake.
-  exec(db, file_, "PRAGMA synchronous = FULL", "setting synchronous mode");
-
-  if (version == 0) {
-    bool has_tables;
-    {
-      Stmt s(db, file_, "SELECT count(*) FROM sqlite_master");
-      s.step();
-      has_tables = s.i64(0) > 0;
-    }
-    if (has_tables)
-      throw StoreError(StoreErrc::failed_precondition,
-                       "job database " + file_.string() +
-                           " is an SQLite database, but not one kilnd created (it has tables and no schema version); "
-                           "point --store at another directory");
-    Transaction t(db, file_);
-    exec(db, file_, kSchemaV1, "creating the schema");
-    t.commit();
-  }
+  impl_->lock_fd = lock_database(file_);
+  impl_->db = sqlite::open(file_);
+  const int version = schema_version_of(impl_->db, file_);
+  set_durability(impl_->db, file_);
+  if (version == 0) create_schema(impl_->db, file_);
   // Future migrations: `if (version < 2) { … PRAGMA user_version = 2; }`, each in its own transaction.
 }
 
@@ -404,9 +289,8 @@ std::optional<JobRecord> find_by_key_locked(sqlite3* db, const fs::path& file, s
 
 std::string shown_id(std::string_view id) { return "job " + std::string(id.substr(0, 80)); }
 
-}  // namespace
-
-InsertOutcome JobDb::insert(const NewJob& job) {
+// What insert() refuses before touching the database.
+void check_new_job(const NewJob& job) {
   if (job.type.empty()) throw StoreError(StoreErrc::invalid_argument, "job type is empty; name the kind of bake");
   if (job.spec_key.empty())
     throw StoreError(StoreErrc::invalid_argument, "job spec_key is empty; it must identify the canonical spec");
@@ -421,7 +305,27 @@ InsertOutcome JobDb::insert(const NewJob& job) {
   }
   check_digests(job.input_digests, "input_digests");
   if (job.cached) check_digests(job.cached->output_digests, "cached.output_digests");
+}
 
+int64_t next_seq(sqlite3* db, const fs::path& file) {
+  Stmt s(db, file, "SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs");
+  s.step();
+  return s.i64(0);
+}
+
+std::string unused_id(sqlite3* db, const fs::path& file) {
+  // 128 random bits do not collide in practice; the primary key would catch it if they did, so try again.
+  for (int attempt = 0;; ++attempt) {
+    std::string id = new_job_id();
+    if (!get_locked(db, file, id)) return id;
+    if (attempt == 8) throw StoreError(StoreErrc::io, "cannot draw an unused job id; the random source is broken");
+  }
+}
+
+}  // namespace
+
+InsertOutcome JobDb::insert(const NewJob& job) {
+  check_new_job(job);
   std::lock_guard lock(mu_);
   sqlite3* db = impl_->db;
   Transaction t(db, file_);
@@ -434,20 +338,9 @@ InsertOutcome JobDb::insert(const NewJob& job) {
       return {std::move(*existing), false};
     }
   }
-  int64_t seq;
-  {
-    Stmt s(db, file_, "SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs");
-    s.step();
-    seq = s.i64(0);
-  }
+  const int64_t seq = next_seq(db, file_);
   double now = unix_now();
-  std::string id;
-  // 128 random bits do not collide in practice; the primary key would catch it if they did, so try again.
-  for (int attempt = 0;; ++attempt) {
-    id = new_job_id();
-    if (!get_locked(db, file_, id)) break;
-    if (attempt == 8) throw StoreError(StoreErrc::io, "cannot draw an unused job id; the random source is broken");
-  }
+  const std::string id = unused_id(db, file_);
   Stmt s(db, file_,
          "INSERT INTO jobs (id, seq, name, type, spec, spec_key, priority, state, submitted, started, finished, "
          "result, idempotency_key, input_digests, output_digests, last_used, cache_source) "
@@ -643,7 +536,7 @@ bool JobDb::touch(std::string_view id, std::optional<double> when) {
   std::lock_guard lock(mu_);
   Stmt s(impl_->db, file_, "UPDATE jobs SET last_used = ?2 WHERE id = ?1");
   s.bind(1, id).bind(2, when.value_or(unix_now())).run();
-  return sqlite3_changes(impl_->db) > 0;
+  return sqlite::changes(impl_->db) > 0;
 }
 
 std::vector<JobRecord> JobDb::results_by_last_used(size_t limit) {
@@ -704,15 +597,6 @@ size_t JobDb::mark_results_evicted(const std::unordered_set<std::string>& remove
   }
   t.commit();
   return hit.size();
-}
-
-RetentionReport enforce_retention(JobDb& db, BlobStore& blobs, uint64_t limit_bytes) {
-  RetentionReport r;
-  r.blobs = blobs.evict_to(limit_bytes, db.pinned_digests(), db.blob_last_used());
-  std::unordered_set<std::string> removed;
-  for (const auto& id : r.blobs.removed) removed.insert(id.digest);
-  r.results_evicted = db.mark_results_evicted(removed);
-  return r;
 }
 
 }  // namespace kiln::store

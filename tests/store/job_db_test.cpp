@@ -1,6 +1,7 @@
 // JobDb: records survive reopening and kill -9, unfinished jobs come back queued, idempotency keys are unique, the
 // result cache finds succeeded jobs by spec key, and retention never evicts what a queued job needs.
 #include "daemon/store/job_db.h"
+#include "daemon/store/retention.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>
