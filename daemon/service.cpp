@@ -301,7 +301,7 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   std::lock_guard lock(submit_mutex_);
   store::NewJob job;
   job.name = bake.name;
-  job.type = bake.type;
+  job.type = job_type(bake);
   sub.job().SerializeToString(&job.spec);
   job.spec_key = key;
   job.priority = sub.priority();
