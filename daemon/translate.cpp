@@ -22,6 +22,20 @@ constexpr std::size_t kMaxForcedEffects = 64;
 constexpr std::array<const char*, 3> kJobTypes = {"material", "environment", "lightmap"};
 static_assert(std::variant_size_v<decltype(BakeRequest::input)> == kJobTypes.size());
 
+// The lightmap bake names the texture ("textures[I]") or the environment ("environment_image") whose bytes do not
+// decode, as the blob fields "job.lightmap.textures[I].image" and "job.lightmap.environment.image" hold them, and
+// no field for a scene with nothing to bake: the whole job's.
+InvalidField lightmap_input_error(const BakeRequest& r, const bake::InvalidInput& problem) {
+  const std::string& field = problem.field();
+  std::string part;
+  if (field.rfind("textures[", 0) == 0) part = "." + field + ".";
+  if (field == "environment_image") part = ".environment.";
+  for (const BlobRef& ref : r.inputs) {
+    if (!part.empty() && ref.field.find(part) != std::string::npos) return InvalidField(ref.field, problem.problem());
+  }
+  return detail::baker_problem("job.lightmap", problem);
+}
+
 }  // namespace
 
 const char* job_type(const BakeRequest& request) { return kJobTypes[request.input.index()]; }
@@ -53,29 +67,14 @@ void load_inputs(BakeRequest& r, store::BlobStore& blobs) {
 
 InvalidField input_error(const BakeRequest& r, const std::exception& e) {
   const std::string prefix = std::string("job.") + job_type(r);
-  if (const auto* problem = dynamic_cast<const bake::InvalidInput*>(&e)) return detail::baker_problem(prefix, *problem);
-  // Anything else the bakers raise about their input concerns the bytes they decode.
-  std::string field = prefix;
-  if (std::holds_alternative<lightmap::LightmapBakeInput>(r.input)) {
-    // The lightmap bake names the texture (or the environment) whose bytes do not decode; a scene with nothing to
-    // bake is the whole job's.
-    const std::string text = e.what();
-    for (const BlobRef& ref : r.inputs) {
-      if (ref.field.find(".textures[") != std::string::npos) {
-        const std::size_t i = std::stoul(ref.field.substr(ref.field.find('[') + 1));
-        const std::string& name = r.lightmap().textures.size() > i ? r.lightmap().textures[i].name : std::string();
-        if (!name.empty() && text.find(name) != std::string::npos) return InvalidField(ref.field, text);
-      } else if (ref.field.find(".environment.") != std::string::npos &&
-                 text.find("environment") != std::string::npos) {
-        return InvalidField(ref.field, text);
-      }
-    }
-    return InvalidField(prefix, text);
+  const bool is_lightmap = std::holds_alternative<lightmap::LightmapBakeInput>(r.input);
+  if (const auto* problem = dynamic_cast<const bake::InvalidInput*>(&e)) {
+    return is_lightmap ? lightmap_input_error(r, *problem) : detail::baker_problem(prefix, *problem);
   }
-  if (!r.inputs.empty()) {
-    field = r.inputs.size() == 1 ? r.inputs[0].field : prefix + ".faces";
-  }
-  return InvalidField(field, e.what());
+  // Anything else the bakers raise about their input concerns the bytes they decode: an environment's image or
+  // faces; for a lightmap job, which bytes is not known, so the job as a whole.
+  if (is_lightmap || r.inputs.empty()) return InvalidField(prefix, e.what());
+  return InvalidField(r.inputs.size() == 1 ? r.inputs[0].field : prefix + ".faces", e.what());
 }
 
 const char* baker_version(const BakeRequest& r) {

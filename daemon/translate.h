@@ -87,9 +87,10 @@ inline constexpr uint64_t kMaxJobInputBytes = uint64_t{4} << 30;
 // verification.
 void load_inputs(BakeRequest& request, store::BlobStore& blobs);
 
-// A bake's complaint about its input, as the field of the job at fault: the baker's "field: problem" for a
-// std::invalid_argument, the image (or faces) for any other error, which the bakers raise for bytes that do not
-// decode. The message is the baker's, for people.
+// A bake's complaint about its input, as the field of the job at fault. A bake::InvalidInput is mapped by its
+// field alone: under "job.<type>", except the lightmap bake's "textures[I]" and "environment_image" (bytes that do
+// not decode), which become the field of that blob. Any other error is about bytes that do not decode: the image
+// (or "job.environment.faces") of an environment job, the whole job for a lightmap. The message is the baker's.
 InvalidField input_error(const BakeRequest& request, const std::exception& e);
 
 // The version of the baker that runs `request`, for its cache key and report.

@@ -105,7 +105,7 @@ Baked run_baker(const BakeRequest&, const material::MaterialBakeInput& in, const
   return b;
 }
 
-// Runs a baker whose bad input is the job's fault: a setting it refuses (std::invalid_argument) or bytes that do not
+// Runs a baker whose bad input is the job's fault: an input it refuses (bake::InvalidInput) or bytes that do not
 // decode (std::runtime_error, the bakers' contract) become InvalidField naming the job's field. Anything else
 // (bad_alloc, a logic error) is the server's and stays so.
 template <class Bake>
@@ -114,7 +114,7 @@ auto blaming_input(const BakeRequest& request, Bake&& bake) {
     return bake();
   } catch (const bake::BakeCancelled&) {
     throw;
-  } catch (const std::invalid_argument& e) {
+  } catch (const bake::InvalidInput& e) {
     throw input_error(request, e);
   } catch (const std::runtime_error& e) {
     throw input_error(request, e);
