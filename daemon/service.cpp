@@ -7,6 +7,7 @@
 #include "daemon/log.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/store/job_db.h"
+#include "daemon/store/retention.h"
 #include "daemon/translate.h"
 #include "daemon/workers.h"
 #include "proto/digest.h"
@@ -40,25 +41,25 @@ struct Failure {
 
 v1::Error::Code to_code(store::StoreErrc e) {
   switch (e) {
-    case store::StoreErrc::kInvalidArgument: return v1::Error::INVALID_ARGUMENT;
-    case store::StoreErrc::kNotFound: return v1::Error::NOT_FOUND;
-    case store::StoreErrc::kAlreadyExists: return v1::Error::INVALID_ARGUMENT;
-    case store::StoreErrc::kFailedPrecondition: return v1::Error::FAILED_PRECONDITION;
-    case store::StoreErrc::kOutOfRange: return v1::Error::INVALID_ARGUMENT;
-    case store::StoreErrc::kDataLoss: return v1::Error::DATA_LOSS;
-    case store::StoreErrc::kResourceExhausted: return v1::Error::RESOURCE_EXHAUSTED;
-    case store::StoreErrc::kIo: return v1::Error::INTERNAL;
+    case store::StoreErrc::invalid_argument: return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::not_found: return v1::Error::NOT_FOUND;
+    case store::StoreErrc::already_exists: return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::failed_precondition: return v1::Error::FAILED_PRECONDITION;
+    case store::StoreErrc::out_of_range: return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::data_loss: return v1::Error::DATA_LOSS;
+    case store::StoreErrc::resource_exhausted: return v1::Error::RESOURCE_EXHAUSTED;
+    case store::StoreErrc::io: return v1::Error::INTERNAL;
   }
   return v1::Error::INTERNAL;
 }
 
 v1::JobState to_proto(store::JobState s) {
   switch (s) {
-    case store::JobState::kQueued: return v1::JOB_STATE_QUEUED;
-    case store::JobState::kRunning: return v1::JOB_STATE_RUNNING;
-    case store::JobState::kSucceeded: return v1::JOB_STATE_SUCCEEDED;
-    case store::JobState::kFailed: return v1::JOB_STATE_FAILED;
-    case store::JobState::kCancelled: return v1::JOB_STATE_CANCELLED;
+    case store::JobState::queued: return v1::JOB_STATE_QUEUED;
+    case store::JobState::running: return v1::JOB_STATE_RUNNING;
+    case store::JobState::succeeded: return v1::JOB_STATE_SUCCEEDED;
+    case store::JobState::failed: return v1::JOB_STATE_FAILED;
+    case store::JobState::cancelled: return v1::JOB_STATE_CANCELLED;
   }
   return v1::JOB_STATE_UNSPECIFIED;
 }
@@ -99,11 +100,11 @@ v1::JobEvent event_of(const std::string& id, const store::Progress& p) {
 v1::JobEvent event_of(const store::JobRecord& r) {
   store::Progress p;
   p.state = r.state;
-  p.fraction = r.state == store::JobState::kSucceeded ? 1.0 : 0.0;
+  p.fraction = r.state == store::JobState::succeeded ? 1.0 : 0.0;
   p.message = r.error;
   // A finished job's cost comes from its report (for a cache hit, the original bake's).
   v1::JobResult result;
-  if (r.state == store::JobState::kSucceeded && result.ParseFromString(r.result)) {
+  if (r.state == store::JobState::succeeded && result.ParseFromString(r.result)) {
     p.samples = result.report().samples();
     p.error_estimate = result.report().error_estimate();
     if (result.report().cache_hit()) p.message = "answered from the result cache";
@@ -300,7 +301,7 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   std::lock_guard lock(submit_mutex_);
   store::NewJob job;
   job.name = bake.name;
-  job.type = bake.type;
+  job.type = job_type(bake);
   sub.job().SerializeToString(&job.spec);
   job.spec_key = key;
   job.priority = sub.priority();
@@ -369,7 +370,7 @@ void Service::watch(const v1::Request& req, v1::Response& resp,
       v1::Response r;
       r.set_id(request_id);
       *r.mutable_event() = event_of(id, p);
-      if (p.state == store::JobState::kRunning && !*started) *started = store::unix_now();
+      if (p.state == store::JobState::running && !*started) *started = store::unix_now();
       if (*started) r.mutable_event()->set_elapsed_seconds(store::unix_now() - **started);
       if (*first) {
         *first = false;
@@ -395,19 +396,19 @@ void Service::cancel(const v1::Request& req, v1::Response& resp) {
   const auto record = db_->get(id);
   if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "cancel.job_id");
   switch (queue_->cancel(id)) {
-    case store::CancelOutcome::kRemovedFromQueue: {
+    case store::CancelOutcome::removed_from_queue: {
       const store::JobRecord r = db_->mark_cancelled(id);
-      queue_->finish(id, store::Progress{store::JobState::kCancelled, 0, {}, 0, {}, "cancelled before it ran"});
+      queue_->finish(id, store::Progress{store::JobState::cancelled, 0, {}, 0, {}, "cancelled before it ran"});
       log_line("job " + id, "cancelled while queued");
       resp.mutable_cancel()->set_state(to_proto(r.state));
       return;
     }
-    case store::CancelOutcome::kSignalled:
+    case store::CancelOutcome::signalled:
       // The worker records the cancellation when the bake stops (at its next check).
       resp.mutable_cancel()->set_state(v1::JOB_STATE_CANCELLED);
       log_line("job " + id, "cancel requested while running");
       return;
-    case store::CancelOutcome::kUnknown:
+    case store::CancelOutcome::unknown:
       resp.mutable_cancel()->set_state(to_proto(record->state));
       return;
   }
@@ -418,7 +419,7 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
   const auto record = db_->get(id);
   if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "get_result.job_id");
   v1::JobResult* r = resp.mutable_result();
-  if (record->state == store::JobState::kSucceeded) {
+  if (record->state == store::JobState::succeeded) {
     const std::string& stored = record->result;
     if (record->evicted) {
       fail(v1::Error::NOT_FOUND, "the outputs of job " + id + " were evicted by the store's retention limit; "
@@ -433,7 +434,7 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
   r->set_name(record->name);
   r->set_submitted_unix(record->submitted);
   if (record->finished) r->set_finished_unix(*record->finished);
-  if (record->state == store::JobState::kFailed) {
+  if (record->state == store::JobState::failed) {
     // The workers record a failure the job's input caused as "FIELD: problem" with FIELD a path under "job."
     // (translate.h's InvalidField); anything else is the server's fault.
     const std::string& text = record->error;
@@ -485,11 +486,11 @@ void Service::list_jobs(const v1::Request& req, v1::Response& resp) {
   std::optional<store::JobState> state;
   switch (l.state()) {
     case v1::JOB_STATE_UNSPECIFIED: break;
-    case v1::JOB_STATE_QUEUED: state = store::JobState::kQueued; break;
-    case v1::JOB_STATE_RUNNING: state = store::JobState::kRunning; break;
-    case v1::JOB_STATE_SUCCEEDED: state = store::JobState::kSucceeded; break;
-    case v1::JOB_STATE_FAILED: state = store::JobState::kFailed; break;
-    case v1::JOB_STATE_CANCELLED: state = store::JobState::kCancelled; break;
+    case v1::JOB_STATE_QUEUED: state = store::JobState::queued; break;
+    case v1::JOB_STATE_RUNNING: state = store::JobState::running; break;
+    case v1::JOB_STATE_SUCCEEDED: state = store::JobState::succeeded; break;
+    case v1::JOB_STATE_FAILED: state = store::JobState::failed; break;
+    case v1::JOB_STATE_CANCELLED: state = store::JobState::cancelled; break;
     default: fail(v1::Error::INVALID_ARGUMENT, "unknown state", "list_jobs.state");
   }
   auto* list = resp.mutable_jobs();

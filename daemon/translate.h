@@ -7,6 +7,7 @@
 #include <string>
 
 #include <cstdint>
+#include <variant>
 #include <vector>
 
 #include "bakers/envmap/environment_bake.h"
@@ -43,21 +44,35 @@ struct BlobRef {
 // The largest input blob a job may refer to (an environment image or face): decoding needs it whole in memory.
 inline constexpr uint64_t kMaxInputBlobBytes = uint64_t{512} << 20;
 
-// The bake a job spec asks for: `type` says which input is filled in.
+// The bake a job spec asks for: the input of one of the three bakers.
 struct BakeRequest {
-  std::string type;  // "material", "environment" or "lightmap"
   std::string name;  // the spec's name, for people
-  material::MaterialBakeInput material;
-  // Its image or faces are empty until load_inputs reads them from the store.
-  envmap::EnvironmentBakeInput environment;
-  // Its meshes' geometry, textures' bytes and environment image are empty until load_inputs decodes the mesh blobs
-  // and reads the rest from the store (the baker decodes images).
-  lightmap::LightmapBakeInput lightmap;
+  // An environment input's image or faces are empty until load_inputs reads them from the store. A lightmap input's
+  // meshes' geometry, textures' bytes and environment image are empty until load_inputs decodes the mesh blobs and
+  // reads the rest from the store (the baker decodes images).
+  std::variant<kiln::material::MaterialBakeInput, envmap::EnvironmentBakeInput, kiln::lightmap::LightmapBakeInput>
+      input;
   // Lightmap jobs: SHA-256 of the deterministic serialization of the job's scene part (meshes, instances, materials
   // after overrides, textures, lights, environment source), part of the cache key with the settings' canonical text.
   std::string scene_hash;
   std::vector<BlobRef> inputs;  // the blobs the job reads, in the order of its fields
+
+  // The input, for a request known to hold that type (std::bad_variant_access otherwise).
+  kiln::material::MaterialBakeInput& material() { return std::get<kiln::material::MaterialBakeInput>(input); }
+  const kiln::material::MaterialBakeInput& material() const {
+    return std::get<kiln::material::MaterialBakeInput>(input);
+  }
+  envmap::EnvironmentBakeInput& environment() { return std::get<envmap::EnvironmentBakeInput>(input); }
+  const envmap::EnvironmentBakeInput& environment() const { return std::get<envmap::EnvironmentBakeInput>(input); }
+  kiln::lightmap::LightmapBakeInput& lightmap() { return std::get<kiln::lightmap::LightmapBakeInput>(input); }
+  const kiln::lightmap::LightmapBakeInput& lightmap() const {
+    return std::get<kiln::lightmap::LightmapBakeInput>(input);
+  }
 };
+
+// The job type of a request as the protocol and the job database spell it: "material", "environment" or
+// "lightmap". It is also the spec's field that holds the job ("job.material").
+const char* job_type(const BakeRequest& request);
 
 // Validates the whole spec and translates it. Throws InvalidField. With `blobs`, the input blobs the spec names
 // must be stored whole there (else InvalidField naming the digest's field); without, only their form is checked.
@@ -72,9 +87,10 @@ inline constexpr uint64_t kMaxJobInputBytes = uint64_t{4} << 30;
 // verification.
 void load_inputs(BakeRequest& request, store::BlobStore& blobs);
 
-// A bake's complaint about its input, as the field of the job at fault: the baker's "field: problem" for a
-// std::invalid_argument, the image (or faces) for any other error, which the bakers raise for bytes that do not
-// decode. The message is the baker's, for people.
+// A bake's complaint about its input, as the field of the job at fault. A bake::InvalidInput is mapped by its
+// field alone: under "job.<type>", except the lightmap bake's "textures[I]" and "environment_image" (bytes that do
+// not decode), which become the field of that blob. Any other error is about bytes that do not decode: the image
+// (or "job.environment.faces") of an environment job, the whole job for a lightmap. The message is the baker's.
 InvalidField input_error(const BakeRequest& request, const std::exception& e);
 
 // The version of the baker that runs `request`, for its cache key and report.

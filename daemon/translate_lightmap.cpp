@@ -67,6 +67,64 @@ Vec3 direction(const kiln::v1::Vector3& v, const std::string& field, bool given)
   return {d.x / length, d.y / length, d.z / length};
 }
 
+scene::Light point_light(const kiln::v1::PointLight& pt, const std::string& p, scene::Light out) {
+  out.type = scene::LightType::point;
+  out.position = vector(pt.position(), p + ".position");
+  return out;
+}
+
+scene::Light spot_light(const kiln::v1::SpotLight& s, const std::string& p, scene::Light out) {
+  out.type = scene::LightType::spot;
+  out.position = vector(s.position(), p + ".position");
+  out.direction = direction(s.direction(), p + ".direction", s.has_direction());
+  if (s.has_outer_cone_angle()) {
+    check_range(p + ".outer_cone_angle", s.outer_cone_angle(), 0.0, kHalfPi, true);
+    out.outer_cone = s.outer_cone_angle();
+  }
+  if (s.has_inner_cone_angle()) {
+    check_range(p + ".inner_cone_angle", s.inner_cone_angle(), 0.0, out.outer_cone, false);
+    out.inner_cone = s.inner_cone_angle();
+  }
+  return out;
+}
+
+scene::Light directional_light(const kiln::v1::DirectionalLight& d, const std::string& p, scene::Light out) {
+  out.type = scene::LightType::directional;
+  out.direction = direction(d.direction(), p + ".direction", d.has_direction());
+  out.angular_diameter = 0.00935;  // the sun's, as kiln.proto documents
+  if (d.has_angular_diameter()) {
+    check_range(p + ".angular_diameter", d.angular_diameter(), 0.0, 0.5, false);
+    out.angular_diameter = d.angular_diameter();
+  }
+  return out;
+}
+
+scene::Light rect_light(const kiln::v1::RectLight& r, const std::string& p, scene::Light out) {
+  out.type = scene::LightType::rect;
+  out.position = vector(r.center(), p + ".center");
+  out.u_axis = vector(r.u(), p + ".u");
+  out.v_axis = vector(r.v(), p + ".v");
+  const Vec3 n = cross(out.u_axis, out.v_axis);
+  const double area = std::sqrt(dot(n, n));
+  // Parallel or zero edges span no area: the light would emit nothing from nowhere.
+  if (!(area > 0) || !std::isfinite(area)) {
+    throw InvalidField(p + ".v", "u and v must span a rectangle (non-zero, not parallel)");
+  }
+  out.direction = n / area;
+  out.two_sided = r.two_sided();
+  return out;
+}
+
+scene::Light disk_light(const kiln::v1::DiskLight& d, const std::string& p, scene::Light out) {
+  out.type = scene::LightType::disk;
+  out.position = vector(d.center(), p + ".center");
+  out.direction = direction(d.normal(), p + ".normal", d.has_normal());
+  check_range(p + ".radius", d.radius(), 0.0, 1e6, true);
+  out.radius = d.radius();
+  out.two_sided = d.two_sided();
+  return out;
+}
+
 scene::Light light(const kiln::v1::Light& l, const std::string& path) {
   scene::Light out;
   check_name(l.name(), path + ".name");
@@ -74,70 +132,14 @@ scene::Light light(const kiln::v1::Light& l, const std::string& path) {
   if (l.has_color()) out.color = color(l.color(), path + ".color", 0.0, kMaxLightColor);
   using L = kiln::v1::Light;
   switch (l.type_case()) {
-    case L::kPoint:
-      out.type = scene::LightType::point;
-      out.position = vector(l.point().position(), path + ".point.position");
-      break;
-    case L::kSpot: {
-      const auto& s = l.spot();
-      const std::string p = path + ".spot";
-      out.type = scene::LightType::spot;
-      out.position = vector(s.position(), p + ".position");
-      out.direction = direction(s.direction(), p + ".direction", s.has_direction());
-      if (s.has_outer_cone_angle()) {
-        check_range(p + ".outer_cone_angle", s.outer_cone_angle(), 0.0, kHalfPi, true);
-        out.outer_cone = s.outer_cone_angle();
-      }
-      if (s.has_inner_cone_angle()) {
-        check_range(p + ".inner_cone_angle", s.inner_cone_angle(), 0.0, out.outer_cone, false);
-        out.inner_cone = s.inner_cone_angle();
-      }
-      break;
-    }
-    case L::kDirectional: {
-      const auto& d = l.directional();
-      const std::string p = path + ".directional";
-      out.type = scene::LightType::directional;
-      out.direction = direction(d.direction(), p + ".direction", d.has_direction());
-      out.angular_diameter = 0.00935;  // the sun's, as kiln.proto documents
-      if (d.has_angular_diameter()) {
-        check_range(p + ".angular_diameter", d.angular_diameter(), 0.0, 0.5, false);
-        out.angular_diameter = d.angular_diameter();
-      }
-      break;
-    }
-    case L::kRect: {
-      const auto& r = l.rect();
-      const std::string p = path + ".rect";
-      out.type = scene::LightType::rect;
-      out.position = vector(r.center(), p + ".center");
-      out.u_axis = vector(r.u(), p + ".u");
-      out.v_axis = vector(r.v(), p + ".v");
-      const Vec3 n = cross(out.u_axis, out.v_axis);
-      const double area = std::sqrt(dot(n, n));
-      // Parallel or zero edges span no area: the light would emit nothing from nowhere.
-      if (!(area > 0) || !std::isfinite(area)) {
-        throw InvalidField(p + ".v", "u and v must span a rectangle (non-zero, not parallel)");
-      }
-      out.direction = n / area;
-      out.two_sided = r.two_sided();
-      break;
-    }
-    case L::kDisk: {
-      const auto& d = l.disk();
-      const std::string p = path + ".disk";
-      out.type = scene::LightType::disk;
-      out.position = vector(d.center(), p + ".center");
-      out.direction = direction(d.normal(), p + ".normal", d.has_normal());
-      check_range(p + ".radius", d.radius(), 0.0, 1e6, true);
-      out.radius = d.radius();
-      out.two_sided = d.two_sided();
-      break;
-    }
-    case L::TYPE_NOT_SET:
-      throw InvalidField(path, "no light type given: set point, spot, directional, rect or disk");
+    case L::kPoint: return point_light(l.point(), path + ".point", std::move(out));
+    case L::kSpot: return spot_light(l.spot(), path + ".spot", std::move(out));
+    case L::kDirectional: return directional_light(l.directional(), path + ".directional", std::move(out));
+    case L::kRect: return rect_light(l.rect(), path + ".rect", std::move(out));
+    case L::kDisk: return disk_light(l.disk(), path + ".disk", std::move(out));
+    case L::TYPE_NOT_SET: break;
   }
-  return out;
+  throw InvalidField(path, "no light type given: set point, spot, directional, rect or disk");
 }
 
 // A material of the scene; Lambert 0.8 with no specular lobe when it gives no BSDF.
@@ -162,7 +164,7 @@ scene::SceneMaterial material(const kiln::v1::SceneMaterial& m, const std::strin
 
 void environment(const kiln::v1::SceneEnvironment& e, const std::string& path, const store::BlobStore* blobs,
                  BakeRequest& r) {
-  lightmap::LightmapBakeInput& in = r.lightmap;
+  lightmap::LightmapBakeInput& in = r.lightmap();
   using E = kiln::v1::SceneEnvironment;
   double intensity = 1;
   if (e.has_intensity()) {
@@ -200,29 +202,25 @@ void environment(const kiln::v1::SceneEnvironment& e, const std::string& path, c
 // The index in "job.lightmap.meshes[12].geometry".
 std::size_t index_in(const std::string& field) { return std::stoul(field.substr(field.find('[') + 1)); }
 
-}  // namespace
+const std::string kPath = "job.lightmap";
 
-void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs, BakeRequest& r) {
-  r.type = "lightmap";
-  const std::string path = "job.lightmap";
-  const kiln::v1::LightmapJob& j = spec.lightmap();
-  lightmap::LightmapBakeInput& in = r.lightmap;
-  scene::Scene& sc = in.scene;
+void check_counts(const kiln::v1::LightmapJob& j) {
+  check_count(j.meshes_size(), kMaxMeshes, kPath + ".meshes", "meshes");
+  check_count(j.instances_size(), kMaxInstances, kPath + ".instances", "instances");
+  check_count(j.materials_size(), kMaxMaterials, kPath + ".materials", "materials");
+  check_count(j.textures_size(), kMaxTextures, kPath + ".textures", "textures");
+  check_count(j.lights_size(), kMaxLights, kPath + ".lights", "lights");
+  check_count(j.material_overrides_size(), kMaxMaterials, kPath + ".material_overrides", "overrides");
+  check_count(j.lightmaps_size(), kMaxLightmapSettings, kPath + ".lightmaps", "lightmap settings");
+  if (j.meshes_size() == 0) throw InvalidField(kPath + ".meshes", "a scene needs at least one mesh");
+}
 
-  check_count(j.meshes_size(), kMaxMeshes, path + ".meshes", "meshes");
-  check_count(j.instances_size(), kMaxInstances, path + ".instances", "instances");
-  check_count(j.materials_size(), kMaxMaterials, path + ".materials", "materials");
-  check_count(j.textures_size(), kMaxTextures, path + ".textures", "textures");
-  check_count(j.lights_size(), kMaxLights, path + ".lights", "lights");
-  check_count(j.material_overrides_size(), kMaxMaterials, path + ".material_overrides", "overrides");
-  check_count(j.lightmaps_size(), kMaxLightmapSettings, path + ".lightmaps", "lightmap settings");
-  if (j.meshes_size() == 0) throw InvalidField(path + ".meshes", "a scene needs at least one mesh");
-
-  // Meshes: names now, geometry decoded by the worker.
+// Meshes: names now, geometry decoded by the worker.
+void meshes(const kiln::v1::LightmapJob& j, const store::BlobStore* blobs, BakeRequest& r, scene::Scene& sc) {
   std::set<std::string> mesh_names;
   for (int i = 0; i < j.meshes_size(); ++i) {
     const kiln::v1::Mesh& m = j.meshes(i);
-    const std::string p = at(path + ".meshes", i);
+    const std::string p = at(kPath + ".meshes", i);
     check_name(m.name(), p + ".name");
     if (m.name().empty()) throw InvalidField(p + ".name", "required: a mesh's name names its lightmap");
     if (!mesh_names.insert(m.name()).second) {
@@ -232,42 +230,58 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
     r.inputs.push_back(input_blob(m.geometry(), p + ".geometry", blobs));
     sc.meshes.emplace_back().name = m.name();
   }
+}
 
-  // Textures: the baker decodes their bytes.
+// Textures: the baker decodes their bytes.
+void textures(const kiln::v1::LightmapJob& j, const store::BlobStore* blobs, BakeRequest& r,
+              lightmap::LightmapBakeInput& in) {
   for (int i = 0; i < j.textures_size(); ++i) {
     const kiln::v1::Texture& t = j.textures(i);
-    const std::string p = at(path + ".textures", i);
+    const std::string p = at(kPath + ".textures", i);
     check_name(t.name(), p + ".name");
     if (!t.color_space().empty()) check_color_space(t.color_space(), p + ".color_space");
     if (!t.has_image()) throw InvalidField(p + ".image", "required: the image blob's digest");
     r.inputs.push_back(input_blob(t.image(), p + ".image", blobs));
     in.textures.push_back({t.name().empty() ? "texture " + std::to_string(i) : t.name(), {}, t.color_space()});
   }
+}
 
-  // Materials, then the job's overrides by name.
+// The scene's materials; their index by name, for the overrides.
+std::map<std::string, int> materials(const kiln::v1::LightmapJob& j, scene::Scene& sc) {
   std::map<std::string, int> material_index;
   for (int i = 0; i < j.materials_size(); ++i) {
-    const std::string p = at(path + ".materials", i);
+    const std::string p = at(kPath + ".materials", i);
     sc.materials.push_back(material(j.materials(i), p, j.textures_size()));
     const std::string& name = j.materials(i).name();
     if (!name.empty() && !material_index.emplace(name, i).second) {
       throw InvalidField(p + ".name", "'" + name + "' is the name of an earlier material; names are unique");
     }
   }
+  return material_index;
+}
+
+// The materials' names, for a message: the first ones, up to about 400 bytes.
+std::string material_names(const std::map<std::string, int>& material_index) {
+  std::string known;
+  for (const auto& [name, index] : material_index) {
+    if (known.size() > 400) { known += ", ..."; break; }
+    known += (known.empty() ? "" : ", ") + name;
+  }
+  return known.empty() ? "(none named)" : known;
+}
+
+// The job's overrides of the scene's materials, by name.
+void material_overrides(const kiln::v1::LightmapJob& j, const std::map<std::string, int>& material_index,
+                        scene::Scene& sc) {
   std::set<std::string> overridden;
   for (int i = 0; i < j.material_overrides_size(); ++i) {
     const kiln::v1::MaterialOverride& o = j.material_overrides(i);
-    const std::string p = at(path + ".material_overrides", i);
+    const std::string p = at(kPath + ".material_overrides", i);
     check_name(o.name(), p + ".name");
     const auto it = material_index.find(o.name());
     if (it == material_index.end()) {
-      std::string known;
-      for (const auto& [name, index] : material_index) {
-        if (known.size() > 400) { known += ", ..."; break; }
-        known += (known.empty() ? "" : ", ") + name;
-      }
       throw InvalidField(p + ".name", "no material named '" + o.name() + "' in the scene; its materials: " +
-                                          (known.empty() ? "(none named)" : known));
+                                          material_names(material_index));
     }
     if (!overridden.insert(o.name()).second) {
       throw InvalidField(p + ".name", "'" + o.name() + "' is overridden twice");
@@ -279,48 +293,58 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
   }
   if (sc.materials.empty()) {
     // A scene without materials: every triangle is the documented default, Lambert 0.8.
-    sc.materials.push_back(material(kiln::v1::SceneMaterial(), path + ".materials", 0));
+    sc.materials.push_back(material(kiln::v1::SceneMaterial(), kPath + ".materials", 0));
     sc.materials.back().name = "default";
   }
+}
 
-  // Instances; none: every mesh once, where it is.
+// An instance's placement in its lightmap: {s_u, s_v, o_u, o_v}, scales in (0, 1], offsets in [0, 1).
+void lightmap_scale_offset(const kiln::v1::Instance& inst, const std::string& p, scene::Instance& out) {
+  if (inst.lightmap_scale_offset_size() != 0 && inst.lightmap_scale_offset_size() != 4) {
+    throw InvalidField(p + ".lightmap_scale_offset", "0 or 4 values {s_u, s_v, o_u, o_v}, got " +
+                                                         std::to_string(inst.lightmap_scale_offset_size()));
+  }
+  for (int k = 0; k < inst.lightmap_scale_offset_size(); ++k) {
+    const std::string f = at(p + ".lightmap_scale_offset", k);
+    if (k < 2) {
+      check_range(f, inst.lightmap_scale_offset(k), 0.0, 1.0, true);
+    } else {
+      check_range(f, inst.lightmap_scale_offset(k), 0.0, 1.0, false);
+      if (inst.lightmap_scale_offset(k) >= 1.0) throw InvalidField(f, "an offset is in [0, 1), got 1");
+    }
+    out.lightmap_scale_offset[k] = inst.lightmap_scale_offset(k);
+  }
+}
+
+scene::Instance instance(const kiln::v1::Instance& inst, const std::string& p, int meshes) {
+  scene::Instance out;
+  if (inst.mesh() >= static_cast<uint32_t>(meshes)) {
+    throw InvalidField(p + ".mesh", "index " + std::to_string(inst.mesh()) + " out of range: the job has " +
+                                        std::to_string(meshes) + " meshes");
+  }
+  out.mesh = static_cast<int>(inst.mesh());
+  if (inst.transform_size() != 0 && inst.transform_size() != 12) {
+    throw InvalidField(p + ".transform", "0 or 12 values (a row-major 3x4 affine transform), got " +
+                                             std::to_string(inst.transform_size()));
+  }
+  for (int k = 0; k < inst.transform_size(); ++k) {
+    check_range(at(p + ".transform", k), inst.transform(k), -kMaxCoordinate, kMaxCoordinate, false);
+    out.to_world.m[k] = inst.transform(k);
+  }
+  check_name(inst.lightmap(), p + ".lightmap");
+  out.lightmap = inst.lightmap();
+  lightmap_scale_offset(inst, p, out);
+  out.bake = !inst.has_bake() || inst.bake();
+  return out;
+}
+
+// Instances; none: every mesh once, where it is. Returns the names of the lightmaps they bake into.
+std::set<std::string> instances(const kiln::v1::LightmapJob& j, scene::Scene& sc) {
   std::set<std::string> lightmap_names;
   for (int i = 0; i < j.instances_size(); ++i) {
-    const kiln::v1::Instance& inst = j.instances(i);
-    const std::string p = at(path + ".instances", i);
-    scene::Instance out;
-    if (inst.mesh() >= static_cast<uint32_t>(j.meshes_size())) {
-      throw InvalidField(p + ".mesh", "index " + std::to_string(inst.mesh()) + " out of range: the job has " +
-                                          std::to_string(j.meshes_size()) + " meshes");
-    }
-    out.mesh = static_cast<int>(inst.mesh());
-    if (inst.transform_size() != 0 && inst.transform_size() != 12) {
-      throw InvalidField(p + ".transform", "0 or 12 values (a row-major 3x4 affine transform), got " +
-                                               std::to_string(inst.transform_size()));
-    }
-    for (int k = 0; k < inst.transform_size(); ++k) {
-      check_range(at(p + ".transform", k), inst.transform(k), -kMaxCoordinate, kMaxCoordinate, false);
-      out.to_world.m[k] = inst.transform(k);
-    }
-    check_name(inst.lightmap(), p + ".lightmap");
-    out.lightmap = inst.lightmap();
-    if (inst.lightmap_scale_offset_size() != 0 && inst.lightmap_scale_offset_size() != 4) {
-      throw InvalidField(p + ".lightmap_scale_offset", "0 or 4 values {s_u, s_v, o_u, o_v}, got " +
-                                                           std::to_string(inst.lightmap_scale_offset_size()));
-    }
-    for (int k = 0; k < inst.lightmap_scale_offset_size(); ++k) {
-      const std::string f = at(p + ".lightmap_scale_offset", k);
-      if (k < 2) {
-        check_range(f, inst.lightmap_scale_offset(k), 0.0, 1.0, true);
-      } else {
-        check_range(f, inst.lightmap_scale_offset(k), 0.0, 1.0, false);
-        if (inst.lightmap_scale_offset(k) >= 1.0) throw InvalidField(f, "an offset is in [0, 1), got 1");
-      }
-      out.lightmap_scale_offset[k] = inst.lightmap_scale_offset(k);
-    }
-    out.bake = !inst.has_bake() || inst.bake();
+    const scene::Instance& out = sc.instances.emplace_back(instance(j.instances(i), at(kPath + ".instances", i),
+                                                                    j.meshes_size()));
     if (out.bake) lightmap_names.insert(out.lightmap.empty() ? j.meshes(out.mesh).name() : out.lightmap);
-    sc.instances.push_back(out);
   }
   if (j.instances_size() == 0) {
     for (int i = 0; i < j.meshes_size(); ++i) {
@@ -329,27 +353,28 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
       lightmap_names.insert(j.meshes(i).name());
     }
   }
+  return lightmap_names;
+}
 
-  // Lights.
+void lights(const kiln::v1::LightmapJob& j, scene::Scene& sc) {
   std::set<std::string> light_names;
   for (int i = 0; i < j.lights_size(); ++i) {
-    const std::string p = at(path + ".lights", i);
+    const std::string p = at(kPath + ".lights", i);
     sc.lights.push_back(light(j.lights(i), p));
     const std::string& name = j.lights(i).name();
     if (!name.empty() && !light_names.insert(name).second) {
       throw InvalidField(p + ".name", "'" + name + "' is the name of an earlier light; names are unique");
     }
   }
-  if (j.has_environment()) environment(j.environment(), path + ".environment", blobs, r);
+}
 
-  // Lightmap settings and the texel budget.
-  if (j.has_resolution()) {
-    check_range(path + ".resolution", j.resolution(), 4, 8192, false);
-    in.resolution = static_cast<int>(j.resolution());
-  }
+// The job's resolution and each named lightmap's own.
+void resolutions(const kiln::v1::LightmapJob& j, const std::set<std::string>& lightmap_names,
+                 lightmap::LightmapBakeInput& in) {
+  set_count(j.has_resolution(), j.resolution(), kPath + ".resolution", 4, 8192, in.resolution);
   for (int i = 0; i < j.lightmaps_size(); ++i) {
     const kiln::v1::LightmapSettings& l = j.lightmaps(i);
-    const std::string p = at(path + ".lightmaps", i);
+    const std::string p = at(kPath + ".lightmaps", i);
     check_name(l.name(), p + ".name");
     if (!lightmap_names.count(l.name())) {
       throw InvalidField(p + ".name", "no instance bakes into a lightmap named '" + l.name() +
@@ -357,12 +382,13 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
     }
     if (in.resolutions.count(l.name())) throw InvalidField(p + ".name", "'" + l.name() + "' is set twice");
     int resolution = in.resolution;
-    if (l.has_resolution()) {
-      check_range(p + ".resolution", l.resolution(), 4, 8192, false);
-      resolution = static_cast<int>(l.resolution());
-    }
+    set_count(l.has_resolution(), l.resolution(), p + ".resolution", 4, 8192, resolution);
     in.resolutions[l.name()] = resolution;
   }
+}
+
+// The texel budget over every lightmap the job bakes.
+void check_texels(const std::set<std::string>& lightmap_names, const lightmap::LightmapBakeInput& in) {
   uint64_t texels = 0;
   for (const std::string& name : lightmap_names) {
     const auto it = in.resolutions.find(name);
@@ -370,26 +396,24 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
     texels += n * n;
   }
   if (texels > kMaxTotalTexels) {
-    throw InvalidField(path + ".resolution", std::to_string(lightmap_names.size()) + " lightmaps of " +
-                                                 std::to_string(texels) + " texels in all; at most " +
-                                                 std::to_string(kMaxTotalTexels) +
-                                                 " (4096 x 4096): lower the resolution or bake in several jobs");
+    throw InvalidField(kPath + ".resolution", std::to_string(lightmap_names.size()) + " lightmaps of " +
+                                                  std::to_string(texels) + " texels in all; at most " +
+                                                  std::to_string(kMaxTotalTexels) +
+                                                  " (4096 x 4096): lower the resolution or bake in several jobs");
   }
-  if (j.has_padding()) {
-    check_range(path + ".padding", j.padding(), 0, 64, false);
-    in.padding = static_cast<int>(j.padding());
-  }
-  if (j.has_max_bounces()) {
-    check_range(path + ".max_bounces", j.max_bounces(), 0, 1024, false);
-    in.max_bounces = static_cast<int>(j.max_bounces());
-  }
+}
+
+// Padding, bounces and which outputs to write.
+void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& in) {
+  set_count(j.has_padding(), j.padding(), kPath + ".padding", 0, 64, in.padding);
+  set_count(j.has_max_bounces(), j.max_bounces(), kPath + ".max_bounces", 0, 1024, in.max_bounces);
   in.radiance = j.radiance();
   in.ao = j.ao();
   in.directional = j.directional();
   in.preview = !j.has_preview() || j.preview();
+}
 
-  // Quality.
-  const kiln::v1::Quality& q = spec.quality();
+void lightmap_quality(const kiln::v1::Quality& q, lightmap::LightmapBakeInput& in) {
   if (q.has_samples()) {
     check_range("job.quality.samples", static_cast<double>(q.samples()), 1, double(1 << 20), false);
     in.max_samples = q.samples();
@@ -404,23 +428,20 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
     in.time_limit_seconds = q.time_limit_seconds();
   }
   in.seed = q.seed();
-  for (const auto& [effect, on] : spec.force_effects()) {
-    if (effect.empty() || effect.size() > 64) {
-      throw InvalidField("job.force_effects[" + effect.substr(0, 64) + "]",
-                         "effect names are 1 to 64 bytes, got " + std::to_string(effect.size()));
-    }
-    in.force_effects[effect] = on;
-  }
+}
 
-  // The total input: every blob must fit in memory beside the others while the worker bakes.
+// The total input: every blob must fit in memory beside the others while the worker bakes.
+void check_total_input(const BakeRequest& r) {
   uint64_t total = 0;
   for (const BlobRef& b : r.inputs) total += b.size;
   if (total > kMaxJobInputBytes) {
-    throw InvalidField(path, "the job's blobs hold " + std::to_string(total) + " bytes in all; at most " +
-                                 std::to_string(kMaxJobInputBytes >> 30) + " GiB: split the scene into several jobs");
+    throw InvalidField(kPath, "the job's blobs hold " + std::to_string(total) + " bytes in all; at most " +
+                                  std::to_string(kMaxJobInputBytes >> 30) + " GiB: split the scene into several jobs");
   }
+}
 
-  // The baker's own validation is the backstop, and knows the effects its planner decides.
+// The baker's own validation is the backstop, and knows the effects its planner decides.
+void validate_lightmap(const lightmap::LightmapBakeInput& in) {
   if (auto problem = lightmap::validate(in)) {
     const std::string& field = problem->field();
     if (field.rfind("force_effects", 0) == 0) throw baker_problem("job", *problem);
@@ -428,11 +449,13 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
         field == "time_limit_seconds") {
       throw baker_problem("job.quality", *problem);
     }
-    throw baker_problem(path, *problem);
+    throw baker_problem(kPath, *problem);
   }
+}
 
-  // The scene part, serialized deterministically, for the cache key: settings go to the canonical text instead
-  // (with their defaults applied), so that they are cleared here.
+// The scene part, serialized deterministically, for the cache key: settings go to the canonical text instead
+// (with their defaults applied), so that they are cleared here.
+std::string scene_hash(const kiln::v1::LightmapJob& j) {
   kiln::v1::LightmapJob scene_part = j;
   scene_part.clear_resolution();
   scene_part.clear_lightmaps();
@@ -449,11 +472,34 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
     coded.SetSerializationDeterministic(true);
     scene_part.SerializeToCodedStream(&coded);
   }
-  r.scene_hash = proto::sha256_hex(bytes);
+  return proto::sha256_hex(bytes);
+}
+
+}  // namespace
+
+void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs, BakeRequest& r) {
+  const kiln::v1::LightmapJob& j = spec.lightmap();
+  lightmap::LightmapBakeInput& in = r.input.emplace<lightmap::LightmapBakeInput>();
+  scene::Scene& sc = in.scene;
+  check_counts(j);
+  meshes(j, blobs, r, sc);
+  textures(j, blobs, r, in);
+  material_overrides(j, materials(j, sc), sc);
+  const std::set<std::string> lightmap_names = instances(j, sc);
+  lights(j, sc);
+  if (j.has_environment()) environment(j.environment(), kPath + ".environment", blobs, r);
+  resolutions(j, lightmap_names, in);
+  check_texels(lightmap_names, in);
+  bake_settings(j, in);
+  lightmap_quality(spec.quality(), in);
+  in.force_effects = forced_effects(spec);
+  check_total_input(r);
+  validate_lightmap(in);
+  r.scene_hash = scene_hash(j);
 }
 
 void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs) {
-  lightmap::LightmapBakeInput& in = r.lightmap;
+  lightmap::LightmapBakeInput& in = r.lightmap();
   for (const BlobRef& ref : r.inputs) {
     std::string bytes = read_input(ref, blobs);
     if (ref.field.find(".meshes[") != std::string::npos) {
@@ -468,9 +514,9 @@ void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs) {
 }
 
 std::string lightmap_canonical_text(const BakeRequest& r) {
-  const lightmap::LightmapBakeInput& in = r.lightmap;
+  const lightmap::LightmapBakeInput& in = r.lightmap();
   std::ostringstream o;
-  o << "type=" << r.type << "\nscene=" << r.scene_hash << "\nblobs=";
+  o << "type=" << job_type(r) << "\nscene=" << r.scene_hash << "\nblobs=";
   for (const BlobRef& b : r.inputs) o << b.field << ":" << b.sha256 << "/" << b.size << ";";
   const envmap::EnvDecodeOptions& d = in.environment_decode;
   o << "\nenvironment_color_space=" << (d.color_space.empty() ? "(format default)" : d.color_space)

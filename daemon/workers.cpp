@@ -15,6 +15,16 @@
 
 namespace kiln::daemon {
 
+// What any bake hands back to the worker.
+struct Baked {
+  std::vector<bake::BakeOutput> outputs;
+  uint64_t samples = 0;
+  uint64_t rays = 0;
+  double seconds = 0;
+  double error_estimate = 0;
+  std::vector<v1::PlanDecision> plan;
+};
+
 Workers::Workers(const Config& config, store::JobDb& db, store::BlobStore& blobs, store::JobQueue& queue)
     : config_(config), db_(db), blobs_(blobs), queue_(queue) {
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -76,48 +86,6 @@ std::string describe_output(const bake::BakeOutput& o) {
   return {};
 }
 
-// What any bake hands back to the worker.
-struct Baked {
-  std::vector<bake::BakeOutput> outputs;
-  uint64_t samples = 0;
-  uint64_t rays = 0;
-  double seconds = 0;
-  double error_estimate = 0;
-  std::vector<v1::PlanDecision> plan;
-};
-
-Baked bake_material(const BakeRequest& request, const bake::BakeControl& control) {
-  material::MaterialBakeResult r = material::bake_material(request.material, control);
-  Baked b;
-  b.outputs = std::move(r.outputs);
-  b.samples = r.samples + r.validation_samples;
-  b.seconds = r.seconds;
-  b.error_estimate = r.max_error_estimate;
-  for (const std::string& line : r.plan) {
-    v1::PlanDecision& d = b.plan.emplace_back();
-    d.set_effect("material");
-    d.set_enabled(true);
-    d.set_reason(line);
-  }
-  return b;
-}
-
-// Runs a baker whose bad input is the job's fault: a setting it refuses (std::invalid_argument) or bytes that do not
-// decode (std::runtime_error, the bakers' contract) become InvalidField naming the job's field. Anything else
-// (bad_alloc, a logic error) is the server's and stays so.
-template <class Bake>
-auto blaming_input(const BakeRequest& request, Bake&& bake) {
-  try {
-    return bake();
-  } catch (const bake::BakeCancelled&) {
-    throw;
-  } catch (const std::invalid_argument& e) {
-    throw input_error(request, e);
-  } catch (const std::runtime_error& e) {
-    throw input_error(request, e);
-  }
-}
-
 void add_decision(Baked& b, const std::string& effect, bool enabled, bool forced, const std::string& reason) {
   v1::PlanDecision& d = b.plan.emplace_back();
   d.set_effect(effect);
@@ -126,9 +94,35 @@ void add_decision(Baked& b, const std::string& effect, bool enabled, bool forced
   d.set_reason(reason);
 }
 
-Baked bake_environment(const BakeRequest& request, const bake::BakeControl& control) {
-  envmap::EnvironmentBakeResult r =
-      blaming_input(request, [&] { return envmap::bake_environment(request.environment, control); });
+Baked run_baker(const BakeRequest&, const material::MaterialBakeInput& in, const bake::BakeControl& control) {
+  material::MaterialBakeResult r = material::bake_material(in, control);
+  Baked b;
+  b.outputs = std::move(r.outputs);
+  b.samples = r.samples + r.validation_samples;
+  b.seconds = r.seconds;
+  b.error_estimate = r.max_error_estimate;
+  for (const std::string& line : r.plan) add_decision(b, "material", true, false, line);
+  return b;
+}
+
+// Runs a baker whose bad input is the job's fault: an input it refuses (bake::InvalidInput) or bytes that do not
+// decode (std::runtime_error, the bakers' contract) become InvalidField naming the job's field. Anything else
+// (bad_alloc, a logic error) is the server's and stays so.
+template <class Bake>
+auto blaming_input(const BakeRequest& request, Bake&& bake) {
+  try {
+    return bake();
+  } catch (const bake::BakeCancelled&) {
+    throw;
+  } catch (const bake::InvalidInput& e) {
+    throw input_error(request, e);
+  } catch (const std::runtime_error& e) {
+    throw input_error(request, e);
+  }
+}
+
+Baked run_baker(const BakeRequest& request, const envmap::EnvironmentBakeInput& in, const bake::BakeControl& control) {
+  envmap::EnvironmentBakeResult r = blaming_input(request, [&] { return envmap::bake_environment(in, control); });
   Baked b;
   b.outputs = std::move(r.outputs);
   b.samples = r.samples;
@@ -136,20 +130,18 @@ Baked bake_environment(const BakeRequest& request, const bake::BakeControl& cont
   for (double e : r.level_error) b.error_estimate = std::max(b.error_estimate, e);
   for (const envmap::EnvironmentPlanEntry& e : r.plan_entries) add_decision(b, e.effect, e.enabled, e.forced, e.reason);
   if (r.sanitized.total() > 0) {
-    v1::PlanDecision& d = b.plan.emplace_back();
-    d.set_effect("sanitize");
-    d.set_enabled(true);
-    d.set_reason("texels that are not usable radiance were replaced: " + std::to_string(r.sanitized.nan) +
-                 " NaN (by 0), " + std::to_string(r.sanitized.inf) + " infinite (+Inf by the largest finite value, "
-                 "-Inf by 0), " + std::to_string(r.sanitized.negative) + " negative (by 0)");
+    add_decision(b, "sanitize", true, false,
+                 "texels that are not usable radiance were replaced: " + std::to_string(r.sanitized.nan) +
+                     " NaN (by 0), " + std::to_string(r.sanitized.inf) +
+                     " infinite (+Inf by the largest finite value, -Inf by 0), " +
+                     std::to_string(r.sanitized.negative) + " negative (by 0)");
   }
   return b;
 }
 
-Baked bake_lightmap(const BakeRequest& request, const bake::BakeControl& control) {
+Baked run_baker(const BakeRequest& request, const lightmap::LightmapBakeInput& in, const bake::BakeControl& control) {
   // The baker's contract (lightmap_bake.h): undecodable textures or environment, a scene with nothing to bake.
-  lightmap::LightmapBakeResult r =
-      blaming_input(request, [&] { return lightmap::bake_lightmaps(request.lightmap, control); });
+  lightmap::LightmapBakeResult r = blaming_input(request, [&] { return lightmap::bake_lightmaps(in, control); });
   Baked b;
   b.outputs = std::move(r.outputs);
   b.samples = r.samples;
@@ -160,103 +152,140 @@ Baked bake_lightmap(const BakeRequest& request, const bake::BakeControl& control
   return b;
 }
 
+// The job's outputs and figures as the protocol reports them.
+v1::JobResult job_result(const std::string& id, const store::JobRecord& record, const BakeRequest& request,
+                         const Baked& baked) {
+  v1::JobResult result;
+  result.set_job_id(id);
+  result.set_state(v1::JOB_STATE_SUCCEEDED);
+  result.set_name(record.name);
+  result.set_submitted_unix(record.submitted);
+  result.set_finished_unix(store::unix_now());
+  for (const bake::BakeOutput& o : baked.outputs) {
+    v1::Output* out = result.add_outputs();
+    out->set_name(o.name);
+    out->set_media_type(o.media_type);
+    out->set_color_space(o.color_space);
+    out->set_description(describe_output(o));
+    if (o.name == "report.json") result.mutable_report()->set_json(o.bytes);
+  }
+  v1::BakeReport* report = result.mutable_report();
+  report->set_samples(baked.samples);
+  report->set_rays(baked.rays);
+  report->set_seconds(baked.seconds);
+  report->set_error_estimate(baked.error_estimate);
+  report->set_baker_version(baker_version(request));
+  for (const v1::PlanDecision& d : baked.plan) *report->add_plan() = d;
+  return result;
+}
+
 }  // namespace
 
 void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel) {
   const auto t0 = std::chrono::steady_clock::now();
+  std::optional<store::JobRecord> record = start_running(id);
+  if (!record) return;
+  try {
+    const BakeRequest request = request_of(*record);
+    const Baked baked = bake(id, request, cancel.get());
+    record_success(id, *record, request, baked, t0);
+  } catch (const bake::BakeCancelled&) {
+    record_cancelled(id);
+  } catch (const std::exception& e) {
+    record_failure(id, e.what());
+  }
+}
+
+std::optional<store::JobRecord> Workers::start_running(const std::string& id) {
   store::JobRecord record;
   try {
     record = db_.mark_running(id);
   } catch (const std::exception& e) {
     // Cancelled or removed between the queue and here: nothing to run.
     log_line("job " + id, std::string("not run: ") + e.what());
-    queue_.finish(id, store::Progress{store::JobState::kCancelled, 0, {}, 0, {}, e.what()});
-    return;
+    queue_.finish(id, store::Progress{store::JobState::cancelled, 0, {}, 0, {}, e.what()});
+    return std::nullopt;
   }
   log_line("job " + id, "running (" + record.type + (record.name.empty() ? "" : ", " + record.name) + ", attempt " +
                             std::to_string(record.attempts) + ")");
-  queue_.publish(id, store::Progress{store::JobState::kRunning, 0, {}, 0, {}, "started"});
-  try {
-    v1::JobSpec spec;
-    if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
-    BakeRequest request = translate(spec);
-    load_inputs(request, blobs_);
-    bake::BakeControl control;
-    control.cancel = cancel.get();
-    // Watchers need a few updates a second, not one per table entry.
-    auto last_publish = std::chrono::steady_clock::time_point{};
-    control.progress = [&](const bake::BakeProgress& p) {
-      const auto now = std::chrono::steady_clock::now();
-      if (now - last_publish < std::chrono::milliseconds(100) && p.fraction < 1.0) return;
-      last_publish = now;
-      store::Progress progress{store::JobState::kRunning, p.fraction, {}, p.samples, {}, p.stage};
-      if (p.eta_seconds >= 0) progress.eta_seconds = p.eta_seconds;
-      if (p.error_estimate > 0) progress.error_estimate = p.error_estimate;
-      queue_.publish(id, progress);
-    };
-    Baked baked;
-    tbb::task_arena arena(threads_per_job_);
-    arena.execute([&] {
-      if (request.type == "lightmap") {
-        baked = bake_lightmap(request, control);
-      } else {
-        baked = request.type == "environment" ? bake_environment(request, control) : bake_material(request, control);
-      }
-    });
+  queue_.publish(id, store::Progress{store::JobState::running, 0, {}, 0, {}, "started"});
+  return record;
+}
 
-    v1::JobResult result;
-    result.set_job_id(id);
-    result.set_state(v1::JOB_STATE_SUCCEEDED);
-    result.set_name(record.name);
-    result.set_submitted_unix(record.submitted);
-    result.set_finished_unix(store::unix_now());
-    std::vector<std::string> digests;
-    for (const bake::BakeOutput& o : baked.outputs) {
-      const store::BlobId blob = blobs_.put(o.bytes);
-      digests.push_back(blob.digest);
-      v1::Output* out = result.add_outputs();
-      out->set_name(o.name);
-      out->set_media_type(o.media_type);
-      out->set_color_space(o.color_space);
-      out->mutable_digest()->set_sha256(blob.digest);
-      out->mutable_digest()->set_size(blob.size);
-      out->set_description(describe_output(o));
-      if (o.name == "report.json") result.mutable_report()->set_json(o.bytes);
-    }
-    v1::BakeReport* report = result.mutable_report();
-    report->set_samples(baked.samples);
-    report->set_rays(baked.rays);
-    report->set_seconds(baked.seconds);
-    report->set_error_estimate(baked.error_estimate);
-    report->set_baker_version(baker_version(request));
-    for (const v1::PlanDecision& d : baked.plan) *report->add_plan() = d;
-    std::string bytes;
-    result.SerializeToString(&bytes);
-    db_.mark_succeeded(id, bytes, digests);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    log_line("job " + id, "succeeded in " + std::to_string(seconds) + " s, " + std::to_string(report->samples()) +
-                              " samples, error estimate " + std::to_string(report->error_estimate()));
-    queue_.finish(id, store::Progress{store::JobState::kSucceeded, 1.0, 0.0, report->samples(),
-                                      report->error_estimate(), "done"});
-  } catch (const bake::BakeCancelled&) {
-    if (requeue_) {
-      db_.mark_queued(id);
-      log_line("job " + id, "interrupted by the shutdown; it runs again at the next start");
-      queue_.finish(id, store::Progress{store::JobState::kQueued, 0, {}, 0, {}, "re-queued by a daemon shutdown"});
-    } else {
-      db_.mark_cancelled(id);
-      log_line("job " + id, "cancelled");
-      queue_.finish(id, store::Progress{store::JobState::kCancelled, 0, {}, 0, {}, "cancelled"});
-    }
-  } catch (const std::exception& e) {
-    try {
-      db_.mark_failed(id, e.what());
-    } catch (const std::exception& e2) {
-      log_line("job " + id, std::string("could not record the failure: ") + e2.what());
-    }
-    log_line("job " + id, std::string("failed: ") + e.what());
-    queue_.finish(id, store::Progress{store::JobState::kFailed, 0, {}, 0, {}, e.what()});
+BakeRequest Workers::request_of(const store::JobRecord& record) {
+  v1::JobSpec spec;
+  if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
+  // The database keeps the spec as the client sent it, not the translated request (a plain struct, which may hold
+  // the bytes of the job's blobs): so the worker translates it again, the same text giving the same request. Its
+  // blobs were checked at submit; load_inputs reads them now and says which is gone.
+  BakeRequest request = translate(spec);
+  load_inputs(request, blobs_);
+  return request;
+}
+
+Baked Workers::bake(const std::string& id, const BakeRequest& request, std::atomic<bool>* cancel) {
+  bake::BakeControl control;
+  control.cancel = cancel;
+  // Watchers need a few updates a second, not one per table entry.
+  auto last_publish = std::chrono::steady_clock::time_point{};
+  control.progress = [&](const bake::BakeProgress& p) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_publish < std::chrono::milliseconds(100) && p.fraction < 1.0) return;
+    last_publish = now;
+    store::Progress progress{store::JobState::running, p.fraction, {}, p.samples, {}, p.stage};
+    if (p.eta_seconds >= 0) progress.eta_seconds = p.eta_seconds;
+    if (p.error_estimate > 0) progress.error_estimate = p.error_estimate;
+    queue_.publish(id, progress);
+  };
+  Baked baked;
+  tbb::task_arena arena(threads_per_job_);
+  arena.execute([&] {
+    baked = std::visit([&](const auto& in) { return run_baker(request, in, control); }, request.input);
+  });
+  return baked;
+}
+
+void Workers::record_success(const std::string& id, const store::JobRecord& record, const BakeRequest& request,
+                             const Baked& baked, std::chrono::steady_clock::time_point t0) {
+  v1::JobResult result = job_result(id, record, request, baked);
+  std::vector<std::string> digests;
+  for (std::size_t i = 0; i < baked.outputs.size(); ++i) {
+    const store::BlobId blob = blobs_.put(baked.outputs[i].bytes);
+    digests.push_back(blob.digest);
+    result.mutable_outputs(static_cast<int>(i))->mutable_digest()->set_sha256(blob.digest);
+    result.mutable_outputs(static_cast<int>(i))->mutable_digest()->set_size(blob.size);
   }
+  std::string bytes;
+  result.SerializeToString(&bytes);
+  db_.mark_succeeded(id, bytes, digests);
+  const v1::BakeReport& report = result.report();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  log_line("job " + id, "succeeded in " + std::to_string(seconds) + " s, " + std::to_string(report.samples()) +
+                            " samples, error estimate " + std::to_string(report.error_estimate()));
+  queue_.finish(id, store::Progress{store::JobState::succeeded, 1.0, 0.0, report.samples(), report.error_estimate(),
+                                    "done"});
+}
+
+void Workers::record_cancelled(const std::string& id) {
+  if (requeue_) {
+    db_.mark_queued(id);
+    log_line("job " + id, "interrupted by the shutdown; it runs again at the next start");
+    queue_.finish(id, store::Progress{store::JobState::queued, 0, {}, 0, {}, "re-queued by a daemon shutdown"});
+  } else {
+    db_.mark_cancelled(id);
+    log_line("job " + id, "cancelled");
+    queue_.finish(id, store::Progress{store::JobState::cancelled, 0, {}, 0, {}, "cancelled"});
+  }
+}
+
+void Workers::record_failure(const std::string& id, const std::string& what) {
+  try {
+    db_.mark_failed(id, what);
+  } catch (const std::exception& e2) {
+    log_line("job " + id, std::string("could not record the failure: ") + e2.what());
+  }
+  log_line("job " + id, std::string("failed: ") + what);
+  queue_.finish(id, store::Progress{store::JobState::failed, 0, {}, 0, {}, what});
 }
 
 }  // namespace kiln::daemon

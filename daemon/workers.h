@@ -2,7 +2,10 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <memory>
+#include <optional>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -12,9 +15,13 @@ namespace kiln::store {
 class BlobStore;
 class JobDb;
 class JobQueue;
+struct JobRecord;
 }  // namespace kiln::store
 
 namespace kiln::daemon {
+
+struct BakeRequest;
+struct Baked;  // what a bake hands back to the worker (workers.cpp)
 
 class Workers {
  public:
@@ -29,7 +36,16 @@ class Workers {
 
  private:
   void run(std::stop_token stop);
+  // One job, from the queue to its end: running, baked, then succeeded, cancelled (or re-queued) or failed.
   void run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel);
+  // Marks the job running; nothing (and the queue told) if it was cancelled or removed meanwhile.
+  std::optional<store::JobRecord> start_running(const std::string& id);
+  BakeRequest request_of(const store::JobRecord& record);
+  Baked bake(const std::string& id, const BakeRequest& request, std::atomic<bool>* cancel);
+  void record_success(const std::string& id, const store::JobRecord& record, const BakeRequest& request,
+                      const Baked& baked, std::chrono::steady_clock::time_point t0);
+  void record_cancelled(const std::string& id);
+  void record_failure(const std::string& id, const std::string& what);
 
   Config config_;
   store::JobDb& db_;

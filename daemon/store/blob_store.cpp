@@ -22,14 +22,14 @@ namespace kiln::store {
 
 std::string_view to_string(StoreErrc code) {
   switch (code) {
-    case StoreErrc::kInvalidArgument: return "invalid argument";
-    case StoreErrc::kNotFound: return "not found";
-    case StoreErrc::kAlreadyExists: return "already exists";
-    case StoreErrc::kFailedPrecondition: return "failed precondition";
-    case StoreErrc::kOutOfRange: return "out of range";
-    case StoreErrc::kDataLoss: return "data loss";
-    case StoreErrc::kResourceExhausted: return "resource exhausted";
-    case StoreErrc::kIo: return "I/O error";
+    case StoreErrc::invalid_argument: return "invalid argument";
+    case StoreErrc::not_found: return "not found";
+    case StoreErrc::already_exists: return "already exists";
+    case StoreErrc::failed_precondition: return "failed precondition";
+    case StoreErrc::out_of_range: return "out of range";
+    case StoreErrc::data_loss: return "data loss";
+    case StoreErrc::resource_exhausted: return "resource exhausted";
+    case StoreErrc::io: return "I/O error";
   }
   return "unknown";
 }
@@ -37,7 +37,7 @@ std::string_view to_string(StoreErrc code) {
 BlobId make_blob_id(std::string_view digest, uint64_t size) {
   if (!is_sha256_hex(digest)) {
     std::string shown(digest.substr(0, 80));
-    throw StoreError(StoreErrc::kInvalidArgument,
+    throw StoreError(StoreErrc::invalid_argument,
                      "blob digest '" + shown + "' is not a SHA-256 digest: expected 64 hex digits, got " +
                          std::to_string(digest.size()) + " characters");
   }
@@ -52,11 +52,11 @@ namespace {
 std::string describe(const BlobId& id) { return "blob " + id.digest + " (" + std::to_string(id.size) + " bytes)"; }
 
 // A full disk is worth telling apart: the operator can act on it.
-StoreErrc errc_for(int err) { return (err == ENOSPC || err == EDQUOT) ? StoreErrc::kResourceExhausted : StoreErrc::kIo; }
+StoreErrc errc_for(int err) { return (err == ENOSPC || err == EDQUOT) ? StoreErrc::resource_exhausted : StoreErrc::io; }
 
 [[noreturn]] void throw_errno(int err, const std::string& what) {
   std::string msg = what + ": " + std::strerror(err);
-  if (err == ENOSPC || err == EDQUOT) msg += "; free disk space or lower the store's retention limit";
+  if (err == ENOSPC || err == EDQUOT) msg += kDiskFullAdvice;
   throw StoreError(errc_for(err), msg);
 }
 
@@ -137,10 +137,10 @@ void create_dir(const fs::path& p) {
   std::error_code ec;
   fs::create_directories(p, ec);
   if (ec)
-    throw StoreError(StoreErrc::kIo, "cannot create store directory " + p.string() + ": " + ec.message() +
+    throw StoreError(StoreErrc::io, "cannot create store directory " + p.string() + ": " + ec.message() +
                                          "; check the --store path and its permissions");
   if (!fs::is_directory(p, ec))
-    throw StoreError(StoreErrc::kIo, "store path " + p.string() + " exists but is not a directory; "
+    throw StoreError(StoreErrc::io, "store path " + p.string() + " exists but is not a directory; "
                                      "point --store at a directory");
 }
 
@@ -188,10 +188,10 @@ fs::path BlobStore::partial_path(const std::string& digest) const { return dir_ 
 void BlobStore::check_declared(const BlobId& id) const {
   // Digests become file names: anything but lowercase hex could escape the store directory.
   if (!is_lower_hex_digest(id.digest))
-    throw StoreError(StoreErrc::kInvalidArgument,
+    throw StoreError(StoreErrc::invalid_argument,
                      "blob digest '" + id.digest.substr(0, 80) + "' is not 64 lowercase hex digits (a SHA-256)");
   if (id.size > options_.max_blob_size)
-    throw StoreError(StoreErrc::kInvalidArgument, describe(id) + " is larger than this store accepts (" +
+    throw StoreError(StoreErrc::invalid_argument, describe(id) + " is larger than this store accepts (" +
                                                       std::to_string(options_.max_blob_size) + " bytes)");
 }
 
@@ -228,7 +228,7 @@ uint64_t BlobStore::append(const BlobId& id, uint64_t offset, std::string_view d
   std::lock_guard lock(stripe(id.digest));
   if (contains(id)) {
     if (offset == id.size && data.empty()) return id.size;
-    throw StoreError(StoreErrc::kFailedPrecondition,
+    throw StoreError(StoreErrc::failed_precondition,
                      describe(id) + " is already stored complete; there is nothing left to upload");
   }
   fs::path part = partial_path(id.digest);
@@ -240,12 +240,12 @@ uint64_t BlobStore::append(const BlobId& id, uint64_t offset, std::string_view d
     have = 0;
   }
   if (offset != have)
-    throw StoreError(StoreErrc::kFailedPrecondition,
+    throw StoreError(StoreErrc::failed_precondition,
                      "upload of " + describe(id) + ": a chunk arrived for offset " + std::to_string(offset) + ", but " +
                          std::to_string(have) + " bytes have been received; resume from offset " +
                          std::to_string(have));
   if (data.size() > id.size - offset)
-    throw StoreError(StoreErrc::kOutOfRange, "upload of " + describe(id) + ": a chunk of " +
+    throw StoreError(StoreErrc::out_of_range, "upload of " + describe(id) + ": a chunk of " +
                                                  std::to_string(data.size()) + " bytes at offset " +
                                                  std::to_string(offset) + " would go past the declared size");
   if (data.empty()) return offset;
@@ -269,7 +269,7 @@ void BlobStore::install(const fs::path& from, const BlobId& id) {
   fs::path shard = target.parent_path();
   std::error_code ec;
   if (fs::create_directory(shard, ec)) fsync_dir(dir_ / "blobs");
-  if (ec) throw StoreError(StoreErrc::kIo, "cannot create " + shard.string() + ": " + ec.message());
+  if (ec) throw StoreError(StoreErrc::io, "cannot create " + shard.string() + ": " + ec.message());
   if (::rename(from.c_str(), target.c_str()) != 0)
     throw_errno(errno, "cannot move " + from.string() + " into place as " + target.string());
   fsync_dir(shard);
@@ -294,13 +294,13 @@ void BlobStore::complete(const BlobId& id) {
   }
   uint64_t have = st.exists ? st.size : 0;
   if (have < id.size)
-    throw StoreError(StoreErrc::kFailedPrecondition,
+    throw StoreError(StoreErrc::failed_precondition,
                      "upload of " + describe(id) + " is not finished: " + std::to_string(have) +
                          " bytes received; send the rest from offset " + std::to_string(have) + " before completing it");
   FileDigest got = sha256_file(part);
   if (got.digest != id.digest || got.size != id.size) {
     fs::remove(part, ec);
-    throw StoreError(StoreErrc::kDataLoss,
+    throw StoreError(StoreErrc::data_loss,
                      "upload of " + describe(id) + " was rejected: the " + std::to_string(got.size) +
                          " bytes received hash to " + got.digest +
                          ", so they are not this blob. The upload was discarded; upload the blob again from offset 0");
@@ -382,7 +382,7 @@ void BlobStore::quarantine_and_throw(const BlobId& id, const std::string& why) {
     std::lock_guard vlock(verified_mu_);
     verified_.erase(id.digest);
   }
-  throw StoreError(StoreErrc::kDataLoss, describe(id) + " is damaged on disk: " + why + "; " + where +
+  throw StoreError(StoreErrc::data_loss, describe(id) + " is damaged on disk: " + why + "; " + where +
                                              ". Upload it again, or re-run the job that produced it");
 }
 
@@ -401,10 +401,34 @@ void BlobStore::verify_once(const BlobId& id, const fs::path& file) {
 
 namespace {
 [[noreturn]] void throw_not_found(const BlobId& id) {
-  throw StoreError(StoreErrc::kNotFound, describe(id) + " is not in the store; upload it (or re-run the job that "
+  throw StoreError(StoreErrc::not_found, describe(id) + " is not in the store; upload it (or re-run the job that "
                                                         "produced it) first");
 }
+// Fills `out` from the file at `offset`; returns how many bytes it got (fewer where the file ends).
+size_t read_at(int fd, const fs::path& file, uint64_t offset, std::string& out) {
+  size_t done = 0;
+  while (done < out.size()) {
+    ssize_t n = ::pread(fd, out.data() + done, out.size() - done, static_cast<off_t>(offset + done));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw_errno(errno, "cannot read " + file.string());
+    }
+    if (n == 0) break;
+    done += static_cast<size_t>(n);
+  }
+  return done;
+}
+
 }  // namespace
+
+void BlobStore::refuse_size(const BlobId& id, const fs::path& file) {
+  FileDigest got = sha256_file(file);
+  if (got.digest == id.digest)
+    throw StoreError(StoreErrc::not_found, "blob " + id.digest + " is stored with " + std::to_string(got.size) +
+                                               " bytes, not " + std::to_string(id.size) +
+                                               "; ask for it with its real size");
+  quarantine_and_throw(id, "its file holds " + std::to_string(got.size) + " bytes and hashes to " + got.digest);
+}
 
 std::string BlobStore::read(const BlobId& id) {
   check_declared(id);
@@ -419,25 +443,10 @@ std::string BlobStore::read(const BlobId& id) {
   if (::fstat(fd, &st) != 0) throw_errno(errno, "cannot inspect " + file.string());
   if (static_cast<uint64_t>(st.st_size) != id.size) {
     guard.close();
-    // Either the caller has the size wrong or the file is damaged; the hash decides which.
-    FileDigest got = sha256_file(file);
-    if (got.digest == id.digest)
-      throw StoreError(StoreErrc::kNotFound, "blob " + id.digest + " is stored with " + std::to_string(got.size) +
-                                                 " bytes, not " + std::to_string(id.size) +
-                                                 "; ask for it with its real size");
-    quarantine_and_throw(id, "its file holds " + std::to_string(got.size) + " bytes and hashes to " + got.digest);
+    refuse_size(id, file);
   }
   std::string out(id.size, '\0');
-  size_t done = 0;
-  while (done < out.size()) {
-    ssize_t n = ::pread(fd, out.data() + done, out.size() - done, static_cast<off_t>(done));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw_errno(errno, "cannot read " + file.string());
-    }
-    if (n == 0) break;
-    done += static_cast<size_t>(n);
-  }
+  const size_t done = read_at(fd, file, 0, out);
   guard.close();
   // Hash what is returned, not a second read of the file: the bytes handed out are the bytes checked.
   if (done != out.size()) quarantine_and_throw(id, "its file ended after " + std::to_string(done) + " bytes");
@@ -456,16 +465,9 @@ std::string BlobStore::read_range(const BlobId& id, uint64_t offset, uint64_t le
   fs::path file = blob_path(id.digest);
   FileStat st = stat_path(file);
   if (!st.exists) throw_not_found(id);
-  if (st.size != id.size) {
-    FileDigest got = sha256_file(file);
-    if (got.digest == id.digest)
-      throw StoreError(StoreErrc::kNotFound, "blob " + id.digest + " is stored with " + std::to_string(got.size) +
-                                                 " bytes, not " + std::to_string(id.size) +
-                                                 "; ask for it with its real size");
-    quarantine_and_throw(id, "its file holds " + std::to_string(got.size) + " bytes and hashes to " + got.digest);
-  }
+  if (st.size != id.size) refuse_size(id, file);
   if (offset > id.size)
-    throw StoreError(StoreErrc::kOutOfRange, "read of " + describe(id) + " at offset " + std::to_string(offset) +
+    throw StoreError(StoreErrc::out_of_range, "read of " + describe(id) + " at offset " + std::to_string(offset) +
                                                  " is past its end");
   verify_once(id, file);
   uint64_t n_want = std::min(length, id.size - offset);
@@ -476,16 +478,7 @@ std::string BlobStore::read_range(const BlobId& id, uint64_t offset, uint64_t le
   }
   Fd guard(fd);
   std::string out(n_want, '\0');
-  size_t done = 0;
-  while (done < out.size()) {
-    ssize_t n = ::pread(fd, out.data() + done, out.size() - done, static_cast<off_t>(offset + done));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw_errno(errno, "cannot read " + file.string());
-    }
-    if (n == 0) break;
-    done += static_cast<size_t>(n);
-  }
+  const size_t done = read_at(fd, file, offset, out);
   guard.close();
   if (done != out.size()) quarantine_and_throw(id, "its file ended after " + std::to_string(offset + done) + " bytes");
   if (offset == 0) touch(id);  // once per fetch, not once per chunk

@@ -26,16 +26,19 @@ namespace kiln::store {
 
 // What went wrong, in terms the daemon maps onto its protocol's error codes.
 enum class StoreErrc {
-  kInvalidArgument,     // malformed input: a digest that is not 64 hex digits, an offset beyond the declared size
-  kNotFound,            // no such blob or job
-  kAlreadyExists,       // an idempotency key reused for a different job
-  kFailedPrecondition,  // the request is valid but not now: completing an unfinished upload, cancelling a finished job
-  kOutOfRange,          // an offset or length beyond the blob's (declared) size
-  kDataLoss,            // bytes do not match their digest, or a stored file is damaged
-  kResourceExhausted,   // the disk is full
-  kIo,                  // the operating system refused (permissions, I/O error)
+  invalid_argument,     // malformed input: a digest that is not 64 hex digits, an offset beyond the declared size
+  not_found,            // no such blob or job
+  already_exists,       // an idempotency key reused for a different job
+  failed_precondition,  // the request is valid but not now: completing an unfinished upload, cancelling a finished job
+  out_of_range,         // an offset or length beyond the blob's (declared) size
+  data_loss,            // bytes do not match their digest, or a stored file is damaged
+  resource_exhausted,   // the disk is full
+  io,                   // the operating system refused (permissions, I/O error)
 };
 std::string_view to_string(StoreErrc code);
+
+// What a message about a full disk adds: what the operator can do.
+inline constexpr char kDiskFullAdvice[] = "; free disk space or lower the store's retention limit";
 
 // Every error of the store: a code for programs and a message for people that names what failed and what to do.
 class StoreError : public std::runtime_error {
@@ -53,7 +56,7 @@ struct BlobId {
   uint64_t size = 0;
   friend bool operator==(const BlobId&, const BlobId&) = default;
 };
-// Validates and normalises (lowercases) a digest; throws StoreError(kInvalidArgument) naming the bad value.
+// Validates and normalises (lowercases) a digest; throws StoreError(invalid_argument) naming the bad value.
 BlobId make_blob_id(std::string_view digest, uint64_t size);
 
 struct BlobStoreOptions {
@@ -78,7 +81,7 @@ struct EvictionReport {
 class BlobStore {
  public:
   // Creates DIR and its subfolders if needed, and deletes leftovers in DIR/tmp (writes a crash interrupted: they
-  // were never renamed into place, so no one was told they exist). Throws StoreError(kIo) if DIR is unusable.
+  // were never renamed into place, so no one was told they exist). Throws StoreError(io) if DIR is unusable.
   // One BlobStore per directory: open the JobDb first, whose lock keeps a second daemon out of the store.
   explicit BlobStore(std::filesystem::path dir, BlobStoreOptions options = {});
   BlobStore(const BlobStore&) = delete;
@@ -94,7 +97,7 @@ class BlobStore {
   // Returns the new received count. Appending nothing at received(id) is allowed and changes nothing.
   uint64_t append(const BlobId& id, uint64_t offset, std::string_view data);
   // Once all bytes have arrived: verifies the SHA-256, fsyncs, and renames the partial into place. A blob that is
-  // already complete is left as it is. Throws kFailedPrecondition if bytes are missing, and kDataLoss if the
+  // already complete is left as it is. Throws failed_precondition if bytes are missing, and data_loss if the
   // bytes do not hash to the digest (the partial is then deleted, so the upload restarts from offset 0).
   void complete(const BlobId& id);
   // Drops a partial upload (a client that gave up). Complete blobs are not touched.
@@ -110,10 +113,10 @@ class BlobStore {
   // --- Reads (verified) ---
   // True if the complete blob is present with exactly this size (not a verification: reads verify).
   bool contains(const BlobId& id) const;
-  // The whole blob, with its SHA-256 checked. kNotFound if absent; kDataLoss if the file is damaged (it is then
+  // The whole blob, with its SHA-256 checked. not_found if absent; data_loss if the file is damaged (it is then
   // moved to DIR/corrupt/ so a fresh upload can replace it).
   std::string read(const BlobId& id);
-  // Up to `length` bytes from `offset` (fewer at the end of the blob; none when offset == size; kOutOfRange beyond
+  // Up to `length` bytes from `offset` (fewer at the end of the blob; none when offset == size; out_of_range beyond
   // it). The file's size is checked on every call and its content hashed the first time this process reads it
   // (then remembered), so a chunked fetch hashes a blob once, not once per chunk.
   std::string read_range(const BlobId& id, uint64_t offset, uint64_t length);
@@ -139,9 +142,12 @@ class BlobStore {
   std::mutex& stripe(const std::string& digest);
   // Renames `from` (a verified, fsynced file) to the blob's place and makes the rename durable.
   void install(const std::filesystem::path& from, const BlobId& id);
-  // Hashes the stored file unless this process already did; on damage, quarantines it and throws kDataLoss.
+  // Hashes the stored file unless this process already did; on damage, quarantines it and throws data_loss.
   void verify_once(const BlobId& id, const std::filesystem::path& file);
   [[noreturn]] void quarantine_and_throw(const BlobId& id, const std::string& why);
+  // A stored file whose size is not id.size: either the caller has the size wrong (not_found, naming the real size)
+  // or the file is damaged (quarantined, data_loss); the hash decides which.
+  [[noreturn]] void refuse_size(const BlobId& id, const std::filesystem::path& file);
 
   std::filesystem::path dir_;
   BlobStoreOptions options_;

@@ -2,7 +2,6 @@
 
 #include <fcntl.h>
 #include <openssl/rand.h>
-#include <sqlite3.h>
 #include <sys/file.h>
 #include <unistd.h>
 
@@ -12,24 +11,30 @@
 #include <ctime>
 #include <random>
 
+#include "daemon/store/sqlite.h"
+
 namespace fs = std::filesystem;
 
 namespace kiln::store {
 
+using sqlite::exec;
+using sqlite::Stmt;
+using sqlite::Transaction;
+
 std::string_view to_string(JobState s) {
   switch (s) {
-    case JobState::kQueued: return "queued";
-    case JobState::kRunning: return "running";
-    case JobState::kSucceeded: return "succeeded";
-    case JobState::kFailed: return "failed";
-    case JobState::kCancelled: return "cancelled";
+    case JobState::queued: return "queued";
+    case JobState::running: return "running";
+    case JobState::succeeded: return "succeeded";
+    case JobState::failed: return "failed";
+    case JobState::cancelled: return "cancelled";
   }
   return "unknown";
 }
 
 std::optional<JobState> parse_job_state(std::string_view s) {
-  for (JobState st : {JobState::kQueued, JobState::kRunning, JobState::kSucceeded, JobState::kFailed,
-                      JobState::kCancelled})
+  for (JobState st : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed,
+                      JobState::cancelled})
     if (s == to_string(st)) return st;
   return std::nullopt;
 }
@@ -60,135 +65,6 @@ namespace {
 
 constexpr size_t kMaxIdempotencyKey = 256;
 
-// --- Minimal RAII over the SQLite C API. ----------------------------------------------------------------------
-
-StoreErrc errc_for_sqlite(int rc) {
-  if (rc == SQLITE_CONSTRAINT_UNIQUE || rc == SQLITE_CONSTRAINT_PRIMARYKEY) return StoreErrc::kAlreadyExists;
-  switch (rc & 0xff) {
-    case SQLITE_FULL: return StoreErrc::kResourceExhausted;
-    case SQLITE_CORRUPT:
-    case SQLITE_NOTADB: return StoreErrc::kDataLoss;
-    case SQLITE_CONSTRAINT: return StoreErrc::kInvalidArgument;
-    default: return StoreErrc::kIo;
-  }
-}
-
-[[noreturn]] void throw_sqlite(sqlite3* db, int rc, const fs::path& file, const std::string& doing) {
-  std::string msg = "job database " + file.string() + ": " + doing + " failed: " +
-                    (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
-  switch (rc & 0xff) {
-    case SQLITE_FULL: msg += "; free disk space or lower the store's retention limit"; break;
-    case SQLITE_CORRUPT:
-    case SQLITE_NOTADB:
-      msg += "; the file is damaged or is not a kiln job database. Move it aside (kilnd will create a new one) "
-             "or point --store at another directory";
-      break;
-    case SQLITE_READONLY:
-    case SQLITE_CANTOPEN:
-    case SQLITE_PERM: msg += "; check the permissions of the store directory"; break;
-    default: break;
-  }
-  throw StoreError(errc_for_sqlite(rc), msg);
-}
-
-class Stmt {
- public:
-  Stmt(sqlite3* db, const fs::path& file, const char* sql) : db_(db), file_(file) {
-    int rc = sqlite3_prepare_v2(db, sql, -1, &st_, nullptr);
-    if (rc != SQLITE_OK) throw_sqlite(db, rc, file, "preparing a query");
-  }
-  ~Stmt() { sqlite3_finalize(st_); }
-  Stmt(const Stmt&) = delete;
-  Stmt& operator=(const Stmt&) = delete;
-
-  Stmt& bind(int i, std::string_view v) {
-    // A null pointer would bind NULL; an empty string is a value.
-    check(sqlite3_bind_text(st_, i, v.empty() ? "" : v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
-    return *this;
-  }
-  Stmt& bind_blob(int i, std::string_view v) {
-    // A zero-length blob must still be a blob, not NULL: an empty spec or result is a value.
-    check(sqlite3_bind_blob(st_, i, v.empty() ? "" : v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
-    return *this;
-  }
-  Stmt& bind(int i, int64_t v) {
-    check(sqlite3_bind_int64(st_, i, v));
-    return *this;
-  }
-  Stmt& bind(int i, double v) {
-    check(sqlite3_bind_double(st_, i, v));
-    return *this;
-  }
-  Stmt& bind_null(int i) {
-    check(sqlite3_bind_null(st_, i));
-    return *this;
-  }
-  template <class T>
-  Stmt& bind_opt(int i, const std::optional<T>& v) {
-    return v ? bind(i, *v) : bind_null(i);
-  }
-
-  // True while there is a row.
-  bool step() {
-    int rc = sqlite3_step(st_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    throw_sqlite(db_, rc, file_, "a query");
-  }
-  void run() {
-    while (step()) {
-    }
-  }
-
-  bool is_null(int c) const { return sqlite3_column_type(st_, c) == SQLITE_NULL; }
-  int64_t i64(int c) const { return sqlite3_column_int64(st_, c); }
-  double dbl(int c) const { return sqlite3_column_double(st_, c); }
-  std::string str(int c) const {
-    const void* p = sqlite3_column_blob(st_, c);
-    int n = sqlite3_column_bytes(st_, c);
-    return p ? std::string(static_cast<const char*>(p), static_cast<size_t>(n)) : std::string();
-  }
-  std::optional<std::string> opt_str(int c) const { return is_null(c) ? std::nullopt : std::optional(str(c)); }
-  std::optional<double> opt_dbl(int c) const { return is_null(c) ? std::nullopt : std::optional(dbl(c)); }
-
- private:
-  void check(int rc) {
-    if (rc != SQLITE_OK) throw_sqlite(db_, rc, file_, "binding a query parameter");
-  }
-  sqlite3* db_;
-  const fs::path& file_;
-  sqlite3_stmt* st_ = nullptr;
-};
-
-void exec(sqlite3* db, const fs::path& file, const char* sql, const char* doing) {
-  char* err = nullptr;
-  int rc = sqlite3_exec(db, sql, nullptr, nullptr, &err);
-  if (rc != SQLITE_OK) {
-    sqlite3_free(err);
-    throw_sqlite(db, rc, file, doing);
-  }
-}
-
-// BEGIN IMMEDIATE … COMMIT, rolled back if anything throws in between.
-class Transaction {
- public:
-  Transaction(sqlite3* db, const fs::path& file) : db_(db), file_(file) {
-    exec(db, file, "BEGIN IMMEDIATE", "starting a transaction");
-  }
-  ~Transaction() {
-    if (!done_) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-  }
-  void commit() {
-    exec(db_, file_, "COMMIT", "committing a transaction");
-    done_ = true;
-  }
-
- private:
-  sqlite3* db_;
-  const fs::path& file_;
-  bool done_ = false;
-};
-
 // Digest lists are stored as comma-separated lowercase hex: plain text, readable with the sqlite3 shell.
 std::string join_digests(const std::vector<std::string>& v) {
   std::string out;
@@ -217,7 +93,7 @@ void check_digests(const std::vector<std::string>& v, const char* field) {
     bool ok = d.size() == 64 &&
               std::all_of(d.begin(), d.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
     if (!ok)
-      throw StoreError(StoreErrc::kInvalidArgument, std::string(field) + "[" + std::to_string(i) + "]: '" +
+      throw StoreError(StoreErrc::invalid_argument, std::string(field) + "[" + std::to_string(i) + "]: '" +
                                                         d.substr(0, 80) +
                                                         "' is not a SHA-256 digest (64 lowercase hex digits)");
   }
@@ -244,7 +120,7 @@ JobRecord row_to_record(const Stmt& s, const fs::path& file) {
   std::string state = s.str(7);
   auto st = parse_job_state(state);
   if (!st)
-    throw StoreError(StoreErrc::kDataLoss, "job database " + file.string() + ": job " + r.id +
+    throw StoreError(StoreErrc::data_loss, "job database " + file.string() + ": job " + r.id +
                                                " has an unknown state '" + state + "'; the file was edited or damaged");
   r.state = *st;
   r.submitted = s.dbl(8);
@@ -292,88 +168,97 @@ CREATE INDEX jobs_last_used ON jobs (state, last_used);
 PRAGMA user_version = 1;
 )sql";
 
+// One process per database: two daemons would both "recover" and run the same jobs. Returns the lock file's
+// descriptor, holding the lock until it is closed.
+int lock_database(const fs::path& file) {
+  fs::path lock_path = file;
+  lock_path += ".lock";
+  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0)
+    throw StoreError(StoreErrc::io, "cannot create lock file " + lock_path.string() + ": " + std::strerror(errno) +
+                                        "; check that the store directory exists and is writable");
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    char buf[32] = {};
+    ssize_t n = ::pread(fd, buf, sizeof buf - 1, 0);
+    ::close(fd);
+    std::string holder = n > 0 ? " (pid " + std::string(buf, static_cast<size_t>(n)) + ")" : "";
+    while (!holder.empty() && (holder.back() == '\n')) holder.pop_back();
+    throw StoreError(StoreErrc::failed_precondition,
+                     "job database " + file.string() + " is in use by another kilnd process" + holder +
+                         "; stop that daemon or give this one another --store directory");
+  }
+  std::string pid = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(fd, 0) == 0) {
+    [[maybe_unused]] ssize_t w = ::pwrite(fd, pid.data(), pid.size(), 0);  // a hint for people only
+  }
+  return fd;
+}
+
+// The first read of the file: a file that is not a database fails here, before anything is written to it.
+int schema_version_of(sqlite3* db, const fs::path& file) {
+  Stmt s(db, file, "PRAGMA user_version");
+  s.step();
+  const int version = static_cast<int>(s.i64(0));
+  if (version > JobDb::kSchemaVersion)
+    throw StoreError(StoreErrc::failed_precondition,
+                     "job database " + file.string() + " has schema version " + std::to_string(version) +
+                         ", written by a newer kilnd; this one knows up to version " +
+                         std::to_string(JobDb::kSchemaVersion) +
+                         ". Run the newer kilnd, or point --store at another directory");
+  return version;
+}
+
+void set_durability(sqlite3* db, const fs::path& file) {
+  {
+    Stmt s(db, file, "PRAGMA journal_mode = WAL");
+    s.step();
+    if (s.str(0) != "wal")
+      throw StoreError(StoreErrc::io, "job database " + file.string() +
+                                          ": cannot switch to write-ahead logging (journal mode stays '" + s.str(0) +
+                                          "'); the store must be on a local file system");
+  }
+  // FULL rather than NORMAL: in WAL mode NORMAL survives a process crash but may lose the last commits on power
+  // loss, and a lost commit here is a submit the client was told succeeded. Commits are a handful per job, so the
+  // fsync per commit costs nothing next to a bake.
+  exec(db, file, "PRAGMA synchronous = FULL", "setting synchronous mode");
+}
+
+// A new file gets the schema; an SQLite file with tables but no version is someone else's and is left alone.
+void create_schema(sqlite3* db, const fs::path& file) {
+  bool has_tables;
+  {
+    Stmt s(db, file, "SELECT count(*) FROM sqlite_master");
+    s.step();
+    has_tables = s.i64(0) > 0;
+  }
+  if (has_tables)
+    throw StoreError(StoreErrc::failed_precondition,
+                     "job database " + file.string() +
+                         " is an SQLite database, but not one kilnd created (it has tables and no schema version); "
+                         "point --store at another directory");
+  Transaction t(db, file);
+  exec(db, file, kSchemaV1, "creating the schema");
+  t.commit();
+}
+
 }  // namespace
 
 struct JobDb::Impl {
   sqlite3* db = nullptr;
   int lock_fd = -1;
   ~Impl() {
-    if (db) sqlite3_close_v2(db);
+    if (db) sqlite::close(db);
     if (lock_fd >= 0) ::close(lock_fd);  // releases the flock
   }
 };
 
 JobDb::JobDb(const fs::path& file, JobDbOptions options)
     : impl_(std::make_unique<Impl>()), file_(file), options_(options) {
-  // One process per database: two daemons would both "recover" and run the same jobs.
-  fs::path lock_path = file_;
-  lock_path += ".lock";
-  impl_->lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (impl_->lock_fd < 0)
-    throw StoreError(StoreErrc::kIo, "cannot create lock file " + lock_path.string() + ": " + std::strerror(errno) +
-                                         "; check that the store directory exists and is writable");
-  if (::flock(impl_->lock_fd, LOCK_EX | LOCK_NB) != 0) {
-    char buf[32] = {};
-    ssize_t n = ::pread(impl_->lock_fd, buf, sizeof buf - 1, 0);
-    std::string holder = n > 0 ? " (pid " + std::string(buf, static_cast<size_t>(n)) + ")" : "";
-    while (!holder.empty() && (holder.back() == '\n')) holder.pop_back();
-    throw StoreError(StoreErrc::kFailedPrecondition,
-                     "job database " + file_.string() + " is in use by another kilnd process" + holder +
-                         "; stop that daemon or give this one another --store directory");
-  }
-  std::string pid = std::to_string(::getpid()) + "\n";
-  if (::ftruncate(impl_->lock_fd, 0) == 0) {
-    [[maybe_unused]] ssize_t w = ::pwrite(impl_->lock_fd, pid.data(), pid.size(), 0);  // a hint for people only
-  }
-
-  int rc = sqlite3_open_v2(file_.c_str(), &impl_->db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                           nullptr);
-  if (rc != SQLITE_OK) throw_sqlite(impl_->db, rc, file_, "opening");
-  sqlite3* db = impl_->db;
-  sqlite3_extended_result_codes(db, 1);
-  sqlite3_busy_timeout(db, 5000);
-
-  // The first read of the file: a file that is not a database fails here, before anything is written to it.
-  int version;
-  {
-    Stmt s(db, file_, "PRAGMA user_version");
-    s.step();
-    version = static_cast<int>(s.i64(0));
-  }
-  if (version > kSchemaVersion)
-    throw StoreError(StoreErrc::kFailedPrecondition,
-                     "job database " + file_.string() + " has schema version " + std::to_string(version) +
-                         ", written by a newer kilnd; this one knows up to version " + std::to_string(kSchemaVersion) +
-                         ". Run the newer kilnd, or point --store at another directory");
-  {
-    Stmt s(db, file_, "PRAGMA journal_mode = WAL");
-    s.step();
-    if (s.str(0) != "wal")
-      throw StoreError(StoreErrc::kIo, "job database " + file_.string() +
-                                           ": cannot switch to write-ahead logging (journal mode stays '" + s.str(0) +
-                                           "'); the store must be on a local file system");
-  }
-  // FULL rather than NORMAL: in WAL mode NORMAL survives a process crash but may lose the last commits on power
-  // loss, and a lost commit here is a submit the client was told succeeded. Commits are a handful per job, so the
-  // fsync per commit costs nothing next to a bake.
-  exec(db, file_, "PRAGMA synchronous = FULL", "setting synchronous mode");
-
-  if (version == 0) {
-    bool has_tables;
-    {
-      Stmt s(db, file_, "SELECT count(*) FROM sqlite_master");
-      s.step();
-      has_tables = s.i64(0) > 0;
-    }
-    if (has_tables)
-      throw StoreError(StoreErrc::kFailedPrecondition,
-                       "job database " + file_.string() +
-                           " is an SQLite database, but not one kilnd created (it has tables and no schema version); "
-                           "point --store at another directory");
-    Transaction t(db, file_);
-    exec(db, file_, kSchemaV1, "creating the schema");
-    t.commit();
-  }
+  impl_->lock_fd = lock_database(file_);
+  impl_->db = sqlite::open(file_);
+  const int version = schema_version_of(impl_->db, file_);
+  set_durability(impl_->db, file_);
+  if (version == 0) create_schema(impl_->db, file_);
   // Future migrations: `if (version < 2) { … PRAGMA user_version = 2; }`, each in its own transaction.
 }
 
@@ -404,50 +289,58 @@ std::optional<JobRecord> find_by_key_locked(sqlite3* db, const fs::path& file, s
 
 std::string shown_id(std::string_view id) { return "job " + std::string(id.substr(0, 80)); }
 
-}  // namespace
-
-InsertOutcome JobDb::insert(const NewJob& job) {
-  if (job.type.empty()) throw StoreError(StoreErrc::kInvalidArgument, "job type is empty; name the kind of bake");
+// What insert() refuses before touching the database.
+void check_new_job(const NewJob& job) {
+  if (job.type.empty()) throw StoreError(StoreErrc::invalid_argument, "job type is empty; name the kind of bake");
   if (job.spec_key.empty())
-    throw StoreError(StoreErrc::kInvalidArgument, "job spec_key is empty; it must identify the canonical spec");
+    throw StoreError(StoreErrc::invalid_argument, "job spec_key is empty; it must identify the canonical spec");
   if (job.idempotency_key) {
     if (job.idempotency_key->empty())
-      throw StoreError(StoreErrc::kInvalidArgument, "idempotency key is empty; leave it unset or give a value");
+      throw StoreError(StoreErrc::invalid_argument, "idempotency key is empty; leave it unset or give a value");
     if (job.idempotency_key->size() > kMaxIdempotencyKey)
-      throw StoreError(StoreErrc::kInvalidArgument, "idempotency key is " +
+      throw StoreError(StoreErrc::invalid_argument, "idempotency key is " +
                                                         std::to_string(job.idempotency_key->size()) +
                                                         " bytes long; at most " + std::to_string(kMaxIdempotencyKey) +
                                                         " are allowed");
   }
   check_digests(job.input_digests, "input_digests");
   if (job.cached) check_digests(job.cached->output_digests, "cached.output_digests");
+}
 
+int64_t next_seq(sqlite3* db, const fs::path& file) {
+  Stmt s(db, file, "SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs");
+  s.step();
+  return s.i64(0);
+}
+
+std::string unused_id(sqlite3* db, const fs::path& file) {
+  // 128 random bits do not collide in practice; the primary key would catch it if they did, so try again.
+  for (int attempt = 0;; ++attempt) {
+    std::string id = new_job_id();
+    if (!get_locked(db, file, id)) return id;
+    if (attempt == 8) throw StoreError(StoreErrc::io, "cannot draw an unused job id; the random source is broken");
+  }
+}
+
+}  // namespace
+
+InsertOutcome JobDb::insert(const NewJob& job) {
+  check_new_job(job);
   std::lock_guard lock(mu_);
   sqlite3* db = impl_->db;
   Transaction t(db, file_);
   if (job.idempotency_key) {
     if (auto existing = find_by_key_locked(db, file_, *job.idempotency_key)) {
       if (existing->spec_key != job.spec_key)
-        throw StoreError(StoreErrc::kAlreadyExists,
+        throw StoreError(StoreErrc::already_exists,
                          "idempotency key '" + *job.idempotency_key + "' was already used for job " + existing->id +
                              " with a different spec; use a new key for a different job");
       return {std::move(*existing), false};
     }
   }
-  int64_t seq;
-  {
-    Stmt s(db, file_, "SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs");
-    s.step();
-    seq = s.i64(0);
-  }
+  const int64_t seq = next_seq(db, file_);
   double now = unix_now();
-  std::string id;
-  // 128 random bits do not collide in practice; the primary key would catch it if they did, so try again.
-  for (int attempt = 0;; ++attempt) {
-    id = new_job_id();
-    if (!get_locked(db, file_, id)) break;
-    if (attempt == 8) throw StoreError(StoreErrc::kIo, "cannot draw an unused job id; the random source is broken");
-  }
+  const std::string id = unused_id(db, file_);
   Stmt s(db, file_,
          "INSERT INTO jobs (id, seq, name, type, spec, spec_key, priority, state, submitted, started, finished, "
          "result, idempotency_key, input_digests, output_digests, last_used, cache_source) "
@@ -456,10 +349,10 @@ InsertOutcome JobDb::insert(const NewJob& job) {
   s.bind(7, int64_t{job.priority}).bind(9, now).bind_opt(12, job.idempotency_key);
   s.bind(13, join_digests(job.input_digests));
   if (job.cached) {
-    s.bind(8, to_string(JobState::kSucceeded)).bind(10, now).bind_blob(11, job.cached->result);
+    s.bind(8, to_string(JobState::succeeded)).bind(10, now).bind_blob(11, job.cached->result);
     s.bind(14, join_digests(job.cached->output_digests)).bind(15, job.cached->source_job_id);
   } else {
-    s.bind(8, to_string(JobState::kQueued)).bind_null(10).bind_null(11).bind(14, std::string_view()).bind_null(15);
+    s.bind(8, to_string(JobState::queued)).bind_null(10).bind_null(11).bind(14, std::string_view()).bind_null(15);
   }
   s.run();
   if (job.cached) {
@@ -502,11 +395,11 @@ JobRecord transition(sqlite3* db, const fs::path& file, std::string_view id, std
                      JobState to, Update&& update) {
   Transaction t(db, file);
   auto rec = get_locked(db, file, id);
-  if (!rec) throw StoreError(StoreErrc::kNotFound, "no " + shown_id(id) + " in the job database");
+  if (!rec) throw StoreError(StoreErrc::not_found, "no " + shown_id(id) + " in the job database");
   if (std::find(from.begin(), from.end(), rec->state) == from.end()) {
     std::string allowed;
     for (JobState s : from) allowed += (allowed.empty() ? "" : " or ") + std::string(to_string(s));
-    throw StoreError(StoreErrc::kFailedPrecondition, "cannot mark " + shown_id(id) + " " +
+    throw StoreError(StoreErrc::failed_precondition, "cannot mark " + shown_id(id) + " " +
                                                          std::string(to_string(to)) + ": it is " +
                                                          std::string(to_string(rec->state)) + ", not " + allowed);
   }
@@ -520,7 +413,7 @@ JobRecord transition(sqlite3* db, const fs::path& file, std::string_view id, std
 
 JobRecord JobDb::mark_running(std::string_view id) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kQueued}, JobState::kRunning, [&] {
+  return transition(impl_->db, file_, id, {JobState::queued}, JobState::running, [&] {
     Stmt s(impl_->db, file_,
            "UPDATE jobs SET state = 'running', started = ?2, attempts = attempts + 1 WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).run();
@@ -531,7 +424,7 @@ JobRecord JobDb::mark_succeeded(std::string_view id, std::string_view result,
                                 const std::vector<std::string>& output_digests) {
   check_digests(output_digests, "output_digests");
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kRunning}, JobState::kSucceeded, [&] {
+  return transition(impl_->db, file_, id, {JobState::running}, JobState::succeeded, [&] {
     Stmt s(impl_->db, file_,
            "UPDATE jobs SET state = 'succeeded', finished = ?2, last_used = ?2, result = ?3, output_digests = ?4, "
            "error = '' WHERE id = ?1");
@@ -541,7 +434,7 @@ JobRecord JobDb::mark_succeeded(std::string_view id, std::string_view result,
 
 JobRecord JobDb::mark_failed(std::string_view id, std::string_view error) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kQueued, JobState::kRunning}, JobState::kFailed, [&] {
+  return transition(impl_->db, file_, id, {JobState::queued, JobState::running}, JobState::failed, [&] {
     Stmt s(impl_->db, file_, "UPDATE jobs SET state = 'failed', finished = ?2, error = ?3 WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).bind(3, error).run();
   });
@@ -549,7 +442,7 @@ JobRecord JobDb::mark_failed(std::string_view id, std::string_view error) {
 
 JobRecord JobDb::mark_cancelled(std::string_view id) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kQueued, JobState::kRunning}, JobState::kCancelled, [&] {
+  return transition(impl_->db, file_, id, {JobState::queued, JobState::running}, JobState::cancelled, [&] {
     Stmt s(impl_->db, file_, "UPDATE jobs SET state = 'cancelled', finished = ?2 WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).run();
   });
@@ -557,7 +450,7 @@ JobRecord JobDb::mark_cancelled(std::string_view id) {
 
 JobRecord JobDb::mark_queued(std::string_view id) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::kRunning}, JobState::kQueued, [&] {
+  return transition(impl_->db, file_, id, {JobState::running}, JobState::queued, [&] {
     // Handed back by a graceful shutdown: that run was not a crash, so it does not count against the job.
     Stmt s(impl_->db, file_,
            "UPDATE jobs SET state = 'queued', started = NULL, attempts = MAX(attempts - 1, 0) WHERE id = ?1");
@@ -611,7 +504,7 @@ Recovery JobDb::recover_unfinished() {
     while (s.step()) out.queued.push_back(row_to_record(s, file_));
   }
   for (const auto& r : running)
-    if (auto rec = get_locked(db, file_, r.id); rec && rec->state == JobState::kFailed)
+    if (auto rec = get_locked(db, file_, r.id); rec && rec->state == JobState::failed)
       out.gave_up.push_back(std::move(*rec));
   t.commit();
   return out;
@@ -626,14 +519,14 @@ JobCounts JobDb::counts() {
     uint64_t n = static_cast<uint64_t>(s.i64(1));
     if (!st) continue;
     switch (*st) {
-      case JobState::kQueued: c.queued = n; break;
-      case JobState::kRunning: c.running = n; break;
-      case JobState::kSucceeded:
+      case JobState::queued: c.queued = n; break;
+      case JobState::running: c.running = n; break;
+      case JobState::succeeded:
         c.succeeded = n;
         c.cache_hits = static_cast<uint64_t>(s.i64(2));
         break;
-      case JobState::kFailed: c.failed = n; break;
-      case JobState::kCancelled: c.cancelled = n; break;
+      case JobState::failed: c.failed = n; break;
+      case JobState::cancelled: c.cancelled = n; break;
     }
   }
   return c;
@@ -643,7 +536,7 @@ bool JobDb::touch(std::string_view id, std::optional<double> when) {
   std::lock_guard lock(mu_);
   Stmt s(impl_->db, file_, "UPDATE jobs SET last_used = ?2 WHERE id = ?1");
   s.bind(1, id).bind(2, when.value_or(unix_now())).run();
-  return sqlite3_changes(impl_->db) > 0;
+  return sqlite::changes(impl_->db) > 0;
 }
 
 std::vector<JobRecord> JobDb::results_by_last_used(size_t limit) {
@@ -704,15 +597,6 @@ size_t JobDb::mark_results_evicted(const std::unordered_set<std::string>& remove
   }
   t.commit();
   return hit.size();
-}
-
-RetentionReport enforce_retention(JobDb& db, BlobStore& blobs, uint64_t limit_bytes) {
-  RetentionReport r;
-  r.blobs = blobs.evict_to(limit_bytes, db.pinned_digests(), db.blob_last_used());
-  std::unordered_set<std::string> removed;
-  for (const auto& id : r.blobs.removed) removed.insert(id.digest);
-  r.results_evicted = db.mark_results_evicted(removed);
-  return r;
 }
 
 }  // namespace kiln::store

@@ -20,10 +20,10 @@
 
 namespace kiln::store {
 
-enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled };
+enum class JobState { queued, running, succeeded, failed, cancelled };
 std::string_view to_string(JobState s);             // "queued", "running", …: the spelling stored in the database
 std::optional<JobState> parse_job_state(std::string_view s);
-inline bool is_terminal(JobState s) { return s != JobState::kQueued && s != JobState::kRunning; }
+inline bool is_terminal(JobState s) { return s != JobState::queued && s != JobState::running; }
 
 // A stored result reused for a new submit (a cache hit).
 struct CachedResult {
@@ -51,7 +51,7 @@ struct JobRecord {
   std::string spec;  // empty in list() and results_by_last_used(), which leave payloads out
   std::string spec_key;
   int32_t priority = 0;
-  JobState state = JobState::kQueued;
+  JobState state = JobState::queued;
   double submitted = 0;  // seconds since the Unix epoch
   std::optional<double> started, finished;
   std::string error;   // why it failed; empty otherwise
@@ -92,8 +92,8 @@ class JobDb {
   static constexpr int kSchemaVersion = 1;
 
   // Opens or creates the database file (its directory must exist) and migrates its schema. Throws StoreError:
-  // kFailedPrecondition if another process holds it or it was written by a newer kilnd, kDataLoss if the file is not
-  // a database, kIo otherwise. Never deletes or rewrites a file it does not understand.
+  // failed_precondition if another process holds it or it was written by a newer kilnd, data_loss if the file is not
+  // a database, io otherwise. Never deletes or rewrites a file it does not understand.
   explicit JobDb(const std::filesystem::path& file, JobDbOptions options = {});
   ~JobDb();
   JobDb(const JobDb&) = delete;
@@ -103,15 +103,15 @@ class JobDb {
   int schema_version();
 
   // Records a new job: queued, or succeeded at once if job.cached is set. With an idempotency key already in use
-  // for the same spec_key, returns that job with created = false; for a different spec_key, throws kAlreadyExists.
-  // kInvalidArgument for a missing type or spec_key, a malformed digest, or an empty or over-long key.
+  // for the same spec_key, returns that job with created = false; for a different spec_key, throws already_exists.
+  // invalid_argument for a missing type or spec_key, a malformed digest, or an empty or over-long key.
   InsertOutcome insert(const NewJob& job);
   std::optional<JobRecord> get(std::string_view id);
   std::optional<JobRecord> find_by_idempotency_key(std::string_view key);
   // The result cache: the newest succeeded job with this key whose outputs have not been evicted.
   std::optional<JobRecord> find_succeeded_by_spec_key(std::string_view spec_key);
 
-  // State changes. Each returns the updated record; kNotFound for an unknown id; kFailedPrecondition (naming the
+  // State changes. Each returns the updated record; not_found for an unknown id; failed_precondition (naming the
   // job's current state) for a change its state does not allow:
   JobRecord mark_running(std::string_view id);  // queued → running; counts an attempt
   JobRecord mark_succeeded(std::string_view id, std::string_view result,
@@ -153,15 +153,5 @@ class JobDb {
 std::string new_job_id();
 // Seconds since the Unix epoch, the unit of every time in the database.
 double unix_now();
-
-struct RetentionReport {
-  EvictionReport blobs;
-  size_t results_evicted = 0;
-};
-// Brings the blobs under limit_bytes: pins what queued and running jobs read, evicts the least recently used other
-// blobs (their last use taken from the jobs that refer to them, else the file's time), then marks the results that
-// lost a blob as evicted. The daemon must not insert a job between this call's start and end (run it under the
-// same lock or strand as submit), or a blob the new job needs could be chosen for eviction.
-RetentionReport enforce_retention(JobDb& db, BlobStore& blobs, uint64_t limit_bytes);
 
 }  // namespace kiln::store

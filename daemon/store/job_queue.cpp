@@ -60,11 +60,11 @@ Progress sanitize(Progress p) {
 }  // namespace
 
 struct JobQueue::Impl {
-  enum class Where { kWaiting, kRunning, kRemoved };
+  enum class Where { waiting, running, removed };
   struct Tracked {
     int32_t priority = 0;
     int64_t seq = 0;
-    Where where = Where::kWaiting;
+    Where where = Where::waiting;
     std::shared_ptr<std::atomic<bool>> cancel = std::make_shared<std::atomic<bool>>(false);
     Progress latest;
     std::map<uint64_t, SubPtr> subs;
@@ -98,10 +98,10 @@ struct JobQueue::Impl {
     Key k = *waiting.begin();
     waiting.erase(waiting.begin());
     Tracked& t = tracked.at(k.id);
-    t.where = Where::kRunning;
+    t.where = Where::running;
     ++n_running;
     t.latest = Progress{};
-    t.latest.state = JobState::kRunning;
+    t.latest.state = JobState::running;
     notify_locked(t, out);
     return {k.id, k.priority, k.seq, t.cancel};
   }
@@ -197,27 +197,27 @@ std::optional<QueuedJob> JobQueue::try_pop() {
 bool JobQueue::remove(std::string_view id) {
   std::lock_guard lock(impl_->mu);
   auto it = impl_->tracked.find(std::string(id));
-  if (it == impl_->tracked.end() || it->second.where != Impl::Where::kWaiting) return false;
+  if (it == impl_->tracked.end() || it->second.where != Impl::Where::waiting) return false;
   impl_->waiting.erase({it->second.priority, it->second.seq, it->first});
-  it->second.where = Impl::Where::kRemoved;
+  it->second.where = Impl::Where::removed;
   return true;
 }
 
 CancelOutcome JobQueue::cancel(std::string_view id) {
   std::lock_guard lock(impl_->mu);
   auto it = impl_->tracked.find(std::string(id));
-  if (it == impl_->tracked.end()) return CancelOutcome::kUnknown;
+  if (it == impl_->tracked.end()) return CancelOutcome::unknown;
   Impl::Tracked& t = it->second;
   t.cancel->store(true);
   switch (t.where) {
-    case Impl::Where::kWaiting:
+    case Impl::Where::waiting:
       impl_->waiting.erase({t.priority, t.seq, it->first});
-      t.where = Impl::Where::kRemoved;
-      return CancelOutcome::kRemovedFromQueue;
-    case Impl::Where::kRemoved: return CancelOutcome::kRemovedFromQueue;
-    case Impl::Where::kRunning: return CancelOutcome::kSignalled;
+      t.where = Impl::Where::removed;
+      return CancelOutcome::removed_from_queue;
+    case Impl::Where::removed: return CancelOutcome::removed_from_queue;
+    case Impl::Where::running: return CancelOutcome::signalled;
   }
-  return CancelOutcome::kUnknown;
+  return CancelOutcome::unknown;
 }
 
 std::shared_ptr<std::atomic<bool>> JobQueue::cancel_flag(std::string_view id) {
@@ -239,14 +239,14 @@ size_t JobQueue::running() const {
 bool JobQueue::is_queued(std::string_view id) const {
   std::lock_guard lock(impl_->mu);
   auto it = impl_->tracked.find(std::string(id));
-  return it != impl_->tracked.end() && it->second.where == Impl::Where::kWaiting;
+  return it != impl_->tracked.end() && it->second.where == Impl::Where::waiting;
 }
 
 std::vector<std::string> JobQueue::running_ids() const {
   std::lock_guard lock(impl_->mu);
   std::vector<std::string> out;
   for (const auto& [id, t] : impl_->tracked)
-    if (t.where == Impl::Where::kRunning) out.push_back(id);
+    if (t.where == Impl::Where::running) out.push_back(id);
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -285,8 +285,8 @@ void JobQueue::finish(std::string_view id, Progress final_progress) {
     Impl::Tracked& t = it->second;
     t.latest = sanitize(std::move(final_progress));
     impl_->notify_locked(t, ds);
-    if (t.where == Impl::Where::kWaiting) impl_->waiting.erase({t.priority, t.seq, it->first});
-    if (t.where == Impl::Where::kRunning) --impl_->n_running;
+    if (t.where == Impl::Where::waiting) impl_->waiting.erase({t.priority, t.seq, it->first});
+    if (t.where == Impl::Where::running) --impl_->n_running;
     // Subscriptions keep their pending final update; they just stop being reachable from the job.
     impl_->tracked.erase(it);
   }

@@ -22,7 +22,7 @@ namespace kiln::store {
 
 // A job's latest progress, as watchers see it.
 struct Progress {
-  JobState state = JobState::kQueued;
+  JobState state = JobState::queued;
   double fraction = 0;                  // of the work done, in [0, 1]
   std::optional<double> eta_seconds;    // unknown until the baker can estimate it
   uint64_t samples = 0;                 // taken so far
@@ -40,9 +40,9 @@ struct QueuedJob {
 };
 
 enum class CancelOutcome {
-  kRemovedFromQueue,  // it was waiting: it will never run
-  kSignalled,         // it was running: its cancel flag is set, and the worker records how it ended
-  kUnknown,           // not queued or running here (finished, or never known)
+  removed_from_queue,  // it was waiting: it will never run
+  signalled,           // it was running: its cancel flag is set, and the worker records how it ended
+  unknown,             // not queued or running here (finished, or never known)
 };
 
 class JobQueue;

@@ -15,7 +15,7 @@ namespace kiln::store {
 FileDigest sha256_file(const std::filesystem::path& file) {
   int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0)
-    throw StoreError(StoreErrc::kIo, "cannot open " + file.string() + " to verify it: " + std::strerror(errno));
+    throw StoreError(StoreErrc::io, "cannot open " + file.string() + " to verify it: " + std::strerror(errno));
   Sha256 h;
   FileDigest out;
   std::vector<char> buf(1 << 20);
@@ -25,7 +25,7 @@ FileDigest sha256_file(const std::filesystem::path& file) {
       if (errno == EINTR) continue;
       int e = errno;
       ::close(fd);
-      throw StoreError(StoreErrc::kIo, "cannot read " + file.string() + " to verify it: " + std::strerror(e));
+      throw StoreError(StoreErrc::io, "cannot read " + file.string() + " to verify it: " + std::strerror(e));
     }
     if (n == 0) break;
     h.update(std::string_view(buf.data(), static_cast<size_t>(n)));

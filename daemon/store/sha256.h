@@ -20,7 +20,7 @@ struct FileDigest {
   std::string digest;  // 64 lowercase hex digits
   uint64_t size = 0;   // bytes hashed
 };
-// Hashes a whole file in bounded memory. Throws StoreError (kIo) if it cannot be read.
+// Hashes a whole file in bounded memory. Throws StoreError (io) if it cannot be read.
 FileDigest sha256_file(const std::filesystem::path& file);
 
 // True for exactly 64 hex digits (either case).

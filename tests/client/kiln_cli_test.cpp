@@ -1356,9 +1356,9 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   EXPECT_EQ(bake.spec.quality().time_limit_seconds(), 20);
   EXPECT_TRUE(bake.spec.force_effects().at("environment_sampling"));
   const daemon::BakeRequest r = daemon::translate(bake.spec);
-  EXPECT_EQ(r.lightmap.resolution, 32);
-  EXPECT_EQ(r.lightmap.scene.materials[0].bsdf.specular.alpha_x, 0.2);
-  EXPECT_EQ(r.lightmap.scene.lights[1].type, scene::LightType::directional);
+  EXPECT_EQ(r.lightmap().resolution, 32);
+  EXPECT_EQ(r.lightmap().scene.materials[0].bsdf.specular.alpha_x, 0.2);
+  EXPECT_EQ(r.lightmap().scene.lights[1].type, scene::LightType::directional);
 
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.resolution"), "--resolution");
   EXPECT_EQ(lightmap_field_origin(bake, "job.quality.target_error"), "--target-error");

@@ -510,8 +510,8 @@ TEST(SceneImport, GltfPunctualLightsArePlacedByTheirNodes) {
 
   // Through the daemon's translation: the lights as the baker will see them.
   const daemon::BakeRequest r = translated(j);
-  ASSERT_EQ(r.lightmap.scene.lights.size(), 3u);
-  for (const scene::Light& l : r.lightmap.scene.lights) {
+  ASSERT_EQ(r.lightmap().scene.lights.size(), 3u);
+  for (const scene::Light& l : r.lightmap().scene.lights) {
     if (l.type == scene::LightType::spot) {
       EXPECT_NEAR(l.inner_cone, 0.3, kFloat32);
       EXPECT_NEAR(l.outer_cone, 0.6, kFloat32);

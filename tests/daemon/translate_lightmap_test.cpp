@@ -121,9 +121,9 @@ v1::JobSpec full_job() {
 
 TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   const BakeRequest r = translate(full_job());
-  EXPECT_EQ(r.type, "lightmap");
+  EXPECT_EQ(job_type(r), "lightmap");
   EXPECT_EQ(r.name, "test scene");
-  const lightmap::LightmapBakeInput& in = r.lightmap;
+  const lightmap::LightmapBakeInput& in = r.lightmap();
   const scene::Scene& s = in.scene;
   ASSERT_EQ(s.meshes.size(), 2u);
   EXPECT_EQ(s.meshes[0].name, "floor");
@@ -197,7 +197,7 @@ TEST(TranslateLightmap, DefaultsAreTheDocumentedOnes) {
   m->set_name("only");
   *m->mutable_geometry() = digest('a');
   const BakeRequest r = translate(spec);
-  const lightmap::LightmapBakeInput& in = r.lightmap;
+  const lightmap::LightmapBakeInput& in = r.lightmap();
   ASSERT_EQ(in.scene.instances.size(), 1u);  // every mesh once
   ASSERT_EQ(in.scene.materials.size(), 1u);  // Lambert 0.8
   EXPECT_EQ(in.scene.materials[0].bsdf.diffuse.albedo.r, 0.8);
@@ -218,8 +218,8 @@ TEST(TranslateLightmap, ConstantEnvironmentTakesItsIntensity) {
   set(env->mutable_constant(), 1, 2, 3);
   env->set_intensity(0.5);
   const BakeRequest r = translate(spec);
-  ASSERT_TRUE(r.lightmap.scene.environment.constant);
-  EXPECT_EQ(r.lightmap.scene.environment.constant->g, 1.0);
+  ASSERT_TRUE(r.lightmap().scene.environment.constant);
+  EXPECT_EQ(r.lightmap().scene.environment.constant->g, 1.0);
   EXPECT_EQ(r.inputs.size(), 3u);
 }
 

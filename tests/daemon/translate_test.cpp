@@ -25,13 +25,13 @@ v1::JobSpec spec_from(const std::string& text) {
 TEST(Translate, GgxWithDefaults) {
   const BakeRequest r = translate(spec_from(R"(name: "x" material { ggx { alpha: 0.25 fresnel: FRESNEL_SCHLICK
                                                 f0 { r: 0.04 g: 0.04 b: 0.04 } } })"));
-  EXPECT_EQ(r.type, "material");
-  EXPECT_EQ(r.material.model.model, brdf::Model::ggx);
-  EXPECT_EQ(r.material.model.alpha_x, 0.25);
-  EXPECT_EQ(r.material.model.alpha_y, 0.25);
-  EXPECT_EQ(brdf::fresnel_mode(r.material.model), brdf::FresnelMode::schlick);
-  EXPECT_EQ(r.material.table_mu, 32);
-  EXPECT_FALSE(r.material.merl);
+  EXPECT_EQ(job_type(r), "material");
+  EXPECT_EQ(r.material().model.model, brdf::Model::ggx);
+  EXPECT_EQ(r.material().model.alpha_x, 0.25);
+  EXPECT_EQ(r.material().model.alpha_y, 0.25);
+  EXPECT_EQ(brdf::fresnel_mode(r.material().model), brdf::FresnelMode::schlick);
+  EXPECT_EQ(r.material().table_mu, 32);
+  EXPECT_FALSE(r.material().merl);
 }
 
 TEST(Translate, EveryModelTranslates) {
@@ -128,9 +128,9 @@ TEST(Translate, BoundsTheNameAndTheEffects) {
 }
 
 TEST(Translate, ForcingMerlOverridesTheFlag) {
-  EXPECT_TRUE(translate(spec_from("force_effects { key: \"merl\" value: true } material { ggx { } }")).material.merl);
+  EXPECT_TRUE(translate(spec_from("force_effects { key: \"merl\" value: true } material { ggx { } }")).material().merl);
   EXPECT_FALSE(
-      translate(spec_from("force_effects { key: \"merl\" value: false } material { ggx { } merl: true }")).material.merl);
+      translate(spec_from("force_effects { key: \"merl\" value: false } material { ggx { } merl: true }")).material().merl);
 }
 
 // ---- The environment job ----------------------------------------------------------------------------------------
@@ -151,8 +151,8 @@ TEST(TranslateEnvironment, EveryFieldReachesTheBakersInput) {
       environment { image { )") + kDigest + R"( } color_space: "lin_rec709" rotation_degrees: -90 intensity: 2.5
                     lobe: ENVIRONMENT_LOBE_BECKMANN size: 64 levels: 3 irradiance_size: 16 dfg_size: 32
                     dfg_samples: 64 preview: false })"));
-  EXPECT_EQ(r.type, "environment");
-  const envmap::EnvironmentBakeInput& in = r.environment;
+  EXPECT_EQ(job_type(r), "environment");
+  const envmap::EnvironmentBakeInput& in = r.environment();
   EXPECT_FALSE(in.constant.has_value());
   EXPECT_TRUE(in.image.empty());  // the bytes come with load_inputs
   ASSERT_EQ(r.inputs.size(), 1u);
@@ -178,15 +178,15 @@ TEST(TranslateEnvironment, EveryFieldReachesTheBakersInput) {
 TEST(TranslateEnvironment, DefaultsAreTheBakers) {
   const BakeRequest r = translate(spec_from("environment { constant { r: 0.5 g: 1 b: 2 } }"));
   const envmap::EnvironmentBakeInput defaults;
-  EXPECT_EQ(r.environment.constant->r, 0.5);
-  EXPECT_EQ(r.environment.constant->b, 2.0);
+  EXPECT_EQ(r.environment().constant->r, 0.5);
+  EXPECT_EQ(r.environment().constant->b, 2.0);
   EXPECT_TRUE(r.inputs.empty());
-  EXPECT_EQ(r.environment.size, defaults.size);
-  EXPECT_EQ(r.environment.levels, defaults.levels);
-  EXPECT_EQ(r.environment.samples, defaults.samples);
-  EXPECT_EQ(r.environment.target_error, defaults.target_error);
-  EXPECT_EQ(r.environment.preview, defaults.preview);
-  EXPECT_EQ(r.environment.lobe, envmap::EnvLobe::ggx);
+  EXPECT_EQ(r.environment().size, defaults.size);
+  EXPECT_EQ(r.environment().levels, defaults.levels);
+  EXPECT_EQ(r.environment().samples, defaults.samples);
+  EXPECT_EQ(r.environment().target_error, defaults.target_error);
+  EXPECT_EQ(r.environment().preview, defaults.preview);
+  EXPECT_EQ(r.environment().lobe, envmap::EnvLobe::ggx);
   const BakeRequest faces = translate(spec_from("environment { " + faces_text(6) + " }"));
   ASSERT_EQ(faces.inputs.size(), 6u);
   EXPECT_EQ(faces.inputs[5].field, "job.environment.faces.digests[5]");
@@ -311,7 +311,7 @@ TEST(TranslateEnvironment, InputBlobsMustBeInTheStoreAndAreReadFromIt) {
   spec.mutable_environment()->mutable_image()->set_size(id.size);
   BakeRequest r = translate(spec, &blobs);
   load_inputs(r, blobs);
-  EXPECT_EQ(r.environment.image, bytes);
+  EXPECT_EQ(r.environment().image, bytes);
 
   // A digest the store does not hold, or holds with another size: refused at submit, naming the field.
   for (uint64_t size : {id.size + 1, id.size}) {
@@ -338,7 +338,7 @@ TEST(TranslateEnvironment, InputBlobsMustBeInTheStoreAndAreReadFromIt) {
   }
   BakeRequest rf = translate(faces, &blobs);
   load_inputs(rf, blobs);
-  EXPECT_EQ(rf.environment.faces, face_bytes);
+  EXPECT_EQ(rf.environment().faces, face_bytes);
 }
 
 TEST(TranslateEnvironment, BakerComplaintsNameTheJobsField) {

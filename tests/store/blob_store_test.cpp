@@ -113,7 +113,7 @@ TEST(BlobStore, ChunkedUploadThenComplete) {
   EXPECT_TRUE(fs::is_empty(tmp.path() / "partial"));
   store.complete(id);  // completing a complete blob changes nothing
   EXPECT_EQ(store.read(id), bytes);
-  expect_store_error([&] { store.append(id, 0, "x"); }, StoreErrc::kFailedPrecondition);
+  expect_store_error([&] { store.append(id, 0, "x"); }, StoreErrc::failed_precondition);
 }
 
 TEST(BlobStore, BrokenUploadResumesAfterReopen) {
@@ -127,7 +127,7 @@ TEST(BlobStore, BrokenUploadResumesAfterReopen) {
   BlobStore store(tmp.path());
   ASSERT_EQ(store.received(id), 20000u);
   EXPECT_FALSE(store.contains(id));
-  expect_store_error([&] { store.read(id); }, StoreErrc::kNotFound);
+  expect_store_error([&] { store.read(id); }, StoreErrc::not_found);
   store.append(id, 20000, std::string_view(bytes).substr(20000));
   store.complete(id);
   EXPECT_EQ(store.read(id), bytes);
@@ -141,17 +141,17 @@ TEST(BlobStore, WrongOffsetIsRefusedWithTheOffsetToResumeFrom) {
   store.append(id, 0, std::string_view(bytes).substr(0, 400));
   // A retried chunk (already received) and a gap are both refused, and nothing is written.
   StoreError e1 = expect_store_error([&] { store.append(id, 0, std::string_view(bytes).substr(0, 400)); },
-                                     StoreErrc::kFailedPrecondition);
+                                     StoreErrc::failed_precondition);
   EXPECT_NE(std::string(e1.what()).find("resume from offset 400"), std::string::npos) << e1.what();
   expect_store_error([&] { store.append(id, 500, std::string_view(bytes).substr(500, 100)); },
-                     StoreErrc::kFailedPrecondition);
+                     StoreErrc::failed_precondition);
   EXPECT_EQ(store.received(id), 400u);
   // Past the declared size: refused, nothing written.
-  StoreError e2 = expect_store_error([&] { store.append(id, 400, pattern(601, 5)); }, StoreErrc::kOutOfRange);
+  StoreError e2 = expect_store_error([&] { store.append(id, 400, pattern(601, 5)); }, StoreErrc::out_of_range);
   EXPECT_NE(std::string(e2.what()).find(id.digest), std::string::npos) << e2.what();
   EXPECT_EQ(store.received(id), 400u);
   // Completing early: refused, the partial is kept.
-  expect_store_error([&] { store.complete(id); }, StoreErrc::kFailedPrecondition);
+  expect_store_error([&] { store.complete(id); }, StoreErrc::failed_precondition);
   EXPECT_EQ(store.received(id), 400u);
   store.append(id, 400, std::string_view(bytes).substr(400));
   store.complete(id);
@@ -166,7 +166,7 @@ TEST(BlobStore, DigestMismatchIsRejectedAndDiscarded) {
   sent[1234] ^= 1;  // one bit off
   BlobId id = id_of(claimed);
   store.append(id, 0, sent);
-  StoreError e = expect_store_error([&] { store.complete(id); }, StoreErrc::kDataLoss);
+  StoreError e = expect_store_error([&] { store.complete(id); }, StoreErrc::data_loss);
   EXPECT_NE(std::string(e.what()).find("upload the blob again from offset 0"), std::string::npos) << e.what();
   EXPECT_FALSE(store.contains(id));
   EXPECT_EQ(store.received(id), 0u);
@@ -182,9 +182,9 @@ TEST(BlobStore, MalformedDigestsAreRefusedNotUsedAsPaths) {
   BlobStore store(tmp.path());
   for (std::string bad : {std::string("../../etc/passwd"), std::string("abc"), std::string(64, 'g'),
                           std::string(63, 'a') + "/"}) {
-    expect_store_error([&] { make_blob_id(bad, 1); }, StoreErrc::kInvalidArgument);
-    expect_store_error([&] { store.append(BlobId{bad, 1}, 0, "x"); }, StoreErrc::kInvalidArgument);
-    expect_store_error([&] { store.read(BlobId{bad, 1}); }, StoreErrc::kInvalidArgument);
+    expect_store_error([&] { make_blob_id(bad, 1); }, StoreErrc::invalid_argument);
+    expect_store_error([&] { store.append(BlobId{bad, 1}, 0, "x"); }, StoreErrc::invalid_argument);
+    expect_store_error([&] { store.read(BlobId{bad, 1}); }, StoreErrc::invalid_argument);
   }
   // Upper case is a valid spelling of a digest; the store's name for it is lower case.
   std::string upper = sha256_hex("abc");
@@ -192,7 +192,7 @@ TEST(BlobStore, MalformedDigestsAreRefusedNotUsedAsPaths) {
   EXPECT_EQ(make_blob_id(upper, 3), id_of("abc"));
   BlobStore limited(tmp.path(), BlobStoreOptions{.max_blob_size = 1000});
   expect_store_error([&] { limited.append(BlobId{std::string(64, 'a'), 1001}, 0, "x"); },
-                     StoreErrc::kInvalidArgument);
+                     StoreErrc::invalid_argument);
 }
 
 TEST(BlobStore, CrashLeftoverTmpFileIsNeverServedAndIsCleanedUp) {
@@ -209,7 +209,7 @@ TEST(BlobStore, CrashLeftoverTmpFileIsNeverServedAndIsCleanedUp) {
   write_file(tmp.path() / "tmp" / (id.digest + ".garbage.tmp"), bytes);
   BlobStore store(tmp.path());
   EXPECT_FALSE(store.contains(id));
-  expect_store_error([&] { store.read(id); }, StoreErrc::kNotFound);
+  expect_store_error([&] { store.read(id); }, StoreErrc::not_found);
   EXPECT_TRUE(fs::is_empty(tmp.path() / "tmp"));
   EXPECT_EQ(store.put(bytes), id);
   EXPECT_EQ(store.read(id), bytes);
@@ -235,8 +235,8 @@ TEST(BlobStore, CrashLeftoverPartialIsResumedNotServed) {
   write_file(tmp.path() / "partial" / (id.digest + ".part"), bytes);
   BlobStore store(tmp.path());
   EXPECT_FALSE(store.contains(id));
-  expect_store_error([&] { store.read(id); }, StoreErrc::kNotFound);
-  expect_store_error([&] { store.read_range(id, 0, 10); }, StoreErrc::kNotFound);
+  expect_store_error([&] { store.read(id); }, StoreErrc::not_found);
+  expect_store_error([&] { store.read_range(id, 0, 10); }, StoreErrc::not_found);
   EXPECT_EQ(store.received(id), bytes.size());
   store.complete(id);
   EXPECT_EQ(store.read(id), bytes);
@@ -266,7 +266,7 @@ TEST(BlobStore, DamagedBlobIsRefusedQuarantinedAndReplaceable) {
   damaged[17] ^= 0x40;  // bit rot, same size
   write_file(blob_file(tmp.path(), id), damaged);
   BlobStore store(tmp.path());  // a new process: nothing verified yet
-  StoreError e = expect_store_error([&] { store.read(id); }, StoreErrc::kDataLoss);
+  StoreError e = expect_store_error([&] { store.read(id); }, StoreErrc::data_loss);
   EXPECT_NE(std::string(e.what()).find("damaged"), std::string::npos) << e.what();
   EXPECT_FALSE(store.contains(id));
   EXPECT_FALSE(fs::is_empty(tmp.path() / "corrupt"));  // kept for inspection, never served
@@ -284,7 +284,7 @@ TEST(BlobStore, TruncatedBlobIsRefusedByRangeReads) {
   }
   fs::resize_file(blob_file(tmp.path(), id), 2500);
   BlobStore store(tmp.path());
-  expect_store_error([&] { store.read_range(id, 0, 100); }, StoreErrc::kDataLoss);
+  expect_store_error([&] { store.read_range(id, 0, 100); }, StoreErrc::data_loss);
   EXPECT_FALSE(store.contains(id));
 }
 
@@ -296,10 +296,10 @@ TEST(BlobStore, RangeReads) {
   EXPECT_EQ(store.read_range(id, 0, 4096), bytes.substr(0, 4096));
   EXPECT_EQ(store.read_range(id, 8192, 4096), bytes.substr(8192));  // fewer at the end
   EXPECT_EQ(store.read_range(id, 10000, 4096), "");
-  expect_store_error([&] { store.read_range(id, 10001, 1); }, StoreErrc::kOutOfRange);
+  expect_store_error([&] { store.read_range(id, 10001, 1); }, StoreErrc::out_of_range);
   // Asking with the wrong size is not found under that name, and the stored blob is left alone.
-  expect_store_error([&] { store.read_range(BlobId{id.digest, 9999}, 0, 1); }, StoreErrc::kNotFound);
-  expect_store_error([&] { store.read(BlobId{id.digest, 10001}); }, StoreErrc::kNotFound);
+  expect_store_error([&] { store.read_range(BlobId{id.digest, 9999}, 0, 1); }, StoreErrc::not_found);
+  expect_store_error([&] { store.read(BlobId{id.digest, 10001}); }, StoreErrc::not_found);
   EXPECT_EQ(store.read(id), bytes);
 }
 
@@ -320,7 +320,7 @@ TEST(BlobStore, RangeReadsHashABlobOncePerProcess) {
   EXPECT_EQ(reader.read_range(id, 4000, 2000), damaged.substr(4000, 2000));
   // …but a full read hashes what it returns, and a new process hashes again.
   BlobStore fresh(tmp.path());
-  expect_store_error([&] { fresh.read_range(id, 0, 1000); }, StoreErrc::kDataLoss);
+  expect_store_error([&] { fresh.read_range(id, 0, 1000); }, StoreErrc::data_loss);
 }
 
 TEST(BlobStore, EvictionRemovesLeastRecentlyUsedFirstAndNeverPinned) {
@@ -425,7 +425,7 @@ TEST(BlobStore, ConcurrentUploadsPutsAndReads) {
               try {
                 store.append(id, at, std::string_view(bytes).substr(at, 4096));
               } catch (const StoreError& e) {
-                if (e.code() != StoreErrc::kFailedPrecondition) throw;
+                if (e.code() != StoreErrc::failed_precondition) throw;
               }
             }
             store.complete(id);

@@ -1,6 +1,7 @@
 // JobDb: records survive reopening and kill -9, unfinished jobs come back queued, idempotency keys are unique, the
 // result cache finds succeeded jobs by spec key, and retention never evicts what a queued job needs.
 #include "daemon/store/job_db.h"
+#include "daemon/store/retention.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -80,7 +81,7 @@ TEST(JobDb, InsertAndGetRoundTripEveryField) {
   EXPECT_EQ(got->spec, j.spec);  // opaque bytes, NULs included
   EXPECT_EQ(got->spec_key, "k1");
   EXPECT_EQ(got->priority, 7);
-  EXPECT_EQ(got->state, JobState::kQueued);
+  EXPECT_EQ(got->state, JobState::queued);
   EXPECT_GT(got->submitted, 1.6e9);
   EXPECT_FALSE(got->started);
   EXPECT_FALSE(got->finished);
@@ -108,28 +109,28 @@ TEST(JobDb, StateChangesAndTheirRefusals) {
   TempDir tmp;
   JobDb db(tmp.db());
   std::string id = db.insert(job("a")).job.id;
-  expect_store_error([&] { db.mark_succeeded(id, "r", {}); }, StoreErrc::kFailedPrecondition);
+  expect_store_error([&] { db.mark_succeeded(id, "r", {}); }, StoreErrc::failed_precondition);
   JobRecord r = db.mark_running(id);
-  EXPECT_EQ(r.state, JobState::kRunning);
+  EXPECT_EQ(r.state, JobState::running);
   EXPECT_TRUE(r.started);
   EXPECT_EQ(r.attempts, 1);
   r = db.mark_succeeded(id, std::string("res\0ult", 7), {digest(9)});
-  EXPECT_EQ(r.state, JobState::kSucceeded);
+  EXPECT_EQ(r.state, JobState::succeeded);
   EXPECT_EQ(r.result, std::string("res\0ult", 7));
   EXPECT_EQ(r.output_digests, std::vector<std::string>{digest(9)});
   EXPECT_TRUE(r.finished);
-  StoreError e = expect_store_error([&] { db.mark_cancelled(id); }, StoreErrc::kFailedPrecondition);
+  StoreError e = expect_store_error([&] { db.mark_cancelled(id); }, StoreErrc::failed_precondition);
   EXPECT_TRUE(contains(e.what(), "it is succeeded")) << e.what();
   EXPECT_TRUE(contains(e.what(), id)) << e.what();
-  expect_store_error([&] { db.mark_running("nope"); }, StoreErrc::kNotFound);
+  expect_store_error([&] { db.mark_running("nope"); }, StoreErrc::not_found);
 
   std::string q = db.insert(job("b")).job.id;
-  EXPECT_EQ(db.mark_cancelled(q).state, JobState::kCancelled);  // a queued job can be cancelled
-  expect_store_error([&] { db.mark_running(q); }, StoreErrc::kFailedPrecondition);  // and then never runs
+  EXPECT_EQ(db.mark_cancelled(q).state, JobState::cancelled);  // a queued job can be cancelled
+  expect_store_error([&] { db.mark_running(q); }, StoreErrc::failed_precondition);  // and then never runs
   std::string f = db.insert(job("c")).job.id;
   db.mark_running(f);
   JobRecord failed = db.mark_failed(f, "job.material.ggx.alpha: must be in (0, 1], got -0.2");
-  EXPECT_EQ(failed.state, JobState::kFailed);
+  EXPECT_EQ(failed.state, JobState::failed);
   EXPECT_EQ(failed.error, "job.material.ggx.alpha: must be in (0, 1], got -0.2");
 }
 
@@ -138,24 +139,24 @@ TEST(JobDb, BadInputIsRefusedAndNothingIsStored) {
   JobDb db(tmp.db());
   NewJob no_type = job("x");
   no_type.type.clear();
-  expect_store_error([&] { db.insert(no_type); }, StoreErrc::kInvalidArgument);
+  expect_store_error([&] { db.insert(no_type); }, StoreErrc::invalid_argument);
   NewJob no_key = job("x");
   no_key.spec_key.clear();
-  expect_store_error([&] { db.insert(no_key); }, StoreErrc::kInvalidArgument);
+  expect_store_error([&] { db.insert(no_key); }, StoreErrc::invalid_argument);
   NewJob bad_digest = job("x");
   bad_digest.input_digests = {digest(1), "../../etc/passwd"};
-  StoreError e = expect_store_error([&] { db.insert(bad_digest); }, StoreErrc::kInvalidArgument);
+  StoreError e = expect_store_error([&] { db.insert(bad_digest); }, StoreErrc::invalid_argument);
   EXPECT_TRUE(contains(e.what(), "input_digests[1]")) << e.what();
   NewJob empty_key = job("x");
   empty_key.idempotency_key = "";
-  expect_store_error([&] { db.insert(empty_key); }, StoreErrc::kInvalidArgument);
+  expect_store_error([&] { db.insert(empty_key); }, StoreErrc::invalid_argument);
   NewJob long_key = job("x");
   long_key.idempotency_key = std::string(1000, 'k');
-  expect_store_error([&] { db.insert(long_key); }, StoreErrc::kInvalidArgument);
+  expect_store_error([&] { db.insert(long_key); }, StoreErrc::invalid_argument);
   std::string id = db.insert(job("ok")).job.id;
   db.mark_running(id);
-  expect_store_error([&] { db.mark_succeeded(id, "r", {"zz"}); }, StoreErrc::kInvalidArgument);
-  EXPECT_EQ(db.get(id)->state, JobState::kRunning);
+  expect_store_error([&] { db.mark_succeeded(id, "r", {"zz"}); }, StoreErrc::invalid_argument);
+  EXPECT_EQ(db.get(id)->state, JobState::running);
   JobCounts c = db.counts();
   EXPECT_EQ(c.queued + c.running + c.succeeded + c.failed + c.cancelled, 1u);
 }
@@ -172,7 +173,7 @@ TEST(JobDb, SurvivesReopen) {
   JobDb db(tmp.db());
   auto r = db.get(id);
   ASSERT_TRUE(r);
-  EXPECT_EQ(r->state, JobState::kSucceeded);
+  EXPECT_EQ(r->state, JobState::succeeded);
   EXPECT_EQ(r->result, "the result");
   EXPECT_EQ(r->output_digests, (std::vector<std::string>{digest(1), digest(2)}));
   EXPECT_EQ(r->priority, 3);
@@ -208,10 +209,10 @@ TEST(JobDb, UnfinishedJobsComeBackQueuedInQueueOrderAfterACrash) {
   EXPECT_EQ(rec.queued[2].id, low);
   EXPECT_TRUE(rec.gave_up.empty());
   auto r = db.get(running);
-  EXPECT_EQ(r->state, JobState::kQueued);
+  EXPECT_EQ(r->state, JobState::queued);
   EXPECT_FALSE(r->started);
   EXPECT_EQ(r->attempts, 1);
-  EXPECT_EQ(db.get(done)->state, JobState::kSucceeded);
+  EXPECT_EQ(db.get(done)->state, JobState::succeeded);
 }
 
 TEST(JobDb, KillNineMidRunLosesNothingCommitted) {
@@ -269,7 +270,7 @@ TEST(JobDb, AJobThatKeepsCrashingTheDaemonIsEventuallyFailed) {
   Recovery rec = db.recover_unfinished();
   EXPECT_TRUE(rec.queued.empty());
   ASSERT_EQ(rec.gave_up.size(), 1u);
-  EXPECT_EQ(rec.gave_up[0].state, JobState::kFailed);
+  EXPECT_EQ(rec.gave_up[0].state, JobState::failed);
   EXPECT_TRUE(contains(rec.gave_up[0].error, "2 times")) << rec.gave_up[0].error;
 }
 
@@ -280,7 +281,7 @@ TEST(JobDb, AGracefulRequeueIsNotACrash) {
   for (int i = 0; i < 3; ++i) {
     db.mark_running(id);
     JobRecord r = db.mark_queued(id);  // shutdown grace period ran out
-    EXPECT_EQ(r.state, JobState::kQueued);
+    EXPECT_EQ(r.state, JobState::queued);
     EXPECT_EQ(r.attempts, 0);
   }
   EXPECT_EQ(db.recover_unfinished().queued.size(), 1u);
@@ -301,7 +302,7 @@ TEST(JobDb, IdempotencyKeyNamesOneJob) {
     first = a.job.id;
     NewJob other = job("b", 0, "another-spec");
     other.idempotency_key = "upload-7";
-    StoreError e = expect_store_error([&] { db.insert(other); }, StoreErrc::kAlreadyExists);
+    StoreError e = expect_store_error([&] { db.insert(other); }, StoreErrc::already_exists);
     EXPECT_TRUE(contains(e.what(), first)) << e.what();
     EXPECT_EQ(db.find_by_idempotency_key("upload-7")->id, first);
     EXPECT_FALSE(db.find_by_idempotency_key("upload-8"));
@@ -355,7 +356,7 @@ TEST(JobDb, ResultCacheFindsTheNewestSucceededJobForASpecKey) {
   NewJob again = job("again", 0, "spec-A");
   again.cached = CachedResult{hit->id, "result-A (cache hit)", hit->output_digests};
   JobRecord copy = db.insert(again).job;
-  EXPECT_EQ(copy.state, JobState::kSucceeded);
+  EXPECT_EQ(copy.state, JobState::succeeded);
   EXPECT_EQ(copy.result, "result-A (cache hit)");
   EXPECT_EQ(copy.cache_source, std::optional<std::string>(queued));
   EXPECT_EQ(copy.output_digests, hit->output_digests);
@@ -380,7 +381,7 @@ TEST(JobDb, ListIsNewestFirstWithoutPayloads) {
   auto page2 = db.list(10, std::nullopt, all.back().seq);
   ASSERT_EQ(page2.size(), 2u);
   EXPECT_EQ(page2[0].id, ids[1]);
-  auto running = db.list(10, JobState::kRunning);
+  auto running = db.list(10, JobState::running);
   ASSERT_EQ(running.size(), 1u);
   EXPECT_EQ(running[0].id, ids[1]);
   JobCounts c = db.counts();
@@ -391,7 +392,7 @@ TEST(JobDb, ListIsNewestFirstWithoutPayloads) {
 TEST(JobDb, SecondOpenOfTheSameDatabaseIsRefused) {
   TempDir tmp;
   JobDb db(tmp.db());
-  StoreError e = expect_store_error([&] { JobDb again(tmp.db()); }, StoreErrc::kFailedPrecondition);
+  StoreError e = expect_store_error([&] { JobDb again(tmp.db()); }, StoreErrc::failed_precondition);
   EXPECT_TRUE(contains(e.what(), "in use by another kilnd")) << e.what();
   EXPECT_TRUE(contains(e.what(), std::to_string(::getpid()))) << e.what();
 }
@@ -403,7 +404,7 @@ TEST(JobDb, AFileThatIsNotADatabaseIsRefusedAndLeftAlone) {
     std::ofstream f(tmp.db(), std::ios::binary);
     f << garbage;
   }
-  StoreError e = expect_store_error([&] { JobDb db(tmp.db()); }, StoreErrc::kDataLoss);
+  StoreError e = expect_store_error([&] { JobDb db(tmp.db()); }, StoreErrc::data_loss);
   EXPECT_TRUE(contains(e.what(), tmp.db().string())) << e.what();
   std::ifstream f(tmp.db(), std::ios::binary);
   std::stringstream ss;
@@ -418,7 +419,7 @@ TEST(JobDb, ADatabaseFromANewerVersionIsRefused) {
   ASSERT_EQ(sqlite3_open(tmp.db().c_str(), &raw), SQLITE_OK);
   ASSERT_EQ(sqlite3_exec(raw, "PRAGMA user_version = 99", nullptr, nullptr, nullptr), SQLITE_OK);
   sqlite3_close(raw);
-  StoreError e = expect_store_error([&] { JobDb db(tmp.db()); }, StoreErrc::kFailedPrecondition);
+  StoreError e = expect_store_error([&] { JobDb db(tmp.db()); }, StoreErrc::failed_precondition);
   EXPECT_TRUE(contains(e.what(), "newer kilnd")) << e.what();
 }
 
@@ -428,7 +429,7 @@ TEST(JobDb, ForeignSqliteDatabaseIsRefused) {
   ASSERT_EQ(sqlite3_open(tmp.db().c_str(), &raw), SQLITE_OK);
   ASSERT_EQ(sqlite3_exec(raw, "CREATE TABLE photos (id INTEGER)", nullptr, nullptr, nullptr), SQLITE_OK);
   sqlite3_close(raw);
-  expect_store_error([&] { JobDb db(tmp.db()); }, StoreErrc::kFailedPrecondition);
+  expect_store_error([&] { JobDb db(tmp.db()); }, StoreErrc::failed_precondition);
 }
 
 TEST(JobDb, RetentionInputs) {

@@ -21,7 +21,7 @@ namespace {
 
 std::string id_of(int i) { return "job-" + std::to_string(i); }
 
-Progress at(double fraction, JobState state = JobState::kRunning) {
+Progress at(double fraction, JobState state = JobState::running) {
   Progress p;
   p.state = state;
   p.fraction = fraction;
@@ -107,7 +107,7 @@ TEST(JobQueue, ConcurrentProducersAndConsumersDeliverEachJobOnceInOrderPerConsum
           std::lock_guard lock(mu);
           seen.insert(j->id);
         }
-        q.finish(j->id, at(1, JobState::kSucceeded));
+        q.finish(j->id, at(1, JobState::succeeded));
         if (++consumed == kTotal) q.shutdown();
       }
     });
@@ -191,20 +191,20 @@ TEST(JobQueue, RemoveAndCancel) {
   EXPECT_FALSE(q.remove("run"));  // running, not waiting
   EXPECT_FALSE(q.is_queued("drop"));
 
-  EXPECT_EQ(q.cancel("run"), CancelOutcome::kSignalled);
+  EXPECT_EQ(q.cancel("run"), CancelOutcome::signalled);
   EXPECT_TRUE(running->cancel->load());  // the flag the worker handed to the baker
   EXPECT_EQ(q.cancel_flag("run"), running->cancel);
-  EXPECT_EQ(q.cancel("wait"), CancelOutcome::kRemovedFromQueue);
+  EXPECT_EQ(q.cancel("wait"), CancelOutcome::removed_from_queue);
   EXPECT_TRUE(q.cancel_flag("wait")->load());
   EXPECT_EQ(q.size(), 0u);
   EXPECT_FALSE(q.try_pop());  // a cancelled job never runs
-  EXPECT_EQ(q.cancel("nobody"), CancelOutcome::kUnknown);
+  EXPECT_EQ(q.cancel("nobody"), CancelOutcome::unknown);
   EXPECT_EQ(q.running_ids(), std::vector<std::string>{"run"});
 
-  q.finish("run", at(0.4, JobState::kCancelled));
-  q.finish("wait", at(0, JobState::kCancelled));
-  q.finish("drop", at(0, JobState::kCancelled));
-  EXPECT_EQ(q.cancel("run"), CancelOutcome::kUnknown);
+  q.finish("run", at(0.4, JobState::cancelled));
+  q.finish("wait", at(0, JobState::cancelled));
+  q.finish("drop", at(0, JobState::cancelled));
+  EXPECT_EQ(q.cancel("run"), CancelOutcome::unknown);
   EXPECT_EQ(q.running(), 0u);
   EXPECT_FALSE(q.cancel_flag("run"));
   EXPECT_TRUE(q.push("run", 0, 4));  // once finished it may be queued again (a requeue after a shutdown)
@@ -217,7 +217,7 @@ TEST(JobQueue, SubscribersGetTheLatestAtOnceThenCoalescedUpdates) {
   Subscription sub = q.subscribe("j", r.callback());
   ASSERT_TRUE(sub);
   ASSERT_EQ(r.count(), 1u);
-  EXPECT_EQ(r.last().state, JobState::kQueued);
+  EXPECT_EQ(r.last().state, JobState::queued);
   // While the watcher has not said it is ready, updates coalesce: nothing is delivered, nothing piles up.
   q.try_pop();
   for (int i = 1; i <= 100; ++i) q.publish("j", at(i / 100.0));
@@ -239,13 +239,13 @@ TEST(JobQueue, FinishReachesAWatcherThatWasBusyAndLaterSubscribersGetNothing) {
   Subscription sub = q.subscribe("j", r.callback());  // in flight: the initial snapshot
   q.try_pop();
   q.publish("j", at(0.3));
-  Progress final = at(1, JobState::kSucceeded);
+  Progress final = at(1, JobState::succeeded);
   final.samples = 4096;
   q.finish("j", final);
   EXPECT_EQ(r.count(), 1u);
   sub.ready();
   ASSERT_EQ(r.count(), 2u);
-  EXPECT_EQ(r.last().state, JobState::kSucceeded);
+  EXPECT_EQ(r.last().state, JobState::succeeded);
   EXPECT_EQ(r.last().samples, 4096u);
   Recorder late;
   EXPECT_FALSE(q.subscribe("j", late.callback()));  // finished: the daemon answers from the database
@@ -257,7 +257,7 @@ TEST(JobQueue, NonFiniteProgressNeverReachesWatchers) {
   JobQueue q;
   q.push("j", 0, 1);
   Progress p;
-  p.state = JobState::kRunning;
+  p.state = JobState::running;
   p.fraction = std::numeric_limits<double>::quiet_NaN();
   p.eta_seconds = std::numeric_limits<double>::infinity();
   p.error_estimate = -1;
@@ -327,13 +327,13 @@ TEST(JobQueue, AWatcherOnAnotherThreadEndsWithTheFinalStateAndNeverGoesBackwards
       p.samples = static_cast<uint64_t>(i);
       q.publish("j", p);
     }
-    Progress done = at(1, JobState::kSucceeded);
+    Progress done = at(1, JobState::succeeded);
     done.samples = kSteps;
     q.finish("j", done);
   });
   worker.join();
   watcher.join();
   ASSERT_FALSE(delivered.empty());
-  EXPECT_EQ(delivered.back().state, JobState::kSucceeded);
+  EXPECT_EQ(delivered.back().state, JobState::succeeded);
   for (size_t i = 1; i < delivered.size(); ++i) EXPECT_GE(delivered[i].samples, delivered[i - 1].samples);
 }

@@ -1,0 +1,75 @@
+// The material job's part of the translation layer: a kiln.v1.MaterialJob in, a material::MaterialBakeInput out.
+#include <sstream>
+
+#include "bakers/bake/number_format.h"
+#include "daemon/translate_fields.h"
+#include "proto/kiln.pb.h"
+
+namespace kiln::daemon::detail {
+namespace {
+
+using bake::format_number;
+
+// The material bake has one optional effect: the MERL table. Forcing it overrides `merl`.
+void material_effects(const kiln::v1::JobSpec& spec, material::MaterialBakeInput& in) {
+  for (const auto& [effect, on] : spec.force_effects()) {
+    const std::string field = "job.force_effects[" + effect.substr(0, kMaxEffectNameBytes) + "]";
+    if (effect.size() > kMaxEffectNameBytes) throw InvalidField(field, "effect names are at most 64 bytes");
+    if (effect != "merl") throw InvalidField(field, "unknown effect for a material bake; known: merl");
+    in.merl = on;
+  }
+}
+
+void material_quality(const kiln::v1::Quality& q, material::MaterialBakeInput& in) {
+  if (q.has_samples()) {
+    check_range("job.quality.samples", static_cast<double>(q.samples()), 1, double(1 << 24), false);
+    in.samples = q.samples();
+  }
+  if (q.has_target_error()) {
+    check_range("job.quality.target_error", q.target_error(), 0.0, 1.0, true);
+    in.target_error = q.target_error();
+  }
+  if (q.has_time_limit_seconds()) {
+    check_range("job.quality.time_limit_seconds", q.time_limit_seconds(), 0.0, 86400.0, true);
+    in.time_limit_seconds = q.time_limit_seconds();
+  }
+  in.seed = q.seed();
+}
+
+}  // namespace
+
+void translate_material(const kiln::v1::JobSpec& spec, BakeRequest& r) {
+  const kiln::v1::MaterialJob& m = spec.material();
+  material::MaterialBakeInput& in = r.input.emplace<material::MaterialBakeInput>();
+  in.model = material_job_model(m, "job.material");
+  set_count(m.has_table_mu(), m.table_mu(), "job.material.table_mu", 2, 1024, in.table_mu);
+  set_count(m.has_table_roughness(), m.table_roughness(), "job.material.table_roughness", 2, 1024,
+            in.table_roughness);
+  in.merl = m.merl();
+  material_effects(spec, in);
+  material_quality(spec.quality(), in);
+  if (auto problem = material::validate(in)) throw baker_problem("job.material", *problem);
+}
+
+std::string material_canonical_text(const BakeRequest& r) {
+  const material::MaterialBakeInput& in = r.material();
+  const brdf::ModelSpec& s = in.model;
+  std::ostringstream o;
+  auto rgb = [](const Rgb& c) { return format_number(c.r) + "," + format_number(c.g) + "," + format_number(c.b); };
+  o << "type=" << job_type(r) << "\nmodel=" << brdf::to_string(s.model) << "\nalbedo=" << rgb(s.albedo)
+    << "\nsigma=" << format_number(s.sigma) << "\ninterreflection=" << s.interreflection
+    << "\nalpha_x=" << format_number(s.alpha_x) << "\nalpha_y=" << format_number(s.alpha_y)
+    << "\nfresnel=" << brdf::to_string(brdf::fresnel_mode(s)) << "\nf0=" << rgb(s.f0)
+    << "\neta=" << format_number(s.eta)
+    << "\ndistribution=" << (s.distribution ? brdf::to_string(*s.distribution) : "default")
+    << "\nmasking=" << (s.masking ? brdf::to_string(*s.masking) : "default")
+    << "\nnormalization=" << brdf::to_string(s.normalization) << "\nlayer=" << rgb(s.layer.c) << ","
+    << format_number(s.layer.r) << "," << format_number(s.layer.p) << "\nbottom=" << rgb(s.bottom_layer.c) << ","
+    << format_number(s.bottom_layer.r) << "," << format_number(s.bottom_layer.p) << "\ntable_mu=" << in.table_mu
+    << "\ntable_roughness=" << in.table_roughness << "\nmerl=" << in.merl << "\nsamples=" << in.samples
+    << "\ntarget_error=" << format_number(in.target_error)
+    << "\ntime_limit_seconds=" << format_number(in.time_limit_seconds) << "\nseed=" << in.seed << "\n";
+  return o.str();
+}
+
+}  // namespace kiln::daemon::detail
