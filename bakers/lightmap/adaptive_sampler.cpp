@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "bakers/lightmap/texel_neighbourhood.h"
 #include "bakers/math/rng.h"
 
 namespace kiln::lightmap {
@@ -97,14 +98,10 @@ std::vector<double> relative_variances(const LightmapState& m, const SamplingOpt
 double pooled_goal(const std::vector<double>& v, int x, int y, int w, int h, double target_error) {
   double sum = 0;
   int count = 0;
-  for (int dy = -1; dy <= 1; ++dy) {
-    for (int dx = -1; dx <= 1; ++dx) {
-      const int xx = x + dx, yy = y + dy;
-      if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
-      const double vv = v[static_cast<size_t>(yy) * w + xx];
-      if (vv >= 0) sum += vv, ++count;
-    }
-  }
+  for_each_neighbour(x, y, w, h, [&](int xx, int yy) {
+    const double vv = v[static_cast<size_t>(yy) * w + xx];
+    if (vv >= 0) sum += vv, ++count;
+  });
   return count ? sum / count / (target_error * target_error) : 0;
 }
 

@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "bakers/lightmap/texel_neighbourhood.h"
+
 namespace kiln::lightmap {
 
 size_t dilate(image::FloatImage& image, const std::vector<uint8_t>& valid, int padding) {
@@ -29,16 +31,12 @@ size_t dilate(image::FloatImage& image, const std::vector<uint8_t>& valid, int p
         if (ring[static_cast<size_t>(y) * w + x] >= 0) continue;
         std::fill(sum.begin(), sum.end(), 0.0);
         int n = 0;
-        for (int dy = -1; dy <= 1; ++dy) {
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int nx = x + dx, ny = y + dy;
-            if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
-            const int nr = ring[static_cast<size_t>(ny) * w + nx];
-            if (nr < 0 || nr >= r) continue;  // unfilled, or filled in this very ring
-            for (int c = 0; c < channels; ++c) sum[c] += image.at(nx, ny, c);
-            ++n;
-          }
-        }
+        for_each_neighbour(x, y, w, h, [&](int nx, int ny) {
+          const int nr = ring[static_cast<size_t>(ny) * w + nx];
+          if (nr < 0 || nr >= r) return;  // unfilled, or filled in this very ring
+          for (int c = 0; c < channels; ++c) sum[c] += image.at(nx, ny, c);
+          ++n;
+        });
         if (n == 0) continue;
         fresh.push_back(static_cast<size_t>(y) * w + x);
         for (int c = 0; c < channels; ++c) fresh_values.push_back(static_cast<float>(sum[c] / n));
