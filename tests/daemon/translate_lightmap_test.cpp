@@ -191,6 +191,22 @@ TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   EXPECT_EQ(std::string(baker_version(r)), lightmap::kLightmapBakerVersion);
 }
 
+TEST(TranslateLightmap, BakerComplaintsNameTheJobsFieldByTheirField) {
+  const BakeRequest r = translate(full_job());
+  // Bytes that do not decode: the blob's field, the baker's problem.
+  const InvalidField texture = input_error(r, bake::InvalidInput("textures[0]", "not an image"));
+  EXPECT_EQ(texture.field(), "job.lightmap.textures[0].image");
+  EXPECT_EQ(std::string(texture.what()), "job.lightmap.textures[0].image: not an image");
+  EXPECT_EQ(input_error(r, bake::InvalidInput("environment_image", "not an image")).field(),
+            "job.lightmap.environment.image");
+  // Nothing to bake: the whole job.
+  const InvalidField nothing = input_error(r, bake::InvalidInput("", "nothing to bake"));
+  EXPECT_EQ(nothing.field(), "job.lightmap");
+  EXPECT_EQ(std::string(nothing.what()), "job.lightmap: nothing to bake");
+  // A setting the baker refuses, under the job.
+  EXPECT_EQ(input_error(r, bake::InvalidInput("padding", "too wide")).field(), "job.lightmap.padding");
+}
+
 TEST(TranslateLightmap, DefaultsAreTheDocumentedOnes) {
   v1::JobSpec spec;
   v1::Mesh* m = spec.mutable_lightmap()->add_meshes();
