@@ -110,7 +110,10 @@ void check_memory(EnvironmentRun& run) {
   const std::string what = in.constant ? std::string("a constant") :
                            run.from_faces ? "faces (6 x " + std::to_string(header.width) + "^2)" :
                                             "image (" + std::to_string(header.width) + "x" + std::to_string(header.height) + ")";
-  throw std::invalid_argument("size, " + std::string(run.from_faces ? "faces" : "image") + ": baking " + what +
+  // The field is the source whose size is at fault; the problem keeps naming both it and `size`, either of which
+  // the job can lower.
+  const std::string source = run.from_faces ? "faces" : "image";
+  throw bake::InvalidInput(source, "size, " + source + ": baking " + what +
                               " to a " + std::to_string(in.size) + "^2 cube needs about " +
                               format_number(run.result.memory_bytes / double(1 << 30)) +
                               " GiB of working memory, more than the 4 GiB bound; lower size or upload a smaller "
