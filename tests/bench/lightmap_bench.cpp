@@ -33,11 +33,9 @@
 // a time through Tracer::intersect_id and Tracer::occluded (rtcIntersect1 / rtcOccluded1 and nothing else worth
 // counting) on both cores with TBB, over the same Tracer (robust mode, as the baker's). The ratio divides the
 // baker's rays per second of its whole bake (rasterization, leaks, outputs included) by raw Embree's: the share of
-// the bake's time spent inside Embree. (Up to kiln-lightmap-2 the baseline was synthetic rays from points throughout the room in
-// directions uniform on the sphere, which Embree traces ~10 % faster than the baker's; until session 7 the leak
-// probes were replayed as transport rays, which Embree traces at much the same speed.) The leak probes are most of a
-// short bake's rays (58 % at 4 estimates per texel) and cost the baker little beyond Embree's query, which is why
-// the short bakes' ratio is the highest.
+// the bake's time spent inside Embree (docs/PERFORMANCE.md says why the baseline replays the baker's own rays rather
+// than synthetic ones). The leak probes are most of a short bake's rays (58 % at 4 estimates per texel) and cost the
+// baker little beyond Embree's query, which is why the short bakes' ratio is the highest.
 //
 //   lightmap_bench --profile=N [--bake_only]
 //                                only the N-estimate budget bake and its baseline (no reference, no table): for
