@@ -30,13 +30,14 @@ std::string format_duration(double s) {
   return buf;
 }
 
-std::string format_count(std::uint64_t n) {
-  if (n < 1000) return std::to_string(n);
-  const char* units[] = {"k", "M", "G", "T", "P", "E"};
+namespace {
+
+// `n` divided by `base` until below it, with three significant digits and the unit reached: "12.3 k", "4.19 MiB".
+std::string scaled(std::uint64_t n, double base, const char* const (&units)[6]) {
   double v = static_cast<double>(n);
   int u = -1;
-  while (v >= 1000 && u < 5) {
-    v /= 1000;
+  while (v >= base && u < 5) {
+    v /= base;
     ++u;
   }
   char buf[32];
@@ -44,18 +45,16 @@ std::string format_count(std::uint64_t n) {
   return buf;
 }
 
+}  // namespace
+
+std::string format_count(std::uint64_t n) {
+  if (n < 1000) return std::to_string(n);
+  return scaled(n, 1000, {"k", "M", "G", "T", "P", "E"});
+}
+
 std::string format_bytes(std::uint64_t n) {
   if (n < 1024) return std::to_string(n) + " B";
-  const char* units[] = {"KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
-  double v = static_cast<double>(n);
-  int u = -1;
-  while (v >= 1024 && u < 5) {
-    v /= 1024;
-    ++u;
-  }
-  char buf[32];
-  std::snprintf(buf, sizeof buf, v < 10 ? "%.2f %s" : v < 100 ? "%.1f %s" : "%.0f %s", v, units[u]);
-  return buf;
+  return scaled(n, 1024, {"KiB", "MiB", "GiB", "TiB", "PiB", "EiB"});
 }
 
 std::string format_error(double e) {

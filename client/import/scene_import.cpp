@@ -25,6 +25,9 @@
 namespace kiln::client {
 namespace {
 
+// A factor in [0, 1]; 0 for NaN.
+double clamp01(double v) { return std::isfinite(v) ? std::clamp(v, 0.0, 1.0) : 0.0; }
+
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot read " + path + ": " + std::strerror(errno));
@@ -230,68 +233,74 @@ class Importer {
 
   void materials() {
     std::set<std::string> material_names;
-    for (unsigned i = 0; i < scene_->mNumMaterials; ++i) {
-      const aiMaterial* m = scene_->mMaterials[i];
-      v1::SceneMaterial* out = out_.job.add_materials();
-      std::string name = m->GetName().C_Str();
-      if (name.empty()) name = "material_" + std::to_string(i);
-      out->set_name(unique_name(material_names, name));
+    for (unsigned i = 0; i < scene_->mNumMaterials; ++i) material(i, material_names);
+  }
 
-      aiColor4D base(1, 1, 1, 1);
-      float metallic = 0, roughness = 1;
-      aiColor3D specular(0, 0, 0);
-      float shininess = 0;
-      if (gltf_) {
-        m->Get(AI_MATKEY_BASE_COLOR, base);
-        m->Get(AI_MATKEY_METALLIC_FACTOR, metallic);
-        m->Get(AI_MATKEY_ROUGHNESS_FACTOR, roughness);
+  // Material i: its name, base colour and texture, a GGX-over-Lambert BSDF, its emission and sidedness.
+  void material(unsigned i, std::set<std::string>& material_names) {
+    const aiMaterial* m = scene_->mMaterials[i];
+    v1::SceneMaterial* out = out_.job.add_materials();
+    std::string name = m->GetName().C_Str();
+    if (name.empty()) name = "material_" + std::to_string(i);
+    out->set_name(unique_name(material_names, name));
+
+    aiColor4D base(1, 1, 1, 1);
+    float metallic = 0, roughness = 1;
+    aiColor3D specular(0, 0, 0);
+    float shininess = 0;
+    if (gltf_) {
+      m->Get(AI_MATKEY_BASE_COLOR, base);
+      m->Get(AI_MATKEY_METALLIC_FACTOR, metallic);
+      m->Get(AI_MATKEY_ROUGHNESS_FACTOR, roughness);
+    } else {
+      aiColor3D diffuse(0.8f, 0.8f, 0.8f);
+      m->Get(AI_MATKEY_COLOR_DIFFUSE, diffuse);
+      base = aiColor4D(diffuse.r, diffuse.g, diffuse.b, 1);
+      m->Get(AI_MATKEY_COLOR_SPECULAR, specular);
+      m->Get(AI_MATKEY_SHININESS, shininess);
+    }
+    const double r = clamp01(base.r), g = clamp01(base.g), b = clamp01(base.b);
+    *out->mutable_base_color() = color(r, g, b);
+    if (auto t = texture(m)) out->set_base_color_texture(*t);
+    set_bsdf(r, g, b, metallic, roughness, specular, shininess, out->mutable_bsdf());
+
+    aiColor3D emissive(0, 0, 0);
+    m->Get(AI_MATKEY_COLOR_EMISSIVE, emissive);
+    double strength = 1;
+    if (auto it = extras_.emissive_strength.find(i); gltf_ && it != extras_.emissive_strength.end()) {
+      strength = it->second;
+    }
+    if (std::max({emissive.r, emissive.g, emissive.b}) > 0) {
+      *out->mutable_emission() = color(emissive.r * strength, emissive.g * strength, emissive.b * strength);
+    }
+    int two_sided = 0;
+    if (m->Get(AI_MATKEY_TWOSIDED, two_sided) == AI_SUCCESS) out->set_two_sided(two_sided != 0);
+  }
+
+  // GGX over Lambert: from glTF's metallic-roughness, or from the specular colour and shininess of OBJ and FBX.
+  void set_bsdf(double r, double g, double b, float metallic, float roughness, const aiColor3D& specular,
+                float shininess, v1::Layered* bsdf) {
+    bsdf->set_combine(v1::COMBINE_LAYERED);
+    v1::Lambert* diffuse = bsdf->mutable_diffuse()->mutable_lambert();
+    v1::Microfacet* ggx = bsdf->mutable_specular()->mutable_ggx();
+    ggx->set_fresnel(v1::FRESNEL_SCHLICK);
+    if (gltf_) {
+      const double metal = clamp01(metallic);
+      // α = roughness² (glTF's remapping); roughness < 0.03 is a mirror beyond the BRDF library's range.
+      const double a = std::max(clamp01(roughness), 0.03);
+      ggx->set_alpha(a * a);
+      // glTF's f0 = lerp(0.04, base colour, metallic): 4 % for dielectrics (η = 1.5), the base colour for metals.
+      *ggx->mutable_f0() = color(0.04 + (r - 0.04) * metal, 0.04 + (g - 0.04) * metal, 0.04 + (b - 0.04) * metal);
+      *diffuse->mutable_albedo() = color(1 - metal, 1 - metal, 1 - metal);  // times base_color: glTF's c_diff
+    } else {
+      *diffuse->mutable_albedo() = color(1, 1, 1);
+      if (std::max({specular.r, specular.g, specular.b}) > 0 && shininess > 0) {
+        ggx->set_alpha(std::clamp(std::sqrt(2.0 / (shininess + 2.0)), 0.001, 1.0));
+        *ggx->mutable_f0() = color(clamp01(specular.r), clamp01(specular.g), clamp01(specular.b));
       } else {
-        aiColor3D diffuse(0.8f, 0.8f, 0.8f);
-        m->Get(AI_MATKEY_COLOR_DIFFUSE, diffuse);
-        base = aiColor4D(diffuse.r, diffuse.g, diffuse.b, 1);
-        m->Get(AI_MATKEY_COLOR_SPECULAR, specular);
-        m->Get(AI_MATKEY_SHININESS, shininess);
+        ggx->set_alpha(1.0);
+        *ggx->mutable_f0() = color(0, 0, 0);  // no specular lobe
       }
-      auto clamp01 = [](double v) { return std::isfinite(v) ? std::clamp(v, 0.0, 1.0) : 0.0; };
-      const double r = clamp01(base.r), g = clamp01(base.g), b = clamp01(base.b);
-      *out->mutable_base_color() = color(r, g, b);
-      if (auto t = texture(m)) out->set_base_color_texture(*t);
-
-      v1::Layered* bsdf = out->mutable_bsdf();
-      bsdf->set_combine(v1::COMBINE_LAYERED);
-      v1::Lambert* diffuse = bsdf->mutable_diffuse()->mutable_lambert();
-      v1::Microfacet* ggx = bsdf->mutable_specular()->mutable_ggx();
-      ggx->set_fresnel(v1::FRESNEL_SCHLICK);
-      if (gltf_) {
-        const double metal = clamp01(metallic);
-        // α = roughness² (glTF's remapping); roughness < 0.03 is a mirror beyond the BRDF library's range.
-        const double a = std::max(clamp01(roughness), 0.03);
-        ggx->set_alpha(a * a);
-        // glTF's f0 = lerp(0.04, base colour, metallic): 4 % for dielectrics (η = 1.5), the base colour for metals.
-        *ggx->mutable_f0() = color(0.04 + (r - 0.04) * metal, 0.04 + (g - 0.04) * metal, 0.04 + (b - 0.04) * metal);
-        *diffuse->mutable_albedo() = color(1 - metal, 1 - metal, 1 - metal);  // times base_color: glTF's c_diff
-      } else {
-        *diffuse->mutable_albedo() = color(1, 1, 1);
-        if (std::max({specular.r, specular.g, specular.b}) > 0 && shininess > 0) {
-          ggx->set_alpha(std::clamp(std::sqrt(2.0 / (shininess + 2.0)), 0.001, 1.0));
-          *ggx->mutable_f0() = color(clamp01(specular.r), clamp01(specular.g), clamp01(specular.b));
-        } else {
-          ggx->set_alpha(1.0);
-          *ggx->mutable_f0() = color(0, 0, 0);  // no specular lobe
-        }
-      }
-
-      aiColor3D emissive(0, 0, 0);
-      m->Get(AI_MATKEY_COLOR_EMISSIVE, emissive);
-      double strength = 1;
-      if (auto it = extras_.emissive_strength.find(i); gltf_ && it != extras_.emissive_strength.end()) {
-        strength = it->second;
-      }
-      if (std::max({emissive.r, emissive.g, emissive.b}) > 0) {
-        *out->mutable_emission() = color(emissive.r * strength, emissive.g * strength, emissive.b * strength);
-      }
-      int two_sided = 0;
-      if (m->Get(AI_MATKEY_TWOSIDED, two_sided) == AI_SUCCESS) out->set_two_sided(two_sided != 0);
     }
   }
 
@@ -378,24 +387,61 @@ class Importer {
     for (unsigned c = 0; c < node->mNumChildren; ++c) instances(node->mChildren[c], world);
   }
 
+  // Assimp names a light after the node that places it: that node's world transform (identity if none does).
+  aiMatrix4x4 light_placement(const std::string& name) {
+    aiMatrix4x4 world;
+    const auto [first, last] = world_of_node_.equal_range(name);
+    if (first == last) {
+      out_.warnings.push_back("light " + name + ": no node of that name places it; it stays where the file's "
+                              "light itself says, in world space");
+    } else {
+      world = first->second;
+      if (std::next(first) != last) {
+        out_.warnings.push_back("light " + name + ": several nodes have that name; placed by the first (give the "
+                                "nodes unique names to place it by the right one)");
+      }
+    }
+    return world;
+  }
+
+  // The light's kind and geometry, in world space; a kind kiln does not have drops the light, with a warning.
+  void set_light_kind(const aiLight& light, const std::string& name, const aiVector3D& position,
+                      const aiVector3D& direction, v1::Light* out) {
+    switch (light.mType) {
+      case aiLightSource_POINT:
+        *out->mutable_point()->mutable_position() = vec(position);
+        break;
+      case aiLightSource_SPOT: {
+        v1::SpotLight* s = out->mutable_spot();
+        *s->mutable_position() = vec(position);
+        *s->mutable_direction() = vec(direction);
+        // kiln's cone angles are measured from the axis, as glTF's innerConeAngle and outerConeAngle, which
+        // Assimp 5.2 passes on unchanged. Other formats' (FBX's cone, Collada's falloff) are apex angles: halved.
+        const double scale = gltf_ ? 1.0 : 0.5;
+        const double outer = std::clamp(light.mAngleOuterCone * scale, 1e-3, M_PI / 2);
+        s->set_outer_cone_angle(outer);
+        s->set_inner_cone_angle(std::clamp(light.mAngleInnerCone * scale, 0.0, outer));
+        break;
+      }
+      case aiLightSource_DIRECTIONAL: {
+        // Left without an angular diameter: the daemon's default, the sun's disc (kiln.proto), softens its shadows.
+        *out->mutable_directional()->mutable_direction() = vec(direction);
+        break;
+      }
+      default:
+        out_.warnings.push_back("light " + name + ": type " + std::to_string(static_cast<int>(light.mType)) +
+                                " is not supported (point, spot and directional are); dropped");
+        out_.job.mutable_lights()->RemoveLast();
+        break;
+    }
+  }
+
   void lights() {
     std::set<std::string> light_names;
     for (unsigned i = 0; i < scene_->mNumLights; ++i) {
       const aiLight* l = scene_->mLights[i];
       const std::string name = l->mName.C_Str();
-      // Assimp names a light after the node that places it: find that node's world transform.
-      aiMatrix4x4 world;
-      const auto [first, last] = world_of_node_.equal_range(name);
-      if (first == last) {
-        out_.warnings.push_back("light " + name + ": no node of that name places it; it stays where the file's "
-                                "light itself says, in world space");
-      } else {
-        world = first->second;
-        if (std::next(first) != last) {
-          out_.warnings.push_back("light " + name + ": several nodes have that name; placed by the first (give the "
-                                  "nodes unique names to place it by the right one)");
-        }
-      }
+      const aiMatrix4x4 world = light_placement(name);
       const aiVector3D position = world * l->mPosition;
       // A direction moves with the node's linear part (not its inverse transpose: it is not a normal).
       aiVector3D direction = aiMatrix3x3(world) * l->mDirection;
@@ -415,33 +461,7 @@ class Importer {
                                 " ignored; kiln's lights fall off as 1/r² without a cut-off (the range is a hint in "
                                 "KHR_lights_punctual)");
       }
-      switch (l->mType) {
-        case aiLightSource_POINT:
-          *out->mutable_point()->mutable_position() = vec(position);
-          break;
-        case aiLightSource_SPOT: {
-          v1::SpotLight* s = out->mutable_spot();
-          *s->mutable_position() = vec(position);
-          *s->mutable_direction() = vec(direction);
-          // kiln's cone angles are measured from the axis, as glTF's innerConeAngle and outerConeAngle, which
-          // Assimp 5.2 passes on unchanged. Other formats' (FBX's cone, Collada's falloff) are apex angles: halved.
-          const double scale = gltf_ ? 1.0 : 0.5;
-          const double outer = std::clamp(l->mAngleOuterCone * scale, 1e-3, M_PI / 2);
-          s->set_outer_cone_angle(outer);
-          s->set_inner_cone_angle(std::clamp(l->mAngleInnerCone * scale, 0.0, outer));
-          break;
-        }
-        case aiLightSource_DIRECTIONAL: {
-          // Left without an angular diameter: the daemon's default, the sun's disc (kiln.proto), softens its shadows.
-          *out->mutable_directional()->mutable_direction() = vec(direction);
-          break;
-        }
-        default:
-          out_.warnings.push_back("light " + name + ": type " + std::to_string(static_cast<int>(l->mType)) +
-                                  " is not supported (point, spot and directional are); dropped");
-          out_.job.mutable_lights()->RemoveLast();
-          break;
-      }
+      set_light_kind(*l, name, position, direction, out);
     }
   }
 

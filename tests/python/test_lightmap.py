@@ -213,8 +213,9 @@ class LightmapAgainstKilnd(unittest.TestCase):
         job = kiln.lightmap_job([floor], environment=sky, resolution=n, padding=0, target_error=0.01, seed=1,
                                 name="python furnace")
         result, irradiance, validity, error, report = self.bake(job, n, os.path.join(self.out, "furnace"))
-        # Tolerance: 3 × the texel's estimated relative error (the brief's bound; cosine sampling of a constant sky
-        # has no variance, so the baker reports about 0) plus 1e-6 relative for the float32 the EXR stores.
+        # Tolerance: 3 × the texel's estimated relative error (the bound a lightmap bake is held to; cosine sampling
+        # of a constant sky has no variance, so the baker reports about 0) plus 1e-6 relative for the float32 the EXR
+        # stores.
         self.check_every_texel(irradiance, validity, error, lambda x, y, c: math.pi * sky[c],
                                lambda x, y, c, expected: 1e-6 * expected)
         plan = {d["effect"]: d["enabled"] for d in report["plan"]}

@@ -62,20 +62,11 @@ def _load_pb2():
 
 pb = _load_pb2()
 
-from .client import (  # noqa: E402  (needs pb loaded first)
-    PROTOCOL_VERSION,
-    Client,
-    ConnectionError,
-    KilnError,
-    ServerError,
-    TimeoutError,
-    digest_of,
-    environment_job,
-    load_job,
-    material_job,
-    parse_job,
-    state_name,
-)
+# The modules below need pb loaded first.
+from .client import PROTOCOL_VERSION, Client  # noqa: E402
+from .digests import digest_of  # noqa: E402
+from .errors import ConnectionError, KilnError, ServerError, TimeoutError  # noqa: E402
+from .jobs import environment_job, load_job, material_job, parse_job, state_name  # noqa: E402
 from .lightmap import Mesh, lightmap_job, mesh  # noqa: E402
 
 __all__ = [

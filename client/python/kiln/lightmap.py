@@ -19,7 +19,9 @@ import array
 import sys
 
 from . import kiln_pb2 as pb
-from .client import _as_digest, _fill, _set_color, _set_quality_and_effects, digest_of
+from .digests import _as_digest, digest_of
+from .fields import _fill, _set_color
+from .jobs import _set_quality_and_effects
 
 MAGIC = b"KILNMSH1"
 # The layout's bound on vertices and on triangles (kiln.proto).
