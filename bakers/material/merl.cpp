@@ -81,37 +81,54 @@ MerlCoordinates merl_coordinates(const Vec3& wo, const Vec3& wi) {
   return c;
 }
 
-MerlTable tabulate_merl(const brdf::Bxdf& bxdf, const MerlOptions& options) {
-  if (options.phi_h_samples < 1 || options.phi_h_samples > 1024) {
-    throw std::invalid_argument("tabulate_merl: phi_h_samples must be in [1, 1024], got " +
-                                std::to_string(options.phi_h_samples));
-  }
-  const bool symmetrize = options.symmetrize_if_not_reciprocal && !bxdf.reciprocal();
-  const int n_phi_h = options.phi_h_samples;
-  // f at one configuration given by continuous indices, averaged over the azimuths of h; nullopt below the horizon.
-  const auto f_at = [&](double xh, double xd, double xp) -> std::optional<Rgb> {
+namespace {
+
+// The values of one model at MERL configurations given by continuous indices (ih, id, ip).
+class MerlSampler {
+ public:
+  MerlSampler(const brdf::Bxdf& bxdf, const MerlOptions& options)
+      : bxdf_(bxdf),
+        symmetrize_(options.symmetrize_if_not_reciprocal && !bxdf.reciprocal()),
+        n_phi_h_(options.phi_h_samples) {}
+
+  // f at one configuration, averaged over the azimuths of h; nullopt below the horizon.
+  std::optional<Rgb> at(double xh, double xd, double xp) const {
     const double th = theta_h_at(xh), td = theta_d_at(xd), pd = phi_d_at(xp);
     Rgb sum;
-    for (int m = 0; m < n_phi_h; ++m) {
-      const MerlDirections w = merl_directions(th, td, pd, 2.0 * kPi * m / n_phi_h);
+    for (int m = 0; m < n_phi_h_; ++m) {
+      const MerlDirections w = merl_directions(th, td, pd, 2.0 * kPi * m / n_phi_h_);
       // Rotating about the normal keeps the heights, so one azimuth decides for all.
       if (!brdf::valid_reflection_pair(w.wo, w.wi)) return std::nullopt;
-      Rgb f = bxdf.eval(w.wo, w.wi);
-      if (symmetrize) f = (f + bxdf.eval(w.wi, w.wo)) * 0.5;
+      Rgb f = bxdf_.eval(w.wo, w.wi);
+      if (symmetrize_) f = (f + bxdf_.eval(w.wi, w.wo)) * 0.5;
       sum += f;
     }
-    return sum / n_phi_h;
-  };
+    return sum / n_phi_h_;
+  }
+
+  // The value of cell (ih, id, ip): f at its centre, or for a cell whose centre is below the horizon, what
+  // straddling() finds.
+  Rgb cell(int ih, int id, int ip) const {
+    if (const std::optional<Rgb> centre = at(ih + 0.5, id + 0.5, ip + 0.5)) return *centre;
+    // From a cell's centre to its corners wi turns by at most ½(π/90 + π/180 + π/180) ≈ 0.035 rad and wo by at most
+    // ≈ 0.052 rad (θ_h counts twice for the mirrored direction), so their heights change by less than 0.06: a
+    // centre further below the horizon than 0.1 is a cell wholly below, with no need to look at its corners.
+    constexpr double kWhollyBelow = -0.1;
+    const MerlDirections w = merl_directions(theta_h_at(ih + 0.5), theta_d_at(id + 0.5), phi_d_at(ip + 0.5));
+    return std::fmin(w.wo.z, w.wi.z) > kWhollyBelow ? straddling(ih, id, ip) : Rgb{};
+  }
+
+ private:
   // A cell whose centre is below the horizon may still reach above it; a reader's lookup there must not find 0.
   // Such a cell holds the mean of f over its part above the horizon, sampled on a 4×4×4 grid in the cell; a sliver
   // the grid misses gets the mean over its corners above the horizon. The cell is found by its corners: if a point
   // of the cell is above the horizon, so is a corner (exactly so for a plane; the horizon is smooth on the scale of
   // a cell). No corner above: 0.
-  const auto straddling_value = [&](int ih, int id, int ip) {
+  Rgb straddling(int ih, int id, int ip) const {
     Rgb corner_sum;
     int corners = 0;
     for (int corner = 0; corner < 8; ++corner) {
-      if (auto f = f_at(ih + (corner & 1), id + ((corner >> 1) & 1), ip + ((corner >> 2) & 1))) {
+      if (auto f = at(ih + (corner & 1), id + ((corner >> 1) & 1), ip + ((corner >> 2) & 1))) {
         corner_sum += *f;
         ++corners;
       }
@@ -123,33 +140,33 @@ MerlTable tabulate_merl(const brdf::Bxdf& bxdf, const MerlOptions& options) {
     for (int a = 0; a < kSub; ++a)
       for (int b = 0; b < kSub; ++b)
         for (int c = 0; c < kSub; ++c) {
-          if (auto f = f_at(ih + (a + 0.5) / kSub, id + (b + 0.5) / kSub, ip + (c + 0.5) / kSub)) {
+          if (auto f = at(ih + (a + 0.5) / kSub, id + (b + 0.5) / kSub, ip + (c + 0.5) / kSub)) {
             sum += *f;
             ++n;
           }
         }
     return n > 0 ? sum / n : corner_sum / corners;
-  };
-  // From a cell's centre to its corners wi turns by at most ½(π/90 + π/180 + π/180) ≈ 0.035 rad and wo by at most
-  // ≈ 0.052 rad (θ_h counts twice for the mirrored direction), so their heights change by less than 0.06: a
-  // centre further below the horizon than 0.1 is a cell wholly below, with no need to look at its corners.
-  constexpr double kWhollyBelow = -0.1;
+  }
+
+  const brdf::Bxdf& bxdf_;
+  bool symmetrize_;
+  int n_phi_h_;
+};
+
+}  // namespace
+
+MerlTable tabulate_merl(const brdf::Bxdf& bxdf, const MerlOptions& options) {
+  if (options.phi_h_samples < 1 || options.phi_h_samples > 1024) {
+    throw std::invalid_argument("tabulate_merl: phi_h_samples must be in [1, 1024], got " +
+                                std::to_string(options.phi_h_samples));
+  }
+  const MerlSampler sampler(bxdf, options);
   MerlTable table;
   table.f.resize(kMerlEntries);
   tbb::parallel_for(tbb::blocked_range<int>(0, kMerlThetaH, 1), [&](const tbb::blocked_range<int>& rows) {
     for (int ih = rows.begin(); ih != rows.end(); ++ih) {
       for (int id = 0; id < kMerlThetaD; ++id) {
-        for (int ip = 0; ip < kMerlPhiD; ++ip) {
-          const std::optional<Rgb> centre = f_at(ih + 0.5, id + 0.5, ip + 0.5);
-          Rgb value;
-          if (centre) {
-            value = *centre;
-          } else {
-            const MerlDirections w = merl_directions(theta_h_at(ih + 0.5), theta_d_at(id + 0.5), phi_d_at(ip + 0.5));
-            if (std::fmin(w.wo.z, w.wi.z) > kWhollyBelow) value = straddling_value(ih, id, ip);
-          }
-          table.f[MerlTable::merl_index(ih, id, ip)] = value;
-        }
+        for (int ip = 0; ip < kMerlPhiD; ++ip) table.f[MerlTable::merl_index(ih, id, ip)] = sampler.cell(ih, id, ip);
       }
       if (options.row_done) options.row_done();
     }
