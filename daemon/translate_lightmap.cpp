@@ -75,13 +75,13 @@ scene::Light light(const kiln::v1::Light& l, const std::string& path) {
   using L = kiln::v1::Light;
   switch (l.type_case()) {
     case L::kPoint:
-      out.type = scene::LightType::point;
+      out.type = scene::LightShape::point;
       out.position = vector(l.point().position(), path + ".point.position");
       break;
     case L::kSpot: {
       const auto& s = l.spot();
       const std::string p = path + ".spot";
-      out.type = scene::LightType::spot;
+      out.type = scene::LightShape::spot;
       out.position = vector(s.position(), p + ".position");
       out.direction = direction(s.direction(), p + ".direction", s.has_direction());
       if (s.has_outer_cone_angle()) {
@@ -97,7 +97,7 @@ scene::Light light(const kiln::v1::Light& l, const std::string& path) {
     case L::kDirectional: {
       const auto& d = l.directional();
       const std::string p = path + ".directional";
-      out.type = scene::LightType::directional;
+      out.type = scene::LightShape::directional;
       out.direction = direction(d.direction(), p + ".direction", d.has_direction());
       out.angular_diameter = 0.00935;  // the sun's, as kiln.proto documents
       if (d.has_angular_diameter()) {
@@ -109,7 +109,7 @@ scene::Light light(const kiln::v1::Light& l, const std::string& path) {
     case L::kRect: {
       const auto& r = l.rect();
       const std::string p = path + ".rect";
-      out.type = scene::LightType::rect;
+      out.type = scene::LightShape::rect;
       out.position = vector(r.center(), p + ".center");
       out.u_axis = vector(r.u(), p + ".u");
       out.v_axis = vector(r.v(), p + ".v");
@@ -126,7 +126,7 @@ scene::Light light(const kiln::v1::Light& l, const std::string& path) {
     case L::kDisk: {
       const auto& d = l.disk();
       const std::string p = path + ".disk";
-      out.type = scene::LightType::disk;
+      out.type = scene::LightShape::disk;
       out.position = vector(d.center(), p + ".center");
       out.direction = direction(d.normal(), p + ".normal", d.has_normal());
       check_range(p + ".radius", d.radius(), 0.0, 1e6, true);

@@ -130,8 +130,8 @@ MaterialAnalysis analyse(const scene::SceneMaterial& m, const std::vector<scene:
 
 bool has_power(const scene::Light& l) {
   if (!(l.color.max() > 0)) return false;
-  if (l.type == scene::LightType::rect) return length(cross(l.u_axis, l.v_axis)) > 0;
-  if (l.type == scene::LightType::disk) return l.radius > 0;
+  if (l.type == scene::LightShape::rect) return length(cross(l.u_axis, l.v_axis)) > 0;
+  if (l.type == scene::LightShape::disk) return l.radius > 0;
   return true;
 }
 
@@ -140,7 +140,7 @@ std::string count_of(int n, const char* what) {
 }
 
 struct SceneFacts {
-  int lights[5] = {0, 0, 0, 0, 0};  // by LightType
+  int lights[5] = {0, 0, 0, 0, 0};  // by LightShape
   int sun_discs = 0;                 // directional lights with an angular diameter
   int emissive_triangles = 0;
   std::vector<bool> used;            // per material
@@ -153,7 +153,7 @@ SceneFacts gather(const scene::Scene& scene) {
   for (const scene::Light& l : scene.lights) {
     if (!has_power(l)) continue;
     ++f.lights[static_cast<int>(l.type)];
-    if (l.type == scene::LightType::directional && l.angular_diameter > 0) ++f.sun_discs;
+    if (l.type == scene::LightShape::directional && l.angular_diameter > 0) ++f.sun_discs;
   }
   const size_t n_materials = std::max<size_t>(scene.materials.size(), 1);
   f.used.assign(n_materials, false);
@@ -248,19 +248,19 @@ LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions&
     p.materials.push_back(a);
   }
 
-  auto lights = [&](const char* effect, scene::LightType type, const char* what) {
+  auto lights = [&](const char* effect, scene::LightShape type, const char* what) {
     const int n = facts.lights[static_cast<int>(type)];
     p.decisions.push_back(decide(effect, n > 0,
                                  n > 0 ? "the scene has " + count_of(n, what) + " with non-zero power"
                                        : std::string("the scene has no ") + what + " with non-zero power",
                                  forced));
   };
-  lights("point_lights", scene::LightType::point, "point light");
-  lights("spot_lights", scene::LightType::spot, "spot light");
-  lights("directional_lights", scene::LightType::directional, "directional light");
+  lights("point_lights", scene::LightShape::point, "point light");
+  lights("spot_lights", scene::LightShape::spot, "spot light");
+  lights("directional_lights", scene::LightShape::directional, "directional light");
   {
-    const int n = facts.lights[static_cast<int>(scene::LightType::rect)] +
-                  facts.lights[static_cast<int>(scene::LightType::disk)];
+    const int n = facts.lights[static_cast<int>(scene::LightShape::rect)] +
+                  facts.lights[static_cast<int>(scene::LightShape::disk)];
     p.decisions.push_back(decide("area_lights", n > 0,
                                  n > 0 ? "the scene has " + count_of(n, "rectangle or disk light")
                                        : "the scene has no rectangle or disk light with non-zero power",
@@ -297,8 +297,8 @@ LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions&
     p.decisions.push_back(decide("environment_importance_map", want, why, forced));
   }
   {
-    const int hittable = facts.lights[static_cast<int>(scene::LightType::rect)] +
-                         facts.lights[static_cast<int>(scene::LightType::disk)] + facts.emissive_triangles +
+    const int hittable = facts.lights[static_cast<int>(scene::LightShape::rect)] +
+                         facts.lights[static_cast<int>(scene::LightShape::disk)] + facts.emissive_triangles +
                          facts.sun_discs + (has_env ? 1 : 0);
     p.decisions.push_back(decide("multiple_importance_sampling", hittable > 0,
                                  hittable > 0 ? "some lights can be hit by sampled rays (area, emissive, sun disc or "
