@@ -1,4 +1,4 @@
-// The lightmap planner: reads a scene before baking and decides which effects to simulate,
+// The lightmap planner: reads a scene before baking and decides which effects (lightmap_effect.h) to simulate,
 // recording why, so that a bake pays only for what can change its answer at the target error. The transport
 // (bakers/lightmap) simulates exactly what the plan enables; a job forces any effect on or off by name.
 //
@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "bakers/plan/decision.h"
+#include "bakers/plan/lightmap_effect.h"
 #include "bakers/scene/scene.h"
 
 namespace kiln::plan {
@@ -38,7 +39,7 @@ struct MaterialAnalysis {
 };
 
 struct LightmapPlan {
-  std::vector<Decision> decisions;  // one per effect, in the order of lightmap_effect_names()
+  std::vector<Decision> decisions;  // one per effect, in the order of lightmap_effects()
 
   bool point_lights = false, spot_lights = false, directional_lights = false, area_lights = false;
   bool emissive_triangles = false;
@@ -53,12 +54,11 @@ struct LightmapPlan {
   double albedo_max = 0;           // ρ_max over the used materials
   std::vector<MaterialAnalysis> materials;  // parallel to Scene::materials
 
-  bool enabled(const std::string& effect) const;
+  bool enabled(LightmapEffect effect) const;
+  bool enabled(const std::string& effect) const;  // by the effect's name
 };
 
-std::vector<std::string> lightmap_effect_names();
-
-// Throws std::invalid_argument for unknown force_effects names or options out of range.
+// Throws bake::InvalidInput for unknown force_effects names, options out of range or an invalid material.
 LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions& options);
 
 // Every effect the scene has, simulated: the reference a planned bake is compared against. Bounces are
