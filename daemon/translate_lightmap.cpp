@@ -68,13 +68,13 @@ Vec3 direction(const kiln::v1::Vector3& v, const std::string& field, bool given)
 }
 
 scene::Light point_light(const kiln::v1::PointLight& pt, const std::string& p, scene::Light out) {
-  out.type = scene::LightType::point;
+  out.type = scene::LightShape::point;
   out.position = vector(pt.position(), p + ".position");
   return out;
 }
 
 scene::Light spot_light(const kiln::v1::SpotLight& s, const std::string& p, scene::Light out) {
-  out.type = scene::LightType::spot;
+  out.type = scene::LightShape::spot;
   out.position = vector(s.position(), p + ".position");
   out.direction = direction(s.direction(), p + ".direction", s.has_direction());
   if (s.has_outer_cone_angle()) {
@@ -89,7 +89,7 @@ scene::Light spot_light(const kiln::v1::SpotLight& s, const std::string& p, scen
 }
 
 scene::Light directional_light(const kiln::v1::DirectionalLight& d, const std::string& p, scene::Light out) {
-  out.type = scene::LightType::directional;
+  out.type = scene::LightShape::directional;
   out.direction = direction(d.direction(), p + ".direction", d.has_direction());
   out.angular_diameter = 0.00935;  // the sun's, as kiln.proto documents
   if (d.has_angular_diameter()) {
@@ -100,7 +100,7 @@ scene::Light directional_light(const kiln::v1::DirectionalLight& d, const std::s
 }
 
 scene::Light rect_light(const kiln::v1::RectLight& r, const std::string& p, scene::Light out) {
-  out.type = scene::LightType::rect;
+  out.type = scene::LightShape::rect;
   out.position = vector(r.center(), p + ".center");
   out.u_axis = vector(r.u(), p + ".u");
   out.v_axis = vector(r.v(), p + ".v");
@@ -116,7 +116,7 @@ scene::Light rect_light(const kiln::v1::RectLight& r, const std::string& p, scen
 }
 
 scene::Light disk_light(const kiln::v1::DiskLight& d, const std::string& p, scene::Light out) {
-  out.type = scene::LightType::disk;
+  out.type = scene::LightShape::disk;
   out.position = vector(d.center(), p + ".center");
   out.direction = direction(d.normal(), p + ".normal", d.has_normal());
   check_range(p + ".radius", d.radius(), 0.0, 1e6, true);

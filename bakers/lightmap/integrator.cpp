@@ -258,8 +258,9 @@ void prepare_context(TransportContext& ctx) {
   ctx.emissive_light = -1;
   if (!ctx.lights) return;
   for (int i = 0; i < ctx.lights->size(); ++i) {
-    const scene::LightKind kind = ctx.lights->light(i).kind();
-    if (kind == scene::LightKind::rect || kind == scene::LightKind::disk) ctx.analytic_lights.push_back(i);
+    const scene::LightSamplerKind kind = ctx.lights->light(i).kind();
+    if (kind == scene::LightSamplerKind::rect || kind == scene::LightSamplerKind::disk)
+      ctx.analytic_lights.push_back(i);
   }
   ctx.has_analytic_lights = !ctx.analytic_lights.empty();
   if (ctx.lights->emissive()) ctx.emissive_light = ctx.lights->index_of(ctx.lights->emissive());

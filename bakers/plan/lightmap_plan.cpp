@@ -1,6 +1,7 @@
 #include "bakers/plan/lightmap_plan.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <sstream>
@@ -130,8 +131,8 @@ MaterialAnalysis analyse(const scene::SceneMaterial& m, const std::vector<scene:
 
 bool has_power(const scene::Light& l) {
   if (!(l.color.max() > 0)) return false;
-  if (l.type == scene::LightType::rect) return length(cross(l.u_axis, l.v_axis)) > 0;
-  if (l.type == scene::LightType::disk) return l.radius > 0;
+  if (l.type == scene::LightShape::rect) return length(cross(l.u_axis, l.v_axis)) > 0;
+  if (l.type == scene::LightShape::disk) return l.radius > 0;
   return true;
 }
 
@@ -140,21 +141,19 @@ std::string count_of(int n, const char* what) {
 }
 
 struct SceneFacts {
-  int lights[5] = {0, 0, 0, 0, 0};  // by LightType
+  std::array<int, 5> lights{};       // with non-zero power, by LightShape
   int sun_discs = 0;                 // directional lights with an angular diameter
   int emissive_triangles = 0;
   std::vector<bool> used;            // per material
   std::vector<int> triangles;        // per material
   double env_max_over_mean = 1;      // of the environment image's luminance
+
+  int count(scene::LightShape shape) const { return lights[static_cast<int>(shape)]; }
+  int area_lights() const { return count(scene::LightShape::rect) + count(scene::LightShape::disk); }
 };
 
-SceneFacts gather(const scene::Scene& scene) {
-  SceneFacts f;
-  for (const scene::Light& l : scene.lights) {
-    if (!has_power(l)) continue;
-    ++f.lights[static_cast<int>(l.type)];
-    if (l.type == scene::LightType::directional && l.angular_diameter > 0) ++f.sun_discs;
-  }
+// Which materials the instances' triangles use, and how many triangles each.
+void count_material_use(const scene::Scene& scene, SceneFacts& f) {
   const size_t n_materials = std::max<size_t>(scene.materials.size(), 1);
   f.used.assign(n_materials, false);
   f.triangles.assign(n_materials, 0);
@@ -169,25 +168,38 @@ SceneFacts gather(const scene::Scene& scene) {
       ++f.triangles[m];
     }
   }
+}
+
+// The brightest texel of the environment image over its solid-angle weighted mean luminance (rows weighted by
+// sin θ); 1 for a constant environment, none, or a black image (nothing to importance-sample).
+double env_max_over_mean(const scene::Environment& env) {
+  if (env.constant || env.equirect.empty()) return 1;
+  double sum = 0, weight = 0, peak = 0;
+  for (int y = 0; y < env.height; ++y) {
+    const double w = std::sin(kPi * (y + 0.5) / env.height);
+    for (int x = 0; x < env.width; ++x) {
+      const double l = luminance(env.equirect[static_cast<size_t>(y) * env.width + x]);
+      sum += w * l;
+      weight += w;
+      peak = std::max(peak, l);
+    }
+  }
+  const double mean = weight > 0 ? sum / weight : 0;
+  return mean > 0 ? peak / mean : 1;
+}
+
+SceneFacts gather(const scene::Scene& scene) {
+  SceneFacts f;
+  for (const scene::Light& l : scene.lights) {
+    if (!has_power(l)) continue;
+    ++f.lights[static_cast<int>(l.type)];
+    if (l.type == scene::LightShape::directional && l.angular_diameter > 0) ++f.sun_discs;
+  }
+  count_material_use(scene, f);
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     if (scene.materials[m].emission.max() > 0) f.emissive_triangles += f.triangles[m];
   }
-  const scene::Environment& env = scene.environment;
-  if (!env.constant && !env.equirect.empty()) {
-    // Solid-angle weighted mean (rows weighted by sin θ) against the brightest texel.
-    double sum = 0, weight = 0, peak = 0;
-    for (int y = 0; y < env.height; ++y) {
-      const double w = std::sin(kPi * (y + 0.5) / env.height);
-      for (int x = 0; x < env.width; ++x) {
-        const double l = luminance(env.equirect[static_cast<size_t>(y) * env.width + x]);
-        sum += w * l;
-        weight += w;
-        peak = std::max(peak, l);
-      }
-    }
-    const double mean = weight > 0 ? sum / weight : 0;
-    f.env_max_over_mean = mean > 0 ? peak / mean : 1;  // a black image: nothing to importance-sample
-  }
+  f.env_max_over_mean = env_max_over_mean(scene.environment);
   return f;
 }
 
@@ -199,22 +211,198 @@ void check_options(const LightmapPlanOptions& o) {
 
 // The flags of the plan from its decisions.
 void apply(LightmapPlan& p) {
-  p.point_lights = p.enabled("point_lights");
-  p.spot_lights = p.enabled("spot_lights");
-  p.directional_lights = p.enabled("directional_lights");
-  p.area_lights = p.enabled("area_lights");
-  p.emissive_triangles = p.enabled("emissive_triangles");
-  p.environment_sampling = p.enabled("environment_sampling");
-  p.environment_importance_map = p.environment_sampling && p.enabled("environment_importance_map");
-  p.multiple_importance_sampling = p.enabled("multiple_importance_sampling");
-  if (!p.enabled("indirect_bounces")) p.bounces = 0;
-  p.specular_interreflection = p.bounces > 0 && p.enabled("specular_interreflection");
-  p.anisotropy = p.enabled("anisotropy");
-  p.textures = p.enabled("textures");
-  p.russian_roulette = p.enabled("russian_roulette") && p.bounces > p.russian_roulette_depth;
+  using E = LightmapEffect;
+  p.point_lights = p.enabled(E::point_lights);
+  p.spot_lights = p.enabled(E::spot_lights);
+  p.directional_lights = p.enabled(E::directional_lights);
+  p.area_lights = p.enabled(E::area_lights);
+  p.emissive_triangles = p.enabled(E::emissive_triangles);
+  p.environment_sampling = p.enabled(E::environment_sampling);
+  p.environment_importance_map = p.environment_sampling && p.enabled(E::environment_importance_map);
+  p.multiple_importance_sampling = p.enabled(E::multiple_importance_sampling);
+  if (!p.enabled(E::indirect_bounces)) p.bounces = 0;
+  p.specular_interreflection = p.bounces > 0 && p.enabled(E::specular_interreflection);
+  p.anisotropy = p.enabled(E::anisotropy);
+  p.textures = p.enabled(E::textures);
+  p.russian_roulette = p.enabled(E::russian_roulette) && p.bounces > p.russian_roulette_depth;
+}
+
+// What the stages of plan_lightmap share. Each stage appends its effects' decisions, in the order of
+// lightmap_effects().
+struct Planning {
+  const scene::Scene& scene;
+  const LightmapPlanOptions& options;
+  const double budget;  // of bias, per pruning
+  const SceneFacts facts;
+  LightmapPlan plan;
+
+  void decide(LightmapEffect effect, bool planned, const std::string& reason) {
+    plan.decisions.push_back(kiln::plan::decide(effect_name(effect), planned, reason, options.force_effects));
+  }
+  bool has_environment() const {
+    const scene::Environment& env = scene.environment;
+    return env.constant ? env.constant->max() > 0 : !env.equirect.empty();
+  }
+};
+
+void analyse_materials(Planning& s) {
+  for (size_t m = 0; m < s.scene.materials.size(); ++m) {
+    MaterialAnalysis a = analyse(s.scene.materials[m], s.scene.textures, s.budget);
+    a.used = s.facts.used[m];
+    a.glossy = a.used && 2 * a.specular_albedo * a.lobe_distance > s.budget;
+    if (a.used) s.plan.albedo_max = std::max(s.plan.albedo_max, a.albedo_max);
+    s.plan.materials.push_back(a);
+  }
+}
+
+// One strategy per kind of light the scene has.
+void decide_lights(Planning& s) {
+  auto lights = [&](LightmapEffect effect, scene::LightShape shape, const char* what) {
+    const int n = s.facts.count(shape);
+    s.decide(effect, n > 0,
+             n > 0 ? "the scene has " + count_of(n, what) + " with non-zero power"
+                   : std::string("the scene has no ") + what + " with non-zero power");
+  };
+  lights(LightmapEffect::point_lights, scene::LightShape::point, "point light");
+  lights(LightmapEffect::spot_lights, scene::LightShape::spot, "spot light");
+  lights(LightmapEffect::directional_lights, scene::LightShape::directional, "directional light");
+  const int area = s.facts.area_lights();
+  s.decide(LightmapEffect::area_lights, area > 0,
+           area > 0 ? "the scene has " + count_of(area, "rectangle or disk light")
+                    : "the scene has no rectangle or disk light with non-zero power");
+  const int emissive = s.facts.emissive_triangles;
+  s.decide(LightmapEffect::emissive_triangles, emissive > 0,
+           emissive > 0 ? count_of(emissive, "triangle") + " of emissive materials" : "no material emits light");
+}
+
+void decide_environment(Planning& s) {
+  const scene::Environment& env = s.scene.environment;
+  const bool has_env = s.has_environment();
+  s.decide(LightmapEffect::environment_sampling, has_env,
+           has_env ? (env.constant ? "a constant environment " + bake::format_rgb(*env.constant)
+                                   : "an environment image " + std::to_string(env.width) + "x" +
+                                         std::to_string(env.height))
+                   : "no environment (or a black one)");
+  bool want = false;
+  std::string why;
+  if (!has_env) {
+    why = "no environment";
+  } else if (env.constant) {
+    why = "a constant environment: cosine sampling already has zero variance for irradiance";
+  } else if (s.facts.env_max_over_mean <= 2) {
+    why = "the brightest texel is " + format_number(s.facts.env_max_over_mean) +
+          " x the mean radiance (<= 2): importance weights would vary by at most 2 x, cosine sampling suffices";
+  } else {
+    want = true;
+    why = "the brightest texel is " + format_number(s.facts.env_max_over_mean) + " x the mean radiance";
+  }
+  s.decide(LightmapEffect::environment_importance_map, want, why);
+}
+
+// MIS pays only where a sampled ray can hit a light.
+void decide_mis(Planning& s) {
+  const int hittable =
+      s.facts.area_lights() + s.facts.emissive_triangles + s.facts.sun_discs + (s.has_environment() ? 1 : 0);
+  s.decide(LightmapEffect::multiple_importance_sampling, hittable > 0,
+           hittable > 0 ? "some lights can be hit by sampled rays (area, emissive, sun disc or "
+                          "environment): light and cosine sampling are combined"
+                        : "only delta lights (points, spots, delta suns): light sampling alone");
+}
+
+// The smallest k with ρ_max^(k+1) ≤ budget.
+void decide_bounces(Planning& s) {
+  LightmapPlan& p = s.plan;
+  const int max_bounces = s.options.max_bounces;
+  std::string why;
+  const double rho = p.albedo_max;
+  if (!(rho > 0)) {
+    p.bounces = 0;
+    why = "no used material reflects light (rho_max = 0)";
+  } else if (rho >= 1) {
+    p.bounces = max_bounces;
+    why = "rho_max = " + format_number(rho) + " >= 1: light does not decay; capped at " +
+          std::to_string(max_bounces) + " bounces";
+  } else {
+    const int needed = std::max(0, static_cast<int>(std::ceil(std::log(s.budget) / std::log(rho))) - 1);
+    p.bounces = std::min(needed, max_bounces);
+    why = "rho_max = " + format_number(rho) + ": " + std::to_string(p.bounces) + " bounces leave at most rho^" +
+          std::to_string(p.bounces + 1) + " = " + format_number(std::pow(rho, p.bounces + 1)) +
+          " of the light unsimulated (budget " + format_number(s.budget) + " = target/4)";
+    if (needed > max_bounces) why += "; capped by max_bounces, above the budget";
+  }
+  s.decide(LightmapEffect::indirect_bounces, p.bounces > 0, why);
+}
+
+void decide_specular(Planning& s) {
+  int glossy = 0, used = 0;
+  std::string worst;
+  double worst_impact = -1;
+  for (const MaterialAnalysis& a : s.plan.materials) {
+    if (!a.used) continue;
+    ++used;
+    glossy += a.glossy;
+    const double impact = 2 * a.specular_albedo * a.lobe_distance;
+    if (impact > worst_impact) {
+      worst_impact = impact;
+      worst = a.name + " (2 E_s delta = " + format_number(impact) + ")";
+    }
+  }
+  std::string why = std::to_string(glossy) + " of " + std::to_string(used) +
+                    " used materials have a specular lobe that changes reflected light by more than the budget " +
+                    format_number(s.budget);
+  if (used) why += "; the largest: " + worst;
+  if (s.plan.bounces == 0) why = "no bounces: no material's lobe affects irradiance";
+  s.decide(LightmapEffect::specular_interreflection, s.plan.bounces > 0 && glossy > 0, why);
+}
+
+void decide_anisotropy(Planning& s) {
+  int n = 0;
+  for (const MaterialAnalysis& a : s.plan.materials) n += a.used && a.glossy && a.anisotropic;
+  s.decide(LightmapEffect::anisotropy, n > 0 && s.plan.bounces > 0,
+           n > 0 ? count_of(n, "glossy material") + " with anisotropic lobes"
+                 : "no simulated specular lobe is anisotropic");
+}
+
+void decide_textures(Planning& s) {
+  int n = 0;
+  for (const MaterialAnalysis& a : s.plan.materials) n += a.used && a.textured;
+  std::string why = n > 0 ? count_of(n, "used material") + " with a non-uniform base-colour texture"
+                          : "no used material has a non-uniform base-colour texture";
+  if (n > 0 && s.plan.bounces == 0) why = "no bounces: base colours do not affect irradiance";
+  s.decide(LightmapEffect::textures, n > 0 && s.plan.bounces > 0, why);
+}
+
+void decide_russian_roulette(Planning& s) {
+  const int depth = s.plan.russian_roulette_depth;
+  const bool want = s.plan.bounces > depth;
+  s.decide(LightmapEffect::russian_roulette, want,
+           want ? "paths beyond " + std::to_string(depth) +
+                      " bounces continue with the probability of their throughput (unbiased)"
+                : "at most " + std::to_string(depth) + " bounces");
+}
+
+// What a job's forcing implies beyond its decisions.
+void follow_forced(Planning& s) {
+  LightmapPlan& p = s.plan;
+  // A forced bounce count: forcing indirect_bounces on when the planner chose 0 simulates the cap.
+  if (p.enabled(LightmapEffect::indirect_bounces) && p.bounces == 0) p.bounces = std::max(1, s.options.max_bounces);
+  // Materials follow a forced specular_interreflection.
+  const auto& forced = s.options.force_effects;
+  if (auto it = forced.find(effect_name(LightmapEffect::specular_interreflection)); it != forced.end()) {
+    for (MaterialAnalysis& a : p.materials) a.glossy = it->second && a.used && a.specular_albedo > 0;
+  }
+}
+
+// Light strategies stay as the scene has them in a full plan: a light that is absent cannot be sampled.
+bool follows_the_scene(LightmapEffect effect) {
+  using E = LightmapEffect;
+  return effect == E::point_lights || effect == E::spot_lights || effect == E::directional_lights ||
+         effect == E::area_lights || effect == E::emissive_triangles || effect == E::environment_sampling;
 }
 
 }  // namespace
+
+bool LightmapPlan::enabled(LightmapEffect effect) const { return enabled(effect_name(effect)); }
 
 bool LightmapPlan::enabled(const std::string& effect) const {
   for (const Decision& d : decisions) {
@@ -223,162 +411,22 @@ bool LightmapPlan::enabled(const std::string& effect) const {
   return false;
 }
 
-std::vector<std::string> lightmap_effect_names() {
-  return {"point_lights",         "spot_lights",
-          "directional_lights",   "area_lights",
-          "emissive_triangles",   "environment_sampling",
-          "environment_importance_map", "multiple_importance_sampling",
-          "indirect_bounces",     "specular_interreflection",
-          "anisotropy",           "textures",
-          "russian_roulette"};
-}
-
 LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions& options) {
   check_options(options);
   const double budget = kBudgetShare * options.target_error;
-  const SceneFacts facts = gather(scene);
-  const auto& forced = options.force_effects;
-  LightmapPlan p;
-
-  for (size_t m = 0; m < scene.materials.size(); ++m) {
-    MaterialAnalysis a = analyse(scene.materials[m], scene.textures, budget);
-    a.used = facts.used[m];
-    a.glossy = a.used && 2 * a.specular_albedo * a.lobe_distance > budget;
-    if (a.used) p.albedo_max = std::max(p.albedo_max, a.albedo_max);
-    p.materials.push_back(a);
-  }
-
-  auto lights = [&](const char* effect, scene::LightType type, const char* what) {
-    const int n = facts.lights[static_cast<int>(type)];
-    p.decisions.push_back(decide(effect, n > 0,
-                                 n > 0 ? "the scene has " + count_of(n, what) + " with non-zero power"
-                                       : std::string("the scene has no ") + what + " with non-zero power",
-                                 forced));
-  };
-  lights("point_lights", scene::LightType::point, "point light");
-  lights("spot_lights", scene::LightType::spot, "spot light");
-  lights("directional_lights", scene::LightType::directional, "directional light");
-  {
-    const int n = facts.lights[static_cast<int>(scene::LightType::rect)] +
-                  facts.lights[static_cast<int>(scene::LightType::disk)];
-    p.decisions.push_back(decide("area_lights", n > 0,
-                                 n > 0 ? "the scene has " + count_of(n, "rectangle or disk light")
-                                       : "the scene has no rectangle or disk light with non-zero power",
-                                 forced));
-  }
-  p.decisions.push_back(decide("emissive_triangles", facts.emissive_triangles > 0,
-                               facts.emissive_triangles > 0
-                                   ? count_of(facts.emissive_triangles, "triangle") + " of emissive materials"
-                                   : "no material emits light",
-                               forced));
-
-  const scene::Environment& env = scene.environment;
-  const bool has_env = env.constant ? env.constant->max() > 0 : !env.equirect.empty();
-  p.decisions.push_back(decide("environment_sampling", has_env,
-                               has_env ? (env.constant ? "a constant environment " + bake::format_rgb(*env.constant)
-                                                       : "an environment image " + std::to_string(env.width) + "x" +
-                                                             std::to_string(env.height))
-                                       : "no environment (or a black one)",
-                               forced));
-  {
-    bool want = false;
-    std::string why;
-    if (!has_env) {
-      why = "no environment";
-    } else if (env.constant) {
-      why = "a constant environment: cosine sampling already has zero variance for irradiance";
-    } else if (facts.env_max_over_mean <= 2) {
-      why = "the brightest texel is " + format_number(facts.env_max_over_mean) +
-            " x the mean radiance (<= 2): importance weights would vary by at most 2 x, cosine sampling suffices";
-    } else {
-      want = true;
-      why = "the brightest texel is " + format_number(facts.env_max_over_mean) + " x the mean radiance";
-    }
-    p.decisions.push_back(decide("environment_importance_map", want, why, forced));
-  }
-  {
-    const int hittable = facts.lights[static_cast<int>(scene::LightType::rect)] +
-                         facts.lights[static_cast<int>(scene::LightType::disk)] + facts.emissive_triangles +
-                         facts.sun_discs + (has_env ? 1 : 0);
-    p.decisions.push_back(decide("multiple_importance_sampling", hittable > 0,
-                                 hittable > 0 ? "some lights can be hit by sampled rays (area, emissive, sun disc or "
-                                                "environment): light and cosine sampling are combined"
-                                              : "only delta lights (points, spots, delta suns): light sampling alone",
-                                 forced));
-  }
-
-  // Bounces: the smallest k with ρ_max^(k+1) ≤ budget.
-  {
-    std::string why;
-    const double rho = p.albedo_max;
-    if (!(rho > 0)) {
-      p.bounces = 0;
-      why = "no used material reflects light (rho_max = 0)";
-    } else if (rho >= 1) {
-      p.bounces = options.max_bounces;
-      why = "rho_max = " + format_number(rho) + " >= 1: light does not decay; capped at " +
-            std::to_string(options.max_bounces) + " bounces";
-    } else {
-      const int needed = std::max(0, static_cast<int>(std::ceil(std::log(budget) / std::log(rho))) - 1);
-      p.bounces = std::min(needed, options.max_bounces);
-      why = "rho_max = " + format_number(rho) + ": " + std::to_string(p.bounces) + " bounces leave at most rho^" +
-            std::to_string(p.bounces + 1) + " = " + format_number(std::pow(rho, p.bounces + 1)) +
-            " of the light unsimulated (budget " + format_number(budget) + " = target/4)";
-      if (needed > options.max_bounces) why += "; capped by max_bounces, above the budget";
-    }
-    p.decisions.push_back(decide("indirect_bounces", p.bounces > 0, why, forced));
-  }
-  {
-    int glossy = 0, used = 0;
-    std::string worst;
-    double worst_impact = -1;
-    for (const MaterialAnalysis& a : p.materials) {
-      if (!a.used) continue;
-      ++used;
-      glossy += a.glossy;
-      const double impact = 2 * a.specular_albedo * a.lobe_distance;
-      if (impact > worst_impact) {
-        worst_impact = impact;
-        worst = a.name + " (2 E_s delta = " + format_number(impact) + ")";
-      }
-    }
-    std::string why = std::to_string(glossy) + " of " + std::to_string(used) +
-                      " used materials have a specular lobe that changes reflected light by more than the budget " +
-                      format_number(budget);
-    if (used) why += "; the largest: " + worst;
-    if (p.bounces == 0) why = "no bounces: no material's lobe affects irradiance";
-    p.decisions.push_back(decide("specular_interreflection", p.bounces > 0 && glossy > 0, why, forced));
-  }
-  {
-    int n = 0;
-    for (const MaterialAnalysis& a : p.materials) n += a.used && a.glossy && a.anisotropic;
-    p.decisions.push_back(decide("anisotropy", n > 0 && p.bounces > 0,
-                                 n > 0 ? count_of(n, "glossy material") + " with anisotropic lobes"
-                                       : "no simulated specular lobe is anisotropic",
-                                 forced));
-  }
-  {
-    int n = 0;
-    for (const MaterialAnalysis& a : p.materials) n += a.used && a.textured;
-    std::string why = n > 0 ? count_of(n, "used material") + " with a non-uniform base-colour texture"
-                            : "no used material has a non-uniform base-colour texture";
-    if (n > 0 && p.bounces == 0) why = "no bounces: base colours do not affect irradiance";
-    p.decisions.push_back(decide("textures", n > 0 && p.bounces > 0, why, forced));
-  }
-  p.decisions.push_back(decide("russian_roulette", p.bounces > p.russian_roulette_depth,
-                               p.bounces > p.russian_roulette_depth
-                                   ? "paths beyond " + std::to_string(p.russian_roulette_depth) +
-                                         " bounces continue with the probability of their throughput (unbiased)"
-                                   : "at most " + std::to_string(p.russian_roulette_depth) + " bounces",
-                               forced));
-  // A forced bounce count: forcing indirect_bounces on when the planner chose 0 simulates the cap.
-  if (p.enabled("indirect_bounces") && p.bounces == 0) p.bounces = std::max(1, options.max_bounces);
-  // Materials follow a forced specular_interreflection.
-  if (auto it = forced.find("specular_interreflection"); it != forced.end()) {
-    for (MaterialAnalysis& a : p.materials) a.glossy = it->second && a.used && a.specular_albedo > 0;
-  }
-  apply(p);
-  return p;
+  Planning s{scene, options, budget, gather(scene), {}};
+  analyse_materials(s);
+  decide_lights(s);
+  decide_environment(s);
+  decide_mis(s);
+  decide_bounces(s);
+  decide_specular(s);
+  decide_anisotropy(s);
+  decide_textures(s);
+  decide_russian_roulette(s);
+  follow_forced(s);
+  apply(s.plan);
+  return std::move(s.plan);
 }
 
 LightmapPlan full_plan(const scene::Scene& scene, const LightmapPlanOptions& options) {
@@ -389,18 +437,13 @@ LightmapPlan full_plan(const scene::Scene& scene, const LightmapPlanOptions& opt
   LightmapPlan p = planned;
   p.bounces = options.max_bounces;
   for (Decision& d : p.decisions) {
-    // Light strategies stay as the scene has them (a light that is absent cannot be sampled); everything else is on.
-    static const char* kPresence[] = {"point_lights", "spot_lights", "directional_lights", "area_lights",
-                                      "emissive_triangles", "environment_sampling"};
-    bool presence = false;
-    for (const char* e : kPresence) presence |= d.effect == e;
-    if (presence) continue;
+    if (follows_the_scene(*parse_lightmap_effect(d.effect))) continue;
     d.enabled = true;
     d.reason = "full simulation: everything on";
   }
   if (!p.environment_sampling || scene.environment.constant) {  // no image: nothing to build a map of
     for (Decision& d : p.decisions) {
-      if (d.effect == "environment_importance_map") d.enabled = false;
+      if (d.effect == effect_name(LightmapEffect::environment_importance_map)) d.enabled = false;
     }
   }
   for (MaterialAnalysis& a : p.materials) a.glossy = a.used && a.specular_albedo > 0;

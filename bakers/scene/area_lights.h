@@ -32,7 +32,7 @@ class RectLight final : public LightSource {
   // the plane: only its side counts; zero = the side of u_edge × v_edge).
   RectLight(const Vec3& center, const Vec3& u_edge, const Vec3& v_edge, const Vec3& front, const Rgb& radiance,
             bool two_sided);
-  LightKind kind() const override { return LightKind::rect; }
+  LightSamplerKind kind() const override { return LightSamplerKind::rect; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   double pdf_li(const Vec3& p, const Vec3& n, const Vec3& wi, const LightHit& hit) const override;
   Rgb Le(const Vec3& p, const Vec3& wi, const LightHit& hit) const override;
@@ -62,7 +62,7 @@ class RectLight final : public LightSource {
 class DiskLight final : public LightSource {
  public:
   DiskLight(const Vec3& center, const Vec3& normal, double radius, const Rgb& radiance, bool two_sided);
-  LightKind kind() const override { return LightKind::disk; }
+  LightSamplerKind kind() const override { return LightSamplerKind::disk; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   double pdf_li(const Vec3& p, const Vec3& n, const Vec3& wi, const LightHit& hit) const override;
   Rgb Le(const Vec3& p, const Vec3& wi, const LightHit& hit) const override;

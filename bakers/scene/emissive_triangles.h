@@ -37,7 +37,7 @@ class EmissiveTriangles final : public LightSource {
   // with. Triangles with indices or materials out of range are skipped (the scene's validation reports those).
   static EmissiveTriangles from_scene(const Scene& scene);
 
-  LightKind kind() const override { return LightKind::emissive_triangles; }
+  LightSamplerKind kind() const override { return LightSamplerKind::emissive_triangles; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   // sample_li itself (it does not depend on n), defined inline below for next-event estimation's hot loop: called
   // directly on the container, it inlines, so its result never goes through memory (as a virtual call's must).

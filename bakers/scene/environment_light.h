@@ -34,7 +34,7 @@ class EnvironmentLight final : public LightSource {
   // std::invalid_argument for an image whose size does not match its width and height.
   explicit EnvironmentLight(const Environment& env, bool importance_map = true);
 
-  LightKind kind() const override { return LightKind::environment; }
+  LightSamplerKind kind() const override { return LightSamplerKind::environment; }
   bool is_infinite() const override { return true; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   double pdf_li(const Vec3& p, const Vec3& n, const Vec3& wi, const LightHit& hit) const override;

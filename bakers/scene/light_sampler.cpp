@@ -22,7 +22,7 @@ double scene_bounding_radius(const Scene& scene) {
     for (const Vec3& p : scene.meshes[inst.mesh].positions) grow(inst.to_world.point(p));
   }
   for (const Light& l : scene.lights) {
-    if (l.type != LightType::directional) grow(l.position);
+    if (l.type != LightShape::directional) grow(l.position);
   }
   if (!any) return 1.0;
   const double r = 0.5 * length(hi - lo);
@@ -32,15 +32,15 @@ double scene_bounding_radius(const Scene& scene) {
 
 std::unique_ptr<LightSource> make_light(const Light& l) {
   switch (l.type) {
-    case LightType::point: return std::make_unique<PointLight>(l.position, l.color);
-    case LightType::spot:
+    case LightShape::point: return std::make_unique<PointLight>(l.position, l.color);
+    case LightShape::spot:
       return std::make_unique<SpotLight>(l.position, l.direction, l.color, l.inner_cone, l.outer_cone);
-    case LightType::directional: return std::make_unique<DirectionalLight>(l.direction, l.color, l.angular_diameter);
-    case LightType::rect:
+    case LightShape::directional: return std::make_unique<DirectionalLight>(l.direction, l.color, l.angular_diameter);
+    case LightShape::rect:
       return std::make_unique<RectLight>(l.position, l.u_axis, l.v_axis, l.direction, l.color, l.two_sided);
-    case LightType::disk: return std::make_unique<DiskLight>(l.position, l.direction, l.radius, l.color, l.two_sided);
+    case LightShape::disk: return std::make_unique<DiskLight>(l.position, l.direction, l.radius, l.color, l.two_sided);
   }
-  return std::make_unique<PointLight>(l.position, Rgb{});  // unreachable for a valid LightType: a black light
+  return std::make_unique<PointLight>(l.position, Rgb{});  // unreachable for a valid LightShape: a black light
 }
 
 SceneLights::SceneLights(const Scene& scene, const LightSamplingOptions& options)
@@ -50,11 +50,11 @@ SceneLights::SceneLights(const Scene& scene, const LightSamplingOptions& options
     lights_.push_back(make_light(l));
     bool on = true;
     switch (l.type) {
-      case LightType::point: on = options.point_lights; break;
-      case LightType::spot: on = options.spot_lights; break;
-      case LightType::directional: on = options.directional_lights; break;
-      case LightType::rect:
-      case LightType::disk: on = options.area_lights; break;
+      case LightShape::point: on = options.point_lights; break;
+      case LightShape::spot: on = options.spot_lights; break;
+      case LightShape::directional: on = options.directional_lights; break;
+      case LightShape::rect:
+      case LightShape::disk: on = options.area_lights; break;
     }
     sampled.push_back(on);
   }
@@ -76,8 +76,8 @@ SceneLights::SceneLights(const Scene& scene, const LightSamplingOptions& options
 SceneLights::SceneLights(std::vector<std::unique_ptr<LightSource>> lights, double scene_radius, LightChoice choice)
     : lights_(std::move(lights)), radius_(scene_radius > 0 && std::isfinite(scene_radius) ? scene_radius : 1.0) {
   for (const auto& l : lights_) {
-    if (l->kind() == LightKind::environment) environment_ = static_cast<const EnvironmentLight*>(l.get());
-    if (l->kind() == LightKind::emissive_triangles) emissive_ = static_cast<const EmissiveTriangles*>(l.get());
+    if (l->kind() == LightSamplerKind::environment) environment_ = static_cast<const EnvironmentLight*>(l.get());
+    if (l->kind() == LightSamplerKind::emissive_triangles) emissive_ = static_cast<const EmissiveTriangles*>(l.get());
   }
   build_distribution(std::vector<bool>(lights_.size(), true), choice);
 }

@@ -68,12 +68,14 @@ struct LightHit {
   int triangle = -1;   // emissive triangles: the index in the container (EmissiveTriangles::find)
 };
 
-enum class LightKind { point, spot, directional, sun, rect, disk, emissive_triangles, environment };
+// What a LightSource is: one per scene LightShape, a directional light with a disc as a sun, and the two lights
+// that are not scene lights (emissive triangles, the environment).
+enum class LightSamplerKind { point, spot, directional, sun, rect, disk, emissive_triangles, environment };
 
 class LightSource {
  public:
   virtual ~LightSource() = default;
-  virtual LightKind kind() const = 0;
+  virtual LightSamplerKind kind() const = 0;
   virtual bool is_delta() const { return false; }
   // Directional lights and the environment: reached by rays that escape the scene.
   virtual bool is_infinite() const { return false; }

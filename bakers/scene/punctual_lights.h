@@ -22,7 +22,7 @@ class PointLight final : public LightSource {
  public:
   PointLight(const Vec3& position, const Rgb& intensity)
       : position_(position), intensity_(is_finite(position) ? usable_emission(intensity) : Rgb{}) {}
-  LightKind kind() const override { return LightKind::point; }
+  LightSamplerKind kind() const override { return LightSamplerKind::point; }
   bool is_delta() const override { return true; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   Rgb power(double scene_radius) const override;
@@ -36,7 +36,7 @@ class SpotLight final : public LightSource {
  public:
   // axis: the direction the cone points (need not be unit; a zero axis makes a black light).
   SpotLight(const Vec3& position, const Vec3& axis, const Rgb& intensity, double inner_cone, double outer_cone);
-  LightKind kind() const override { return LightKind::spot; }
+  LightSamplerKind kind() const override { return LightSamplerKind::spot; }
   bool is_delta() const override { return true; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   Rgb power(double scene_radius) const override;
@@ -55,7 +55,7 @@ class DirectionalLight final : public LightSource {
   // direction: the way light travels (need not be unit; zero makes a black light). angular_diameter in radians:
   // 0 (or not finite) is a delta direction; values above π are read as π (a hemisphere).
   DirectionalLight(const Vec3& direction, const Rgb& irradiance, double angular_diameter);
-  LightKind kind() const override { return disc_ ? LightKind::sun : LightKind::directional; }
+  LightSamplerKind kind() const override { return disc_ ? LightSamplerKind::sun : LightSamplerKind::directional; }
   bool is_delta() const override { return !disc_; }
   bool uniform_in_solid_angle(const Vec3&) const override { return disc_; }  // sampled uniformly in its cone
   bool is_infinite() const override { return true; }

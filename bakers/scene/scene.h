@@ -3,7 +3,7 @@
 // on the unit: ray offsets scale with the scene, see tracer.h). The daemon translates job messages into this; the
 // client's importers fill the job messages from glTF, OBJ and FBX.
 //
-// Conventions (DESIGN.md): +Y up, right-handed; radiance in W·m⁻²·sr⁻¹ per RGB channel, irradiance in W·m⁻²;
+// Conventions: +Y up, right-handed; radiance in W·m⁻²·sr⁻¹ per RGB channel, irradiance in W·m⁻²;
 // triangles are counter-clockwise seen from their front (the side the geometric normal (p1 − p0) × (p2 − p0) points to).
 #pragma once
 
@@ -60,10 +60,12 @@ struct SceneMaterial {
   bool two_sided = false;
 };
 
-enum class LightType { point, spot, directional, rect, disk };
+// What a scene's light is, as described; the light sampler builds its LightSources from these (lights.h's
+// LightSamplerKind: a directional light with an angular diameter becomes a sun).
+enum class LightShape { point, spot, directional, rect, disk };
 
 struct Light {
-  LightType type = LightType::point;
+  LightShape type = LightShape::point;
   std::string name;
   Rgb color{1, 1, 1};  // point/spot: intensity I (W·sr⁻¹); directional: irradiance E at normal incidence (W·m⁻²);
                        // rect/disk: emitted radiance L_e (W·m⁻²·sr⁻¹), from the front side (along `direction`)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -227,24 +228,46 @@ std::string resolved_lightmap_name(const Scene& scene, const Instance& instance)
   return "mesh" + std::to_string(instance.mesh);
 }
 
-CheckedScene check_scene(const Scene& in, const CheckOptions& options) {
-  CheckedScene out;
-  Reporter report(out.report, options.max_listed_per_kind);
-  Scene& scene = out.scene;
-  scene.materials = in.materials;
-  scene.textures = in.textures;
-  scene.lights = in.lights;
-  scene.environment = in.environment;
+namespace {
 
-  // Materials and textures.
-  if (scene.materials.empty()) {
-    SceneMaterial grey;
-    grey.name = "default";
-    grey.base_color = Rgb(0.5);
-    scene.materials.push_back(grey);
-    report.add(problem(Severity::warning, ProblemKind::no_materials, -1, -1, -1, "the scene has no materials",
+// What the stages of check_scene share: the input, the cleaned scene being built and the report.
+struct SceneCheck {
+  const Scene& in;
+  CheckedScene& out;
+  Reporter report;
+  std::vector<bool> has_lightmap;  // per mesh: lightmap UVs, one per position
+};
+
+// What the stages checking one mesh share.
+struct MeshCheck {
+  Reporter& report;
+  const int m;  // the mesh's index
+  const Mesh& src;
+  Mesh& dst;
+  CheckedScene::MeshTriangles& triangles;
+  const std::string label;
+  const size_t nv, nt;          // vertices, whole triangles
+  const size_t material_count;  // in the cleaned scene
+  bool normals_ok = false, uv_ok = false, materials_ok = false, has_lightmap = false;
+  std::vector<bool> finite{};      // per vertex: its position is finite
+  std::vector<Vec3> normal_sum{};  // per vertex, with normals_ok: the sum of the kept triangles' ng around it
+};
+
+// ---------------------------------------------------------------------------------------------------------------
+// Materials and textures.
+
+void add_default_material(SceneCheck& c) {
+  if (!c.out.scene.materials.empty()) return;
+  SceneMaterial grey;
+  grey.name = "default";
+  grey.base_color = Rgb(0.5);
+  c.out.scene.materials.push_back(grey);
+  c.report.add(problem(Severity::warning, ProblemKind::no_materials, -1, -1, -1, "the scene has no materials",
                        "every triangle uses a grey Lambert material of albedo 0.5"));
-  }
+}
+
+void drop_bad_textures(SceneCheck& c) {
+  Scene& scene = c.out.scene;
   std::vector<bool> texture_ok(scene.textures.size());
   for (size_t i = 0; i < scene.textures.size(); ++i) {
     const Texture& t = scene.textures[i];
@@ -256,253 +279,328 @@ CheckedScene check_scene(const Scene& in, const CheckOptions& options) {
     const int t = *m.base_color_texture;
     const bool in_range = t >= 0 && static_cast<size_t>(t) < scene.textures.size();
     if (in_range && texture_ok[t]) continue;
-    report.add(problem(Severity::warning, ProblemKind::bad_texture, -1, -1, -1,
-                       "material '" + m.name + "': base colour texture " + std::to_string(t) +
-                           (in_range ? " has " + std::to_string(scene.textures[t].texels.size()) + " texels for " +
-                                           std::to_string(scene.textures[t].width) + "x" +
-                                           std::to_string(scene.textures[t].height)
-                                     : " does not exist (" + std::to_string(scene.textures.size()) + " textures)"),
-                       "the texture is ignored; the material uses its base colour alone"));
+    c.report.add(problem(Severity::warning, ProblemKind::bad_texture, -1, -1, -1,
+                         "material '" + m.name + "': base colour texture " + std::to_string(t) +
+                             (in_range ? " has " + std::to_string(scene.textures[t].texels.size()) + " texels for " +
+                                             std::to_string(scene.textures[t].width) + "x" +
+                                             std::to_string(scene.textures[t].height)
+                                       : " does not exist (" + std::to_string(scene.textures.size()) + " textures)"),
+                         "the texture is ignored; the material uses its base colour alone"));
     m.base_color_texture.reset();
   }
-  // Colours that cannot be a reflectance or a radiance: repaired per channel, so that nothing non-finite reaches the
-  // transport (a NaN channel would otherwise pass "emission > 0" tests that compare the maximum).
-  for (SceneMaterial& m : scene.materials) {
-    auto repair = [&](Rgb& c, double hi, const char* what, const char* rule, bool all_or_nothing) {
-      Rgb fixed = c;
-      // A colour with a non-finite channel says nothing reliable about the others (lights.h's usable_emission).
-      if (all_or_nothing && !c.is_finite()) fixed = Rgb{0.0};
-      double* ch[3] = {&fixed.r, &fixed.g, &fixed.b};
-      for (double* v : ch) {
-        if (!std::isfinite(*v) || *v < 0) *v = 0;
-        if (*v > hi) *v = hi;
-      }
-      if (fixed.r == c.r && fixed.g == c.g && fixed.b == c.b) return;
-      report.add(problem(Severity::warning, ProblemKind::bad_material_value, -1, -1, -1,
-                         "material '" + m.name + "': " + what + " (" + std::to_string(c.r) + ", " +
-                             std::to_string(c.g) + ", " + std::to_string(c.b) + ")",
-                         rule));
-      c = fixed;
-    };
-    repair(m.base_color, 1.0, "base colour is not a reflectance",
-           "NaN and negative channels set to 0, channels above 1 set to 1", false);
-    repair(m.emission, std::numeric_limits<double>::max(), "emission is not a finite, non-negative radiance",
-           "a NaN or infinite channel makes the material emit nothing; negative channels set to 0", true);
+}
+
+// Clamps each channel of `colour` to [0, hi] (NaN → 0) and reports the change, if any.
+void repair_colour(Reporter& report, const SceneMaterial& m, Rgb& colour, double hi, const char* what,
+                   const char* rule, bool all_or_nothing) {
+  Rgb fixed = colour;
+  // A colour with a non-finite channel says nothing reliable about the others (lights.h's usable_emission).
+  if (all_or_nothing && !colour.is_finite()) fixed = Rgb{0.0};
+  double* ch[3] = {&fixed.r, &fixed.g, &fixed.b};
+  for (double* v : ch) {
+    if (!std::isfinite(*v) || *v < 0) *v = 0;
+    if (*v > hi) *v = hi;
   }
-  const size_t material_count = scene.materials.size();
+  if (fixed.r == colour.r && fixed.g == colour.g && fixed.b == colour.b) return;
+  report.add(problem(Severity::warning, ProblemKind::bad_material_value, -1, -1, -1,
+                     "material '" + m.name + "': " + what + " (" + std::to_string(colour.r) + ", " +
+                         std::to_string(colour.g) + ", " + std::to_string(colour.b) + ")",
+                     rule));
+  colour = fixed;
+}
 
-  // Meshes.
-  scene.meshes.resize(in.meshes.size());
-  out.triangles.resize(in.meshes.size());
-  std::vector<bool> has_lightmap(in.meshes.size());
-  for (size_t mi = 0; mi < in.meshes.size(); ++mi) {
-    const int m = static_cast<int>(mi);
-    const Mesh& src = in.meshes[mi];
-    Mesh& dst = scene.meshes[mi];
-    CheckedScene::MeshTriangles& tri_info = out.triangles[mi];
-    const std::string label = mesh_label(in, m);
-    const size_t nv = src.positions.size();
-    const size_t nt = src.indices.size() / 3;
-    dst.name = src.name;
+// Colours that cannot be a reflectance or a radiance: repaired per channel, so that nothing non-finite reaches the
+// transport (a NaN channel would otherwise pass "emission > 0" tests that compare the maximum).
+void repair_material_colours(SceneCheck& c) {
+  for (SceneMaterial& m : c.out.scene.materials) {
+    repair_colour(c.report, m, m.base_color, 1.0, "base colour is not a reflectance",
+                  "NaN and negative channels set to 0, channels above 1 set to 1", false);
+    repair_colour(c.report, m, m.emission, std::numeric_limits<double>::max(),
+                  "emission is not a finite, non-negative radiance",
+                  "a NaN or infinite channel makes the material emit nothing; negative channels set to 0", true);
+  }
+}
 
-    if (src.indices.size() % 3 != 0)
-      report.add(problem(Severity::error, ProblemKind::index_count, m, -1, -1,
-                         label + ": " + std::to_string(src.indices.size()) + " indices, not a multiple of 3",
+// ---------------------------------------------------------------------------------------------------------------
+// Meshes.
+
+void report_size_mismatch(MeshCheck& k, const char* array, size_t got, size_t want, const std::string& action) {
+  k.report.add(problem(Severity::warning, ProblemKind::array_size_mismatch, k.m, -1, -1,
+                       k.label + ": " + array + " has " + std::to_string(got) + " entries for " +
+                           std::to_string(want) + (std::string(array) == "material" ? " triangles" : " positions"),
+                       action));
+}
+
+// The index count and the sizes of the per-vertex and per-triangle arrays: which of them the mesh keeps.
+void check_array_sizes(MeshCheck& k) {
+  const Mesh& src = k.src;
+  if (src.indices.size() % 3 != 0)
+    k.report.add(problem(Severity::error, ProblemKind::index_count, k.m, -1, -1,
+                         k.label + ": " + std::to_string(src.indices.size()) + " indices, not a multiple of 3",
                          "the last " + std::to_string(src.indices.size() % 3) + " indices are ignored"));
-
-    auto size_mismatch = [&](const char* array, size_t got, size_t want, const std::string& action) {
-      report.add(problem(Severity::warning, ProblemKind::array_size_mismatch, m, -1, -1,
-                         label + ": " + array + " has " + std::to_string(got) + " entries for " +
-                             std::to_string(want) + (std::string(array) == "material" ? " triangles" : " positions"),
-                         action));
-    };
-    const bool normals_ok = src.normals.size() == nv;
-    if (!src.normals.empty() && !normals_ok)
-      size_mismatch("normals", src.normals.size(), nv, "normals ignored: the geometric normal is used");
-    const bool uv_ok = src.uv.size() == nv;
-    if (!src.uv.empty() && !uv_ok)
-      size_mismatch("uv", src.uv.size(), nv, "texture UVs ignored: textures are not sampled on this mesh");
-    has_lightmap[mi] = !src.lightmap_uv.empty() && src.lightmap_uv.size() == nv;
-    if (src.lightmap_uv.empty())
-      report.add(problem(Severity::warning, ProblemKind::no_lightmap_uv, m, -1, -1, label + " has no lightmap UVs",
+  k.normals_ok = src.normals.size() == k.nv;
+  if (!src.normals.empty() && !k.normals_ok)
+    report_size_mismatch(k, "normals", src.normals.size(), k.nv, "normals ignored: the geometric normal is used");
+  k.uv_ok = src.uv.size() == k.nv;
+  if (!src.uv.empty() && !k.uv_ok)
+    report_size_mismatch(k, "uv", src.uv.size(), k.nv, "texture UVs ignored: textures are not sampled on this mesh");
+  k.has_lightmap = !src.lightmap_uv.empty() && src.lightmap_uv.size() == k.nv;
+  if (src.lightmap_uv.empty())
+    k.report.add(problem(Severity::warning, ProblemKind::no_lightmap_uv, k.m, -1, -1, k.label + " has no lightmap UVs",
                          "it casts shadows and bounces light but gets no lightmap"));
-    else if (!has_lightmap[mi])
-      size_mismatch("lightmap_uv", src.lightmap_uv.size(), nv,
-                    "lightmap UVs ignored: it casts shadows and bounces light but gets no lightmap");
-    const bool materials_ok = src.material.size() == nt;
-    if (!src.material.empty() && !materials_ok)
-      size_mismatch("material", src.material.size(), nt, "per-triangle materials ignored: every triangle uses material 0");
+  else if (!k.has_lightmap)
+    report_size_mismatch(k, "lightmap_uv", src.lightmap_uv.size(), k.nv,
+                         "lightmap UVs ignored: it casts shadows and bounces light but gets no lightmap");
+  k.materials_ok = src.material.size() == k.nt;
+  if (!src.material.empty() && !k.materials_ok)
+    report_size_mismatch(k, "material", src.material.size(), k.nt,
+                         "per-triangle materials ignored: every triangle uses material 0");
+}
 
-    // Vertices: positions stay (indices keep their meaning) but non-finite ones become 0 once nothing uses them.
-    std::vector<bool> finite(nv);
-    dst.positions.resize(nv);
-    for (size_t v = 0; v < nv; ++v) {
-      finite[v] = is_finite(src.positions[v]);
-      dst.positions[v] = finite[v] ? src.positions[v] : Vec3{};
-    }
-    if (has_lightmap[mi]) dst.lightmap_uv = src.lightmap_uv;
-    if (uv_ok) {
-      dst.uv = src.uv;
-      for (size_t v = 0; v < nv; ++v) {
-        if (finite2(dst.uv[v])) continue;
-        Problem p = problem(Severity::warning, ProblemKind::non_finite_uv, m, -1, -1,
-                            label + ": texture UV of vertex " + std::to_string(v) + " is " + fmt(src.uv[v]),
-                            "replaced by (0, 0)");
-        p.vertex = static_cast<int64_t>(v);
-        report.add(std::move(p));
-        dst.uv[v] = {0, 0};
-      }
-    }
-
-    // Triangles.
-    std::vector<Vec3> normal_sum(normals_ok ? nv : 0);
-    for (size_t t = 0; t < nt; ++t) {
-      const uint32_t i[3] = {src.indices[3 * t], src.indices[3 * t + 1], src.indices[3 * t + 2]};
-      const std::string tri = label + " triangle " + std::to_string(t);
-      if (i[0] >= nv || i[1] >= nv || i[2] >= nv) {
-        report.add(problem(Severity::error, ProblemKind::index_out_of_range, m, -1, static_cast<int64_t>(t),
-                           tri + ": indices (" + std::to_string(i[0]) + ", " + std::to_string(i[1]) + ", " +
-                               std::to_string(i[2]) + ") for " + std::to_string(nv) + " vertices",
-                           "triangle dropped"));
-        continue;
-      }
-      if (!finite[i[0]] || !finite[i[1]] || !finite[i[2]]) {
-        const uint32_t bad = !finite[i[0]] ? i[0] : !finite[i[1]] ? i[1] : i[2];
-        report.add(problem(Severity::error, ProblemKind::non_finite_vertex, m, -1, static_cast<int64_t>(t),
-                           tri + ": vertex " + std::to_string(bad) + " is at " + fmt(src.positions[bad]),
-                           "triangle dropped"));
-        continue;
-      }
-      const Vec3 &p0 = src.positions[i[0]], &p1 = src.positions[i[1]], &p2 = src.positions[i[2]];
-      const Vec3 ng = cross(p1 - p0, p2 - p0);
-      const double longest = std::max({length(p1 - p0), length(p2 - p1), length(p0 - p2)});
-      if (!(length(ng) > kFlatRatio * longest * longest)) {
-        report.add(problem(Severity::error, ProblemKind::degenerate_triangle, m, -1, static_cast<int64_t>(t),
-                           tri + " has zero area at float precision (vertices " + fmt(p0) + ", " + fmt(p1) + ", " +
-                               fmt(p2) + ")",
-                           "triangle dropped: it is neither traced nor baked"));
-        continue;
-      }
-      // Kept: traced.
-      dst.indices.insert(dst.indices.end(), i, i + 3);
-      tri_info.source_triangle.push_back(static_cast<uint32_t>(t));
-      if (normals_ok)
-        for (uint32_t k : i) normal_sum[k] += ng;  // area-weighted: |ng| = 2 × area
-      if (materials_ok) {
-        uint32_t mat = src.material[t];
-        if (mat >= material_count) {
-          report.add(problem(Severity::warning, ProblemKind::material_out_of_range, m, -1, static_cast<int64_t>(t),
-                             tri + ": material " + std::to_string(mat) + " of " + std::to_string(material_count),
-                             "material 0 used"));
-          mat = 0;
-        }
-        dst.material.push_back(mat);
-      }
-      // Baked into the lightmap?
-      bool bake = has_lightmap[mi];
-      if (bake) {
-        const Point2 &a = src.lightmap_uv[i[0]], &b = src.lightmap_uv[i[1]], &c = src.lightmap_uv[i[2]];
-        bool inside = true;
-        for (const Point2* q : {&a, &b, &c})
-          inside = inside && q->x >= 0 && q->x <= 1 && q->y >= 0 && q->y <= 1;  // false for NaN too
-        const double luv = std::max({length2(a, b), length2(b, c), length2(c, a)});
-        if (!inside) {
-          report.add(problem(Severity::warning, ProblemKind::lightmap_uv_out_of_range, m, -1, static_cast<int64_t>(t),
-                             tri + ": lightmap UVs " + fmt(a) + ", " + fmt(b) + ", " + fmt(c) + " leave [0,1]",
-                             "not baked into the lightmap; still casts shadows and bounces light"));
-          bake = false;
-        } else if (!(std::fabs(cross2(a, b, c)) > kFlatRatio * luv * luv)) {
-          report.add(problem(Severity::warning, ProblemKind::degenerate_lightmap_uv, m, -1, static_cast<int64_t>(t),
-                             tri + ": lightmap UVs " + fmt(a) + ", " + fmt(b) + ", " + fmt(c) + " enclose no area",
-                             "not baked into the lightmap; still casts shadows and bounces light"));
-          bake = false;
-        }
-      }
-      tri_info.bake.push_back(bake ? 1 : 0);
-    }
-
-    // Normals: a NaN, infinite or zero normal becomes the vertex's geometric normal (the area-weighted mean of the
-    // normals of the kept triangles around it; a vertex no kept triangle uses gets +Y, which nothing reads).
-    if (normals_ok) {
-      dst.normals = src.normals;
-      for (size_t v = 0; v < nv; ++v) {
-        const Vec3& n = src.normals[v];
-        if (is_finite(n) && dot(n, n) > 0) continue;
-        const double len = length(normal_sum[v]);
-        dst.normals[v] = len > 0 && std::isfinite(len) ? normal_sum[v] / len : Vec3{0, 1, 0};
-        Problem p = problem(Severity::warning, ProblemKind::bad_normal, m, -1, -1,
-                            label + ": normal of vertex " + std::to_string(v) + " is " + fmt(n),
-                            "replaced by the geometric normal " + fmt(dst.normals[v]));
-        p.vertex = static_cast<int64_t>(v);
-        report.add(std::move(p));
-      }
-    }
+// Vertices: positions stay (indices keep their meaning) but non-finite ones become 0 once nothing uses them.
+void copy_vertices(MeshCheck& k) {
+  k.finite.resize(k.nv);
+  k.dst.positions.resize(k.nv);
+  for (size_t v = 0; v < k.nv; ++v) {
+    k.finite[v] = is_finite(k.src.positions[v]);
+    k.dst.positions[v] = k.finite[v] ? k.src.positions[v] : Vec3{};
   }
+  if (k.has_lightmap) k.dst.lightmap_uv = k.src.lightmap_uv;
+  if (!k.uv_ok) return;
+  k.dst.uv = k.src.uv;
+  for (size_t v = 0; v < k.nv; ++v) {
+    if (finite2(k.dst.uv[v])) continue;
+    Problem p = problem(Severity::warning, ProblemKind::non_finite_uv, k.m, -1, -1,
+                        k.label + ": texture UV of vertex " + std::to_string(v) + " is " + fmt(k.src.uv[v]),
+                        "replaced by (0, 0)");
+    p.vertex = static_cast<int64_t>(v);
+    k.report.add(std::move(p));
+    k.dst.uv[v] = {0, 0};
+  }
+}
 
-  // Instances.
-  for (size_t ii = 0; ii < in.instances.size(); ++ii) {
-    const Instance& src = in.instances[ii];
-    const int i = static_cast<int>(ii);
-    const std::string label = "instance " + std::to_string(ii);
-    if (src.mesh < 0 || static_cast<size_t>(src.mesh) >= in.meshes.size()) {
-      report.add(problem(Severity::error, ProblemKind::bad_instance_mesh, -1, i, -1,
+// The triangle's normal (p1 − p0) × (p2 − p0), not normalised, if it can be traced; nullopt, reported, if dropped.
+std::optional<Vec3> traced_normal(MeshCheck& k, size_t t, const uint32_t (&i)[3], const std::string& tri) {
+  const size_t nv = k.nv;
+  const auto at = static_cast<int64_t>(t);
+  if (i[0] >= nv || i[1] >= nv || i[2] >= nv) {
+    k.report.add(problem(Severity::error, ProblemKind::index_out_of_range, k.m, -1, at,
+                         tri + ": indices (" + std::to_string(i[0]) + ", " + std::to_string(i[1]) + ", " +
+                             std::to_string(i[2]) + ") for " + std::to_string(nv) + " vertices",
+                         "triangle dropped"));
+    return std::nullopt;
+  }
+  if (!k.finite[i[0]] || !k.finite[i[1]] || !k.finite[i[2]]) {
+    const uint32_t bad = !k.finite[i[0]] ? i[0] : !k.finite[i[1]] ? i[1] : i[2];
+    k.report.add(problem(Severity::error, ProblemKind::non_finite_vertex, k.m, -1, at,
+                         tri + ": vertex " + std::to_string(bad) + " is at " + fmt(k.src.positions[bad]),
+                         "triangle dropped"));
+    return std::nullopt;
+  }
+  const Vec3 &p0 = k.src.positions[i[0]], &p1 = k.src.positions[i[1]], &p2 = k.src.positions[i[2]];
+  const Vec3 ng = cross(p1 - p0, p2 - p0);
+  const double longest = std::max({length(p1 - p0), length(p2 - p1), length(p0 - p2)});
+  if (!(length(ng) > kFlatRatio * longest * longest)) {
+    k.report.add(problem(Severity::error, ProblemKind::degenerate_triangle, k.m, -1, at,
+                         tri + " has zero area at float precision (vertices " + fmt(p0) + ", " + fmt(p1) + ", " +
+                             fmt(p2) + ")",
+                         "triangle dropped: it is neither traced nor baked"));
+    return std::nullopt;
+  }
+  return ng;
+}
+
+// The kept triangle's material, material 0 (reported) if out of range.
+uint32_t checked_material(MeshCheck& k, size_t t, const std::string& tri) {
+  const uint32_t mat = k.src.material[t];
+  if (mat < k.material_count) return mat;
+  k.report.add(problem(Severity::warning, ProblemKind::material_out_of_range, k.m, -1, static_cast<int64_t>(t),
+                       tri + ": material " + std::to_string(mat) + " of " + std::to_string(k.material_count),
+                       "material 0 used"));
+  return 0;
+}
+
+// Whether the kept triangle bakes into the lightmap: its lightmap UVs inside [0,1] and enclosing some area.
+bool bakes(MeshCheck& k, size_t t, const uint32_t (&i)[3], const std::string& tri) {
+  if (!k.has_lightmap) return false;
+  const Point2 &a = k.src.lightmap_uv[i[0]], &b = k.src.lightmap_uv[i[1]], &c = k.src.lightmap_uv[i[2]];
+  bool inside = true;
+  for (const Point2* q : {&a, &b, &c})
+    inside = inside && q->x >= 0 && q->x <= 1 && q->y >= 0 && q->y <= 1;  // false for NaN too
+  const double luv = std::max({length2(a, b), length2(b, c), length2(c, a)});
+  if (!inside) {
+    k.report.add(problem(Severity::warning, ProblemKind::lightmap_uv_out_of_range, k.m, -1, static_cast<int64_t>(t),
+                         tri + ": lightmap UVs " + fmt(a) + ", " + fmt(b) + ", " + fmt(c) + " leave [0,1]",
+                         "not baked into the lightmap; still casts shadows and bounces light"));
+    return false;
+  }
+  if (!(std::fabs(cross2(a, b, c)) > kFlatRatio * luv * luv)) {
+    k.report.add(problem(Severity::warning, ProblemKind::degenerate_lightmap_uv, k.m, -1, static_cast<int64_t>(t),
+                         tri + ": lightmap UVs " + fmt(a) + ", " + fmt(b) + ", " + fmt(c) + " enclose no area",
+                         "not baked into the lightmap; still casts shadows and bounces light"));
+    return false;
+  }
+  return true;
+}
+
+void check_triangles(MeshCheck& k) {
+  k.normal_sum.resize(k.normals_ok ? k.nv : 0);
+  for (size_t t = 0; t < k.nt; ++t) {
+    const uint32_t i[3] = {k.src.indices[3 * t], k.src.indices[3 * t + 1], k.src.indices[3 * t + 2]};
+    const std::string tri = k.label + " triangle " + std::to_string(t);
+    const std::optional<Vec3> ng = traced_normal(k, t, i, tri);
+    if (!ng) continue;
+    // Kept: traced.
+    k.dst.indices.insert(k.dst.indices.end(), i, i + 3);
+    k.triangles.source_triangle.push_back(static_cast<uint32_t>(t));
+    if (k.normals_ok)
+      for (uint32_t v : i) k.normal_sum[v] += *ng;  // area-weighted: |ng| = 2 × area
+    if (k.materials_ok) k.dst.material.push_back(checked_material(k, t, tri));
+    k.triangles.bake.push_back(bakes(k, t, i, tri) ? 1 : 0);
+  }
+}
+
+// Normals: a NaN, infinite or zero normal becomes the vertex's geometric normal (the area-weighted mean of the
+// normals of the kept triangles around it; a vertex no kept triangle uses gets +Y, which nothing reads).
+void repair_normals(MeshCheck& k) {
+  if (!k.normals_ok) return;
+  k.dst.normals = k.src.normals;
+  for (size_t v = 0; v < k.nv; ++v) {
+    const Vec3& n = k.src.normals[v];
+    if (is_finite(n) && dot(n, n) > 0) continue;
+    const double len = length(k.normal_sum[v]);
+    k.dst.normals[v] = len > 0 && std::isfinite(len) ? k.normal_sum[v] / len : Vec3{0, 1, 0};
+    Problem p = problem(Severity::warning, ProblemKind::bad_normal, k.m, -1, -1,
+                        k.label + ": normal of vertex " + std::to_string(v) + " is " + fmt(n),
+                        "replaced by the geometric normal " + fmt(k.dst.normals[v]));
+    p.vertex = static_cast<int64_t>(v);
+    k.report.add(std::move(p));
+  }
+}
+
+void check_mesh(SceneCheck& c, size_t mi) {
+  const Mesh& src = c.in.meshes[mi];
+  MeshCheck k{c.report,
+              static_cast<int>(mi),
+              src,
+              c.out.scene.meshes[mi],
+              c.out.triangles[mi],
+              mesh_label(c.in, static_cast<int>(mi)),
+              src.positions.size(),
+              src.indices.size() / 3,
+              c.out.scene.materials.size()};
+  k.dst.name = src.name;
+  check_array_sizes(k);
+  c.has_lightmap[mi] = k.has_lightmap;
+  copy_vertices(k);
+  check_triangles(k);
+  repair_normals(k);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Instances.
+
+// False, reported, for an instance that must be skipped.
+bool traceable_instance(SceneCheck& c, size_t ii) {
+  const Instance& src = c.in.instances[ii];
+  const int i = static_cast<int>(ii);
+  const std::string label = "instance " + std::to_string(ii);
+  if (src.mesh < 0 || static_cast<size_t>(src.mesh) >= c.in.meshes.size()) {
+    c.report.add(problem(Severity::error, ProblemKind::bad_instance_mesh, -1, i, -1,
                          label + " refers to mesh " + std::to_string(src.mesh) + " of " +
-                             std::to_string(in.meshes.size()),
+                             std::to_string(c.in.meshes.size()),
                          "instance skipped"));
-      continue;
-    }
-    if (!usable_transform(src.to_world)) {
-      std::string m = "(";
-      for (size_t k = 0; k < 12; ++k) m += fmt(src.to_world.m[k]) + (k == 11 ? ")" : k % 4 == 3 ? "; " : ", ");
-      report.add(problem(Severity::error, ProblemKind::bad_transform, src.mesh, i, -1,
-                         label + " of " + mesh_label(in, src.mesh) + " has a singular or non-finite transform " + m,
+    return false;
+  }
+  if (!usable_transform(src.to_world)) {
+    std::string m = "(";
+    for (size_t k = 0; k < 12; ++k) m += fmt(src.to_world.m[k]) + (k == 11 ? ")" : k % 4 == 3 ? "; " : ", ");
+    c.report.add(problem(Severity::error, ProblemKind::bad_transform, src.mesh, i, -1,
+                         label + " of " + mesh_label(c.in, src.mesh) + " has a singular or non-finite transform " + m,
                          "instance skipped"));
-      continue;
-    }
+    return false;
+  }
+  return true;
+}
+
+void check_instances(SceneCheck& c) {
+  for (size_t ii = 0; ii < c.in.instances.size(); ++ii) {
+    if (!traceable_instance(c, ii)) continue;
+    const Instance& src = c.in.instances[ii];
     Instance dst = src;
-    dst.lightmap = resolved_lightmap_name(in, src);
-    if (dst.bake && !has_lightmap[src.mesh]) dst.bake = false;  // reported with the mesh
+    dst.lightmap = resolved_lightmap_name(c.in, src);
+    if (dst.bake && !c.has_lightmap[src.mesh]) dst.bake = false;  // reported with the mesh
     if (dst.bake && !valid_scale_offset(src.lightmap_scale_offset)) {
       const auto& st = src.lightmap_scale_offset;
-      report.add(problem(Severity::warning, ProblemKind::bad_lightmap_scale_offset, src.mesh, i, -1,
-                         label + ": lightmap_scale_offset (" + fmt(st[0]) + ", " + fmt(st[1]) + ", " + fmt(st[2]) +
-                             ", " + fmt(st[3]) + ") is not a rectangle inside [0,1]",
-                         "the instance casts shadows and bounces light but is not baked"));
+      c.report.add(problem(Severity::warning, ProblemKind::bad_lightmap_scale_offset, src.mesh, static_cast<int>(ii),
+                           -1,
+                           "instance " + std::to_string(ii) + ": lightmap_scale_offset (" + fmt(st[0]) + ", " +
+                               fmt(st[1]) + ", " + fmt(st[2]) + ", " + fmt(st[3]) + ") is not a rectangle inside [0,1]",
+                           "the instance casts shadows and bounces light but is not baked"));
       dst.bake = false;
     }
-    scene.instances.push_back(std::move(dst));
-    out.source_instance.push_back(static_cast<uint32_t>(ii));
+    c.out.scene.instances.push_back(std::move(dst));
+    c.out.source_instance.push_back(static_cast<uint32_t>(ii));
   }
+}
 
-  // Overlapping lightmap UVs, per lightmap, over every baked triangle of every baking instance.
-  std::vector<std::string> names;
-  for (const Instance& inst : scene.instances)
-    if (inst.bake && std::find(names.begin(), names.end(), inst.lightmap) == names.end()) names.push_back(inst.lightmap);
-  for (const std::string& name : names) {
-    std::vector<UvTriangle> tris;
-    for (size_t k = 0; k < scene.instances.size(); ++k) {
-      const Instance& inst = scene.instances[k];
-      if (!inst.bake || inst.lightmap != name) continue;
-      const Mesh& mesh = scene.meshes[inst.mesh];
-      const CheckedScene::MeshTriangles& info = out.triangles[inst.mesh];
-      const auto& st = inst.lightmap_scale_offset;
-      for (size_t t = 0; t < info.bake.size(); ++t) {
-        if (!info.bake[t]) continue;
-        UvTriangle u;
-        for (int c = 0; c < 3; ++c) {
-          const Point2& q = mesh.lightmap_uv[mesh.indices[3 * t + c]];
-          u.p[c] = {st[0] * q.x + st[2], st[1] * q.y + st[3]};
-        }
-        u.min_x = std::min({u.p[0].x, u.p[1].x, u.p[2].x}), u.max_x = std::max({u.p[0].x, u.p[1].x, u.p[2].x});
-        u.min_y = std::min({u.p[0].y, u.p[1].y, u.p[2].y}), u.max_y = std::max({u.p[0].y, u.p[1].y, u.p[2].y});
-        u.mesh = inst.mesh;
-        u.instance = static_cast<int>(out.source_instance[k]);
-        u.triangle = info.source_triangle[t];
-        tris.push_back(u);
+// ---------------------------------------------------------------------------------------------------------------
+// Overlapping lightmap UVs.
+
+// Every baked triangle of every baking instance of lightmap `name`, in the lightmap's UV space.
+std::vector<UvTriangle> lightmap_triangles(const CheckedScene& out, const std::string& name) {
+  std::vector<UvTriangle> tris;
+  for (size_t k = 0; k < out.scene.instances.size(); ++k) {
+    const Instance& inst = out.scene.instances[k];
+    if (!inst.bake || inst.lightmap != name) continue;
+    const Mesh& mesh = out.scene.meshes[inst.mesh];
+    const CheckedScene::MeshTriangles& info = out.triangles[inst.mesh];
+    const auto& st = inst.lightmap_scale_offset;
+    for (size_t t = 0; t < info.bake.size(); ++t) {
+      if (!info.bake[t]) continue;
+      UvTriangle u;
+      for (int c = 0; c < 3; ++c) {
+        const Point2& q = mesh.lightmap_uv[mesh.indices[3 * t + c]];
+        u.p[c] = {st[0] * q.x + st[2], st[1] * q.y + st[3]};
       }
+      u.min_x = std::min({u.p[0].x, u.p[1].x, u.p[2].x}), u.max_x = std::max({u.p[0].x, u.p[1].x, u.p[2].x});
+      u.min_y = std::min({u.p[0].y, u.p[1].y, u.p[2].y}), u.max_y = std::max({u.p[0].y, u.p[1].y, u.p[2].y});
+      u.mesh = inst.mesh;
+      u.instance = static_cast<int>(out.source_instance[k]);
+      u.triangle = info.source_triangle[t];
+      tris.push_back(u);
     }
-    find_overlaps(name, tris, report);
   }
+  return tris;
+}
+
+// Per lightmap, in the order the instances name them.
+void check_overlaps(SceneCheck& c) {
+  std::vector<std::string> names;
+  for (const Instance& inst : c.out.scene.instances) {
+    if (inst.bake && std::find(names.begin(), names.end(), inst.lightmap) == names.end())
+      names.push_back(inst.lightmap);
+  }
+  for (const std::string& name : names) find_overlaps(name, lightmap_triangles(c.out, name), c.report);
+}
+
+}  // namespace
+
+CheckedScene check_scene(const Scene& in, const CheckOptions& options) {
+  CheckedScene out;
+  SceneCheck c{in, out, Reporter(out.report, options.max_listed_per_kind), std::vector<bool>(in.meshes.size())};
+  out.scene.materials = in.materials;
+  out.scene.textures = in.textures;
+  out.scene.lights = in.lights;
+  out.scene.environment = in.environment;
+  add_default_material(c);
+  drop_bad_textures(c);
+  repair_material_colours(c);
+  out.scene.meshes.resize(in.meshes.size());
+  out.triangles.resize(in.meshes.size());
+  for (size_t m = 0; m < in.meshes.size(); ++m) check_mesh(c, m);
+  check_instances(c);
+  check_overlaps(c);
   return out;
 }
 

@@ -37,11 +37,9 @@ struct MeshAttributes {
 };
 
 // What a hit on one triangle needs, computed once when the tracer is built, so that completing a hit is a dependent
-// load after Embree returns instead of a chain through the geometry's index, vertex and normal buffers (that chain,
-// and recomputing these per hit, cost as much as a third of an Embree query on a small scene). Split by how often a
-// hit reads it, so that the part every hit reads is one cache line: on a scene whose records outgrow the caches the
-// load after Embree returns is the tracer's largest cost (two lines a triangle measured 64 % of Tracer::intersect's
-// time on 8,192 triangles).
+// load after Embree returns instead of a chain through the geometry's index, vertex and normal buffers (and a
+// recomputation per hit). Split by how often a hit reads it, so that the part every hit reads is one cache line: on a
+// scene whose records outgrow the caches, the load after Embree returns is the tracer's largest cost.
 //
 // Every closest hit: the place, the normal and the offset.
 struct alignas(64) TriangleRecord {
@@ -167,6 +165,14 @@ struct Tracer::Impl {
     if (device) rtcReleaseDevice(device);
   }
 
+  // Building, in this order: the constructor's stages.
+  void create_scene(const TracerOptions& options);
+  void add_instance(const Scene& input, size_t k);
+  void commit();
+  // Of add_instance.
+  void write_world_vertices(const Scene& input, size_t k, RTCGeometry geom, float* vb);
+  void add_triangles(const Scene& input, size_t k, const float* vb, const uint32_t* ib, unsigned id);
+
   size_t triangle(unsigned geom_id, unsigned prim_id) const { return first[geom_id] + prim_id; }
   HitId id_of(const RTCRayHit& rh) const;  // of a hit
   // Inline: it follows every closest-hit query.
@@ -195,168 +201,214 @@ std::string where(const Scene& scene, size_t instance, int mesh) {
          (name.empty() ? std::string() : " '" + name + "'") + ")";
 }
 
-}  // namespace
+// Clean input only: check_scene makes it so; say what is wrong otherwise rather than trace garbage.
+const char* const kAdvice = "; run scene::check_scene on the scene first and trace its cleaned scene";
 
-Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::make_unique<Impl>()) {
-  Impl& im = *impl_;
-  // Clean input only: check_scene makes it so; say what is wrong otherwise rather than trace garbage.
-  const std::string advice = "; run scene::check_scene on the scene first and trace its cleaned scene";
+void require_clean_instances(const Scene& scene) {
   for (size_t k = 0; k < scene.instances.size(); ++k) {
     const Instance& inst = scene.instances[k];
     if (inst.mesh < 0 || static_cast<size_t>(inst.mesh) >= scene.meshes.size())
       throw std::invalid_argument("tracer: instance " + std::to_string(k) + " refers to mesh " +
-                                  std::to_string(inst.mesh) + " of " + std::to_string(scene.meshes.size()) + advice);
+                                  std::to_string(inst.mesh) + " of " + std::to_string(scene.meshes.size()) + kAdvice);
     if (!usable_transform(inst.to_world))
       throw std::invalid_argument("tracer: " + where(scene, k, inst.mesh) + " has a singular or non-finite transform" +
-                                  advice);
+                                  kAdvice);
   }
-  for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    const Mesh& mesh = scene.meshes[m];
-    const size_t nv = mesh.positions.size();
-    const std::string label = "tracer: mesh " + std::to_string(m) + " '" + mesh.name + "'";
-    if (mesh.indices.size() % 3 != 0)
-      throw std::invalid_argument(label + " has " + std::to_string(mesh.indices.size()) +
-                                  " indices, not a multiple of 3" + advice);
-    if (!mesh.normals.empty() && mesh.normals.size() != nv)
-      throw std::invalid_argument(label + ": normals and positions differ in size" + advice);
-    if ((!mesh.uv.empty() && mesh.uv.size() != nv) || (!mesh.lightmap_uv.empty() && mesh.lightmap_uv.size() != nv))
-      throw std::invalid_argument(label + ": UVs and positions differ in size" + advice);
-    for (size_t i = 0; i < mesh.indices.size(); ++i) {
-      const uint32_t v = mesh.indices[i];
-      if (v >= nv)
-        throw std::invalid_argument(label + " triangle " + std::to_string(i / 3) + ": index " + std::to_string(v) +
-                                    " out of range for " + std::to_string(nv) + " vertices" + advice);
-      if (!is_finite(mesh.positions[v]))
-        throw std::invalid_argument(label + " triangle " + std::to_string(i / 3) + ": vertex " + std::to_string(v) +
-                                    " is not finite" + advice);
-    }
+}
+
+void require_clean_mesh(const Mesh& mesh, size_t m) {
+  const size_t nv = mesh.positions.size();
+  const std::string label = "tracer: mesh " + std::to_string(m) + " '" + mesh.name + "'";
+  if (mesh.indices.size() % 3 != 0)
+    throw std::invalid_argument(label + " has " + std::to_string(mesh.indices.size()) +
+                                " indices, not a multiple of 3" + kAdvice);
+  if (!mesh.normals.empty() && mesh.normals.size() != nv)
+    throw std::invalid_argument(label + ": normals and positions differ in size" + kAdvice);
+  if ((!mesh.uv.empty() && mesh.uv.size() != nv) || (!mesh.lightmap_uv.empty() && mesh.lightmap_uv.size() != nv))
+    throw std::invalid_argument(label + ": UVs and positions differ in size" + kAdvice);
+  for (size_t i = 0; i < mesh.indices.size(); ++i) {
+    const uint32_t v = mesh.indices[i];
+    if (v >= nv)
+      throw std::invalid_argument(label + " triangle " + std::to_string(i / 3) + ": index " + std::to_string(v) +
+                                  " out of range for " + std::to_string(nv) + " vertices" + kAdvice);
+    if (!is_finite(mesh.positions[v]))
+      throw std::invalid_argument(label + " triangle " + std::to_string(i / 3) + ": vertex " + std::to_string(v) +
+                                  " is not finite" + kAdvice);
   }
+}
 
-  im.device = rtcNewDevice(nullptr);
-  if (!im.device)
-    throw std::runtime_error(std::string("Embree could not create a device: ") + error_name(rtcGetDeviceError(nullptr)) +
-                             " (Embree needs an SSE2-capable x86-64 CPU)");
-  rtcSetDeviceErrorFunction(im.device, &Impl::on_error, &im);
-  rtcSetDeviceMemoryMonitorFunction(im.device, &Impl::on_memory, &im);
-  im.scene = rtcNewScene(im.device);
-  rtcSetSceneFlags(im.scene, options.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
-  rtcSetSceneBuildQuality(im.scene, RTC_BUILD_QUALITY_HIGH);
-  im.check("creating the scene");
-  im.meshes.resize(scene.meshes.size());
-  for (size_t m = 0; m < scene.meshes.size(); ++m)
-    im.meshes[m] = {scene.meshes[m].uv, scene.meshes[m].lightmap_uv};
+// The mesh's normals in world space (`M` the instance's normal matrix), rounded to float (as the records keep
+// them); empty without vertex normals.
+std::vector<Vec3> world_normals(const Mesh& mesh, const double (&M)[9]) {
+  std::vector<Vec3> out(mesh.normals.empty() ? 0 : mesh.positions.size());
+  for (size_t v = 0; v < out.size(); ++v) {
+    const Vec3& n = mesh.normals[v];
+    out[v] = {static_cast<float>(M[0] * n.x + M[1] * n.y + M[2] * n.z),
+              static_cast<float>(M[3] * n.x + M[4] * n.y + M[5] * n.z),
+              static_cast<float>(M[6] * n.x + M[7] * n.y + M[8] * n.z)};
+  }
+  return out;
+}
 
-  for (size_t k = 0; k < scene.instances.size(); ++k) {
-    const Instance& inst = scene.instances[k];
-    const Mesh& mesh = scene.meshes[inst.mesh];
-    const size_t nt = mesh.indices.size() / 3, nv = mesh.positions.size();
-    if (nt == 0) continue;
-    RTCGeometry geom = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
-    auto* vb = static_cast<float*>(
-        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
-    auto* ib = static_cast<uint32_t*>(
-        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
-    if (!vb || !ib) {
+// Triangle t's vertex indices (from the geometry's index buffer `ib`) and world vertex normals.
+TriangleVertices triangle_vertices(const uint32_t* ib, size_t t, const std::vector<Vec3>& normals) {
+  TriangleVertices tv{};
+  for (int j = 0; j < 3; ++j) {
+    tv.index[j] = ib[3 * t + j];
+    if (normals.empty()) continue;
+    const Vec3& n = normals[tv.index[j]];
+    tv.n[j][0] = static_cast<float>(n.x);
+    tv.n[j][1] = static_cast<float>(n.y);
+    tv.n[j][2] = static_cast<float>(n.z);
+  }
+  return tv;
+}
+
+// The place, offset and unit geometric normal of the triangle of float vertices `vb` at `index`.
+TriangleRecord triangle_record(const float* vb, const uint32_t (&index)[3], double mirror) {
+  TriangleRecord r{};
+  for (int j = 0; j < 3; ++j) std::copy(vb + 3 * size_t{index[j]}, vb + 3 * size_t{index[j]} + 3, r.p[j]);
+  const Vec3 p0 = vertex(vb, index[0]), p1 = vertex(vb, index[1]), p2 = vertex(vb, index[2]);
+  const double offset = self_intersection_offset(p0, p1, p2, p0);
+  r.offset = static_cast<float>(offset);
+  if (static_cast<double>(r.offset) < offset) r.offset = std::nextafterf(r.offset, INFINITY);  // never below
+  const Vec3 c = cross(p1 - p0, p2 - p0);
+  const double len = length(c);
+  const Vec3 n = len > 0 ? c * (mirror / len) : Vec3{};
+  r.ng[0] = n.x;
+  r.ng[1] = n.y;
+  r.ng[2] = n.z;
+  return r;
+}
+
+// Whether a triangle of unit normal `n` interpolates its vertex normals (TriangleFacts::interpolate_normals).
+bool interpolates_normals(const std::vector<Vec3>& normals, const uint32_t (&index)[3], const Vec3& n) {
+  bool interpolate = false;
+  for (int j = 0; j < 3 && !normals.empty(); ++j) {
+    const Vec3& vn = normals[index[j]];
+    const double vl = length(vn);
+    // A zero or non-finite vertex normal, or one off the face: interpolate (complete() guards the zero sum).
+    if (!(vl > 0) || !std::isfinite(vl) || !(length(vn * (1.0 / vl) - n) <= kFlatNormal)) interpolate = true;
+  }
+  return interpolate;
+}
+
+}  // namespace
+
+void Tracer::Impl::create_scene(const TracerOptions& options) {
+  device = rtcNewDevice(nullptr);
+  if (!device)
+    throw std::runtime_error(std::string("Embree could not create a device: ") +
+                             error_name(rtcGetDeviceError(nullptr)) + " (Embree needs an SSE2-capable x86-64 CPU)");
+  rtcSetDeviceErrorFunction(device, &Impl::on_error, this);
+  rtcSetDeviceMemoryMonitorFunction(device, &Impl::on_memory, this);
+  scene = rtcNewScene(device);
+  rtcSetSceneFlags(scene, options.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
+  check("creating the scene");
+}
+
+// One Embree geometry for instance k (none for a mesh without triangles), with its triangles' records.
+void Tracer::Impl::add_instance(const Scene& input, size_t k) {
+  const Instance& inst = input.instances[k];
+  const Mesh& mesh = input.meshes[inst.mesh];
+  const size_t nt = mesh.indices.size() / 3, nv = mesh.positions.size();
+  if (nt == 0) return;
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
+  auto* vb = static_cast<float*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+  auto* ib = static_cast<uint32_t*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
+  if (!vb || !ib) {
+    rtcReleaseGeometry(geom);
+    check("allocating the geometry buffers");
+    throw std::runtime_error("Embree returned no geometry buffer for " + where(input, k, inst.mesh));
+  }
+  write_world_vertices(input, k, geom, vb);
+  std::copy(mesh.indices.begin(), mesh.indices.end(), ib);
+  rtcCommitGeometry(geom);
+  const unsigned id = rtcAttachGeometry(scene, geom);
+  rtcReleaseGeometry(geom);  // the scene holds it
+  check("adding a geometry");
+  add_triangles(input, k, vb, ib, id);
+}
+
+// World positions in double, rounded to float once (the float vertices are what the offsets bound); releases `geom`
+// before throwing for a vertex beyond float range.
+void Tracer::Impl::write_world_vertices(const Scene& input, size_t k, RTCGeometry geom, float* vb) {
+  const Instance& inst = input.instances[k];
+  const Mesh& mesh = input.meshes[inst.mesh];
+  const size_t nv = mesh.positions.size();
+  std::vector<uint8_t> used(nv, 0);
+  for (uint32_t i : mesh.indices) used[i] = 1;
+  for (size_t v = 0; v < nv; ++v) {
+    // Unreferenced vertices are never read by Embree's triangles but still must be finite floats for its bounds.
+    const Vec3 w = inst.to_world.point(mesh.positions[used[v] ? v : mesh.indices[0]]);
+    const float f[3] = {static_cast<float>(w.x), static_cast<float>(w.y), static_cast<float>(w.z)};
+    if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
       rtcReleaseGeometry(geom);
-      im.check("allocating the geometry buffers");
-      throw std::runtime_error("Embree returned no geometry buffer for " + where(scene, k, inst.mesh));
+      throw std::invalid_argument("tracer: " + where(input, k, inst.mesh) + ": vertex " + std::to_string(v) +
+                                  " lands at (" + std::to_string(w.x) + ", " + std::to_string(w.y) + ", " +
+                                  std::to_string(w.z) +
+                                  ") in world space, beyond single precision; scale the scene down");
     }
-    // World positions in double, rounded to float once (the float vertices are what the offsets bound).
-    std::vector<uint8_t> used(nv, 0);
-    for (uint32_t i : mesh.indices) used[i] = 1;
-    for (size_t v = 0; v < nv; ++v) {
-      // Unreferenced vertices are never read by Embree's triangles but still must be finite floats for its bounds.
-      const Vec3 w = used[v] ? inst.to_world.point(mesh.positions[v]) : inst.to_world.point(mesh.positions[mesh.indices[0]]);
-      const float f[3] = {static_cast<float>(w.x), static_cast<float>(w.y), static_cast<float>(w.z)};
-      if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
-        rtcReleaseGeometry(geom);
-        throw std::invalid_argument("tracer: " + where(scene, k, inst.mesh) + ": vertex " + std::to_string(v) +
-                                    " lands at (" + std::to_string(w.x) + ", " + std::to_string(w.y) + ", " +
-                                    std::to_string(w.z) +
-                                    ") in world space, beyond single precision; scale the scene down");
-      }
-      std::copy(f, f + 3, vb + 3 * v);
-      if (used[v]) {
-        im.lower = {std::min(im.lower.x, double(f[0])), std::min(im.lower.y, double(f[1])),
-                    std::min(im.lower.z, double(f[2]))};
-        im.upper = {std::max(im.upper.x, double(f[0])), std::max(im.upper.y, double(f[1])),
-                    std::max(im.upper.z, double(f[2]))};
-      }
+    std::copy(f, f + 3, vb + 3 * v);
+    if (used[v]) {
+      lower = {std::min(lower.x, double(f[0])), std::min(lower.y, double(f[1])), std::min(lower.z, double(f[2]))};
+      upper = {std::max(upper.x, double(f[0])), std::max(upper.y, double(f[1])), std::max(upper.z, double(f[2]))};
     }
-    std::copy(mesh.indices.begin(), mesh.indices.end(), ib);
-    rtcCommitGeometry(geom);
-    const unsigned id = rtcAttachGeometry(im.scene, geom);
-    rtcReleaseGeometry(geom);  // the scene holds it
-    im.check("adding a geometry");
-
-    Geometry g;
-    g.instance = static_cast<int>(k);
-    g.mesh = inst.mesh;
-    g.source = &im.meshes[inst.mesh];
-    const size_t first = im.records.size();
-    g.mirror = inverse_transpose(inst.to_world, g.normal_matrix);
-    g.lightmap_st = inst.lightmap_scale_offset;
-    // The mesh's normals in world space, rounded to float (as the records keep them).
-    std::vector<Vec3> world_normals;
-    if (!mesh.normals.empty()) {
-      world_normals.resize(nv);
-      const double* M = g.normal_matrix;
-      for (size_t v = 0; v < nv; ++v) {
-        const Vec3& n = mesh.normals[v];
-        world_normals[v] = {static_cast<float>(M[0] * n.x + M[1] * n.y + M[2] * n.z),
-                            static_cast<float>(M[3] * n.x + M[4] * n.y + M[5] * n.z),
-                            static_cast<float>(M[6] * n.x + M[7] * n.y + M[8] * n.z)};
-      }
-    }
-    for (size_t t = 0; t < nt; ++t) {
-      TriangleRecord r{};
-      TriangleFacts f{};
-      TriangleVertices tv{};
-      for (int j = 0; j < 3; ++j) {
-        tv.index[j] = ib[3 * t + j];
-        std::copy(vb + 3 * size_t{tv.index[j]}, vb + 3 * size_t{tv.index[j]} + 3, r.p[j]);
-        if (!world_normals.empty()) {
-          const Vec3& n = world_normals[tv.index[j]];
-          tv.n[j][0] = static_cast<float>(n.x);
-          tv.n[j][1] = static_cast<float>(n.y);
-          tv.n[j][2] = static_cast<float>(n.z);
-        }
-      }
-      const Vec3 p0 = vertex(vb, tv.index[0]), p1 = vertex(vb, tv.index[1]), p2 = vertex(vb, tv.index[2]);
-      const double offset = self_intersection_offset(p0, p1, p2, p0);
-      r.offset = static_cast<float>(offset);
-      if (static_cast<double>(r.offset) < offset) r.offset = std::nextafterf(r.offset, INFINITY);  // never below
-      const Vec3 c = cross(p1 - p0, p2 - p0);
-      const double len = length(c);
-      const Vec3 n = len > 0 ? c * (g.mirror / len) : Vec3{};
-      r.ng[0] = n.x;
-      r.ng[1] = n.y;
-      r.ng[2] = n.z;
-      f.zero_normal = n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
-      f.interpolate_normals = false;
-      for (int j = 0; j < 3 && !world_normals.empty(); ++j) {
-        const Vec3& vn = world_normals[tv.index[j]];
-        const double vl = length(vn);
-        // A zero or non-finite vertex normal, or one off the face: interpolate (complete() guards the zero sum).
-        if (!(vl > 0) || !std::isfinite(vl) || !(length(vn * (1.0 / vl) - n) <= kFlatNormal))
-          f.interpolate_normals = true;
-      }
-      f.material = mesh.material.empty() ? 0 : static_cast<int32_t>(mesh.material[t]);
-      im.records.push_back(r);
-      im.facts.push_back(f);
-      im.vertices.push_back(tv);
-    }
-    im.side_bytes += nt * (sizeof(TriangleRecord) + sizeof(TriangleFacts) + sizeof(TriangleVertices));
-    if (im.geometries.size() <= id) im.geometries.resize(id + 1);
-    if (im.first.size() <= id) im.first.resize(id + 1);
-    im.first[id] = first;
-    im.geometries[id] = std::move(g);
-    im.triangles += nt;
   }
-  for (const MeshAttributes& m : im.meshes) im.side_bytes += (m.uv.size() + m.lightmap_uv.size()) * sizeof(Point2);
-  rtcCommitScene(im.scene);
-  im.check("building the acceleration structure");
+}
+
+// The records of instance k's triangles, traced as Embree geometry `id` from the buffers `vb` and `ib`.
+void Tracer::Impl::add_triangles(const Scene& input, size_t k, const float* vb, const uint32_t* ib, unsigned id) {
+  const Instance& inst = input.instances[k];
+  const Mesh& mesh = input.meshes[inst.mesh];
+  const size_t nt = mesh.indices.size() / 3;
+  Geometry g;
+  g.instance = static_cast<int>(k);
+  g.mesh = inst.mesh;
+  g.source = &meshes[inst.mesh];
+  g.mirror = inverse_transpose(inst.to_world, g.normal_matrix);
+  g.lightmap_st = inst.lightmap_scale_offset;
+  const std::vector<Vec3> normals = world_normals(mesh, g.normal_matrix);
+  const size_t first_triangle = records.size();
+  for (size_t t = 0; t < nt; ++t) {
+    const TriangleVertices tv = triangle_vertices(ib, t, normals);
+    const TriangleRecord r = triangle_record(vb, tv.index, g.mirror);
+    const Vec3 n{r.ng[0], r.ng[1], r.ng[2]};
+    TriangleFacts f{};
+    f.zero_normal = n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
+    f.interpolate_normals = interpolates_normals(normals, tv.index, n);
+    f.material = mesh.material.empty() ? 0 : static_cast<int32_t>(mesh.material[t]);
+    records.push_back(r);
+    facts.push_back(f);
+    vertices.push_back(tv);
+  }
+  side_bytes += nt * (sizeof(TriangleRecord) + sizeof(TriangleFacts) + sizeof(TriangleVertices));
+  if (geometries.size() <= id) geometries.resize(id + 1);
+  if (first.size() <= id) first.resize(id + 1);
+  first[id] = first_triangle;
+  geometries[id] = std::move(g);
+  triangles += nt;
+}
+
+void Tracer::Impl::commit() {
+  for (const MeshAttributes& m : meshes) side_bytes += (m.uv.size() + m.lightmap_uv.size()) * sizeof(Point2);
+  rtcCommitScene(scene);
+  check("building the acceleration structure");
+}
+
+Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::make_unique<Impl>()) {
+  require_clean_instances(scene);
+  for (size_t m = 0; m < scene.meshes.size(); ++m) require_clean_mesh(scene.meshes[m], m);
+  Impl& im = *impl_;
+  im.create_scene(options);
+  im.meshes.resize(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) im.meshes[m] = {scene.meshes[m].uv, scene.meshes[m].lightmap_uv};
+  for (size_t k = 0; k < scene.instances.size(); ++k) im.add_instance(scene, k);
+  im.commit();
 }
 
 Tracer::~Tracer() = default;

@@ -1358,7 +1358,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   const daemon::BakeRequest r = daemon::translate(bake.spec);
   EXPECT_EQ(r.lightmap().resolution, 32);
   EXPECT_EQ(r.lightmap().scene.materials[0].bsdf.specular.alpha_x, 0.2);
-  EXPECT_EQ(r.lightmap().scene.lights[1].type, scene::LightType::directional);
+  EXPECT_EQ(r.lightmap().scene.lights[1].type, scene::LightShape::directional);
 
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.resolution"), "--resolution");
   EXPECT_EQ(lightmap_field_origin(bake, "job.quality.target_error"), "--target-error");

@@ -512,11 +512,11 @@ TEST(SceneImport, GltfPunctualLightsArePlacedByTheirNodes) {
   const daemon::BakeRequest r = translated(j);
   ASSERT_EQ(r.lightmap().scene.lights.size(), 3u);
   for (const scene::Light& l : r.lightmap().scene.lights) {
-    if (l.type == scene::LightType::spot) {
+    if (l.type == scene::LightShape::spot) {
       EXPECT_NEAR(l.inner_cone, 0.3, kFloat32);
       EXPECT_NEAR(l.outer_cone, 0.6, kFloat32);
     }
-    if (l.type == scene::LightType::directional) {
+    if (l.type == scene::LightShape::directional) {
       EXPECT_GT(l.angular_diameter, 0.009);  // the sun's, about 0.0093 rad
       EXPECT_LT(l.angular_diameter, 0.0095);
     }

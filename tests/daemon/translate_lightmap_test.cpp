@@ -150,23 +150,23 @@ TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   EXPECT_EQ(s.materials[1].emission.r, 17);
   EXPECT_EQ(s.materials[1].bsdf.diffuse.model, brdf::Model::lambert);  // the default material
   ASSERT_EQ(s.lights.size(), 5u);
-  EXPECT_EQ(s.lights[0].type, scene::LightType::point);
+  EXPECT_EQ(s.lights[0].type, scene::LightShape::point);
   EXPECT_EQ(s.lights[0].name, "bulb");
   EXPECT_EQ(s.lights[0].color.b, 30);
   EXPECT_EQ(s.lights[0].position.z, 3);
-  EXPECT_EQ(s.lights[1].type, scene::LightType::spot);
+  EXPECT_EQ(s.lights[1].type, scene::LightShape::spot);
   EXPECT_EQ(s.lights[1].direction.y, -1);  // normalised
   EXPECT_EQ(s.lights[1].inner_cone, 0.2);
   EXPECT_EQ(s.lights[1].outer_cone, 0.5);
-  EXPECT_EQ(s.lights[2].type, scene::LightType::directional);
+  EXPECT_EQ(s.lights[2].type, scene::LightShape::directional);
   EXPECT_EQ(s.lights[2].direction.z, -1);
   EXPECT_EQ(s.lights[2].angular_diameter, 0.02);
-  EXPECT_EQ(s.lights[3].type, scene::LightType::rect);
+  EXPECT_EQ(s.lights[3].type, scene::LightShape::rect);
   EXPECT_EQ(s.lights[3].v_axis.z, 2);
   // u × v = x × 2z = −2y: the emitting side faces −y.
   EXPECT_EQ(s.lights[3].direction.y, -1);
   EXPECT_TRUE(s.lights[3].two_sided);
-  EXPECT_EQ(s.lights[4].type, scene::LightType::disk);
+  EXPECT_EQ(s.lights[4].type, scene::LightShape::disk);
   EXPECT_EQ(s.lights[4].radius, 0.5);
   EXPECT_EQ(in.environment_decode.color_space, "lin_rec709");
   EXPECT_EQ(in.environment_decode.rotation_degrees, 90);

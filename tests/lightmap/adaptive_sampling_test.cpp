@@ -34,7 +34,7 @@ scene::Scene black_floor() {
   s.materials.push_back(lambert_material("grey", 0.5));
   add_floor(s, 2.0, 0, 2);
   scene::Light below;
-  below.type = scene::LightType::point;
+  below.type = scene::LightShape::point;
   below.position = {0, -1, 0};
   below.color = Rgb{10.0};
   s.lights = {below};

@@ -99,7 +99,7 @@ scene::Scene rect_light_scene(double albedo) {
   s.materials.push_back(lambert_material("floor", albedo));
   add_floor(s, 2.0, 0);
   scene::Light l;
-  l.type = scene::LightType::rect;
+  l.type = scene::LightShape::rect;
   l.position = {0.2, 1.0, -0.1};
   l.u_axis = {0.6, 0, 0};
   l.v_axis = {0, 0, 0.4};
@@ -138,7 +138,7 @@ TEST(LightmapBake, PointLightFollowsTheInverseSquareLaw) {
   s.materials.push_back(lambert_material("black", 0.0));
   add_floor(s, 2.0, 0);
   scene::Light l;
-  l.type = scene::LightType::point;
+  l.type = scene::LightShape::point;
   l.position = {0.3, 1.5, 0.2};
   l.color = Rgb{20.0};
   s.lights.push_back(l);
@@ -164,7 +164,7 @@ TEST(LightmapBake, SunBlockedByABoxLeavesAnExactShadow) {
   add_floor(s, 4.0, 0);
   add_box(s, "box", {-0.5, 0, -0.5}, {0.5, 1, 0.5}, 0);
   scene::Light sun;
-  sun.type = scene::LightType::directional;
+  sun.type = scene::LightShape::directional;
   sun.direction = normalize(Vec3{1, -1, 0});  // light travels towards +X and down: the shadow falls on x ∈ [0.5, 1.5]
   sun.color = Rgb{1.0};
   s.lights.push_back(sun);
@@ -201,7 +201,7 @@ TEST(LightmapBake, AWallStopsLightFromLeakingToTheDarkSide) {
   add_floor(s, 4.0, 0);
   add_box(s, "wall", {-0.05, 0, -2.0}, {0.05, 1.5, 2.0}, 0);
   scene::Light l;
-  l.type = scene::LightType::point;
+  l.type = scene::LightShape::point;
   l.position = {-1.0, 0.5, 0.0};
   l.color = Rgb{10.0};
   s.lights.push_back(l);
@@ -341,7 +341,7 @@ scene::Scene room_lit_by_a_point(const scene::SceneMaterial& walls) {
   s.materials.push_back(walls);
   add_box(s, "room", {-1, 0, -1}, {1, 2, 1}, 0, /*inward=*/true);
   scene::Light l;
-  l.type = scene::LightType::point;
+  l.type = scene::LightShape::point;
   l.position = {0.2, 1.5, 0.1};
   l.color = Rgb{5.0};
   s.lights.push_back(l);

@@ -77,7 +77,7 @@ double khr_spot_falloff(double cos_angle, double inner, double outer) {
 TEST(LightmapLights, SpotLightFollowsTheGltfFalloff) {
   scene::Scene s = black_floor();
   scene::Light l;
-  l.type = scene::LightType::spot;
+  l.type = scene::LightShape::spot;
   l.position = {0.2, 1.2, -0.1};
   l.direction = normalize(Vec3{0.2, -1, 0.1});
   l.inner_cone = 0.25;
@@ -105,7 +105,7 @@ TEST(LightmapLights, SpotLightFollowsTheGltfFalloff) {
 TEST(LightmapLights, DiskLightMatchesLambertsFormulaAndTheOnAxisClosedForm) {
   scene::Scene s = black_floor();
   scene::Light l;
-  l.type = scene::LightType::disk;
+  l.type = scene::LightShape::disk;
   l.position = {0.1, 0.8, 0.2};
   l.direction = {0, -1, 0};
   l.radius = 0.3;
@@ -139,7 +139,7 @@ TEST(LightmapLights, DiskLightMatchesLambertsFormulaAndTheOnAxisClosedForm) {
 TEST(LightmapLights, SunDiscGivesECosTheta) {
   scene::Scene s = black_floor();
   scene::Light sun;
-  sun.type = scene::LightType::directional;
+  sun.type = scene::LightShape::directional;
   sun.direction = normalize(Vec3{0.3, -1, 0.2});
   sun.angular_diameter = 0.1;
   sun.color = Rgb{2.0};
@@ -236,11 +236,11 @@ TEST(LightmapLights, EnvironmentRotationTurnsTheImageAboutY) {
 TEST(LightmapLights, TwoLightsAdd) {
   scene::Scene s = black_floor();
   scene::Light point;
-  point.type = scene::LightType::point;
+  point.type = scene::LightShape::point;
   point.position = {-0.4, 1.0, 0.3};
   point.color = Rgb{3.0};
   scene::Light sun;
-  sun.type = scene::LightType::directional;
+  sun.type = scene::LightShape::directional;
   sun.direction = normalize(Vec3{-0.5, -1, 0.4});
   sun.color = Rgb{1.5};
   s.lights = {point, sun};

@@ -337,7 +337,7 @@ TEST(LightmapOutputs, PreviewSaysWhichExposureRuleApplied) {
     s.materials.push_back(lambert_material("grey", 0.5));
     test::add_floor(s, 2.0, 0);
     scene::Light l;
-    l.type = scene::LightType::spot;
+    l.type = scene::LightShape::spot;
     l.position = {0, 1, 0};
     l.direction = {0, -1, 0};
     l.color = Rgb{1.0};
@@ -362,7 +362,7 @@ TEST(LightmapOutputs, ReportJsonHasThePlanCurveAndLightmaps) {
   s.materials.push_back(lambert_material("grey", 0.5));
   test::add_floor(s, 2.0, 0);
   scene::Light l;
-  l.type = scene::LightType::rect;
+  l.type = scene::LightShape::rect;
   l.position = {0.2, 1.0, -0.1};
   l.u_axis = {0.6, 0, 0};
   l.v_axis = {0, 0, 0.4};

@@ -256,7 +256,7 @@ TEST(LightmapRobustness, PointAndSunScenesAtExtremeScalesMatchTheAnalyticAnswer)
       s.materials.push_back(lambert_material("black", 0.0));
       test::add_floor(s, 2.0, 0);
       scene::Light l;
-      l.type = scene::LightType::point;
+      l.type = scene::LightShape::point;
       l.position = {0.3, 1.5, 0.2};
       l.color = Rgb{20.0};
       s.lights.push_back(l);
@@ -283,7 +283,7 @@ TEST(LightmapRobustness, PointAndSunScenesAtExtremeScalesMatchTheAnalyticAnswer)
       test::add_floor(s, 4.0, 0);
       test::add_box(s, "box", {-0.5, 0, -0.5}, {0.5, 1, 0.5}, 0);
       scene::Light sun;
-      sun.type = scene::LightType::directional;
+      sun.type = scene::LightShape::directional;
       sun.direction = normalize(Vec3{1, -1, 0});  // the shadow: x ∈ [0.5, 1.5], |z| ≤ 0.5
       s.lights.push_back(sun);
       const scene::Scene unscaled = s;
@@ -365,23 +365,23 @@ TEST(LightmapRobustness, NonFiniteLightColoursEmitNothing) {
   s.materials.push_back(lambert_material("black", 0.0));
   test::add_floor(s, 2.0, 0);
   scene::Light good;
-  good.type = scene::LightType::rect;
+  good.type = scene::LightShape::rect;
   good.position = {-0.3, 1.0, 0.3};
   good.u_axis = {0.6, 0, 0};
   good.v_axis = {0, 0, 0.4};
   good.color = Rgb{10.0};
   scene::Light point;
-  point.type = scene::LightType::point;
+  point.type = scene::LightShape::point;
   point.position = {0, 1, 0};
   point.color = Rgb{kNaN};
   scene::Light spot = point;
-  spot.type = scene::LightType::spot;
+  spot.type = scene::LightShape::spot;
   spot.color = Rgb{kInf};
   scene::Light bad_rect = good;
   bad_rect.position = {0.4, 0.8, -0.4};
   bad_rect.color = Rgb{1.0, kNaN, 1.0};
   scene::Light sun;
-  sun.type = scene::LightType::directional;
+  sun.type = scene::LightShape::directional;
   sun.color = Rgb{kNaN, 1.0, 1.0};
   s.lights = {point, good, spot, bad_rect, sun};
   const std::vector<Vec3> polygon{good.position - good.u_axis * 0.5 - good.v_axis * 0.5,
@@ -418,11 +418,11 @@ TEST(LightmapRobustness, NaNEmissionEmitsNothing) {
   const int lamp = test::add_quad(s, "bad_lamp", q[0], q[1], q[2], q[3], 1, 1);
   s.instances[lamp].bake = false;
   scene::Light nan_point;
-  nan_point.type = scene::LightType::point;
+  nan_point.type = scene::LightShape::point;
   nan_point.position = {0, 1, 0};
   nan_point.color = Rgb{kNaN};
   scene::Light rect;
-  rect.type = scene::LightType::rect;
+  rect.type = scene::LightShape::rect;
   rect.position = {-0.3, 1.0, 0.3};
   rect.u_axis = {0.6, 0, 0};
   rect.v_axis = {0, 0, 0.4};
@@ -503,7 +503,7 @@ TEST(LightmapRobustness, GrazingSunStaysFiniteAndLit) {
     s.materials.push_back(lambert_material("black", 0.0));
     test::add_floor(s, 2.0, 0);
     scene::Light sun;
-    sun.type = scene::LightType::directional;
+    sun.type = scene::LightShape::directional;
     sun.direction = Vec3{std::cos(elevation) * 0.8, -std::sin(elevation), std::cos(elevation) * 0.6};
     sun.color = Rgb{1.0};
     s.lights.push_back(sun);
@@ -558,7 +558,7 @@ TEST(LightmapRobustness, SphereUnderASunHasNoAcne) {
     s.materials.push_back(lambert_material("black", 0.0));
     test::add_sphere(s, "ball", {0.2, 0.1, -0.3}, 0.8, 20, 0, /*inward=*/false, smooth);
     scene::Light sun;
-    sun.type = scene::LightType::directional;
+    sun.type = scene::LightShape::directional;
     sun.direction = -to_sun;
     sun.color = Rgb{3.0};
     s.lights.push_back(sun);
@@ -598,7 +598,7 @@ TEST(LightmapRobustness, TheEstimatedErrorIsHonestUnderASunDisc) {
   s.materials.push_back(lambert_material("black", 0.0));
   test::add_floor(s, 2.0, 0);
   scene::Light sun;
-  sun.type = scene::LightType::directional;
+  sun.type = scene::LightShape::directional;
   sun.direction = normalize(Vec3{0.6, -1, 0.3});
   sun.angular_diameter = 0.5;
   sun.color = Rgb{1.0};

@@ -53,7 +53,7 @@ scene::Scene quads(std::vector<scene::SceneMaterial> materials, std::vector<uint
 
 scene::Light point_light() {
   scene::Light l;
-  l.type = scene::LightType::point;
+  l.type = scene::LightShape::point;
   l.position = {0, 2, 0};
   l.color = Rgb{10.0};
   return l;
@@ -81,7 +81,7 @@ TEST(LightmapPlan, OnlyTheLightsTheSceneHasAreSampled) {
   scene::Scene s = quads({lambert("grey", 0.5)}, {0});
   s.lights.push_back(point_light());
   scene::Light black = point_light();
-  black.type = scene::LightType::spot;
+  black.type = scene::LightShape::spot;
   black.color = Rgb{0.0};  // no power: not a strategy worth having
   s.lights.push_back(black);
   const LightmapPlan p = plan_lightmap(s, {});

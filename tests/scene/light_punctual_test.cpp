@@ -90,7 +90,7 @@ void check_sun(double diameter_deg, uint64_t seed) {
   const Vec3 travel = normalize(Vec3{0.3, -1, 0.2});
   const DirectionalLight sun(travel, Rgb{1000, 800, 600}, diameter_deg * kDeg);
   ASSERT_FALSE(sun.is_delta());
-  ASSERT_EQ(sun.kind(), LightKind::sun);
+  ASSERT_EQ(sun.kind(), LightSamplerKind::sun);
   const double theta_max = 0.5 * diameter_deg * kDeg;
   EXPECT_TRUE(test::close(sun.cone_solid_angle(), 2 * kPi * (1 - std::cos(theta_max)), 1e-9));
   for (double tilt_deg : {0.0, 40.0}) {

@@ -39,26 +39,26 @@ Scene every_light_scene() {
   b.mesh = 1;
   s.instances = {a, b};
   Light point;
-  point.type = LightType::point;
+  point.type = LightShape::point;
   point.position = {1, 1, 1};
   point.color = Rgb{10};
   Light spot = point;
-  spot.type = LightType::spot;
+  spot.type = LightShape::spot;
   spot.inner_cone = 0.2;
   spot.outer_cone = 0.4;
   Light sun;
-  sun.type = LightType::directional;
+  sun.type = LightShape::directional;
   sun.direction = {0.2, -1, 0.1};
   sun.color = Rgb{100};
   sun.angular_diameter = 10 * kDeg;
   Light rect;
-  rect.type = LightType::rect;
+  rect.type = LightShape::rect;
   rect.position = {1, 1.5, 1};
   rect.u_axis = {0.5, 0, 0};
   rect.v_axis = {0, 0, 0.25};
   rect.color = Rgb{20};
   Light disk = rect;
-  disk.type = LightType::disk;
+  disk.type = LightShape::disk;
   disk.position = {0.3, 1.2, 1.4};
   disk.radius = 0.2;
   Light black = point;
@@ -72,11 +72,11 @@ TEST(SceneLights, BuildsEveryLightAndChoosesByPower) {
   const Scene scene = every_light_scene();
   const SceneLights lights(scene);
   ASSERT_EQ(lights.size(), 8);  // 6 explicit, the emissive triangles, the environment
-  EXPECT_EQ(lights.light(0).kind(), LightKind::point);
-  EXPECT_EQ(lights.light(1).kind(), LightKind::spot);
-  EXPECT_EQ(lights.light(2).kind(), LightKind::sun);
-  EXPECT_EQ(lights.light(3).kind(), LightKind::rect);
-  EXPECT_EQ(lights.light(4).kind(), LightKind::disk);
+  EXPECT_EQ(lights.light(0).kind(), LightSamplerKind::point);
+  EXPECT_EQ(lights.light(1).kind(), LightSamplerKind::spot);
+  EXPECT_EQ(lights.light(2).kind(), LightSamplerKind::sun);
+  EXPECT_EQ(lights.light(3).kind(), LightSamplerKind::rect);
+  EXPECT_EQ(lights.light(4).kind(), LightSamplerKind::disk);
   ASSERT_NE(lights.emissive(), nullptr);
   EXPECT_EQ(lights.emissive()->size(), 2);
   ASSERT_NE(lights.environment(), nullptr);
@@ -187,7 +187,7 @@ TEST(SceneLights, MultipleImportanceSamplingReproducesTheAnalyticIrradiance) {
   // Möller–Trumbore, the sun and sky for every ray: no occlusion).
   const auto reach = [&](int l, const Vec3& w, LightHit& hit) -> bool {
     const LightSource& light = lights.light(l);
-    if (light.kind() == LightKind::emissive_triangles) {
+    if (light.kind() == LightSamplerKind::emissive_triangles) {
       hit = test::intersect_triangles(*lights.emissive(), p, w);
       return hit.triangle >= 0;
     }

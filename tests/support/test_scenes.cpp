@@ -146,7 +146,7 @@ void scale_scene(scene::Scene& s, double scale, Vec3 offset) {
     l.u_axis = l.u_axis * scale;
     l.v_axis = l.v_axis * scale;
     l.radius *= scale;
-    if (l.type == scene::LightType::point || l.type == scene::LightType::spot) l.color = l.color * (scale * scale);
+    if (l.type == scene::LightShape::point || l.type == scene::LightShape::spot) l.color = l.color * (scale * scale);
   }
 }
 
@@ -162,7 +162,7 @@ scene::Scene floor_under_point_light(double rho, const Vec3& position, Rgb I) {
   s.materials.push_back(lambert_material("floor", rho));
   add_floor(s, 2.0, 0, 2);
   scene::Light l;
-  l.type = scene::LightType::point;
+  l.type = scene::LightShape::point;
   l.position = position;
   l.color = I;
   s.lights = {l};
