@@ -60,8 +60,8 @@ TokenSet TokenSet::load(const std::string& path) {
     if (t.empty() || t[0] == '#') continue;
     if (t.size() < kMinTokenLength) {
       throw std::runtime_error("token file " + path + ", line " + std::to_string(number) + ": token is " +
-                               std::to_string(t.size()) + " characters, at least " +
-                               std::to_string(kMinTokenLength) + " are required");
+                               std::to_string(t.size()) + " characters, at least " + std::to_string(kMinTokenLength) +
+                               " are required");
     }
     tokens.push_back(t);
   }

@@ -49,15 +49,14 @@ int main(int argc, char** argv) {
     }
     if (!config.socket.empty()) std::printf("kilnd: listening on unix:%s\n", config.socket.c_str());
     std::fflush(stdout);
-    log_line("start", std::string(kServerVersion) + ", store " + config.store + ", " +
-                          std::to_string(config.workers) + " worker(s)");
+    log_line("start", std::string(kServerVersion) + ", store " + config.store + ", " + std::to_string(config.workers) +
+                          " worker(s)");
 
     std::thread waiter([&] {
       int sig = 0;
       sigwait(&signals, &sig);
-      log_line("shutdown", std::string(sig == SIGINT ? "SIGINT" : "SIGTERM") +
-                               ": no new jobs; running jobs get " + std::to_string(config.shutdown_grace_seconds) +
-                               " s to finish");
+      log_line("shutdown", std::string(sig == SIGINT ? "SIGINT" : "SIGTERM") + ": no new jobs; running jobs get " +
+                               std::to_string(config.shutdown_grace_seconds) + " s to finish");
       service.shutdown(std::chrono::duration<double>(config.shutdown_grace_seconds));
       server.stop();
     });

@@ -7,29 +7,30 @@
 
 namespace kiln::daemon {
 
-
 scene::Mesh decode_mesh_blob(const std::string& bytes, const std::string& field, const std::string& name) {
   constexpr size_t kHeader = 8 + 3 * 4;
   constexpr uint32_t kMaxCount = kMaxMeshBlobCount;
   if (bytes.size() < kHeader || bytes.compare(0, 8, "KILNMSH1") != 0) {
-    throw InvalidField(field, "not a kiln mesh blob (it must start with \"KILNMSH1\"; the client's importer writes "
-                              "them)");
+    throw InvalidField(field,
+                       "not a kiln mesh blob (it must start with \"KILNMSH1\"; the client's importer writes "
+                       "them)");
   }
   uint32_t header[3];
   std::memcpy(header, bytes.data() + 8, sizeof header);
   const uint32_t v = header[0], t = header[1], flags = header[2];
   if (v > kMaxCount || t > kMaxCount) {
     throw InvalidField(field, "mesh of " + std::to_string(v) + " vertices and " + std::to_string(t) +
-                              " triangles: at most 16777216 of each");
+                                  " triangles: at most 16777216 of each");
   }
-  if (flags & ~0xFu) throw InvalidField(field, "unknown flags " + std::to_string(flags) + " (only bits 0-3 are defined)");
+  if (flags & ~0xFu)
+    throw InvalidField(field, "unknown flags " + std::to_string(flags) + " (only bits 0-3 are defined)");
   const bool normals = flags & 1u, uv = flags & 2u, lightmap_uv = flags & 4u, materials = flags & 8u;
   const uint64_t expected = kHeader + uint64_t{4} * (3ull * v + (normals ? 3ull * v : 0) + (uv ? 2ull * v : 0) +
                                                      (lightmap_uv ? 2ull * v : 0) + 3ull * t + (materials ? t : 0));
   if (bytes.size() != expected) {
     throw InvalidField(field, "mesh blob of " + std::to_string(bytes.size()) + " bytes, but its header (" +
-                              std::to_string(v) + " vertices, " + std::to_string(t) + " triangles, flags " +
-                              std::to_string(flags) + ") needs " + std::to_string(expected));
+                                  std::to_string(v) + " vertices, " + std::to_string(t) + " triangles, flags " +
+                                  std::to_string(flags) + ") needs " + std::to_string(expected));
   }
   const char* at = bytes.data() + kHeader;
   auto floats = [&](size_t n) {

@@ -74,7 +74,8 @@ Server::Server(Service& service) : impl_(std::make_unique<Impl>(service)) {
     tcp::resolver resolver(impl_->io);
     boost::system::error_code ec;
     const auto results = resolver.resolve(host, port, tcp::resolver::passive, ec);
-    if (ec || results.empty()) throw std::runtime_error("--listen " + c.listen + ": cannot resolve (" + ec.message() + ")");
+    if (ec || results.empty())
+      throw std::runtime_error("--listen " + c.listen + ": cannot resolve (" + ec.message() + ")");
     const tcp::endpoint ep = results.begin()->endpoint();
     tcp::acceptor a(impl_->io);
     a.open(ep.protocol(), ec);

@@ -41,25 +41,38 @@ struct Failure {
 
 v1::Error::Code to_code(store::StoreErrc e) {
   switch (e) {
-    case store::StoreErrc::invalid_argument: return v1::Error::INVALID_ARGUMENT;
-    case store::StoreErrc::not_found: return v1::Error::NOT_FOUND;
-    case store::StoreErrc::already_exists: return v1::Error::INVALID_ARGUMENT;
-    case store::StoreErrc::failed_precondition: return v1::Error::FAILED_PRECONDITION;
-    case store::StoreErrc::out_of_range: return v1::Error::INVALID_ARGUMENT;
-    case store::StoreErrc::data_loss: return v1::Error::DATA_LOSS;
-    case store::StoreErrc::resource_exhausted: return v1::Error::RESOURCE_EXHAUSTED;
-    case store::StoreErrc::io: return v1::Error::INTERNAL;
+    case store::StoreErrc::invalid_argument:
+      return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::not_found:
+      return v1::Error::NOT_FOUND;
+    case store::StoreErrc::already_exists:
+      return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::failed_precondition:
+      return v1::Error::FAILED_PRECONDITION;
+    case store::StoreErrc::out_of_range:
+      return v1::Error::INVALID_ARGUMENT;
+    case store::StoreErrc::data_loss:
+      return v1::Error::DATA_LOSS;
+    case store::StoreErrc::resource_exhausted:
+      return v1::Error::RESOURCE_EXHAUSTED;
+    case store::StoreErrc::io:
+      return v1::Error::INTERNAL;
   }
   return v1::Error::INTERNAL;
 }
 
 v1::JobState to_proto(store::JobState s) {
   switch (s) {
-    case store::JobState::queued: return v1::JOB_STATE_QUEUED;
-    case store::JobState::running: return v1::JOB_STATE_RUNNING;
-    case store::JobState::succeeded: return v1::JOB_STATE_SUCCEEDED;
-    case store::JobState::failed: return v1::JOB_STATE_FAILED;
-    case store::JobState::cancelled: return v1::JOB_STATE_CANCELLED;
+    case store::JobState::queued:
+      return v1::JOB_STATE_QUEUED;
+    case store::JobState::running:
+      return v1::JOB_STATE_RUNNING;
+    case store::JobState::succeeded:
+      return v1::JOB_STATE_SUCCEEDED;
+    case store::JobState::failed:
+      return v1::JOB_STATE_FAILED;
+    case store::JobState::cancelled:
+      return v1::JOB_STATE_CANCELLED;
   }
   return v1::JOB_STATE_UNSPECIFIED;
 }
@@ -128,8 +141,8 @@ Service::Service(const Config& config, TokenSet tokens) : config_(config), token
   for (const store::JobRecord& r : recovery.queued) queue_->push(r.id, r.priority, r.seq);
   for (const store::JobRecord& r : recovery.gave_up) log_line("job " + r.id, "not run again: " + r.error);
   if (!recovery.queued.empty()) {
-    log_line("store " + config_.store, std::to_string(recovery.queued.size()) +
-                                           " job(s) left unfinished by the previous run are queued again");
+    log_line("store " + config_.store,
+             std::to_string(recovery.queued.size()) + " job(s) left unfinished by the previous run are queued again");
   }
   workers_ = std::make_unique<Workers>(config_, *db_, *blobs_, *queue_);
   workers_->start();
@@ -146,8 +159,9 @@ void Service::shutdown(std::chrono::duration<double> grace) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   if (queue_->running() > 0) {
-    log_line("shutdown", std::to_string(queue_->running()) + " running job(s) did not finish within the grace "
-                                                              "period; they are re-queued for the next start");
+    log_line("shutdown", std::to_string(queue_->running()) +
+                             " running job(s) did not finish within the grace "
+                             "period; they are re-queued for the next start");
     workers_->requeue_cancelled();
     for (const std::string& id : queue_->running_ids()) {
       if (auto flag = queue_->cancel_flag(id)) *flag = true;
@@ -174,16 +188,26 @@ void Service::handle(SessionInfo& session, const v1::Request& req, v1::Response&
       fail(v1::Error::UNAUTHENTICATED, "send hello (with a token on TCP) before anything else");
     }
     switch (req.body_case()) {
-      case v1::Request::kBlobQuery: return blob_query(req, resp);
-      case v1::Request::kBlobPut: return blob_put(req, resp);
-      case v1::Request::kSubmit: return submit(session, req, resp);
-      case v1::Request::kWatch: return watch(req, resp, on_event, watch_handle);
-      case v1::Request::kCancel: return cancel(req, resp);
-      case v1::Request::kGetResult: return result(req, resp);
-      case v1::Request::kFetch: return fetch(req, resp);
-      case v1::Request::kStatus: return status(resp);
-      case v1::Request::kListJobs: return list_jobs(req, resp);
-      default: fail(v1::Error::INVALID_ARGUMENT, "empty or unknown request", "body");
+      case v1::Request::kBlobQuery:
+        return blob_query(req, resp);
+      case v1::Request::kBlobPut:
+        return blob_put(req, resp);
+      case v1::Request::kSubmit:
+        return submit(session, req, resp);
+      case v1::Request::kWatch:
+        return watch(req, resp, on_event, watch_handle);
+      case v1::Request::kCancel:
+        return cancel(req, resp);
+      case v1::Request::kGetResult:
+        return result(req, resp);
+      case v1::Request::kFetch:
+        return fetch(req, resp);
+      case v1::Request::kStatus:
+        return status(resp);
+      case v1::Request::kListJobs:
+        return list_jobs(req, resp);
+      default:
+        fail(v1::Error::INVALID_ARGUMENT, "empty or unknown request", "body");
     }
   } catch (const Failure& f) {
     resp.clear_body();
@@ -219,8 +243,10 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
   if (h.client().size() > kMaxClientNameBytes) fail(v1::Error::INVALID_ARGUMENT, "at most 256 bytes", "hello.client");
   if (!s.unix_socket && !tokens_.accepts(h.token())) {
     log_line("connection " + std::to_string(s.id) + " from " + s.peer, "refused: wrong or missing token");
-    fail(v1::Error::UNAUTHENTICATED, "wrong or missing token: pass the token kilnd was given (--token-file or "
-                                     "KILN_TOKEN)", "hello.token");
+    fail(v1::Error::UNAUTHENTICATED,
+         "wrong or missing token: pass the token kilnd was given (--token-file or "
+         "KILN_TOKEN)",
+         "hello.token");
   }
   s.authenticated = true;
   v1::HelloReply* r = resp.mutable_hello();
@@ -288,8 +314,7 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   if (shutting_down_) fail(v1::Error::UNAVAILABLE, "the server is shutting down; submit again after it restarts");
   const v1::Submit& sub = req.submit();
   if (sub.priority() < -100 || sub.priority() > 100) {
-    fail(v1::Error::INVALID_ARGUMENT, "must be in [-100, 100], got " + std::to_string(sub.priority()),
-         "priority");
+    fail(v1::Error::INVALID_ARGUMENT, "must be in [-100, 100], got " + std::to_string(sub.priority()), "priority");
   }
   if (sub.idempotency_key().size() > kMaxIdempotencyKeyBytes) {
     fail(v1::Error::INVALID_ARGUMENT, "at most 128 bytes", "idempotency_key");
@@ -329,8 +354,8 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
     }
   }
   if (queue_->size() >= config_.max_queued_jobs) {
-    fail(v1::Error::RESOURCE_EXHAUSTED, "the queue holds " + std::to_string(queue_->size()) +
-                                            " jobs, its limit; submit again later");
+    fail(v1::Error::RESOURCE_EXHAUSTED,
+         "the queue holds " + std::to_string(queue_->size()) + " jobs, its limit; submit again later");
   }
   const store::InsertOutcome out = db_->insert(job);
   if (out.created) {
@@ -422,8 +447,11 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
   if (record->state == store::JobState::succeeded) {
     const std::string& stored = record->result;
     if (record->evicted) {
-      fail(v1::Error::NOT_FOUND, "the outputs of job " + id + " were evicted by the store's retention limit; "
-                                 "submit the job again", "get_result.job_id");
+      fail(v1::Error::NOT_FOUND,
+           "the outputs of job " + id +
+               " were evicted by the store's retention limit; "
+               "submit the job again",
+           "get_result.job_id");
     }
     if (!r->ParseFromString(stored)) fail(v1::Error::DATA_LOSS, "the stored result of job " + id + " is unreadable");
     if (record->cache_source) r->mutable_report()->set_cache_hit(true);
@@ -439,8 +467,7 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
     // (translate.h's InvalidField); anything else is the server's fault.
     const std::string& text = record->error;
     const auto colon = text.find(": ");
-    const bool input = text.rfind("job.", 0) == 0 && colon != std::string::npos &&
-                       text.find(' ') > colon;
+    const bool input = text.rfind("job.", 0) == 0 && colon != std::string::npos && text.find(' ') > colon;
     r->mutable_error()->set_code(input ? v1::Error::INVALID_ARGUMENT : v1::Error::INTERNAL);
     r->mutable_error()->set_message(text);
     if (input) r->mutable_error()->set_field(text.substr(0, colon));
@@ -452,8 +479,7 @@ void Service::fetch(const v1::Request& req, v1::Response& resp) {
   const store::BlobId id = checked_digest(f.digest(), "fetch.digest", config_.max_blob_bytes);
   if (f.offset() > id.size) fail(v1::Error::INVALID_ARGUMENT, "past the end of the blob", "fetch.offset");
   if (f.length() > config_.max_chunk_bytes) {
-    fail(v1::Error::INVALID_ARGUMENT, "at most " + std::to_string(config_.max_chunk_bytes) + " bytes",
-         "fetch.length");
+    fail(v1::Error::INVALID_ARGUMENT, "at most " + std::to_string(config_.max_chunk_bytes) + " bytes", "fetch.length");
   }
   if (!blobs_->contains(id)) fail(v1::Error::NOT_FOUND, "no blob " + id.digest + " in the store", "fetch.digest");
   const uint64_t length = f.length() == 0 ? config_.max_chunk_bytes : f.length();
@@ -485,13 +511,25 @@ void Service::list_jobs(const v1::Request& req, v1::Response& resp) {
   if (l.limit() > kMaxListJobs) fail(v1::Error::INVALID_ARGUMENT, "must be in [0, 1000]", "list_jobs.limit");
   std::optional<store::JobState> state;
   switch (l.state()) {
-    case v1::JOB_STATE_UNSPECIFIED: break;
-    case v1::JOB_STATE_QUEUED: state = store::JobState::queued; break;
-    case v1::JOB_STATE_RUNNING: state = store::JobState::running; break;
-    case v1::JOB_STATE_SUCCEEDED: state = store::JobState::succeeded; break;
-    case v1::JOB_STATE_FAILED: state = store::JobState::failed; break;
-    case v1::JOB_STATE_CANCELLED: state = store::JobState::cancelled; break;
-    default: fail(v1::Error::INVALID_ARGUMENT, "unknown state", "list_jobs.state");
+    case v1::JOB_STATE_UNSPECIFIED:
+      break;
+    case v1::JOB_STATE_QUEUED:
+      state = store::JobState::queued;
+      break;
+    case v1::JOB_STATE_RUNNING:
+      state = store::JobState::running;
+      break;
+    case v1::JOB_STATE_SUCCEEDED:
+      state = store::JobState::succeeded;
+      break;
+    case v1::JOB_STATE_FAILED:
+      state = store::JobState::failed;
+      break;
+    case v1::JOB_STATE_CANCELLED:
+      state = store::JobState::cancelled;
+      break;
+    default:
+      fail(v1::Error::INVALID_ARGUMENT, "unknown state", "list_jobs.state");
   }
   auto* list = resp.mutable_jobs();
   for (const store::JobRecord& r : db_->list(l.limit() == 0 ? 100 : l.limit(), state)) {

@@ -32,10 +32,10 @@ extern const char* const kServerVersion;
 
 // What the service knows of one connection.
 struct SessionInfo {
-  bool unix_socket = false;     // the socket's permissions already decided who may connect
-  bool authenticated = false;   // a Hello was accepted
-  std::string peer;             // for logs
-  uint64_t id = 0;              // for logs
+  bool unix_socket = false;    // the socket's permissions already decided who may connect
+  bool authenticated = false;  // a Hello was accepted
+  std::string peer;            // for logs
+  uint64_t id = 0;             // for logs
 };
 
 class Service {

@@ -167,9 +167,8 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   void write_next() {
     if (writes_.empty() || closed_) return;
     asio::async_write(socket_, asio::buffer(writes_.front().bytes),
-                      asio::bind_executor(strand_, [self = this->shared_from_this()](auto ec, std::size_t) {
-                        self->on_written(ec);
-                      }));
+                      asio::bind_executor(
+                          strand_, [self = this->shared_from_this()](auto ec, std::size_t) { self->on_written(ec); }));
   }
 
   void on_written(const boost::system::error_code& ec) {
@@ -199,7 +198,7 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
     if (!mid) frame_started_.reset();
     const auto now = std::chrono::steady_clock::now();
     const auto expiry = mid ? *frame_started_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                   std::chrono::duration<double>(c.frame_deadline_seconds))
+                                                    std::chrono::duration<double>(c.frame_deadline_seconds))
                             : now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                         std::chrono::duration<double>(c.idle_timeout_seconds));
     deadline_.expires_at(expiry);

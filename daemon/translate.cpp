@@ -43,8 +43,8 @@ const char* job_type(const BakeRequest& request) { return kJobTypes[request.inpu
 BakeRequest translate(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs) {
   BakeRequest r;
   if (spec.name().size() > kMaxNameBytes) {
-    throw InvalidField("job.name", "at most " + std::to_string(kMaxNameBytes) + " bytes, got " +
-                                       std::to_string(spec.name().size()));
+    throw InvalidField(
+        "job.name", "at most " + std::to_string(kMaxNameBytes) + " bytes, got " + std::to_string(spec.name().size()));
   }
   r.name = spec.name();
   if (spec.force_effects_size() > static_cast<int>(kMaxForcedEffects)) {
@@ -52,10 +52,17 @@ BakeRequest translate(const kiln::v1::JobSpec& spec, const store::BlobStore* blo
                                                 std::to_string(spec.force_effects_size()));
   }
   switch (spec.job_case()) {
-    case kiln::v1::JobSpec::kMaterial: detail::translate_material(spec, r); break;
-    case kiln::v1::JobSpec::kEnvironment: detail::translate_environment(spec, blobs, r); break;
-    case kiln::v1::JobSpec::kLightmap: detail::translate_lightmap(spec, blobs, r); break;
-    default: throw InvalidField("job", "no job given: set material, environment or lightmap");
+    case kiln::v1::JobSpec::kMaterial:
+      detail::translate_material(spec, r);
+      break;
+    case kiln::v1::JobSpec::kEnvironment:
+      detail::translate_environment(spec, blobs, r);
+      break;
+    case kiln::v1::JobSpec::kLightmap:
+      detail::translate_lightmap(spec, blobs, r);
+      break;
+    default:
+      throw InvalidField("job", "no job given: set material, environment or lightmap");
   }
   return r;
 }

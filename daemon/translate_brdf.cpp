@@ -11,11 +11,20 @@ namespace {
 
 brdf::FresnelMode fresnel(kiln::v1::Fresnel f, const std::string& field, std::optional<brdf::FresnelMode>& out) {
   switch (f) {
-    case kiln::v1::FRESNEL_DEFAULT: out.reset(); return brdf::FresnelMode::none;
-    case kiln::v1::FRESNEL_NONE: out = brdf::FresnelMode::none; return *out;
-    case kiln::v1::FRESNEL_SCHLICK: out = brdf::FresnelMode::schlick; return *out;
-    case kiln::v1::FRESNEL_EXACT: out = brdf::FresnelMode::exact; return *out;
-    default: throw InvalidField(field, "unknown value " + std::to_string(static_cast<int>(f)));
+    case kiln::v1::FRESNEL_DEFAULT:
+      out.reset();
+      return brdf::FresnelMode::none;
+    case kiln::v1::FRESNEL_NONE:
+      out = brdf::FresnelMode::none;
+      return *out;
+    case kiln::v1::FRESNEL_SCHLICK:
+      out = brdf::FresnelMode::schlick;
+      return *out;
+    case kiln::v1::FRESNEL_EXACT:
+      out = brdf::FresnelMode::exact;
+      return *out;
+    default:
+      throw InvalidField(field, "unknown value " + std::to_string(static_cast<int>(f)));
   }
 }
 
@@ -41,25 +50,48 @@ void microfacet_roughness(const kiln::v1::Microfacet& m, const std::string& path
 // The distribution, masking and normalization choices; DEFAULT leaves the model's own.
 void microfacet_terms(const kiln::v1::Microfacet& m, const std::string& path, brdf::ModelSpec& s) {
   switch (m.distribution()) {
-    case kiln::v1::DISTRIBUTION_DEFAULT: break;
-    case kiln::v1::DISTRIBUTION_GGX: s.distribution = brdf::Distribution::ggx; break;
-    case kiln::v1::DISTRIBUTION_BECKMANN: s.distribution = brdf::Distribution::beckmann; break;
-    case kiln::v1::DISTRIBUTION_SCHLICK_BECKMANN: s.distribution = brdf::Distribution::schlick_beckmann; break;
-    default: throw InvalidField(path + ".distribution", "unknown value " + std::to_string(m.distribution()));
+    case kiln::v1::DISTRIBUTION_DEFAULT:
+      break;
+    case kiln::v1::DISTRIBUTION_GGX:
+      s.distribution = brdf::Distribution::ggx;
+      break;
+    case kiln::v1::DISTRIBUTION_BECKMANN:
+      s.distribution = brdf::Distribution::beckmann;
+      break;
+    case kiln::v1::DISTRIBUTION_SCHLICK_BECKMANN:
+      s.distribution = brdf::Distribution::schlick_beckmann;
+      break;
+    default:
+      throw InvalidField(path + ".distribution", "unknown value " + std::to_string(m.distribution()));
   }
   switch (m.masking()) {
-    case kiln::v1::MASKING_DEFAULT: break;
-    case kiln::v1::MASKING_SEPARABLE: s.masking = brdf::Masking::separable; break;
-    case kiln::v1::MASKING_HEIGHT_CORRELATED: s.masking = brdf::Masking::height_correlated; break;
-    case kiln::v1::MASKING_V_GROOVE: s.masking = brdf::Masking::v_groove; break;
-    case kiln::v1::MASKING_SCHLICK: s.masking = brdf::Masking::schlick; break;
-    default: throw InvalidField(path + ".masking", "unknown value " + std::to_string(m.masking()));
+    case kiln::v1::MASKING_DEFAULT:
+      break;
+    case kiln::v1::MASKING_SEPARABLE:
+      s.masking = brdf::Masking::separable;
+      break;
+    case kiln::v1::MASKING_HEIGHT_CORRELATED:
+      s.masking = brdf::Masking::height_correlated;
+      break;
+    case kiln::v1::MASKING_V_GROOVE:
+      s.masking = brdf::Masking::v_groove;
+      break;
+    case kiln::v1::MASKING_SCHLICK:
+      s.masking = brdf::Masking::schlick;
+      break;
+    default:
+      throw InvalidField(path + ".masking", "unknown value " + std::to_string(m.masking()));
   }
   switch (m.normalization()) {
     case kiln::v1::NORMALIZATION_DEFAULT:
-    case kiln::v1::NORMALIZATION_FOUR: s.normalization = brdf::Normalization::four; break;
-    case kiln::v1::NORMALIZATION_PI: s.normalization = brdf::Normalization::pi; break;
-    default: throw InvalidField(path + ".normalization", "unknown value " + std::to_string(m.normalization()));
+    case kiln::v1::NORMALIZATION_FOUR:
+      s.normalization = brdf::Normalization::four;
+      break;
+    case kiln::v1::NORMALIZATION_PI:
+      s.normalization = brdf::Normalization::pi;
+      break;
+    default:
+      throw InvalidField(path + ".normalization", "unknown value " + std::to_string(m.normalization()));
   }
 }
 
@@ -110,8 +142,9 @@ brdf::ModelSpec model(const Message& m, const std::string& path) {
   using MJ = Message;
   if constexpr (std::is_same_v<Message, kiln::v1::MaterialJob>) {
     if (m.model_case() == MJ::kLayered) {
-      throw InvalidField(path + ".layered", "two-lobe materials are not supported by the material bake yet; "
-                                            "bake the diffuse and the specular model as two jobs");
+      throw InvalidField(path + ".layered",
+                         "two-lobe materials are not supported by the material bake yet; "
+                         "bake the diffuse and the specular model as two jobs");
     }
   }
   switch (m.model_case()) {
@@ -119,8 +152,12 @@ brdf::ModelSpec model(const Message& m, const std::string& path) {
       s.model = brdf::Model::lambert;
       if (m.lambert().has_albedo()) s.albedo = color(m.lambert().albedo(), path + ".lambert.albedo", 0.0, 1.0);
       break;
-    case MJ::kOrenNayar: oren_nayar(m.oren_nayar(), true, path, s); break;
-    case MJ::kOrenNayarSimple: oren_nayar(m.oren_nayar_simple(), false, path, s); break;
+    case MJ::kOrenNayar:
+      oren_nayar(m.oren_nayar(), true, path, s);
+      break;
+    case MJ::kOrenNayarSimple:
+      oren_nayar(m.oren_nayar_simple(), false, path, s);
+      break;
     case MJ::kCookTorrance:
       s.model = brdf::Model::cook_torrance;
       microfacet(m.cook_torrance(), path + ".cook_torrance", s);
@@ -143,8 +180,9 @@ brdf::ModelSpec model(const Message& m, const std::string& path) {
       s.bottom_layer = schlick_layer(m.schlick_double().bottom(), path + ".schlick_double.bottom");
       break;
     default:  // MODEL_NOT_SET (and MaterialJob's layered, refused above)
-      throw InvalidField(path, "no model given: set one of lambert, oren_nayar, oren_nayar_simple, cook_torrance, "
-                               "ggx, beckmann, schlick, schlick_double");
+      throw InvalidField(path,
+                         "no model given: set one of lambert, oren_nayar, oren_nayar_simple, cook_torrance, "
+                         "ggx, beckmann, schlick, schlick_double");
   }
   // The bakers' own validation is the backstop: anything the checks above let through is still named.
   if (auto problem = brdf::validate(s)) throw baker_problem(path, *problem);
@@ -155,9 +193,7 @@ brdf::ModelSpec model(const Message& m, const std::string& path) {
 
 brdf::ModelSpec brdf_model(const kiln::v1::Brdf& m, const std::string& path) { return model(m, path); }
 
-brdf::ModelSpec material_job_model(const kiln::v1::MaterialJob& m, const std::string& path) {
-  return model(m, path);
-}
+brdf::ModelSpec material_job_model(const kiln::v1::MaterialJob& m, const std::string& path) { return model(m, path); }
 
 brdf::MaterialSpec material_spec(const kiln::v1::Layered& l, const std::string& path) {
   brdf::MaterialSpec spec;
@@ -165,9 +201,14 @@ brdf::MaterialSpec material_spec(const kiln::v1::Layered& l, const std::string& 
   if (l.has_diffuse()) spec.diffuse = model(l.diffuse(), path + ".diffuse");
   switch (l.combine()) {
     case kiln::v1::COMBINE_DEFAULT:
-    case kiln::v1::COMBINE_LAYERED: spec.combine = brdf::Combine::layered; break;
-    case kiln::v1::COMBINE_WEIGHTS: spec.combine = brdf::Combine::weights; break;
-    default: throw InvalidField(path + ".combine", "unknown value " + std::to_string(l.combine()));
+    case kiln::v1::COMBINE_LAYERED:
+      spec.combine = brdf::Combine::layered;
+      break;
+    case kiln::v1::COMBINE_WEIGHTS:
+      spec.combine = brdf::Combine::weights;
+      break;
+    default:
+      throw InvalidField(path + ".combine", "unknown value " + std::to_string(l.combine()));
   }
   if (l.has_specular()) {
     spec.specular = model(l.specular(), path + ".specular");

@@ -22,8 +22,7 @@ int most_levels(int size) {
 }
 
 // An uploaded image, six uploaded faces (their digests into r.inputs) or a constant colour.
-void environment_source(const EJ& e, const store::BlobStore* blobs, BakeRequest& r,
-                        envmap::EnvironmentBakeInput& in) {
+void environment_source(const EJ& e, const store::BlobStore* blobs, BakeRequest& r, envmap::EnvironmentBakeInput& in) {
   switch (e.source_case()) {
     case EJ::kImage:
       r.inputs.push_back(input_blob(e.image(), kPath + ".image", blobs));
@@ -31,8 +30,8 @@ void environment_source(const EJ& e, const store::BlobStore* blobs, BakeRequest&
     case EJ::kFaces: {
       const int n = e.faces().digests_size();
       if (n != 6) {
-        throw InvalidField(kPath + ".faces.digests", "exactly six faces (+X, -X, +Y, -Y, +Z, -Z), got " +
-                                                         std::to_string(n));
+        throw InvalidField(kPath + ".faces.digests",
+                           "exactly six faces (+X, -X, +Y, -Y, +Z, -Z), got " + std::to_string(n));
       }
       for (int i = 0; i < n; ++i) {
         r.inputs.push_back(
@@ -44,8 +43,9 @@ void environment_source(const EJ& e, const store::BlobStore* blobs, BakeRequest&
       in.constant = color(e.constant(), kPath + ".constant", 0.0, 1e6);
       break;
     case EJ::SOURCE_NOT_SET:
-      throw InvalidField(kPath, "no environment given: set image (an uploaded equirectangular image), faces (six "
-                                "uploaded cube faces) or constant (a colour)");
+      throw InvalidField(kPath,
+                         "no environment given: set image (an uploaded equirectangular image), faces (six "
+                         "uploaded cube faces) or constant (a colour)");
   }
 }
 
@@ -53,8 +53,9 @@ void environment_source(const EJ& e, const store::BlobStore* blobs, BakeRequest&
 void decode_options(const EJ& e, envmap::EnvironmentBakeInput& in) {
   const bool constant = e.source_case() == EJ::kConstant;
   auto image_only = [&](const char* name) {
-    throw InvalidField(kPath + "." + name, "applies to an image or faces; a constant colour is already radiance in "
-                                           "the working space: leave it out");
+    throw InvalidField(kPath + "." + name,
+                       "applies to an image or faces; a constant colour is already radiance in "
+                       "the working space: leave it out");
   };
   if (!e.color_space().empty()) {
     if (constant) image_only("color_space");
@@ -77,11 +78,20 @@ void decode_options(const EJ& e, envmap::EnvironmentBakeInput& in) {
 void cube_settings(const EJ& e, envmap::EnvironmentBakeInput& in) {
   switch (e.lobe()) {
     case kiln::v1::ENVIRONMENT_LOBE_DEFAULT:
-    case kiln::v1::ENVIRONMENT_LOBE_GGX: in.lobe = envmap::EnvLobe::ggx; break;
-    case kiln::v1::ENVIRONMENT_LOBE_BECKMANN: in.lobe = envmap::EnvLobe::beckmann; break;
-    case kiln::v1::ENVIRONMENT_LOBE_COOK_TORRANCE: in.lobe = envmap::EnvLobe::cook_torrance; break;
-    case kiln::v1::ENVIRONMENT_LOBE_SCHLICK: in.lobe = envmap::EnvLobe::schlick; break;
-    default: throw InvalidField(kPath + ".lobe", "unknown value " + std::to_string(static_cast<int>(e.lobe())));
+    case kiln::v1::ENVIRONMENT_LOBE_GGX:
+      in.lobe = envmap::EnvLobe::ggx;
+      break;
+    case kiln::v1::ENVIRONMENT_LOBE_BECKMANN:
+      in.lobe = envmap::EnvLobe::beckmann;
+      break;
+    case kiln::v1::ENVIRONMENT_LOBE_COOK_TORRANCE:
+      in.lobe = envmap::EnvLobe::cook_torrance;
+      break;
+    case kiln::v1::ENVIRONMENT_LOBE_SCHLICK:
+      in.lobe = envmap::EnvLobe::schlick;
+      break;
+    default:
+      throw InvalidField(kPath + ".lobe", "unknown value " + std::to_string(static_cast<int>(e.lobe())));
   }
   if (e.has_size()) {
     const uint32_t n = e.size();
@@ -107,8 +117,9 @@ void environment_quality(const kiln::v1::Quality& q, envmap::EnvironmentBakeInpu
     in.target_error = q.target_error();
   }
   if (q.has_time_limit_seconds()) {
-    throw InvalidField("job.quality.time_limit_seconds", "not supported by the environment bake; bound its cost "
-                                                         "with samples or target_error");
+    throw InvalidField("job.quality.time_limit_seconds",
+                       "not supported by the environment bake; bound its cost "
+                       "with samples or target_error");
   }
   in.seed = q.seed();
 }
@@ -173,10 +184,9 @@ std::string environment_canonical_text(const BakeRequest& r) {
     << "\nrotation_degrees=" << format_number(in.decode.rotation_degrees)
     << "\nintensity=" << format_number(in.decode.intensity) << "\nlobe=" << envmap::to_string(in.lobe)
     << "\nsize=" << in.size << "\nlevels=" << (in.levels != 0 ? in.levels : most_levels(in.size))
-    << "\nirradiance_size=" << in.irradiance_size << "\ndfg_size=" << in.dfg_size
-    << "\ndfg_samples=" << in.dfg_samples << "\nsamples=" << in.samples
-    << "\ntarget_error=" << format_number(in.target_error) << "\npreview=" << in.preview << "\nseed=" << in.seed
-    << "\nforce_effects=";
+    << "\nirradiance_size=" << in.irradiance_size << "\ndfg_size=" << in.dfg_size << "\ndfg_samples=" << in.dfg_samples
+    << "\nsamples=" << in.samples << "\ntarget_error=" << format_number(in.target_error) << "\npreview=" << in.preview
+    << "\nseed=" << in.seed << "\nforce_effects=";
   for (const auto& [effect, on] : in.force_effects) o << effect << (on ? "+" : "-") << ";";  // sorted by name
   o << "\n";
   return o.str();

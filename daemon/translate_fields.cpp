@@ -39,7 +39,8 @@ BlobRef input_blob(const kiln::v1::Digest& d, const std::string& field, const st
   if (!proto::is_valid_sha256_hex(d.sha256())) {
     throw InvalidField(field + ".sha256", "must be 64 lowercase hex digits, got '" + d.sha256().substr(0, 80) + "'");
   }
-  if (d.size() == 0) throw InvalidField(field + ".size", "an input (image or mesh) is not empty; got a blob of 0 bytes");
+  if (d.size() == 0)
+    throw InvalidField(field + ".size", "an input (image or mesh) is not empty; got a blob of 0 bytes");
   if (d.size() > kMaxInputBlobBytes) {
     throw InvalidField(field + ".size", "an input blob is at most " + std::to_string(kMaxInputBlobBytes >> 20) +
                                             " MiB, got " + std::to_string(d.size()) +
@@ -56,8 +57,9 @@ BlobRef input_blob(const kiln::v1::Digest& d, const std::string& field, const st
 std::string read_input(const BlobRef& ref, store::BlobStore& blobs) {
   const store::BlobId id{ref.sha256, ref.size};
   if (!blobs.contains(id)) {
-    throw InvalidField(ref.field, "blob " + ref.sha256 + " is no longer in the server's store (removed by its "
-                                  "retention limit); upload it again and resubmit the job");
+    throw InvalidField(ref.field, "blob " + ref.sha256 +
+                                      " is no longer in the server's store (removed by its "
+                                      "retention limit); upload it again and resubmit the job");
   }
   return blobs.read(id);  // verified against the digest
 }
@@ -70,8 +72,8 @@ void check_color_space(const std::string& name, const std::string& field) {
   if (!config.has_space(name)) {
     std::string known;
     for (const std::string& space : config.spaces()) known += (known.empty() ? "" : ", ") + space;
-    throw InvalidField(field, "'" + name + "' is not a colour space or role of " + config.source() + "; known: " +
-                                  known);
+    throw InvalidField(field,
+                       "'" + name + "' is not a colour space or role of " + config.source() + "; known: " + known);
   }
 }
 

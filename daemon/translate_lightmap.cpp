@@ -29,12 +29,12 @@ constexpr int kMaxTextures = 4096;
 constexpr int kMaxLights = 65536;
 constexpr int kMaxLightmapSettings = 65536;
 constexpr uint64_t kMaxTotalTexels = uint64_t{1} << 24;  // 4096² texels: ~1 GiB of per-texel state in the baker
-constexpr double kMaxCoordinate = 1e9;                    // beyond it float32 geometry has no precision left
+constexpr double kMaxCoordinate = 1e9;                   // beyond it float32 geometry has no precision left
 constexpr double kMaxLightColor = 1e12;
 constexpr double kMaxEmission = 1e9;
 constexpr double kMaxEnvRadiance = 1e6;
-constexpr double kMaxTimeLimitSeconds = 7 * 86400;       // the baker's bound
-constexpr uint64_t kDefaultMinSamples = 16;              // the baker's default, capped by max_samples
+constexpr double kMaxTimeLimitSeconds = 7 * 86400;  // the baker's bound
+constexpr uint64_t kDefaultMinSamples = 16;         // the baker's default, capped by max_samples
 constexpr double kHalfPi = 1.5707963267948966;
 
 std::string at(const std::string& path, int i) { return path + "[" + std::to_string(i) + "]"; }
@@ -132,12 +132,18 @@ scene::Light light(const kiln::v1::Light& l, const std::string& path) {
   if (l.has_color()) out.color = color(l.color(), path + ".color", 0.0, kMaxLightColor);
   using L = kiln::v1::Light;
   switch (l.type_case()) {
-    case L::kPoint: return point_light(l.point(), path + ".point", std::move(out));
-    case L::kSpot: return spot_light(l.spot(), path + ".spot", std::move(out));
-    case L::kDirectional: return directional_light(l.directional(), path + ".directional", std::move(out));
-    case L::kRect: return rect_light(l.rect(), path + ".rect", std::move(out));
-    case L::kDisk: return disk_light(l.disk(), path + ".disk", std::move(out));
-    case L::TYPE_NOT_SET: break;
+    case L::kPoint:
+      return point_light(l.point(), path + ".point", std::move(out));
+    case L::kSpot:
+      return spot_light(l.spot(), path + ".spot", std::move(out));
+    case L::kDirectional:
+      return directional_light(l.directional(), path + ".directional", std::move(out));
+    case L::kRect:
+      return rect_light(l.rect(), path + ".rect", std::move(out));
+    case L::kDisk:
+      return disk_light(l.disk(), path + ".disk", std::move(out));
+    case L::TYPE_NOT_SET:
+      break;
   }
   throw InvalidField(path, "no light type given: set point, spot, directional, rect or disk");
 }
@@ -175,12 +181,14 @@ void environment(const kiln::v1::SceneEnvironment& e, const std::string& path, c
     case E::kConstant: {
       const Rgb c = color(e.constant(), path + ".constant", 0.0, kMaxEnvRadiance);
       if (!e.color_space().empty()) {
-        throw InvalidField(path + ".color_space", "applies to an image; a constant colour is already radiance in "
-                                                  "the working space: leave it out");
+        throw InvalidField(path + ".color_space",
+                           "applies to an image; a constant colour is already radiance in "
+                           "the working space: leave it out");
       }
       if (e.rotation_degrees() != 0) {
-        throw InvalidField(path + ".rotation_degrees", "a constant environment has no direction to rotate: leave "
-                                                       "it out");
+        throw InvalidField(path + ".rotation_degrees",
+                           "a constant environment has no direction to rotate: leave "
+                           "it out");
       }
       in.scene.environment.constant = Rgb{c.r * intensity, c.g * intensity, c.b * intensity};
       break;
@@ -194,8 +202,9 @@ void environment(const kiln::v1::SceneEnvironment& e, const std::string& path, c
       in.environment_decode.intensity = intensity;
       break;
     case E::SOURCE_NOT_SET:
-      throw InvalidField(path, "no environment given: set constant (a colour) or image (an uploaded "
-                               "equirectangular image), or leave the environment out for none");
+      throw InvalidField(path,
+                         "no environment given: set constant (a colour) or image (an uploaded "
+                         "equirectangular image), or leave the environment out for none");
   }
 }
 
@@ -264,7 +273,10 @@ std::map<std::string, int> materials(const kiln::v1::LightmapJob& j, scene::Scen
 std::string material_names(const std::map<std::string, int>& material_index) {
   std::string known;
   for (const auto& [name, index] : material_index) {
-    if (known.size() > 400) { known += ", ..."; break; }
+    if (known.size() > 400) {
+      known += ", ...";
+      break;
+    }
     known += (known.empty() ? "" : ", ") + name;
   }
   return known.empty() ? "(none named)" : known;
@@ -280,8 +292,8 @@ void material_overrides(const kiln::v1::LightmapJob& j, const std::map<std::stri
     check_name(o.name(), p + ".name");
     const auto it = material_index.find(o.name());
     if (it == material_index.end()) {
-      throw InvalidField(p + ".name", "no material named '" + o.name() + "' in the scene; its materials: " +
-                                          material_names(material_index));
+      throw InvalidField(p + ".name", "no material named '" + o.name() +
+                                          "' in the scene; its materials: " + material_names(material_index));
     }
     if (!overridden.insert(o.name()).second) {
       throw InvalidField(p + ".name", "'" + o.name() + "' is overridden twice");
@@ -301,8 +313,8 @@ void material_overrides(const kiln::v1::LightmapJob& j, const std::map<std::stri
 // An instance's placement in its lightmap: {s_u, s_v, o_u, o_v}, scales in (0, 1], offsets in [0, 1).
 void lightmap_scale_offset(const kiln::v1::Instance& inst, const std::string& p, scene::Instance& out) {
   if (inst.lightmap_scale_offset_size() != 0 && inst.lightmap_scale_offset_size() != 4) {
-    throw InvalidField(p + ".lightmap_scale_offset", "0 or 4 values {s_u, s_v, o_u, o_v}, got " +
-                                                         std::to_string(inst.lightmap_scale_offset_size()));
+    throw InvalidField(p + ".lightmap_scale_offset",
+                       "0 or 4 values {s_u, s_v, o_u, o_v}, got " + std::to_string(inst.lightmap_scale_offset_size()));
   }
   for (int k = 0; k < inst.lightmap_scale_offset_size(); ++k) {
     const std::string f = at(p + ".lightmap_scale_offset", k);
@@ -342,8 +354,8 @@ scene::Instance instance(const kiln::v1::Instance& inst, const std::string& p, i
 std::set<std::string> instances(const kiln::v1::LightmapJob& j, scene::Scene& sc) {
   std::set<std::string> lightmap_names;
   for (int i = 0; i < j.instances_size(); ++i) {
-    const scene::Instance& out = sc.instances.emplace_back(instance(j.instances(i), at(kPath + ".instances", i),
-                                                                    j.meshes_size()));
+    const scene::Instance& out =
+        sc.instances.emplace_back(instance(j.instances(i), at(kPath + ".instances", i), j.meshes_size()));
     if (out.bake) lightmap_names.insert(out.lightmap.empty() ? j.meshes(out.mesh).name() : out.lightmap);
   }
   if (j.instances_size() == 0) {
@@ -445,8 +457,7 @@ void validate_lightmap(const lightmap::LightmapBakeInput& in) {
   if (auto problem = lightmap::validate(in)) {
     const std::string& field = problem->field();
     if (field.rfind("force_effects", 0) == 0) throw baker_problem("job", *problem);
-    if (field == "max_samples" || field == "min_samples" || field == "target_error" ||
-        field == "time_limit_seconds") {
+    if (field == "max_samples" || field == "min_samples" || field == "target_error" || field == "time_limit_seconds") {
       throw baker_problem("job.quality", *problem);
     }
     throw baker_problem(kPath, *problem);
@@ -521,8 +532,7 @@ std::string lightmap_canonical_text(const BakeRequest& r) {
   const envmap::EnvDecodeOptions& d = in.environment_decode;
   o << "\nenvironment_color_space=" << (d.color_space.empty() ? "(format default)" : d.color_space)
     << "\nenvironment_rotation_degrees=" << format_number(d.rotation_degrees)
-    << "\nenvironment_intensity=" << format_number(d.intensity) << "\nresolution=" << in.resolution
-    << "\nresolutions=";
+    << "\nenvironment_intensity=" << format_number(d.intensity) << "\nresolution=" << in.resolution << "\nresolutions=";
   for (const auto& [name, n] : in.resolutions) o << name.size() << ":" << name << "=" << n << ";";
   o << "\npadding=" << in.padding << "\ntarget_error=" << format_number(in.target_error)
     << "\nmin_samples=" << in.min_samples << "\nmax_samples=" << in.max_samples

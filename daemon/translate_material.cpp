@@ -43,8 +43,7 @@ void translate_material(const kiln::v1::JobSpec& spec, BakeRequest& r) {
   material::MaterialBakeInput& in = r.input.emplace<material::MaterialBakeInput>();
   in.model = material_job_model(m, "job.material");
   set_count(m.has_table_mu(), m.table_mu(), "job.material.table_mu", 2, 1024, in.table_mu);
-  set_count(m.has_table_roughness(), m.table_roughness(), "job.material.table_roughness", 2, 1024,
-            in.table_roughness);
+  set_count(m.has_table_roughness(), m.table_roughness(), "job.material.table_roughness", 2, 1024, in.table_roughness);
   in.merl = m.merl();
   material_effects(spec, in);
   material_quality(spec.quality(), in);

@@ -239,9 +239,8 @@ Baked Workers::bake(const std::string& id, const BakeRequest& request, std::atom
   };
   Baked baked;
   tbb::task_arena arena(threads_per_job_);
-  arena.execute([&] {
-    baked = std::visit([&](const auto& in) { return run_baker(request, in, control); }, request.input);
-  });
+  arena.execute(
+      [&] { baked = std::visit([&](const auto& in) { return run_baker(request, in, control); }, request.input); });
   return baked;
 }
 
@@ -262,8 +261,8 @@ void Workers::record_success(const std::string& id, const store::JobRecord& reco
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   log_line("job " + id, "succeeded in " + std::to_string(seconds) + " s, " + std::to_string(report.samples()) +
                             " samples, error estimate " + std::to_string(report.error_estimate()));
-  queue_.finish(id, store::Progress{store::JobState::succeeded, 1.0, 0.0, report.samples(), report.error_estimate(),
-                                    "done"});
+  queue_.finish(
+      id, store::Progress{store::JobState::succeeded, 1.0, 0.0, report.samples(), report.error_estimate(), "done"});
 }
 
 void Workers::record_cancelled(const std::string& id) {

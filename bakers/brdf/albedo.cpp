@@ -59,7 +59,8 @@ Estimate stratified_estimate(const AlbedoOptions& options, uint64_t stream, cons
 
 Estimate directional_albedo(const Bxdf& bxdf, const Vec3& wo, const AlbedoOptions& options) {
   if (!above_horizon(wo)) return Estimate{};  // no light leaves towards or below the horizon: E = 0
-  return stratified_estimate(options, 1, [&](Point2 u, double uc, Pcg32&) { return weight_or_zero(bxdf.sample(wo, u, uc)); });
+  return stratified_estimate(options, 1,
+                             [&](Point2 u, double uc, Pcg32&) { return weight_or_zero(bxdf.sample(wo, u, uc)); });
 }
 
 Estimate directional_albedo(const Bxdf& bxdf, double mu, const AlbedoOptions& options) {
@@ -104,8 +105,7 @@ SplitSumEntry split_sum_entry(const Bxdf& white_lobe, double mu, const AlbedoOpt
     const double w = s->weight.average();
     return Rgb{w * (1.0 - c), w * c, w};
   });
-  return SplitSumEntry{e.value.r,     e.value.g,     e.value.b, e.std_error.r,
-                       e.std_error.g, e.std_error.b, e.samples};
+  return SplitSumEntry{e.value.r, e.value.g, e.value.b, e.std_error.r, e.std_error.g, e.std_error.b, e.samples};
 }
 
 ModelSpec without_fresnel(ModelSpec spec) {

@@ -13,14 +13,14 @@
 namespace kiln::brdf {
 
 struct AlbedoOptions {
-  int samples = 4096;      // per estimate; rounded up to whole stratified replicates
-  int replicates = 8;      // independent stratified sets; their spread gives the standard error
+  int samples = 4096;  // per estimate; rounded up to whole stratified replicates
+  int replicates = 8;  // independent stratified sets; their spread gives the standard error
   uint64_t seed = 1;
 };
 
 struct Estimate {
   Rgb value;
-  Rgb std_error;      // standard error of value, from the spread of the replicates
+  Rgb std_error;  // standard error of value, from the spread of the replicates
   int64_t samples = 0;
 };
 

@@ -30,9 +30,9 @@ namespace kiln::brdf {
 
 struct BsdfSample {
   Vec3 wi;
-  Rgb f;          // eval(wo, wi)
+  Rgb f;           // eval(wo, wi)
   double pdf = 0;  // pdf(wo, wi), > 0
-  Rgb weight;     // f · cos θ_i / pdf
+  Rgb weight;      // f · cos θ_i / pdf
 };
 
 class Bxdf {

@@ -125,8 +125,9 @@ double Material::pdf(const Vec3& wo, const Vec3& wi) const {
 
 std::string Material::describe() const {
   if (spec_.combine == Combine::weights) {
-    return "material(weights d=" + bake::format_number(1.0 - spec_.specular_weight) + " s=" +
-           bake::format_number(spec_.specular_weight) + ": " + diffuse_->describe() + " + " + specular_->describe() + ")";
+    return "material(weights d=" + bake::format_number(1.0 - spec_.specular_weight) +
+           " s=" + bake::format_number(spec_.specular_weight) + ": " + diffuse_->describe() + " + " +
+           specular_->describe() + ")";
   }
   return "material(layered: " + specular_->describe() + " over " + diffuse_->describe() + ")";
 }

@@ -80,9 +80,7 @@ std::optional<Model> model_from_string(const std::string& s) { return parse(kMod
 std::optional<FresnelMode> fresnel_from_string(const std::string& s) { return parse(kFresnelNames, s); }
 std::optional<Distribution> distribution_from_string(const std::string& s) { return parse(kDistributionNames, s); }
 std::optional<Masking> masking_from_string(const std::string& s) { return parse(kMaskingNames, s); }
-std::optional<Normalization> normalization_from_string(const std::string& s) {
-  return parse(kNormalizationNames, s);
-}
+std::optional<Normalization> normalization_from_string(const std::string& s) { return parse(kNormalizationNames, s); }
 std::string model_names() { return all_names(kModelNames); }
 std::string fresnel_names() { return all_names(kFresnelNames); }
 std::string distribution_names() { return all_names(kDistributionNames); }
@@ -147,8 +145,8 @@ std::unique_ptr<Bxdf> make_bxdf(const ModelSpec& spec) {
         p.distribution = spec.distribution.value_or(Distribution::beckmann);
         p.masking = spec.masking.value_or(Masking::v_groove);
       } else {
-        p.distribution = spec.distribution.value_or(spec.model == Model::ggx ? Distribution::ggx
-                                                                            : Distribution::beckmann);
+        p.distribution =
+            spec.distribution.value_or(spec.model == Model::ggx ? Distribution::ggx : Distribution::beckmann);
         p.masking = spec.masking.value_or(Masking::separable);
       }
       return std::make_unique<MicrofacetBrdf>(p);

@@ -48,15 +48,15 @@ struct SchlickLayer {
 struct ModelSpec {
   Model model = Model::lambert;
 
-  Rgb albedo{0.8};  // diffuse reflectance ρ (lambert, oren-nayar)
-  double sigma = 0.0;             // Oren–Nayar roughness, standard deviation of facet slope angle, radians
-  bool interreflection = false;   // Oren–Nayar two-bounce term (oren_nayar only)
+  Rgb albedo{0.8};               // diffuse reflectance ρ (lambert, oren-nayar)
+  double sigma = 0.0;            // Oren–Nayar roughness, standard deviation of facet slope angle, radians
+  bool interreflection = false;  // Oren–Nayar two-bounce term (oren_nayar only)
 
   double alpha_x = 0.3, alpha_y = 0.3;  // width of D as it appears in the formula (GGX α, Beckmann m)
   // Unset: the model's own Fresnel term, exact for cook-torrance, none (F = 1, the white furnace) for the others.
   std::optional<FresnelMode> fresnel;
-  Rgb f0{0.04};       // reflectance at normal incidence for Schlick's Fresnel
-  double eta = 1.5;   // relative index of refraction n_t / n_i for the exact Fresnel (dielectric)
+  Rgb f0{0.04};      // reflectance at normal incidence for Schlick's Fresnel
+  double eta = 1.5;  // relative index of refraction n_t / n_i for the exact Fresnel (dielectric)
   std::optional<Distribution> distribution;  // override the model's own D
   std::optional<Masking> masking;            // override the model's own G
   Normalization normalization = Normalization::four;

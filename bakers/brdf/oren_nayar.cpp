@@ -129,8 +129,7 @@ Rgb OrenNayar::eval(const Vec3& wo, const Vec3& wi) const {
   const double four_alpha_beta_over_pi2 = 4.0 * g.alpha * g.beta * kInvPi * kInvPi;
   const double c3 = c3_scale_ * four_alpha_beta_over_pi2 * four_alpha_beta_over_pi2;
 
-  double first_order =
-      c1_ + g.cos_dphi * c2 * g.tan_beta + (1.0 - std::fabs(g.cos_dphi)) * c3 * g.tan_half_sum;
+  double first_order = c1_ + g.cos_dphi * c2 * g.tan_beta + (1.0 - std::fabs(g.cos_dphi)) * c3 * g.tan_half_sum;
   // Departure from the paper: its fit can go negative. For cos Δφ = −1 the C2 term −C2 tan β tends to
   // −0.45 σ²/(σ²+0.09)·6/π as both directions graze, which outweighs C1 once σ > 0.664 rad (forward scattering near
   // the horizon; the fits were made for σ up to about 40°). A BRDF cannot be negative, so the first-order term is

@@ -119,5 +119,4 @@ std::string SchlickDouble::describe() const {
          "; bottom: " + describe_layer(impl_->bottom.layer()) + ")";
 }
 
-
 }  // namespace kiln::brdf

@@ -23,10 +23,18 @@ void Azimuth::sample(double xi, double* cos_phi, double* sin_phi) const {
   for (int n = levels_; n >= 1; --n) psi = 0.5 * (psi + std::asin(ratio_[n] * std::sin(psi)));
   const double c = std::cos(psi), s = std::sin(psi);
   switch (quarter) {
-    case 0: *cos_phi = c, *sin_phi = s; break;     // φ = ψ
-    case 1: *cos_phi = -c, *sin_phi = s; break;    // φ = π − ψ
-    case 2: *cos_phi = -c, *sin_phi = -s; break;   // φ = π + ψ
-    default: *cos_phi = c, *sin_phi = -s; break;   // φ = 2π − ψ
+    case 0:
+      *cos_phi = c, *sin_phi = s;
+      break;  // φ = ψ
+    case 1:
+      *cos_phi = -c, *sin_phi = s;
+      break;  // φ = π − ψ
+    case 2:
+      *cos_phi = -c, *sin_phi = -s;
+      break;  // φ = π + ψ
+    default:
+      *cos_phi = c, *sin_phi = -s;
+      break;  // φ = 2π − ψ
   }
 }
 

@@ -85,11 +85,13 @@ class Azimuth {
               const double ex = std::exp(sv), sh = 0.5 * (ex - 1.0 / ex), ch = 0.5 * (ex + 1.0 / ex);
               const double tau = 0.5 * p_ * sh, tau2 = tau * tau;
               const double sd = 2.0 * tau / (1.0 + tau2), cd = (1.0 - tau2) / (1.0 + tau2);
-              const double w = pr.weights[i] * (x1 - x0) * agm_ * kInv2Pi * ch /
-                               std::sqrt(sh * sh + (1.0 - tau2) * (1.0 - tau2));
+              const double w =
+                  pr.weights[i] * (x1 - x0) * agm_ * kInv2Pi * ch / std::sqrt(sh * sh + (1.0 - tau2) * (1.0 - tau2));
               // φ = kπ/2 + δ for k ≡ 1 (π/2) or 3 (3π/2) mod 4.
-              if (km == 1) node(-sd, cd, w);
-              else node(sd, -cd, w);
+              if (km == 1)
+                node(-sd, cd, w);
+              else
+                node(sd, -cd, w);
             }
           }
         } else {

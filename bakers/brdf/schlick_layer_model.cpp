@@ -14,14 +14,14 @@ constexpr double kMinIsotropy = 1e-6;
 
 // Resolution of the tables and of the quadrature that fills them (errors measured against an independent quadrature
 // during development and in schlick_test). Anisotropic tables cost kAzimuthTableNodes times more: coarser in μ.
-constexpr int kMuNodes = 40;          // table nodes over μ ∈ [0, 1], isotropic
-constexpr int kMuNodesAniso = 24;     // the same, anisotropic
-constexpr int kAzimuthTableNodes = 9;  // table nodes over |sin φo| ∈ [0, 1], anisotropic
-constexpr int kThetaNodes = 16;       // Gauss nodes in θ_h per region (all azimuths visible / part of them)
-constexpr int kThetaNodesPiece = 14;  // the same per piece when the partial region is cut at the peaks of A_n
+constexpr int kMuNodes = 40;                 // table nodes over μ ∈ [0, 1], isotropic
+constexpr int kMuNodesAniso = 24;            // the same, anisotropic
+constexpr int kAzimuthTableNodes = 9;        // table nodes over |sin φo| ∈ [0, 1], anisotropic
+constexpr int kThetaNodes = 16;              // Gauss nodes in θ_h per region (all azimuths visible / part of them)
+constexpr int kThetaNodesPiece = 14;         // the same per piece when the partial region is cut at the peaks of A_n
 constexpr double kGrazingScale = 1.0 / 6.0;  // the μ grid is ~kGrazingScale·k fine at grazing (E bends there)
-constexpr int kSphereMuNodes = 16;   // Gauss nodes over the μ of wi for the diffuse part of E5
-constexpr int kSpherePhiNodes = 16;  // midpoint nodes over the azimuth of wi for the same
+constexpr int kSphereMuNodes = 16;           // Gauss nodes over the μ of wi for the diffuse part of E5
+constexpr int kSpherePhiNodes = 16;          // midpoint nodes over the azimuth of wi for the same
 
 }  // namespace
 

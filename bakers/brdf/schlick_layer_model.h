@@ -127,7 +127,7 @@ class SchlickLayerModel {
   double r_, alpha_, k_;
   Azimuth azimuth_;
   std::vector<std::array<double, 3>> circle_nodes_;  // (cos φ, sin φ, weight) over the whole turn
-  double cx_ = 0.5;  // mean of cos²φ_h under A_n (1/2 when isotropic)
+  double cx_ = 0.5;                                  // mean of cos²φ_h under A_n (1/2 when isotropic)
   std::shared_ptr<const LayerTables> tables_;
 };
 

@@ -42,9 +42,7 @@ class DirectionTable {
   double x_of_mu(double mu) const { return std::log1p(std::min(1.0, mu) * expm1_lambda_) / lambda_; }
 
   // The value for a direction of the upper hemisphere (w.z > 0).
-  double lookup(const Vec3& w) const {
-    return lookup_xs(x_of_mu(w.z), n_s_ == 1 ? 0.0 : std::sqrt(sin2_phi(w)));
-  }
+  double lookup(const Vec3& w) const { return lookup_xs(x_of_mu(w.z), n_s_ == 1 ? 0.0 : std::sqrt(sin2_phi(w))); }
 
   double lookup_xs(double x, double s) const {
     const double fx = std::clamp(x, 0.0, 1.0) * (n_mu_ - 1);
@@ -83,8 +81,8 @@ class DirectionTable {
 
 // What a layer tabulates. It depends on (r, p) only, not on C.
 struct LayerTables {
-  DirectionTable e;   // E = albedo of f_ss
-  DirectionTable e5;  // (1 − u)^5-weighted albedo of f_ss + f_ms (the double layer's transmission)
+  DirectionTable e;     // E = albedo of f_ss
+  DirectionTable e5;    // (1 − u)^5-weighted albedo of f_ss + f_ms (the double layer's transmission)
   double e_avg = 0;     // Ē = (1/π) ∫ E cos θ dω
   double ms_scale = 0;  // 1 / (π (1 − Ē))
 };

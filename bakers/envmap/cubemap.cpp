@@ -25,13 +25,20 @@ int clamp_index(double v, int n) { return std::clamp(static_cast<int>(std::floor
 Vec3 face_uv_to_direction(int face, double u, double v) {
   const double a = 2.0 * u - 1.0, b = 2.0 * v - 1.0;
   switch (face) {
-    case 0: return {1.0, -b, -a};
-    case 1: return {-1.0, -b, a};
-    case 2: return {a, 1.0, b};
-    case 3: return {a, -1.0, -b};
-    case 4: return {a, -b, 1.0};
-    case 5: return {-a, -b, -1.0};
-    default: throw std::invalid_argument("face_uv_to_direction: face must be 0..5");
+    case 0:
+      return {1.0, -b, -a};
+    case 1:
+      return {-1.0, -b, a};
+    case 2:
+      return {a, 1.0, b};
+    case 3:
+      return {a, -1.0, -b};
+    case 4:
+      return {a, -b, 1.0};
+    case 5:
+      return {-a, -b, -1.0};
+    default:
+      throw std::invalid_argument("face_uv_to_direction: face must be 0..5");
   }
 }
 
@@ -47,16 +54,22 @@ FaceUv direction_to_face_uv(const Vec3& d) {
     // The zero vector has no major axis (ma = 0 would divide by zero): it reads as the centre of +X.
     if (ax == 0.0) return FaceUv{0, 0.5, 0.5};
     ma = ax;
-    if (d.x >= 0) r.face = 0, sc = -d.z, tc = -d.y;
-    else r.face = 1, sc = d.z, tc = -d.y;
+    if (d.x >= 0)
+      r.face = 0, sc = -d.z, tc = -d.y;
+    else
+      r.face = 1, sc = d.z, tc = -d.y;
   } else if (ay >= az) {
     ma = ay;
-    if (d.y >= 0) r.face = 2, sc = d.x, tc = d.z;
-    else r.face = 3, sc = d.x, tc = -d.z;
+    if (d.y >= 0)
+      r.face = 2, sc = d.x, tc = d.z;
+    else
+      r.face = 3, sc = d.x, tc = -d.z;
   } else {
     ma = az;
-    if (d.z >= 0) r.face = 4, sc = d.x, tc = -d.y;
-    else r.face = 5, sc = -d.x, tc = -d.y;
+    if (d.z >= 0)
+      r.face = 4, sc = d.x, tc = -d.y;
+    else
+      r.face = 5, sc = -d.x, tc = -d.y;
   }
   r.u = 0.5 * (sc / ma + 1.0);
   r.v = 0.5 * (tc / ma + 1.0);
@@ -163,9 +176,8 @@ Cubemap resample_equirect_to_cube(const RgbImage& equirect, int size, int supers
   if (size < 1) throw std::invalid_argument("resample_equirect_to_cube: size must be at least 1");
   // A cube texel at a face centre spans 2/size radians; a source pixel 2π/W. Sub-texels of about half a source pixel
   // need k ≥ 2W / (π size).
-  const int k = supersampling > 0
-                    ? supersampling
-                    : std::clamp(static_cast<int>(std::ceil(2.0 * equirect.width / (kPi * size))), 2, 32);
+  const int k = supersampling > 0 ? supersampling
+                                  : std::clamp(static_cast<int>(std::ceil(2.0 * equirect.width / (kPi * size))), 2, 32);
   Cubemap cube(size);
   const double texel = 2.0 / size, sub = texel / k;
   tbb::parallel_for(tbb::blocked_range<int>(0, kFaceCount * size), [&](const tbb::blocked_range<int>& rows) {

@@ -56,9 +56,9 @@ inline constexpr int kFaceCount = 6;
 inline constexpr std::array<std::string_view, kFaceCount> kFaceNames = {"px", "nx", "py", "ny", "pz", "nz"};
 
 struct FaceUv {
-  int face = 0;     // 0..5 in the order above
-  double u = 0.5;   // s of the OpenGL table, in [0, 1]
-  double v = 0.5;   // t of the OpenGL table, in [0, 1]
+  int face = 0;    // 0..5 in the order above
+  double u = 0.5;  // s of the OpenGL table, in [0, 1]
+  double v = 0.5;  // t of the OpenGL table, in [0, 1]
 };
 
 // The unnormalised direction (length ≥ 1) of face coordinates (s, t) ∈ [0, 1]²; values outside [0, 1] extend the

@@ -41,8 +41,7 @@ double DfgTable::max_error() const {
   return m;
 }
 
-DfgTable compute_dfg(const brdf::ModelSpec& lobe, int size_mu, int size_roughness,
-                     const brdf::AlbedoOptions& options) {
+DfgTable compute_dfg(const brdf::ModelSpec& lobe, int size_mu, int size_roughness, const brdf::AlbedoOptions& options) {
   for (const auto& [name, n] : {std::pair{"size_mu", size_mu}, std::pair{"size_roughness", size_roughness}}) {
     if (n < 1 || n > 1024) {
       throw std::invalid_argument(std::string(name) + ": must be in [1, 1024], got " + std::to_string(n));

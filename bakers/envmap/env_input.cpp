@@ -81,8 +81,8 @@ enum class Shape { equirect, square };
 
 void check_size(int w, int h, int depth, const Format& f, const std::string& who, Shape shape) {
   if (w < 1 || h < 1 || depth != 1) {
-    throw std::runtime_error(who + ": the " + f.name + " header describes an empty or volumetric image (" +
-                             dims(w, h) + ", depth " + std::to_string(depth) + "); an environment is a flat image");
+    throw std::runtime_error(who + ": the " + f.name + " header describes an empty or volumetric image (" + dims(w, h) +
+                             ", depth " + std::to_string(depth) + "); an environment is a flat image");
   }
   if (w > kMaxEnvDimension || h > kMaxEnvDimension || int64_t{w} * h > kMaxEnvPixels) {
     throw std::runtime_error(who + ": the " + f.name + " image is " + dims(w, h) +
@@ -114,8 +114,10 @@ void sanitize_non_finite(std::vector<float>& rgb, SanitizeReport& report) {
     bool nan = false, inf = false;
     for (int c = 0; c < 3; ++c) {
       float& v = rgb[p + c];
-      if (std::isnan(v)) nan = true, v = 0.0f;
-      else if (std::isinf(v)) inf = true, v = v > 0 ? largest : 0.0f;
+      if (std::isnan(v))
+        nan = true, v = 0.0f;
+      else if (std::isinf(v))
+        inf = true, v = v > 0 ? largest : 0.0f;
     }
     report.nan += nan;
     report.inf += inf;
@@ -147,8 +149,8 @@ std::unique_ptr<OIIO::ImageInput> open_image(const std::string& bytes, const For
   std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::create(format.virtual_name, false, nullptr, &proxy);
   if (!in) {
     // Either the reader is missing or (usually) it rejected the start of the bytes.
-    throw std::runtime_error(who + ": could not open the " + std::to_string(bytes.size()) + "-byte " +
-                             format.name + " image (truncated or corrupt?): " + OIIO::geterror() +
+    throw std::runtime_error(who + ": could not open the " + std::to_string(bytes.size()) + "-byte " + format.name +
+                             " image (truncated or corrupt?): " + OIIO::geterror() +
                              "; re-export the file and upload it again");
   }
   std::string open_name = format.virtual_name;
@@ -159,8 +161,8 @@ std::unique_ptr<OIIO::ImageInput> open_image(const std::string& bytes, const For
     open_name = temp->path;
   }
   if (!in->open(open_name, spec)) {
-    throw std::runtime_error(who + ": could not read the header of the " + std::to_string(bytes.size()) +
-                             "-byte " + format.name + " image (truncated or corrupt?): " + in->geterror() +
+    throw std::runtime_error(who + ": could not read the header of the " + std::to_string(bytes.size()) + "-byte " +
+                             format.name + " image (truncated or corrupt?): " + in->geterror() +
                              "; re-export the file and upload it again");
   }
   return in;
@@ -176,8 +178,8 @@ std::vector<float> read_rgb(OIIO::ImageInput& in, const Format& format, const st
   const size_t pixels = static_cast<size_t>(w) * static_cast<size_t>(h);
   std::vector<float> data(pixels * take);
   if (!in.read_image(0, 0, 0, take, OIIO::TypeDesc::FLOAT, data.data())) {
-    throw std::runtime_error(who + ": could not read the pixels of the " + dims(w, h) + " " +
-                             format.name + " image (truncated or corrupt?): " + in.geterror() +
+    throw std::runtime_error(who + ": could not read the pixels of the " + dims(w, h) + " " + format.name +
+                             " image (truncated or corrupt?): " + in.geterror() +
                              "; re-export the file and upload it again");
   }
   in.close();
@@ -203,9 +205,12 @@ void to_working_radiance(std::vector<float>& data, const std::string& space, con
     double c[3];
     for (int k = 0; k < 3; ++k) {
       const double v = data[3 * p + k];
-      if (!std::isfinite(v)) nan = true, c[k] = 0.0;  // rule step 2: cannot happen with kiln's config
-      else if (v < 0.0) negative = true, c[k] = 0.0;
-      else c[k] = v * options.intensity;
+      if (!std::isfinite(v))
+        nan = true, c[k] = 0.0;  // rule step 2: cannot happen with kiln's config
+      else if (v < 0.0)
+        negative = true, c[k] = 0.0;
+      else
+        c[k] = v * options.intensity;
     }
     env.sanitized.nan += nan;
     env.sanitized.negative += negative;
@@ -344,8 +349,10 @@ RgbImage rotated_equirect(const EnvironmentInput& env) {
 }
 
 Cubemap environment_to_cube(const EnvironmentInput& env, int size) {
-  if (size < 1) throw std::invalid_argument("environment_to_cube: size must be at least 1, got " + std::to_string(size));
-  if (env.image.width < 1 || env.image.height < 1) throw std::invalid_argument("environment_to_cube: empty environment");
+  if (size < 1)
+    throw std::invalid_argument("environment_to_cube: size must be at least 1, got " + std::to_string(size));
+  if (env.image.width < 1 || env.image.height < 1)
+    throw std::invalid_argument("environment_to_cube: empty environment");
   if (std::fmod(env.rotation_degrees, 360.0) == 0.0) return resample_equirect_to_cube(env.image, size);
   return resample_equirect_to_cube(rotated_equirect(env), size);
 }
@@ -360,7 +367,8 @@ Cubemap faces_to_cube(const CubeFacesInput& faces, int size) {
   // Area-correct down by powers of two when possible (a constant stays exact); otherwise supersampled: each output
   // texel is the solid-angle-weighted mean of k × k sub-texels read bilinearly (seamlessly) from the rotated source,
   // k = clamp(ceil(2 N_src / size), 2, 32) so that sub-texels are no wider than half a source texel.
-  if (unrotated && size < src.size() && src.size() % size == 0 && ((src.size() / size) & (src.size() / size - 1)) == 0) {
+  if (unrotated && size < src.size() && src.size() % size == 0 &&
+      ((src.size() / size) & (src.size() / size - 1)) == 0) {
     Cubemap c = src;
     while (c.size() > size) c = downsample_2x(c);
     return c;

@@ -1,5 +1,5 @@
-// Decoding an uploaded environment (an equirectangular image, or six cube faces) into the working space, with the documented rule for
-// texels that are not usable radiance, and the rotation and intensity the job asks for.
+// Decoding an uploaded environment (an equirectangular image, or six cube faces) into the working space, with the
+// documented rule for texels that are not usable radiance, and the rotation and intensity the job asks for.
 //
 // ## Formats
 // OpenEXR, Radiance HDR (RGBE), PNG and JPEG, recognised by their first bytes (not by a file name). Anything else is
@@ -68,7 +68,7 @@ struct SanitizeReport {
 };
 
 struct EnvironmentInput {
-  RgbImage image;             // equirectangular, working space, intensity applied, NOT rotated
+  RgbImage image;  // equirectangular, working space, intensity applied, NOT rotated
   SanitizeReport sanitized;
   std::string format;         // "openexr", "hdr", "png" or "jpeg"
   int width = 0, height = 0;  // of the source image (same as image's)
@@ -97,11 +97,11 @@ RgbImage rotated_equirect(const EnvironmentInput& env);
 Cubemap environment_to_cube(const EnvironmentInput& env, int size);
 
 struct CubeFacesInput {
-  Cubemap cube;               // the six faces as given, working space, intensity applied, NOT rotated
-  SanitizeReport sanitized;   // summed over the faces
-  std::string format;         // of face 0 ("+"-joined if the faces differ)
-  int face_size = 0;          // N
-  std::string color_space;    // declared (the same rule for every face: options, else the format's default)
+  Cubemap cube;              // the six faces as given, working space, intensity applied, NOT rotated
+  SanitizeReport sanitized;  // summed over the faces
+  std::string format;        // of face 0 ("+"-joined if the faces differ)
+  int face_size = 0;         // N
+  std::string color_space;   // declared (the same rule for every face: options, else the format's default)
   std::string working_space;
   double rotation_degrees = 0.0;
   double intensity = 1.0;

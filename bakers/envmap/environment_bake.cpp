@@ -14,8 +14,8 @@
 #include "bakers/envmap/irradiance.h"
 #include "bakers/envmap/prefilter.h"
 #include "bakers/envmap/preview.h"
-#include "bakers/envmap/sun.h"
 #include "bakers/envmap/sh.h"
+#include "bakers/envmap/sun.h"
 #include "bakers/image/exr.h"
 #include "bakers/image/ktx2.h"
 
@@ -63,15 +63,17 @@ struct EnvironmentRun {
   bool from_faces = false;
   int levels = 0;
   std::string color_space = "lin_rec709";
-  Cubemap source;                        // the source stage's cube; empty after the sun split
-  SunSplit split;                        // sky and sun; empty after the diffuse stage
-  std::vector<PrefilteredLevel> chain;   // the specular levels
+  Cubemap source;                       // the source stage's cube; empty after the sun split
+  SunSplit split;                       // sky and sun; empty after the diffuse stage
+  std::vector<PrefilteredLevel> chain;  // the specular levels
   Cubemap irradiance;
   ShCoefficients sh{};
   DfgTable dfg;
 
   EnvironmentRun(const EnvironmentBakeInput& input, const bake::BakeControl& bake_control)
-      : in(input), control(bake_control), from_faces(!input.constant && !input.faces.empty()),
+      : in(input),
+        control(bake_control),
+        from_faces(!input.constant && !input.faces.empty()),
         levels(input.levels == 0 ? default_levels(input.size) : input.levels) {}
 
   // Ends a stage: records its time, honours a cancel request and reports progress.
@@ -107,17 +109,18 @@ void check_memory(EnvironmentRun& run) {
   if (!in.constant) header = run.from_faces ? probe_cube_faces(in.faces) : probe_environment(in.image);
   run.result.memory_bytes = estimate_environment_memory(in, header.width, header.height, run.from_faces);
   if (run.result.memory_bytes <= kMaxEnvironmentMemory) return;
-  const std::string what = in.constant ? std::string("a constant") :
-                           run.from_faces ? "faces (6 x " + std::to_string(header.width) + "^2)" :
-                                            "image (" + std::to_string(header.width) + "x" + std::to_string(header.height) + ")";
+  const std::string what = in.constant ? std::string("a constant")
+                           : run.from_faces
+                               ? "faces (6 x " + std::to_string(header.width) + "^2)"
+                               : "image (" + std::to_string(header.width) + "x" + std::to_string(header.height) + ")";
   // The field is the source whose size is at fault; the problem keeps naming both it and `size`, either of which
   // the job can lower.
   const std::string source = run.from_faces ? "faces" : "image";
-  throw bake::InvalidInput(source, "size, " + source + ": baking " + what +
-                              " to a " + std::to_string(in.size) + "^2 cube needs about " +
-                              format_number(run.result.memory_bytes / double(1 << 30)) +
-                              " GiB of working memory, more than the 4 GiB bound; lower size or upload a smaller "
-                              "environment");
+  throw bake::InvalidInput(
+      source, "size, " + source + ": baking " + what + " to a " + std::to_string(in.size) + "^2 cube needs about " +
+                  format_number(run.result.memory_bytes / double(1 << 30)) +
+                  " GiB of working memory, more than the 4 GiB bound; lower size or upload a smaller "
+                  "environment");
 }
 
 // ", rotated R deg about +Y, intensity I, resampled to a N^2 cube": how a decoded source became the source cube.
@@ -174,8 +177,8 @@ std::string samples_description(const EnvironmentBakeInput& in) {
     return "fixed by the job: " + std::to_string(in.samples) + " per texel (rounded up to a multiple of 4)";
   }
   return "per level, the smallest tried N whose error against brute force on a checked subset of texels meets "
-         "target_error " + format_number(in.target_error) +
-         " (from 64, scaled by the 1/sqrt(N) law; within [16, 65536])";
+         "target_error " +
+         format_number(in.target_error) + " (from 64, scaled by the 1/sqrt(N) law; within [16, 65536])";
 }
 
 // The specular chain, and each level's figures in the result.
@@ -196,8 +199,8 @@ void prefilter_chain(EnvironmentRun& run) {
     result.level_roughness.push_back(l.roughness);
     result.level_error.push_back(l.error_estimate);
     result.level_samples.push_back(l.samples);
-    result.levels.push_back({l.cube.size(), l.roughness, l.samples, l.error_estimate, l.noise_estimate,
-                             l.checked_error, l.seconds});
+    result.levels.push_back(
+        {l.cube.size(), l.roughness, l.samples, l.error_estimate, l.noise_estimate, l.checked_error, l.seconds});
     result.samples += static_cast<uint64_t>(l.samples) * 6 * l.cube.size() * l.cube.size() +
                       static_cast<uint64_t>(l.pilot_samples) * l.checked_texels;
   }
@@ -291,7 +294,8 @@ void encode_dfg(EnvironmentRun& run) {
       image.pixels.insert(image.pixels.end(), {float(e.scale), float(e.bias), float(e.energy)});
     }
   }
-  image.metadata["kiln:axes"] = "x: mu = n.v = (x + 0.5)/width; y: perceptual roughness (y + 0.5)/height, alpha = rho^2";
+  image.metadata["kiln:axes"] =
+      "x: mu = n.v = (x + 0.5)/width; y: perceptual roughness (y + 0.5)/height, alpha = rho^2";
   image.metadata["kiln:lobe"] = to_string(run.in.lobe);
   run.add_output("dfg.exr", "image/x-exr", "data", image::encode_exr(image));
 }
@@ -324,7 +328,9 @@ void write_report(EnvironmentRun& run) {
 
 std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& in) {
   using bake::InvalidInput;
-  const auto range = [](const char* field, double v, double lo, double hi) { return bake::check_range(field, v, lo, hi); };
+  const auto range = [](const char* field, double v, double lo, double hi) {
+    return bake::check_range(field, v, lo, hi);
+  };
   if (!is_power_of_two(in.size) || in.size < 4 || in.size > 2048) {
     return InvalidInput("size", "must be a power of two in [4, 2048], got " + std::to_string(in.size));
   }
@@ -353,9 +359,9 @@ std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& in) {
   for (const auto& [name, on] : in.force_effects) {
     const std::optional<EnvironmentEffect> effect = effect_from_name(name);
     if (!effect || !forcible(*effect)) {
-      return InvalidInput("force_effects[" + name + "]", "unknown effect '" + name +
-                                                             "'; the effects that can be forced are: " +
-                                                             forcible_effect_names());
+      return InvalidInput(
+          "force_effects[" + name + "]",
+          "unknown effect '" + name + "'; the effects that can be forced are: " + forcible_effect_names());
     }
   }
   return std::nullopt;
@@ -366,8 +372,10 @@ uint64_t estimate_environment_memory(const EnvironmentBakeInput& in, int width, 
   const double cube = n2 * sizeof(Rgb);        // C
   const double chain_texels = n2 * 4.0 / 3.0;  // T
   double source = cube;
-  if (faces) source += 6.0 * width * width * sizeof(Rgb) + double(width) * width * 36.0;
-  else source += double(width) * height * 60.0;
+  if (faces)
+    source += 6.0 * width * width * sizeof(Rgb) + double(width) * width * 36.0;
+  else
+    source += double(width) * height * 60.0;
   const double split = 10.0 / 3.0 * cube;
   const double chain = 11.0 / 3.0 * cube;
   const double output = 4.0 / 3.0 * cube + chain_texels * 48.0 + 12.0 * in.size * in.size;

@@ -48,16 +48,16 @@ struct EnvironmentBakeInput {
   std::optional<Rgb> constant;     // or a constant colour
   EnvDecodeOptions decode;         // colour space, rotation, intensity
   EnvLobe lobe = EnvLobe::ggx;
-  int size = 128;                // specular cube face size, a power of two in [4, 2048]
-  int levels = 0;                // mip levels; 0: every level down to 4×4
-  int irradiance_size = 32;      // [1, 256]
-  int dfg_size = 64;             // [2, 1024]
+  int size = 128;            // specular cube face size, a power of two in [4, 2048]
+  int levels = 0;            // mip levels; 0: every level down to 4×4
+  int irradiance_size = 32;  // [1, 256]
+  int dfg_size = 64;         // [2, 1024]
   // Prefilter samples per texel: 0 = chosen per level to reach target_error (within [16, 65536]); else [4, 65536].
   int samples = 0;
-  double target_error = 0.01;    // relative error per level the sample count aims at, [1e-4, 1]
-  int dfg_samples = 1024;        // per DFG entry, [16, 1 << 20]
-  bool preview = true;           // also write preview.png (a sphere at several roughnesses, display-transformed)
-  uint64_t seed = 1;             // the same input and seed give the same bytes
+  double target_error = 0.01;  // relative error per level the sample count aims at, [1e-4, 1]
+  int dfg_samples = 1024;      // per DFG entry, [16, 1 << 20]
+  bool preview = true;         // also write preview.png (a sphere at several roughnesses, display-transformed)
+  uint64_t seed = 1;           // the same input and seed give the same bytes
   // Effects forced on (true) or off (false) whatever the planner decides, by the names the report's plan uses
   // (environment_effect.h). Forcible: "sun_light" (on: use the sun split whenever a texel passes the threshold, and
   // say so when none does; off: the sun stays in the importance-sampled map; sun.h). Unknown names are an error.
@@ -77,8 +77,8 @@ struct EnvironmentPlanEntry {
 struct EnvironmentLevelReport {
   int size = 0;
   double roughness = 0;
-  int samples = 0;             // per texel (0 for level 0)
-  double error_estimate = 0;   // relative RMS, noise and filtering bias (prefilter.h)
+  int samples = 0;            // per texel (0 for level 0)
+  double error_estimate = 0;  // relative RMS, noise and filtering bias (prefilter.h)
   double noise_estimate = 0;
   double checked_error = 0;
   double seconds = 0;
@@ -87,14 +87,14 @@ struct EnvironmentLevelReport {
 struct EnvironmentBakeResult {
   std::vector<bake::BakeOutput> outputs;
   std::vector<double> level_roughness, level_error;
-  std::vector<int> level_samples;                 // per texel, per level (0 for level 0)
+  std::vector<int> level_samples;  // per texel, per level (0 for level 0)
   std::vector<EnvironmentLevelReport> levels;
   SanitizeReport sanitized;
   double seconds = 0;
   std::vector<std::pair<std::string, double>> stage_seconds;  // "source", "sun", "specular", ... in order
-  uint64_t samples = 0;                           // prefilter (+ checks) and DFG samples
-  uint64_t memory_bytes = 0;                      // the estimated peak working memory (see above)
-  std::vector<std::string> plan;                  // "effect: on|off[ (forced)] - reason", one per plan entry
+  uint64_t samples = 0;                                       // prefilter (+ checks) and DFG samples
+  uint64_t memory_bytes = 0;                                  // the estimated peak working memory (see above)
+  std::vector<std::string> plan;  // "effect: on|off[ (forced)] - reason", one per plan entry
   std::vector<EnvironmentPlanEntry> plan_entries;
   // The sun split (sun.h).
   bool sun_found = false;

@@ -57,8 +57,8 @@ std::string environment_report_json(const EnvironmentBakeInput& in, const Enviro
   for (const EnvironmentPlanEntry& e : r.plan_entries) plan.push_back(plan_json(e));
   j["plan"] = std::move(plan);
   j["sun"] = {{"found", r.sun_found}, {"texels", r.sun_texels}, {"power_fraction", r.sun_power_fraction}};
-  j["conventions"] = {{"up", "+Y"}, {"cubemap", std::string(kCubemapConvention)},
-                      {"equirect", std::string(kEquirectConvention)}};
+  j["conventions"] = {
+      {"up", "+Y"}, {"cubemap", std::string(kCubemapConvention)}, {"equirect", std::string(kEquirectConvention)}};
   j["color_space"] = color_space;
   j["memory"] = {{"estimated_peak_bytes", r.memory_bytes}, {"bound_bytes", kMaxEnvironmentMemory}};
   j["sanitized"] = {{"nan", r.sanitized.nan}, {"inf", r.sanitized.inf}, {"negative", r.sanitized.negative}};

@@ -14,10 +14,14 @@ constexpr EnvLobe kLobes[] = {EnvLobe::ggx, EnvLobe::beckmann, EnvLobe::cook_tor
 
 const char* to_string(EnvLobe lobe) {
   switch (lobe) {
-    case EnvLobe::ggx: return "ggx";
-    case EnvLobe::beckmann: return "beckmann";
-    case EnvLobe::cook_torrance: return "cook_torrance";
-    case EnvLobe::schlick: return "schlick";
+    case EnvLobe::ggx:
+      return "ggx";
+    case EnvLobe::beckmann:
+      return "beckmann";
+    case EnvLobe::cook_torrance:
+      return "cook_torrance";
+    case EnvLobe::schlick:
+      return "schlick";
   }
   return "unknown";
 }
@@ -37,10 +41,13 @@ std::string env_lobe_names() {
 
 brdf::Distribution lobe_distribution(EnvLobe lobe) {
   switch (lobe) {
-    case EnvLobe::ggx: return brdf::Distribution::ggx;
+    case EnvLobe::ggx:
+      return brdf::Distribution::ggx;
     case EnvLobe::beckmann:
-    case EnvLobe::cook_torrance: return brdf::Distribution::beckmann;
-    case EnvLobe::schlick: return brdf::Distribution::schlick_beckmann;
+    case EnvLobe::cook_torrance:
+      return brdf::Distribution::beckmann;
+    case EnvLobe::schlick:
+      return brdf::Distribution::schlick_beckmann;
   }
   return brdf::Distribution::ggx;
 }
@@ -48,9 +55,15 @@ brdf::Distribution lobe_distribution(EnvLobe lobe) {
 brdf::ModelSpec lobe_model(EnvLobe lobe) {
   brdf::ModelSpec m;
   switch (lobe) {
-    case EnvLobe::ggx: m.model = brdf::Model::ggx; break;
-    case EnvLobe::beckmann: m.model = brdf::Model::beckmann; break;
-    case EnvLobe::cook_torrance: m.model = brdf::Model::cook_torrance; break;
+    case EnvLobe::ggx:
+      m.model = brdf::Model::ggx;
+      break;
+    case EnvLobe::beckmann:
+      m.model = brdf::Model::beckmann;
+      break;
+    case EnvLobe::cook_torrance:
+      m.model = brdf::Model::cook_torrance;
+      break;
     case EnvLobe::schlick:
       m.model = brdf::Model::beckmann;  // Walter et al.'s microfacet model with Smith G from Beckmann's Λ ...
       m.distribution = brdf::Distribution::schlick_beckmann;  // ... and Schlick's rational D
@@ -60,8 +73,11 @@ brdf::ModelSpec lobe_model(EnvLobe lobe) {
 }
 
 std::string lobe_description(EnvLobe lobe) {
-  const char* d = lobe == EnvLobe::ggx ? "GGX D" : lobe == EnvLobe::schlick ? "Schlick's rational Beckmann D" : "Beckmann D";
-  return std::string(to_string(lobe)) + ": " + d + ", alpha = rho^2, rho_k = k/(levels-1); D(h)(n.l) with n = v = r, "
+  const char* d = lobe == EnvLobe::ggx       ? "GGX D"
+                  : lobe == EnvLobe::schlick ? "Schlick's rational Beckmann D"
+                                             : "Beckmann D";
+  return std::string(to_string(lobe)) + ": " + d +
+         ", alpha = rho^2, rho_k = k/(levels-1); D(h)(n.l) with n = v = r, "
          "normalised by its integral over the sphere";
 }
 

@@ -21,10 +21,10 @@
 namespace kiln::envmap {
 namespace {
 
-constexpr int kGroups = 4;          // independent randomised groups for the noise estimate
-constexpr int kPilotSamples = 64;   // the first trial when choosing N
-constexpr int kMaxTrials = 6;       // trials when choosing N
-constexpr double kStepMargin = 1.2; // N is scaled by (e/target)² times this
+constexpr int kGroups = 4;                         // independent randomised groups for the noise estimate
+constexpr int kPilotSamples = 64;                  // the first trial when choosing N
+constexpr int kMaxTrials = 6;                      // trials when choosing N
+constexpr double kStepMargin = 1.2;                // N is scaled by (e/target)² times this
 constexpr double kReferenceTexelsPerAlpha = 16.0;  // reference mip size ≥ this / α (box filter ≤ 1/16 of the lobe)
 
 double radical_inverse_base2(uint32_t i) {
@@ -132,7 +132,11 @@ class LevelSampler {
   }
 
  private:
-  struct Sample { Vec3 l; double nl; double lod; };
+  struct Sample {
+    Vec3 l;
+    double nl;
+    double lod;
+  };
   const std::vector<Cubemap>& mips_;
   std::array<std::vector<Sample>, kGroups> pattern_;
 };
@@ -171,7 +175,11 @@ class BruteForce {
 
 double rgb_norm2(const Rgb& c) { return c.r * c.r + c.g * c.g + c.b * c.b; }
 
-struct Checked { int face, x, y; Vec3 n; Rgb reference; };
+struct Checked {
+  int face, x, y;
+  Vec3 n;
+  Rgb reference;
+};
 
 // The stratified subset of texels that is checked against brute force.
 std::vector<Checked> checked_subset(int size) {
@@ -201,8 +209,8 @@ double relative_rms_pairs(size_t n, const std::function<Rgb(size_t)>& value, con
 }
 
 double relative_rms(const std::vector<Checked>& subset, const std::vector<Rgb>& values) {
-  return relative_rms_pairs(subset.size(), [&](size_t i) { return values[i]; },
-                            [&](size_t i) { return subset[i].reference; });
+  return relative_rms_pairs(
+      subset.size(), [&](size_t i) { return values[i]; }, [&](size_t i) { return subset[i].reference; });
 }
 
 int round_samples(double n) {
@@ -244,8 +252,10 @@ int choose_samples(const PrefilterOptions& opt, const std::function<double(int)>
     if (opt.cancel && opt.cancel->load()) break;
     const double e = check(n);
     const double step = (e / opt.target_error) * (e / opt.target_error) * kStepMargin;
-    if (e <= opt.target_error) passed = n;
-    else failed = n;
+    if (e <= opt.target_error)
+      passed = n;
+    else
+      failed = n;
     int next;
     if (passed && failed) {
       if (passed < failed * 3 / 2) break;  // bracketed within 50 %: good enough
@@ -295,9 +305,8 @@ PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const std::ve
   const auto check = [&](int samples) {
     const LevelSampler sampler(mips, alpha, opt.distribution, samples, level_seed);
     std::vector<Rgb> values(subset.size());
-    tbb::parallel_for(size_t{0}, subset.size(), [&](size_t i) {
-      values[i] = sampler.eval(subset[i].n, nullptr) + sun_at_subset[i];
-    });
+    tbb::parallel_for(size_t{0}, subset.size(),
+                      [&](size_t i) { values[i] = sampler.eval(subset[i].n, nullptr) + sun_at_subset[i]; });
     level.pilot_samples += samples;
     return relative_rms(subset, values);
   };
@@ -329,10 +338,13 @@ std::vector<Cubemap> build_source_mips(const Cubemap& source) {
 std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& sky, const std::vector<SunTexel>& sun, int out_size,
                                                  const PrefilterOptions& opt) {
   if (sky.size() < 1) throw std::invalid_argument("prefilter_specular: empty source");
-  if (out_size < 1) throw std::invalid_argument("prefilter_specular: out_size must be >= 1, got " + std::to_string(out_size));
-  if (opt.levels < 1) throw std::invalid_argument("prefilter_specular: levels must be >= 1, got " + std::to_string(opt.levels));
+  if (out_size < 1)
+    throw std::invalid_argument("prefilter_specular: out_size must be >= 1, got " + std::to_string(out_size));
+  if (opt.levels < 1)
+    throw std::invalid_argument("prefilter_specular: levels must be >= 1, got " + std::to_string(opt.levels));
   if (opt.samples < 0 || opt.samples > kMaxSamples)
-    throw std::invalid_argument("prefilter_specular: samples must be in [0, 65536], got " + std::to_string(opt.samples));
+    throw std::invalid_argument("prefilter_specular: samples must be in [0, 65536], got " +
+                                std::to_string(opt.samples));
   if (!(opt.target_error > 0.0 && opt.target_error <= 1.0))
     throw std::invalid_argument("prefilter_specular: target_error must be in (0, 1]");
   const std::vector<Cubemap> mips = build_source_mips(sky);
@@ -397,7 +409,11 @@ Cubemap brute_force_prefilter(const Cubemap& src, int out_size, double roughness
   const SplitSumLobe lobe(distribution, lobe_alpha(roughness));
   const int ns = src.size(), k = subdivisions;
   // Every (sub-)texel's direction, solid angle and radiance, once.
-  struct Texel { Vec3 l; double omega; Rgb radiance; };
+  struct Texel {
+    Vec3 l;
+    double omega;
+    Rgb radiance;
+  };
   std::vector<Texel> texels;
   texels.reserve(static_cast<size_t>(kFaceCount) * ns * ns * k * k);
   const double step = 2.0 / (ns * k);
@@ -411,8 +427,8 @@ Cubemap brute_force_prefilter(const Cubemap& src, int out_size, double roughness
         for (int j = 0; j < k; ++j)
           for (int i = 0; i < k; ++i) {
             const double a0 = -1.0 + (x * k + i) * step, b0 = -1.0 + (y * k + j) * step;
-            const Vec3 l = normalize(face_uv_to_direction(f, (a0 + 0.5 * step + 1.0) / 2.0,
-                                                          (b0 + 0.5 * step + 1.0) / 2.0));
+            const Vec3 l =
+                normalize(face_uv_to_direction(f, (a0 + 0.5 * step + 1.0) / 2.0, (b0 + 0.5 * step + 1.0) / 2.0));
             texels.push_back({l, face_rect_solid_angle(a0, b0, a0 + step, b0 + step), src.sample_bilinear(l)});
           }
       }

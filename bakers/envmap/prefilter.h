@@ -22,8 +22,8 @@ namespace kiln::envmap {
 struct SunTexel;
 
 struct PrefilterOptions {
-  int levels = 6;     // L ≥ 1; level k has ρ = k/(L − 1)
-  int samples = 64;   // N per texel for levels k ≥ 1, rounded up to a multiple of 4; 0: chosen from target_error
+  int levels = 6;    // L ≥ 1; level k has ρ = k/(L − 1)
+  int samples = 64;  // N per texel for levels k ≥ 1, rounded up to a multiple of 4; 0: chosen from target_error
   double target_error = 0.01;  // relative RMS error per level aimed at when samples = 0, in (0, 1]
   brdf::Distribution distribution = brdf::Distribution::ggx;
   uint64_t seed = 0;  // the Cranley–Patterson shifts; the same seed gives the same bytes

@@ -21,7 +21,6 @@ using bake::format_number;
 Rgb lerp_exact(double t, const Rgb& a, const Rgb& b) { return a + (b - a) * t; }
 double lerp_exact(double t, double a, double b) { return a + (b - a) * t; }
 
-
 struct Chain {
   std::vector<const Cubemap*> cubes;
   std::vector<double> roughness;
@@ -75,7 +74,9 @@ struct Shader {
   const DfgTable& dfg;
   const PreviewOptions& options;
 
-  Rgb background(double px, double py) const { return chain.cubes.front()->sample_bilinear(background_direction(px, py)); }
+  Rgb background(double px, double py) const {
+    return chain.cubes.front()->sample_bilinear(background_direction(px, py));
+  }
 
   // The sphere under (px, py), if any, shaded; false if the point is background.
   bool sphere(double px, double py, Rgb& out) const {
@@ -109,8 +110,8 @@ void check_inputs(const Chain& chain, const Cubemap& irradiance, const DfgTable&
     }
     const double rho = chain.roughness[k];
     if (!(rho >= 0.0 && rho <= 1.0)) {
-      throw std::invalid_argument("render_preview: roughness of level " + std::to_string(k) + " must be in [0, 1], got " +
-                                  format_number(rho));
+      throw std::invalid_argument("render_preview: roughness of level " + std::to_string(k) +
+                                  " must be in [0, 1], got " + format_number(rho));
     }
     if (k > 0 && !(rho > chain.roughness[k - 1])) {
       throw std::invalid_argument("render_preview: the levels' roughness must increase strictly, but level " +
@@ -214,14 +215,17 @@ std::vector<float> render_spheres(const Shader& shader, const std::vector<Rgb>& 
 // Exposure, display transform and quantisation, with what the picture shows in its metadata.
 std::string encode_preview(std::vector<float> linear, const Exposure& exposure, const std::string& color_space,
                            const PreviewOptions& options) {
-  image::Png8Image png = image::display_png8(std::move(linear), kW, kH, exposure.multiplier, color_space,
-                                             options.display, options.view);
+  image::Png8Image png =
+      image::display_png8(std::move(linear), kW, kH, exposure.multiplier, color_space, options.display, options.view);
   png.metadata["Description"] =
       "kiln environment preview, " + std::to_string(kW) + "x" + std::to_string(kH) +
       ". Background: the environment, longitude 360 deg across (centre column looks along -Z), latitude +45 deg "
-      "(top) to -45 deg (bottom). Spheres left to right: metal f0 = " + format_number(options.f0) +
+      "(top) to -45 deg (bottom). Spheres left to right: metal f0 = " +
+      format_number(options.f0) +
       " at perceptual roughness 0, 0.25, 0.5, 0.75, 1 (split sum: prefiltered(r) * (f0 * scale + bias)); diffuse "
-      "albedo " + format_number(options.diffuse_albedo) + " lit by the irradiance cube (albedo * E / pi). "
+      "albedo " +
+      format_number(options.diffuse_albedo) +
+      " lit by the irradiance cube (albedo * E / pi). "
       "Orthographic camera along -Z.";
   png.metadata["kiln:exposure"] = format_number(exposure.multiplier);
   png.metadata["kiln:exposure_ev"] = format_number(std::log2(exposure.multiplier));

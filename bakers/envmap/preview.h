@@ -58,8 +58,8 @@ inline double preview_sphere_center_x(int i) { return (i + 0.5) * kPreviewWidth 
 inline constexpr double kPreviewSphereCenterY = kPreviewHeight / 2.0;
 
 struct PreviewOptions {
-  double f0 = 1.0;              // specular spheres' reflectance at normal incidence, in [0, 1]
-  double diffuse_albedo = 1.0;  // the diffuse sphere's albedo, in [0, 1]
+  double f0 = 1.0;                 // specular spheres' reflectance at normal incidence, in [0, 1]
+  double diffuse_albedo = 1.0;     // the diffuse sphere's albedo, in [0, 1]
   std::optional<double> exposure;  // a finite multiplier > 0; nullopt: automatic (above)
   std::string display, view;       // OpenColorIO display and view; empty: the config's defaults
 };

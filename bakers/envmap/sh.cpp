@@ -31,10 +31,14 @@ ShBasis sh_basis(const Vec3& d) {
 
 double sh_cosine_lobe(int l) {
   switch (l) {
-    case 0: return kPi;
-    case 1: return 2.0 * kPi / 3.0;
-    case 2: return kPi / 4.0;
-    default: throw std::invalid_argument("sh_cosine_lobe: only bands 0..2 are represented");
+    case 0:
+      return kPi;
+    case 1:
+      return 2.0 * kPi / 3.0;
+    case 2:
+      return kPi / 4.0;
+    default:
+      throw std::invalid_argument("sh_cosine_lobe: only bands 0..2 are represented");
   }
 }
 

@@ -146,8 +146,10 @@ void fill_sky_under_sun(SunSplit& s, const Cubemap& source, const std::vector<si
           const size_t j = (static_cast<size_t>(f2) * n + y2) * n + x2;
           if (filled[j]) sum += s.sky.at(f2, x2, y2), ++k;
         }
-      if (k > 0) fills.push_back({i, sum / k});
-      else still.push_back(i);
+      if (k > 0)
+        fills.push_back({i, sum / k});
+      else
+        still.push_back(i);
     }
     // Every sun texel is non-sun or next to one after at most the sun's radius in passes; a map that is all sun (a
     // cube of a few texels) has none: its sky keeps the texel scaled down to the threshold.

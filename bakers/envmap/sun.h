@@ -47,8 +47,8 @@ struct SunTexel {
 };
 
 struct SunSplit {
-  Cubemap sky;                  // the source minus the sun
-  std::vector<SunTexel> sun;    // empty: no sun (sky is the source)
+  Cubemap sky;                    // the source minus the sun
+  std::vector<SunTexel> sun;      // empty: no sun (sky is the source)
   double quantile_luminance = 0;  // Q
   double threshold = 0;           // T = kSunContrast · Q
   int candidates = 0;             // texels with Y > T (before the kMaxSunTexels cap)

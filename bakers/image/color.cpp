@@ -66,7 +66,8 @@ std::string ColorConfig::working_space() const {
 
 std::vector<std::string> ColorConfig::spaces() const {
   std::vector<std::string> out;
-  for (int i = 0; i < impl_->config->getNumColorSpaces(); ++i) out.emplace_back(impl_->config->getColorSpaceNameByIndex(i));
+  for (int i = 0; i < impl_->config->getNumColorSpaces(); ++i)
+    out.emplace_back(impl_->config->getColorSpaceNameByIndex(i));
   return out;
 }
 
@@ -92,8 +93,8 @@ void ColorConfig::convert(float* data, std::size_t pixels, int channels, const s
     std::lock_guard lock(impl_->mutex);
     auto& slot = impl_->processors[{from, to}];
     if (!slot) {
-      slot = impl_->config->getProcessor(from.c_str(), to.c_str())->getOptimizedCPUProcessor(
-          OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32, OCIO::OPTIMIZATION_DEFAULT);
+      slot = impl_->config->getProcessor(from.c_str(), to.c_str())
+                 ->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32, OCIO::OPTIMIZATION_DEFAULT);
     }
     cpu = slot;
   }

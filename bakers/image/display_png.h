@@ -47,7 +47,6 @@ std::string describe_exposure(const AutoExposure& exposure, const std::string& w
 // std::invalid_argument when the size does not match or the exposure is not finite and positive, and (from the
 // colour config) naming an unknown colour space, display or view.
 Png8Image display_png8(std::vector<float> linear, int width, int height, double exposure,
-                       const std::string& color_space, const std::string& display = {},
-                       const std::string& view = {});
+                       const std::string& color_space, const std::string& display = {}, const std::string& view = {});
 
 }  // namespace kiln::image

@@ -46,13 +46,12 @@ void check_image(const FloatImage& image) {
                                 std::to_string(image.width) + "x" + std::to_string(image.height) + "x" +
                                 std::to_string(image.channels));
   }
-  const uint64_t expected = static_cast<uint64_t>(image.width) * static_cast<uint64_t>(image.height) *
-                            static_cast<uint64_t>(image.channels);
+  const uint64_t expected =
+      static_cast<uint64_t>(image.width) * static_cast<uint64_t>(image.height) * static_cast<uint64_t>(image.channels);
   if (image.pixels.size() != expected) {
-    throw std::invalid_argument("encode_exr: pixels holds " + std::to_string(image.pixels.size()) +
-                                " floats, but a " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-                                " image with " + std::to_string(image.channels) + " channels needs " +
-                                std::to_string(expected));
+    throw std::invalid_argument("encode_exr: pixels holds " + std::to_string(image.pixels.size()) + " floats, but a " +
+                                std::to_string(image.width) + "x" + std::to_string(image.height) + " image with " +
+                                std::to_string(image.channels) + " channels needs " + std::to_string(expected));
   }
   if (!image.channel_names.empty()) {
     if (image.channel_names.size() != static_cast<size_t>(image.channels)) {
@@ -127,8 +126,7 @@ FloatImage decode_exr(const std::string& bytes) {
                              ", an EXR file starts with 76 2f 31 01");
   }
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  std::unique_ptr<OIIO::ImageInput> in =
-      detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_exr", "EXR");
+  std::unique_ptr<OIIO::ImageInput> in = detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_exr", "EXR");
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.deep) throw std::runtime_error("decode_exr: deep EXR images are not supported; expected flat pixels");
   const uint64_t values = static_cast<uint64_t>(std::max(0, spec.width)) * std::max(0, spec.height) *

@@ -26,9 +26,9 @@ uint16_t float_to_half(float value) {
   // Below 2^-14: a half denormal m·2^-24 (m = 1024 rounds up to the smallest normal, which has the same encoding).
   // Magnitudes ≤ 2^-25 (half of the smallest denormal; a tie goes to the even 0) become ±0.
   if (ax <= 0x33000000u) return static_cast<uint16_t>(sign);
-  const uint32_t exponent = ax >> 23;                       // 102 … 112 here
-  const uint32_t mantissa = (ax & 0x7fffffu) | 0x800000u;   // with the implicit bit
-  const uint32_t shift = 126u - exponent;                   // value·2^24 = mantissa·2^(exponent−126)
+  const uint32_t exponent = ax >> 23;                      // 102 … 112 here
+  const uint32_t mantissa = (ax & 0x7fffffu) | 0x800000u;  // with the implicit bit
+  const uint32_t shift = 126u - exponent;                  // value·2^24 = mantissa·2^(exponent−126)
   uint32_t m = mantissa >> shift;
   const uint32_t rest = mantissa & ((1u << shift) - 1u);
   const uint32_t halfway = 1u << (shift - 1u);

@@ -17,10 +17,10 @@ constexpr uint64_t kHeaderBytes = 80;      // identifier, 9 UInt32 fields, the i
 constexpr uint64_t kLevelEntryBytes = 24;  // byteOffset, byteLength, uncompressedByteLength (UInt64 each)
 
 // Data Format Descriptor constants (Khronos Data Format Specification, basic descriptor block).
-constexpr uint32_t kDfVersion = 2;          // KHR_DF_VERSIONNUMBER_1_3
-constexpr uint32_t kDfModelRgbsda = 1;      // KHR_DF_MODEL_RGBSDA
-constexpr uint32_t kDfPrimariesBt709 = 1;   // KHR_DF_PRIMARIES_BT709
-constexpr uint32_t kDfTransferLinear = 1;   // KHR_DF_TRANSFER_LINEAR
+constexpr uint32_t kDfVersion = 2;            // KHR_DF_VERSIONNUMBER_1_3
+constexpr uint32_t kDfModelRgbsda = 1;        // KHR_DF_MODEL_RGBSDA
+constexpr uint32_t kDfPrimariesBt709 = 1;     // KHR_DF_PRIMARIES_BT709
+constexpr uint32_t kDfTransferLinear = 1;     // KHR_DF_TRANSFER_LINEAR
 constexpr uint32_t kDfQualifierSigned = 0x4;  // bit 30 of the sample's first word (qualifier nibble bit 2)
 constexpr uint32_t kDfQualifierFloat = 0x8;   // bit 31
 constexpr uint32_t kDfQualifierExponent = 0x2;
@@ -76,11 +76,21 @@ bool valid_utf8(const std::string& s) {
     const unsigned char c = static_cast<unsigned char>(s[i]);
     size_t n = 0;
     uint32_t cp = 0;
-    if (c < 0x80) { ++i; continue; }
-    if ((c & 0xe0) == 0xc0) { n = 1; cp = c & 0x1f; }
-    else if ((c & 0xf0) == 0xe0) { n = 2; cp = c & 0x0f; }
-    else if ((c & 0xf8) == 0xf0) { n = 3; cp = c & 0x07; }
-    else return false;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    if ((c & 0xe0) == 0xc0) {
+      n = 1;
+      cp = c & 0x1f;
+    } else if ((c & 0xf0) == 0xe0) {
+      n = 2;
+      cp = c & 0x0f;
+    } else if ((c & 0xf8) == 0xf0) {
+      n = 3;
+      cp = c & 0x07;
+    } else
+      return false;
     if (i + n >= s.size()) return false;  // the sequence runs past the end
     for (size_t k = 1; k <= n; ++k) {
       const unsigned char d = static_cast<unsigned char>(s[i + k]);
@@ -98,29 +108,25 @@ bool valid_utf8(const std::string& s) {
 std::string data_format_descriptor(const FormatInfo& f) {
   std::string d;
   append_u32(d, kDfdTotalBytes);
-  append_u32(d, 0);                                  // vendorId KHRONOS (17 bits) | descriptorType BASICFORMAT
+  append_u32(d, 0);                                   // vendorId KHRONOS (17 bits) | descriptorType BASICFORMAT
   append_u32(d, kDfVersion | (kDfBlockBytes << 16));  // versionNumber | descriptorBlockSize
   append_u32(d, kDfModelRgbsda | (kDfPrimariesBt709 << 8) | (kDfTransferLinear << 16) | (0u << 24));  // straight α
-  append_u32(d, 0);                                  // texelBlockDimension0..3: stored minus one, 1×1×1×1 block
-  append_u32(d, f.texel_bytes);                      // bytesPlane0 (one plane), bytesPlane1..3 = 0
-  append_u32(d, 0);                                  // bytesPlane4..7
+  append_u32(d, 0);              // texelBlockDimension0..3: stored minus one, 1×1×1×1 block
+  append_u32(d, f.texel_bytes);  // bytesPlane0 (one plane), bytesPlane1..3 = 0
+  append_u32(d, 0);              // bytesPlane4..7
   const uint32_t bits = f.channel_bytes * 8;
   for (uint32_t c = 0; c < kSampleCount; ++c) {
     const uint32_t channel_type = kChannelIds[c] | ((kDfQualifierFloat | kDfQualifierSigned) << 4);
     append_u32(d, (c * bits) | ((bits - 1) << 16) | (channel_type << 24));  // bitOffset | bitLength−1 | channel
-    append_u32(d, 0);                                                        // samplePosition0..3
-    append_u32(d, std::bit_cast<uint32_t>(-1.0f));                           // sampleLower
-    append_u32(d, std::bit_cast<uint32_t>(1.0f));                            // sampleUpper
+    append_u32(d, 0);                                                       // samplePosition0..3
+    append_u32(d, std::bit_cast<uint32_t>(-1.0f));                          // sampleLower
+    append_u32(d, std::bit_cast<uint32_t>(1.0f));                           // sampleUpper
   }
   return d;
 }
 
-[[noreturn]] void fail(const std::string& what) {
-  throw std::runtime_error("KTX2 file rejected: " + what);
-}
-[[noreturn]] void bad_argument(const std::string& what) {
-  throw std::invalid_argument("encode_ktx2: " + what);
-}
+[[noreturn]] void fail(const std::string& what) { throw std::runtime_error("KTX2 file rejected: " + what); }
+[[noreturn]] void bad_argument(const std::string& what) { throw std::invalid_argument("encode_ktx2: " + what); }
 
 // ---- Writing ----
 
@@ -145,8 +151,8 @@ void check_layout(const Ktx2Image& image) {
 void check_data(const Ktx2Image& image) {
   const size_t images = static_cast<size_t>(image.levels) * image.faces;
   if (image.data.size() != images)
-    bad_argument("data holds " + std::to_string(image.data.size()) + " images; levels × faces = " +
-                 std::to_string(images) + " are needed, at data[level * faces + face]");
+    bad_argument("data holds " + std::to_string(image.data.size()) +
+                 " images; levels × faces = " + std::to_string(images) + " are needed, at data[level * faces + face]");
   for (int level = 0; level < image.levels; ++level)
     for (int face = 0; face < image.faces; ++face) {
       const size_t want = static_cast<size_t>(image.level_width(level)) * image.level_height(level) * 4;
@@ -165,8 +171,8 @@ std::map<std::string, std::string> key_values_to_write(const Ktx2Image& image) {
   for (const auto& [key, value] : kv) {
     if (key.empty()) bad_argument("a key/value entry has an empty key");
     if (const size_t nul = key.find('\0'); nul != std::string::npos)
-      bad_argument("the key starting \"" + key.substr(0, nul) + "\" has a NUL byte at position " +
-                   std::to_string(nul) + "; KTX2 keys end at their first NUL, so they cannot contain one");
+      bad_argument("the key starting \"" + key.substr(0, nul) + "\" has a NUL byte at position " + std::to_string(nul) +
+                   "; KTX2 keys end at their first NUL, so they cannot contain one");
     if (!valid_utf8(key)) bad_argument("key \"" + key + "\" is not valid UTF-8");
     if (key.rfind("\xEF\xBB\xBF", 0) == 0) bad_argument("key \"" + key + "\" starts with a byte-order mark");
   }
@@ -240,8 +246,9 @@ struct Header {
 Header read_header(const std::string& bytes) {
   const uint64_t size = bytes.size();
   if (size < sizeof kIdentifier || std::memcmp(bytes.data(), kIdentifier, sizeof kIdentifier) != 0)
-    fail("it does not start with the KTX 2.0 identifier «KTX 20»\\r\\n\\x1A\\n (not a KTX2 file, or damaged in "
-         "transfer)");
+    fail(
+        "it does not start with the KTX 2.0 identifier «KTX 20»\\r\\n\\x1A\\n (not a KTX2 file, or damaged in "
+        "transfer)");
   if (size < kHeaderBytes)
     fail("truncated: " + std::to_string(size) + " bytes, the header alone needs " + std::to_string(kHeaderBytes));
   Header h;
@@ -258,7 +265,8 @@ Header read_header(const std::string& bytes) {
 Ktx2Image::Format format_of(const Header& h) {
   if (h.vk_format == kVkFormatR16G16B16A16Sfloat) return Ktx2Image::rgba16f;
   if (h.vk_format == kVkFormatR32G32B32A32Sfloat) return Ktx2Image::rgba32f;
-  fail("vkFormat is " + std::to_string(h.vk_format) + "; kiln reads only 97 (R16G16B16A16_SFLOAT) and 109 "
+  fail("vkFormat is " + std::to_string(h.vk_format) +
+       "; kiln reads only 97 (R16G16B16A16_SFLOAT) and 109 "
        "(R32G32B32A32_SFLOAT)");
 }
 
@@ -329,15 +337,14 @@ void check_descriptor_block(const std::string& bytes, uint64_t b, const FormatIn
     if ((s & 0xffffu) != c * bits || ((s >> 16) & 0xffu) != bits - 1 || channel != kChannelIds[c] ||
         (qualifiers & (kDfQualifierFloat | kDfQualifierSigned | kDfQualifierExponent)) !=
             (kDfQualifierFloat | kDfQualifierSigned))
-      fail("Data Format Descriptor sample " + std::to_string(c) + " is not the signed float " +
-           std::to_string(bits) + "-bit channel " + "RGBA"[c] + " at bit " + std::to_string(c * bits) +
-           " that vkFormat " + std::to_string(vk_format) + " needs");
+      fail("Data Format Descriptor sample " + std::to_string(c) + " is not the signed float " + std::to_string(bits) +
+           "-bit channel " + "RGBA"[c] + " at bit " + std::to_string(c * bits) + " that vkFormat " +
+           std::to_string(vk_format) + " needs");
   }
 }
 
 // The Data Format Descriptor: its range, its size and its block.
-void check_data_format_descriptor(const std::string& bytes, const Header& h, const FormatInfo& f,
-                                  uint64_t index_end) {
+void check_data_format_descriptor(const std::string& bytes, const Header& h, const FormatInfo& f, uint64_t index_end) {
   const uint64_t size = bytes.size();
   if (h.dfd_at < index_end || h.dfd_at % 4 != 0 || h.dfd_length > size || h.dfd_at > size - h.dfd_length)
     fail("the Data Format Descriptor (offset " + std::to_string(h.dfd_at) + ", " + std::to_string(h.dfd_length) +
@@ -397,8 +404,8 @@ void read_level(const std::string& bytes, const FormatInfo& f, int level, uint64
          std::to_string(f.level_alignment) + " as the specification requires for this format");
   if (offset < metadata_end || offset > size || length > size - offset)
     fail(which + "(bytes " + std::to_string(offset) + " to " + std::to_string(offset + length) +
-         ") lies outside the image data area (bytes " + std::to_string(metadata_end) + " to " +
-         std::to_string(size) + ")");
+         ") lies outside the image data area (bytes " + std::to_string(metadata_end) + " to " + std::to_string(size) +
+         ")");
   for (int face = 0; face < image.faces; ++face) {
     std::vector<float>& pixels = image.image(level, face);
     pixels.resize(w * h * 4);
@@ -458,8 +465,7 @@ Ktx2Image decode_ktx2(const std::string& bytes) {
     const uint64_t size = bytes.size();
     if (h.kvd_at < index_end || h.kvd_at % 4 != 0 || h.kvd_length > size || h.kvd_at > size - h.kvd_length)
       fail("the key/value data (offset " + std::to_string(h.kvd_at) + ", " + std::to_string(h.kvd_length) +
-           " bytes) are not a 4-aligned range after the level index inside the " + std::to_string(size) +
-           "-byte file");
+           " bytes) are not a 4-aligned range after the level index inside the " + std::to_string(size) + "-byte file");
     metadata_end = std::max(metadata_end, h.kvd_at + h.kvd_length);
     read_key_values(bytes, h.kvd_at, h.kvd_at + h.kvd_length, image);
   }

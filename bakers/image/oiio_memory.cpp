@@ -38,8 +38,8 @@ std::unique_ptr<OIIO::ImageInput> open_or_throw(const char* virtual_name, OIIO::
                                                 size_t bytes, const std::string& codec, const std::string& format) {
   std::unique_ptr<OIIO::ImageInput> in = open_from_memory(virtual_name, proxy);
   if (!in) {
-    throw std::runtime_error(codec + ": could not read the header of the " + std::to_string(bytes) + "-byte " +
-                             format + " image (truncated or corrupt?): " + OIIO::geterror());
+    throw std::runtime_error(codec + ": could not read the header of the " + std::to_string(bytes) + "-byte " + format +
+                             " image (truncated or corrupt?): " + OIIO::geterror());
   }
   return in;
 }
@@ -58,8 +58,8 @@ void read_pixels(OIIO::ImageInput& in, OIIO::TypeDesc pixel_type, void* pixels, 
   const OIIO::ImageSpec& spec = in.spec();
   if (!in.read_image(0, 0, 0, spec.nchannels, pixel_type, pixels)) {
     throw std::runtime_error(codec + ": could not read the pixels of the " + std::to_string(spec.width) + "x" +
-                             std::to_string(spec.height) + " " + format + " image (truncated or corrupt?): " +
-                             in.geterror());
+                             std::to_string(spec.height) + " " + format +
+                             " image (truncated or corrupt?): " + in.geterror());
   }
 }
 

@@ -32,8 +32,8 @@ void check_image(const Png8Image& image) {
                                 std::to_string(image.width) + "x" + std::to_string(image.height) + "x" +
                                 std::to_string(image.channels));
   }
-  const uint64_t expected = static_cast<uint64_t>(image.width) * static_cast<uint64_t>(image.height) *
-                            static_cast<uint64_t>(image.channels);
+  const uint64_t expected =
+      static_cast<uint64_t>(image.width) * static_cast<uint64_t>(image.height) * static_cast<uint64_t>(image.channels);
   if (image.pixels.size() != expected) {
     throw std::invalid_argument("encode_png: pixels holds " + std::to_string(image.pixels.size()) + " bytes, but a " +
                                 std::to_string(image.width) + "x" + std::to_string(image.height) + " image with " +
@@ -70,11 +70,10 @@ Png8Image decode_png(const std::string& bytes) {
                              " bytes are not a PNG image (a PNG file starts with 89 50 4e 47 0d 0a 1a 0a)");
   }
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  std::unique_ptr<OIIO::ImageInput> in =
-      detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_png", "PNG");
+  std::unique_ptr<OIIO::ImageInput> in = detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_png", "PNG");
   const OIIO::ImageSpec& spec = in->spec();
-  const uint64_t values = static_cast<uint64_t>(std::max(0, spec.width)) * std::max(0, spec.height) *
-                          std::max(0, spec.nchannels);
+  const uint64_t values =
+      static_cast<uint64_t>(std::max(0, spec.width)) * std::max(0, spec.height) * std::max(0, spec.nchannels);
   detail::check_decoded_values(spec, values, kMaxDecodedValues, "decode_png");
   Png8Image image;
   image.width = spec.width;

@@ -29,7 +29,8 @@ struct Png8Image {
 std::string encode_png(const Png8Image& image);
 
 // Reads a PNG file from memory as 8-bit channels (16-bit files are rounded to 8 bits), with its text chunks in
-// `metadata` (by their PNG keywords, "Description" included). Throws std::runtime_error with a message for people when the bytes are not a readable PNG image.
+// `metadata` (by their PNG keywords, "Description" included). Throws std::runtime_error with a message for people when
+// the bytes are not a readable PNG image.
 Png8Image decode_png(const std::string& bytes);
 
 }  // namespace kiln::image

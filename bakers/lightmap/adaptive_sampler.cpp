@@ -249,8 +249,8 @@ struct SharedCounts {
     dropped.fetch_add(c.dropped, std::memory_order_relaxed);
   }
   PassCounts total() const {
-    return {rays.load(), occlusion_rays.load(), paths.load(), general_vertices.load(), dropped.load(),
-            out_of_time.load()};
+    return {rays.load(),    occlusion_rays.load(), paths.load(), general_vertices.load(),
+            dropped.load(), out_of_time.load()};
   }
 };
 

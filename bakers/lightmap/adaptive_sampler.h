@@ -20,8 +20,8 @@
 namespace kiln::lightmap {
 
 struct SamplingOptions {
-  double target_error = 0.01;  // relative standard error per texel, (0, 1]
-  uint64_t min_samples = 16;   // per texel before any texel may stop
+  double target_error = 0.01;   // relative standard error per texel, (0, 1]
+  uint64_t min_samples = 16;    // per texel before any texel may stop
   uint64_t max_samples = 4096;  // per texel, counting dropped estimates
   uint64_t seed = 1;
   bool directional = false;  // accumulate the SH sums too

@@ -21,7 +21,7 @@ size_t dilate(image::FloatImage& image, const std::vector<uint8_t>& valid, int p
 
   size_t filled = 0;
   std::vector<double> sum(channels);
-  std::vector<size_t> fresh;      // texels of the current ring
+  std::vector<size_t> fresh;        // texels of the current ring
   std::vector<float> fresh_values;  // their values, written once the ring is complete
   for (int r = 1; r <= padding; ++r) {
     fresh.clear();

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <utility>
 
-#include "bakers/math/constants.h"
 #include "bakers/lightmap/ray_log.h"
+#include "bakers/math/constants.h"
 #include "bakers/math/sampling.h"
 #include "bakers/scene/emissive_triangles.h"
 #include "bakers/scene/light_sampler.h"
@@ -153,8 +153,8 @@ struct Walk {
     const Rgb fc = f_cos(s.wi);
     if (!(fc.max() > 0)) return Rgb{};
     // On ng's side (tested above): the rays leave from the front.
-    const scene::Ray ray = std::isfinite(s.distance) ? scene::spawn_ray_to_front(from, s.point)
-                                                     : scene::spawn_ray_front(from, s.wi);
+    const scene::Ray ray =
+        std::isfinite(s.distance) ? scene::spawn_ray_to_front(from, s.point) : scene::spawn_ray_front(from, s.wi);
     if (!visible(ray)) return Rgb{};
     double weight;
     if (s.delta) {
@@ -275,8 +275,8 @@ std::vector<ShadingMaterial> shading_materials(const scene::Scene& scene, const 
     brdf::ModelSpec& s = spec.specular;
     if (a && !a->glossy && a->specular_albedo > 0) {
       // Pruned by the plan: a Lambertian lobe reflecting the lobe's average albedo Ē_s (w_s stays in the weights).
-      const double e = spec.combine == brdf::Combine::weights ? a->specular_albedo / spec.specular_weight
-                                                                : a->specular_albedo;
+      const double e =
+          spec.combine == brdf::Combine::weights ? a->specular_albedo / spec.specular_weight : a->specular_albedo;
       s = brdf::ModelSpec{};
       s.model = brdf::Model::lambert;
       s.albedo = Rgb{std::clamp(e, 0.0, 1.0)};
@@ -335,7 +335,7 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
       scene::Hit records[2];
       HitRecords() {}
     } slots;
-    scene::Hit (&records)[2] = slots.records;
+    scene::Hit(&records)[2] = slots.records;
     scene::Hit& hit = records[0];
     const bool found = walk.trace(ray, hit);
     Rgb L;
@@ -348,8 +348,8 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
     E += L * kPi;  // L cos θ / pdf with pdf = cos θ / π
     if (ctx.directional) add_sh(out.sh, wi, L / pdf);
   }
-  if (!finite(E) || (ctx.directional && (!finite(out.sh[0]) || !finite(out.sh[1]) || !finite(out.sh[2]) ||
-                                          !finite(out.sh[3])))) {
+  if (!finite(E) ||
+      (ctx.directional && (!finite(out.sh[0]) || !finite(out.sh[1]) || !finite(out.sh[2]) || !finite(out.sh[3])))) {
     // Never let one bad sample poison a texel: drop it whole, and say so (the report counts them).
     const uint32_t rays = out.rays, occlusion_rays = out.occlusion_rays;
     out = IrradianceEstimate{};

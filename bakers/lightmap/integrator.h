@@ -42,7 +42,7 @@ struct ShadingMaterial {
   std::optional<brdf::LambertianForm> lambertian;
   std::unique_ptr<brdf::Material> bsdf;  // the general material, when `lambertian` is not set
   Rgb base_color{1.0};
-  int texture = -1;    // into Scene::textures, or -1 (also when the plan does not sample textures)
+  int texture = -1;          // into Scene::textures, or -1 (also when the plan does not sample textures)
   Rgb texture_average{1.0};  // used instead of the texture when the plan says so
   Rgb emission{0.0};
   bool emissive = false;  // emission.max() > 0, tested at every hit
@@ -59,8 +59,8 @@ struct TransportContext {
   const scene::SceneLights* lights = nullptr;  // built with the plan's light-sampling decisions
   const plan::LightmapPlan* plan = nullptr;
   const std::vector<ShadingMaterial>* materials = nullptr;
-  double ao_distance = 0;  // > 0: a cosine ray that travels this far counts as unoccluded
-  bool directional = false;  // estimate the SH of incoming radiance too (IrradianceEstimate::sh; else left zero)
+  double ao_distance = 0;     // > 0: a cosine ray that travels this far counts as unoccluded
+  bool directional = false;   // estimate the SH of incoming radiance too (IrradianceEstimate::sh; else left zero)
   RayLog* ray_log = nullptr;  // benchmarks only (ray_log.h): receives every ray traced
   // Filled by prepare_context():
   std::vector<int> analytic_lights;  // indices into `lights` of rect and disk lights (not scene geometry)
@@ -81,14 +81,14 @@ struct Receiver {
 };
 
 struct IrradianceEstimate {
-  Rgb E;                        // irradiance, W/m²
-  Rgb sh[4];                    // order-1 SH of incoming radiance: Y00, Y1-1, Y10, Y11 (real, orthonormal), when
-                                // the context asks for it
-  double ao = 0;                // 1 if the cosine ray escaped ao_distance, else 0
+  Rgb E;          // irradiance, W/m²
+  Rgb sh[4];      // order-1 SH of incoming radiance: Y00, Y1-1, Y10, Y11 (real, orthonormal), when
+                  // the context asks for it
+  double ao = 0;  // 1 if the cosine ray escaped ao_distance, else 0
   uint32_t rays = 0;
-  uint32_t occlusion_rays = 0;  // of `rays`, the shadow (any-hit) queries; the others are closest-hit
+  uint32_t occlusion_rays = 0;    // of `rays`, the shadow (any-hit) queries; the others are closest-hit
   uint32_t general_vertices = 0;  // path vertices shaded through the general BSDF (not in closed Lambertian form)
-  bool dropped = false;         // a non-finite contribution was discarded
+  bool dropped = false;           // a non-finite contribution was discarded
 };
 
 // One sample of every estimate at `r`, with `rng` supplying the random numbers.

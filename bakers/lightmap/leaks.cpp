@@ -17,8 +17,7 @@ namespace {
 
 void check(const LeakOptions& o) {
   const auto fail = [](const std::string& field, const std::string& want, double got) {
-    throw std::invalid_argument("leak handling: " + field + " must be " + want + ", got " +
-                                bake::format_number(got));
+    throw std::invalid_argument("leak handling: " + field + " must be " + want + ", got " + bake::format_number(got));
   };
   if (o.rings < 1 || o.rings > 64) fail("rings", "in [1, 64]", o.rings);
   if (o.sectors < 1 || o.sectors > 64) fail("sectors", "in [1, 64]", o.sectors);
@@ -103,8 +102,8 @@ LeakResult resolve(const TexelSample& sample, const RayQuery& rays, const LeakOp
   for (int a = 0; a < attempts; ++a) {
     const BackHit& h = first.back_hits[a];
     const Vec3 candidate = h.point + h.front_normal * (options.push_texels * s);
-    const Probe there = probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, directions, 0.0,
-                              result.rays);
+    const Probe there =
+        probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, directions, 0.0, result.rays);
     if (there.backface_fraction <= options.max_backface_fraction) {
       result.verdict = LeakVerdict::moved;
       result.position = candidate;
@@ -136,7 +135,8 @@ LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOpt
   for (size_t j = 0; j < n; ++j) {
     report.rays += results[j].rays;
     switch (results[j].verdict) {
-      case LeakVerdict::clear: break;
+      case LeakVerdict::clear:
+        break;
       case LeakVerdict::moved:
         texels.samples[j].position = results[j].position;
         ++report.moved;

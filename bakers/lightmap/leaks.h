@@ -16,10 +16,10 @@
 //     (n_f the face's front normal, on the side the ray came out). The first candidate whose own probe is clear is
 //     the new position (moved); if none is, the sample is invalid, and a texel left without samples is invalid.
 // The origin p + ε n is lifted by ε = max(the sample's ray_offset, origin_offset_texels · s) and rounded to float
-// without giving any of it back (scene::offset_ray_origin): the first bounds the float tracer's error at this triangle, the
-// second keeps a margin of a texel's fraction; both scale with the scene.
-// Unity's progressive lightmapper applies the same test (its "backface tolerance", default 90 % front faces) to all
-// of a texel's rays; max_backface_fraction = 0.1 matches it.
+// without giving any of it back (scene::offset_ray_origin): the first bounds the float tracer's error at this triangle,
+// the second keeps a margin of a texel's fraction; both scale with the scene. Unity's progressive lightmapper applies
+// the same test (its "backface tolerance", default 90 % front faces) to all of a texel's rays; max_backface_fraction =
+// 0.1 matches it.
 //
 // The moved point keeps its normals, barycentrics and weight: it still stands for the same part of the texel.
 #pragma once
@@ -35,10 +35,10 @@
 namespace kiln::lightmap {
 
 struct HitInfo {
-  double t = 0;             // distance along the unit direction
-  bool front_face = true;   // the ray met the side the front normal points to; two-sided surfaces: always true
-  Vec3 geometric_normal;    // unit, the front side's normal of the surface hit (whichever side the ray met); only
-                            // back-face hits need it (front-face hits may leave it zero)
+  double t = 0;            // distance along the unit direction
+  bool front_face = true;  // the ray met the side the front normal points to; two-sided surfaces: always true
+  Vec3 geometric_normal;   // unit, the front side's normal of the surface hit (whichever side the ray met); only
+                           // back-face hits need it (front-face hits may leave it zero)
 };
 
 // The one thing leak handling needs from a ray tracer (the Embree tracer adapts to it).
@@ -51,30 +51,30 @@ class RayQuery {
 };
 
 struct LeakOptions {
-  int rings = 4;    // polar strata; rings × sectors rays per probe, [1, 64] each
-  int sectors = 8;  // azimuthal strata
+  int rings = 4;                       // polar strata; rings × sectors rays per probe, [1, 64] each
+  int sectors = 8;                     // azimuthal strata
   double max_backface_fraction = 0.1;  // [0, 1)
   double probe_distance_texels = std::numeric_limits<double>::infinity();  // > 0
-  double move_distance_texels = 2.0;   // ≥ 0; 0 never moves, only invalidates
-  double push_texels = 0.01;           // > 0
-  double origin_offset_texels = 1e-4;  // ≥ 0
-  int max_move_attempts = 4;           // ≥ 0
+  double move_distance_texels = 2.0;                                       // ≥ 0; 0 never moves, only invalidates
+  double push_texels = 0.01;                                               // > 0
+  double origin_offset_texels = 1e-4;                                      // ≥ 0
+  int max_move_attempts = 4;                                               // ≥ 0
 };
 
 enum class LeakVerdict : uint8_t { clear, moved, invalid };
 
 struct LeakResult {
   LeakVerdict verdict = LeakVerdict::clear;
-  Vec3 position;                   // where the sample is now (unchanged when clear; meaningless when invalid)
-  double backface_fraction = 0;    // of the probe at the original position
-  uint32_t rays = 0;               // traced for this sample (probes of the candidates included)
+  Vec3 position;                 // where the sample is now (unchanged when clear; meaningless when invalid)
+  double backface_fraction = 0;  // of the probe at the original position
+  uint32_t rays = 0;             // traced for this sample (probes of the candidates included)
 };
 
 // The rule above for one sample. Throws std::invalid_argument for options out of range (naming the field).
 LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const LeakOptions& options);
 
 struct LeakReport {
-  size_t samples = 0;             // checked
+  size_t samples = 0;  // checked
   size_t moved = 0;
   size_t invalidated = 0;         // samples dropped
   size_t texels_invalidated = 0;  // valid texels left without samples

@@ -200,8 +200,10 @@ void rasterize_texels(LightmapBakeRun& run) {
     run.check_cancel();
   }
   if (run.maps.empty()) {
-    throw bake::InvalidInput("", "nothing to bake: no instance has a lightmap (meshes need lightmap UVs, TEXCOORD_1 "
-                                 "or TEXCOORD_0, and instances with bake set); " + run.checked.report.summary());
+    throw bake::InvalidInput("",
+                             "nothing to bake: no instance has a lightmap (meshes need lightmap UVs, TEXCOORD_1 "
+                             "or TEXCOORD_0, and instances with bake set); " +
+                                 run.checked.report.summary());
   }
   run.progress(0.05, "texels", -1);
 }
@@ -216,8 +218,8 @@ SamplingOptions sampling_options(const LightmapBakeRun& run) {
   o.seed = run.in.seed;
   o.directional = run.in.directional;
   if (run.in.time_limit_seconds > 0) {
-    o.deadline = run.t0 + std::chrono::duration_cast<Clock::duration>(
-                              std::chrono::duration<double>(run.in.time_limit_seconds));
+    o.deadline =
+        run.t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(run.in.time_limit_seconds));
   }
   return o;
 }
@@ -225,9 +227,8 @@ SamplingOptions sampling_options(const LightmapBakeRun& run) {
 // After a pass: the error over every valid texel of every lightmap, a point of the curve and the progress.
 void record_pass(LightmapBakeRun& run, uint64_t pass) {
   std::vector<LightmapImage::ErrorSummary> summaries(run.maps.size());
-  tbb::parallel_for(size_t{0}, run.maps.size(), [&](size_t mi) {
-    summaries[mi] = run.maps[mi].image.error_summary(run.in.target_error);
-  });
+  tbb::parallel_for(size_t{0}, run.maps.size(),
+                    [&](size_t mi) { summaries[mi] = run.maps[mi].image.error_summary(run.in.target_error); });
   double sum_sq = 0;
   size_t estimated = 0, above = 0, valid = 0;
   for (const LightmapImage::ErrorSummary& e : summaries) {

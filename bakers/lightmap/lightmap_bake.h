@@ -43,20 +43,20 @@ struct LightmapBakeInput {
   // environment is filled from `environment_image` when that is not empty.
   scene::Scene scene;
   std::vector<EncodedTexture> textures;
-  std::string environment_image;           // an encoded equirectangular image, or empty
+  std::string environment_image;  // an encoded equirectangular image, or empty
   envmap::EnvDecodeOptions environment_decode;
 
   int resolution = 256;                    // texels on a side of every lightmap, [4, 8192]
   std::map<std::string, int> resolutions;  // per lightmap name, overriding `resolution`
   int padding = 4;                         // texels of dilation, [0, 64]
 
-  double target_error = 0.01;              // relative standard error per texel the adaptive sampling aims at
-  uint64_t min_samples = 16;               // per texel before any texel may stop, [1, max_samples]
-  uint64_t max_samples = 4096;             // per texel, [1, 1 << 20]
-  double time_limit_seconds = 0;           // stop after this long (texels not yet reached keep what they have); 0: none
-  uint64_t seed = 1;                       // the same input and seed give the same bytes
+  double target_error = 0.01;     // relative standard error per texel the adaptive sampling aims at
+  uint64_t min_samples = 16;      // per texel before any texel may stop, [1, max_samples]
+  uint64_t max_samples = 4096;    // per texel, [1, 1 << 20]
+  double time_limit_seconds = 0;  // stop after this long (texels not yet reached keep what they have); 0: none
+  uint64_t seed = 1;              // the same input and seed give the same bytes
 
-  int max_bounces = 64;                    // cap on the planner's bounce count, [0, 1024]
+  int max_bounces = 64;  // cap on the planner's bounce count, [0, 1024]
   std::map<std::string, bool> force_effects;
   // Ignore the planner: simulate every effect the scene has with max_bounces bounces (plan::full_plan). The
   // reference the planner's equivalence tests and benchmarks compare against; force_effects must then be empty.
@@ -84,13 +84,13 @@ struct LightmapBakeResult {
   std::vector<plan::Decision> plan;
   std::vector<ErrorPoint> curve;
   uint64_t samples = 0, rays = 0;
-  uint64_t occlusion_rays = 0;    // of `rays`, the shadow (any-hit) queries; the others are closest-hit
-  uint64_t probe_rays = 0;        // of the closest-hit ones, the leak probes' (leaks.h), traced before the passes
+  uint64_t occlusion_rays = 0;  // of `rays`, the shadow (any-hit) queries; the others are closest-hit
+  uint64_t probe_rays = 0;      // of the closest-hit ones, the leak probes' (leaks.h), traced before the passes
   // Path vertices shaded through the general BSDF (a glossy or otherwise non-Lambertian material); the others are
   // shaded in closed Lambertian form (integrator.h), which is what pruning a glossy lobe buys.
   uint64_t general_vertices = 0;
   double seconds = 0;
-  double error_estimate = 0;      // the last point of the curve
+  double error_estimate = 0;         // the last point of the curve
   std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people
 };
 

@@ -36,10 +36,9 @@ image::FloatImage blank(const LightmapImage& lm, int channels, std::vector<std::
 
 LightmapImage::LightmapImage(std::string name, int width, int height, std::vector<uint8_t> validity)
     : name_(std::move(name)), width_(width), height_(height), validity_(std::move(validity)) {
-  if (width < 1 || height < 1 ||
-      validity_.size() != static_cast<size_t>(width) * static_cast<size_t>(height)) {
-    throw std::invalid_argument("lightmap '" + name_ + "': a " + std::to_string(width) + "x" +
-                                std::to_string(height) + " image needs a validity map of that many texels, got " +
+  if (width < 1 || height < 1 || validity_.size() != static_cast<size_t>(width) * static_cast<size_t>(height)) {
+    throw std::invalid_argument("lightmap '" + name_ + "': a " + std::to_string(width) + "x" + std::to_string(height) +
+                                " image needs a validity map of that many texels, got " +
                                 std::to_string(validity_.size()));
   }
   sum_.assign(validity_.size(), Rgb{});
@@ -70,9 +69,7 @@ void LightmapImage::merge(size_t texel, const Rgb& sum, double sum_y2, uint32_t 
   count_[texel] += count;
 }
 
-Rgb LightmapImage::mean(size_t texel) const {
-  return count_[texel] > 0 ? sum_[texel] / count_[texel] : Rgb{};
-}
+Rgb LightmapImage::mean(size_t texel) const { return count_[texel] > 0 ? sum_[texel] / count_[texel] : Rgb{}; }
 
 double LightmapImage::relative_error(size_t texel, double floor) const {
   if (!valid(texel)) return 0;

@@ -57,12 +57,12 @@ class LightmapImage {
   double relative_error(size_t texel, double floor = 0) const;
 
   struct ErrorSummary {
-    size_t valid = 0;        // valid texels
-    size_t estimated = 0;    // valid texels with ≥ 2 estimates (the others have no error estimate)
-    double rms = 0;          // root mean square of their relative errors
-    double max = 0;          // the largest
-    size_t above_target = 0; // how many are above `target` (plus the valid ones without an estimate)
-    uint64_t estimates = 0;  // estimates added over all texels
+    size_t valid = 0;         // valid texels
+    size_t estimated = 0;     // valid texels with ≥ 2 estimates (the others have no error estimate)
+    double rms = 0;           // root mean square of their relative errors
+    double max = 0;           // the largest
+    size_t above_target = 0;  // how many are above `target` (plus the valid ones without an estimate)
+    uint64_t estimates = 0;   // estimates added over all texels
   };
   ErrorSummary error_summary(double target, double floor = 0) const;
 

@@ -156,8 +156,8 @@ ShError sh_error(const LightmapState& m) {
 bake::BakeOutput sh_output(const LightmapState& m, const ShError& error, const std::string& color_space) {
   const LightmapImage& img = m.image;
   image::FloatImage sh = texel_image(
-      img, 12, {"L00.R", "L00.G", "L00.B", "L1m1.R", "L1m1.G", "L1m1.B", "L10.R", "L10.G", "L10.B", "L11.R",
-                "L11.G", "L11.B"},
+      img, 12,
+      {"L00.R", "L00.G", "L00.B", "L1m1.R", "L1m1.G", "L1m1.B", "L10.R", "L10.G", "L10.B", "L11.R", "L11.G", "L11.B"},
       [&](size_t t, float* px) {
         const double n = img.count(t);
         for (int c = 0; c < 4; ++c) {

@@ -25,8 +25,8 @@ LightmapState make_lightmap_state(std::string name, LightmapTexels texels, const
                                   bool directional) {
   std::vector<uint8_t> validity = texels.validity();
   const int width = texels.width, height = texels.height;
-  LightmapState m{name, std::move(texels), {}, LightmapImage(name, width, height, std::move(validity)), leaks,
-                  {},   {},               {}, {}};
+  LightmapState m{
+      name, std::move(texels), {}, LightmapImage(name, width, height, std::move(validity)), leaks, {}, {}, {}, {}};
   m.attempts.assign(m.texels.texel_count(), 0);
   m.receivers.reserve(m.texels.samples.size());
   for (const TexelSample& t : m.texels.samples) m.receivers.push_back(receiver(t));
@@ -43,8 +43,7 @@ BakeStateBytes lightmap_state_bytes(bool ao, bool directional) {
   b.per_texel = element_bytes<decltype(LightmapState::attempts)>();
   if (ao) b.per_texel += element_bytes<decltype(LightmapState::ao_sum)>();
   if (directional) {
-    b.per_texel +=
-        element_bytes<decltype(LightmapState::sh_sum)>() + element_bytes<decltype(LightmapState::sh_y2)>();
+    b.per_texel += element_bytes<decltype(LightmapState::sh_sum)>() + element_bytes<decltype(LightmapState::sh_y2)>();
   }
   b.per_sample = element_bytes<decltype(LightmapState::receivers)>();
   return b;

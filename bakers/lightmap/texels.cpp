@@ -110,9 +110,9 @@ struct NormalTransform {
 
 // What the samples of one triangle share, computed once per triangle.
 struct WorldTriangle {
-  std::array<Vec3, 3> p;   // world positions
-  Vec3 ng;                 // unit front normal
-  std::array<Vec3, 3> n;   // unit vertex normals (world), when normals_ok
+  std::array<Vec3, 3> p;  // world positions
+  Vec3 ng;                // unit front normal
+  std::array<Vec3, 3> n;  // unit vertex normals (world), when normals_ok
   TriangleRef ref;
   float texel_size = 0;
   float ray_offset = 0;
@@ -153,9 +153,9 @@ struct InstanceJob {
   size_t first_triangle = 0;  // position of its first triangle in the global sequence
   size_t triangles = 0;
   NormalTransform normal_transform{scene::Transform{}};
-  bool normals_usable = false;  // one normal per position
+  bool normals_usable = false;                     // one normal per position
   std::array<double, 4> scale_offset{1, 1, 0, 0};  // Instance::lightmap_scale_offset
-  const std::vector<uint8_t>* mask = nullptr;       // RasterOptions::bake_mask for this mesh, if any
+  const std::vector<uint8_t>* mask = nullptr;      // RasterOptions::bake_mask for this mesh, if any
 };
 
 struct BlockResult {
@@ -259,8 +259,8 @@ class Rasterizer {
  private:
   // The vertex indices, texel-space UVs and world positions; false (and noted) when an index is out of range or a
   // value is not finite.
-  bool vertices(const InstanceJob& job, WorldTriangle& world, std::array<uint32_t, 3>& idx,
-                std::array<Point2, 3>& uv, RasterReport& report) const {
+  bool vertices(const InstanceJob& job, WorldTriangle& world, std::array<uint32_t, 3>& idx, std::array<Point2, 3>& uv,
+                RasterReport& report) const {
     const scene::Mesh& mesh = scene_.meshes[job.mesh];
     const scene::Transform& to_world = scene_.instances[job.instance].to_world;
     const uint32_t t = world.ref.triangle;
@@ -296,8 +296,7 @@ class Rasterizer {
     if (!is_finite(world.ng)) return false;
     // Both areas are positive and finite here; the ratio can still overflow a float for absurd UV layouts.
     const double texel_size = std::sqrt(twice_world_area / std::fabs(d));
-    world.texel_size =
-        static_cast<float>(std::min(texel_size, static_cast<double>(std::numeric_limits<float>::max())));
+    world.texel_size = static_cast<float>(std::min(texel_size, static_cast<double>(std::numeric_limits<float>::max())));
     // The tracer's bound for this triangle as it holds it (world vertices rounded to float once). Any point of the
     // triangle has coordinates no larger than its vertices', so one value serves all its samples.
     const auto to_float = [](const Vec3& v) {
@@ -399,8 +398,8 @@ void check_options(const RasterOptions& o) {
 
 // The instances of lightmap `name`, and their triangles as one global sequence of `total`; instances that cannot
 // bake at all are noted in the report.
-std::vector<InstanceJob> instance_jobs(const scene::Scene& scene, const std::string& name,
-                                       const RasterOptions& options, RasterReport& report, size_t& total) {
+std::vector<InstanceJob> instance_jobs(const scene::Scene& scene, const std::string& name, const RasterOptions& options,
+                                       RasterReport& report, size_t& total) {
   std::vector<InstanceJob> jobs;
   total = 0;
   for (size_t i = 0; i < scene.instances.size(); ++i) {
@@ -425,8 +424,7 @@ std::vector<InstanceJob> instance_jobs(const scene::Scene& scene, const std::str
     }
     if (mesh.indices.size() % 3 != 0) {
       // The trailing indices form no triangle; the whole ones still bake.
-      note_skip(report, {whole.instance, whole.mesh, static_cast<uint32_t>(triangles)},
-                SkipReason::index_out_of_range);
+      note_skip(report, {whole.instance, whole.mesh, static_cast<uint32_t>(triangles)}, SkipReason::index_out_of_range);
     }
     InstanceJob job;
     job.instance = static_cast<uint32_t>(i);
@@ -456,10 +454,10 @@ std::vector<BlockResult> rasterize_blocks(const Rasterizer& rasterizer, const st
     const size_t begin = block * kBlock, end = std::min(total, begin + kBlock);
     BlockResult& result = results[block];
     // The instance holding `begin`, then walk forward.
-    size_t j = static_cast<size_t>(
-        std::upper_bound(jobs.begin(), jobs.end(), begin,
-                         [](size_t g, const InstanceJob& job) { return g < job.first_triangle; }) -
-        jobs.begin() - 1);
+    size_t j =
+        static_cast<size_t>(std::upper_bound(jobs.begin(), jobs.end(), begin,
+                                             [](size_t g, const InstanceJob& job) { return g < job.first_triangle; }) -
+                            jobs.begin() - 1);
     for (size_t g = begin; g < end; ++g) {
       while (g >= jobs[j].first_triangle + jobs[j].triangles) ++j;
       rasterizer.triangle(jobs[j], static_cast<uint32_t>(g - jobs[j].first_triangle), result);
@@ -517,12 +515,18 @@ size_t overlapping_texels(const LightmapTexels& texels) {
 
 const char* to_string(SkipReason reason) {
   switch (reason) {
-    case SkipReason::no_mesh: return "the instance's mesh index does not exist";
-    case SkipReason::no_lightmap_uv: return "the mesh has no lightmap UVs (or not one per vertex)";
-    case SkipReason::index_out_of_range: return "a vertex index is out of range";
-    case SkipReason::non_finite_vertex: return "a position or lightmap UV is NaN or infinite";
-    case SkipReason::degenerate_uv: return "zero area in lightmap UV space";
-    case SkipReason::degenerate_world: return "zero area in world space";
+    case SkipReason::no_mesh:
+      return "the instance's mesh index does not exist";
+    case SkipReason::no_lightmap_uv:
+      return "the mesh has no lightmap UVs (or not one per vertex)";
+    case SkipReason::index_out_of_range:
+      return "a vertex index is out of range";
+    case SkipReason::non_finite_vertex:
+      return "a position or lightmap UV is NaN or infinite";
+    case SkipReason::degenerate_uv:
+      return "zero area in lightmap UV space";
+    case SkipReason::degenerate_world:
+      return "zero area in world space";
   }
   return "unknown";
 }
@@ -547,8 +551,8 @@ size_t LightmapTexels::valid_count() const {
 
 void LightmapTexels::retain(const std::vector<uint8_t>& keep) {
   if (keep.size() != samples.size()) {
-    throw std::invalid_argument("LightmapTexels::retain: keep has " + std::to_string(keep.size()) +
-                                " entries for " + std::to_string(samples.size()) + " samples");
+    throw std::invalid_argument("LightmapTexels::retain: keep has " + std::to_string(keep.size()) + " entries for " +
+                                std::to_string(samples.size()) + " samples");
   }
   std::vector<TexelSample> kept;
   std::vector<uint32_t> new_first(first.size(), 0);

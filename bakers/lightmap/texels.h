@@ -100,15 +100,15 @@ struct SkippedTriangle {
 };
 
 struct RasterReport {
-  size_t instances = 0;     // instances baking into this lightmap
-  size_t triangles = 0;     // their triangles
-  size_t rasterized = 0;    // triangles that covered at least one texel
-  size_t masked = 0;        // left out by RasterOptions::bake_mask
+  size_t instances = 0;                            // instances baking into this lightmap
+  size_t triangles = 0;                            // their triangles
+  size_t rasterized = 0;                           // triangles that covered at least one texel
+  size_t masked = 0;                               // left out by RasterOptions::bake_mask
   std::array<size_t, kSkipReasonCount> skipped{};  // triangles skipped, by SkipReason
   std::vector<SkippedTriangle> skipped_examples;   // the first kMaxSkippedExamples, in scene order
-  size_t outside_unit_square = 0;  // triangles with some UV outside [0, 1]: that part is not baked
-  size_t unusable_normals = 0;     // triangles whose vertex normals were missing, non-finite or zero: normal = Ng
-  size_t overlapping_texels = 0;   // texels whose weights sum above 1: charts overlap there
+  size_t outside_unit_square = 0;                  // triangles with some UV outside [0, 1]: that part is not baked
+  size_t unusable_normals = 0;    // triangles whose vertex normals were missing, non-finite or zero: normal = Ng
+  size_t overlapping_texels = 0;  // texels whose weights sum above 1: charts overlap there
   static constexpr size_t kMaxSkippedExamples = 32;
   size_t skipped_total() const;
 };
@@ -142,9 +142,9 @@ struct LightmapTexels {
 // first appearance.
 std::vector<std::string> lightmap_names(const scene::Scene& scene);
 
-// Rasterizes every baking instance whose lightmap (scene::resolved_lightmap_name) is `name`. Bad geometry is skipped and reported, never fatal.
-// Throws std::invalid_argument for options out of range (naming the field) or when the sample count would exceed
-// 2³² − 1 (lower the resolution or samples_per_axis). Uses all cores (TBB).
+// Rasterizes every baking instance whose lightmap (scene::resolved_lightmap_name) is `name`. Bad geometry is skipped
+// and reported, never fatal. Throws std::invalid_argument for options out of range (naming the field) or when the
+// sample count would exceed 2³² − 1 (lower the resolution or samples_per_axis). Uses all cores (TBB).
 LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options);
 
 // The transient memory of rasterize_lightmap beyond its result: each sample is first a compact fragment (held twice

@@ -44,9 +44,8 @@ std::vector<Comparison> approximations(const brdf::ModelSpec& spec, std::vector<
       exact.distribution = brdf::Distribution::beckmann;
       add("distribution: schlick rational beckmann vs exact beckmann", exact);
     }
-    const brdf::Masking m = spec.masking.value_or(spec.model == brdf::Model::cook_torrance
-                                                      ? brdf::Masking::v_groove
-                                                      : brdf::Masking::separable);
+    const brdf::Masking m = spec.masking.value_or(spec.model == brdf::Model::cook_torrance ? brdf::Masking::v_groove
+                                                                                           : brdf::Masking::separable);
     if (m == brdf::Masking::separable) {
       brdf::ModelSpec exact = spec;
       exact.masking = brdf::Masking::height_correlated;

@@ -109,8 +109,8 @@ void plan_tables(MaterialBakeRun& run) {
   plan.push_back("white-furnace table: E(mu) of " + run.models.white->describe() +
                  " (F = 1, white), for the strict energy check and energy compensation");
   if (run.rough_axis) {
-    plan.push_back("split-sum table: " + n_mu + " x " + n_r + " over (mu, " + brdf::roughness_name(model) +
-                   " in (0, " + shortest_number(brdf::max_roughness(model)) +
+    plan.push_back("split-sum table: " + n_mu + " x " + n_r + " over (mu, " + brdf::roughness_name(model) + " in (0, " +
+                   shortest_number(brdf::max_roughness(model)) +
                    "]), white model without Fresnel, E ~= f0 * scale + bias");
   } else {
     plan.push_back("split-sum table: " + n_mu + " x " + n_r + "; " + brdf::to_string(model) +
@@ -157,9 +157,9 @@ void make_entries(MaterialBakeRun& run) {
 void plan_work(MaterialBakeRun& run) {
   run.comparisons = approximations(run.input.model, run.result.plan);
   run.merl_azimuths = anisotropic(run.input.model) ? kMerlAnisotropicAzimuths : 1;
-  run.merl_units = run.input.merl ? static_cast<double>(kMerlEntries) * run.merl_azimuths *
-                                        (run.models.bxdf->reciprocal() ? 1 : 2)
-                                  : 0.0;
+  run.merl_units = run.input.merl
+                       ? static_cast<double>(kMerlEntries) * run.merl_azimuths * (run.models.bxdf->reciprocal() ? 1 : 2)
+                       : 0.0;
   double validation_units = 2.0 * kReciprocityPairs;
   for (const Comparison& c : run.comparisons) {
     validation_units +=
@@ -302,30 +302,29 @@ void plan_sampling(MaterialBakeRun& run) {
   const MaterialBakeInput& input = run.input;
   MaterialBakeResult& result = run.result;
   std::vector<std::string>& plan = result.plan;
-  const std::string per_entry = std::to_string(result.min_samples_per_entry) +
-                                (result.min_samples_per_entry == result.max_samples_per_entry
-                                     ? ""
-                                     : ".." + std::to_string(result.max_samples_per_entry));
+  const std::string per_entry =
+      std::to_string(result.min_samples_per_entry) + (result.min_samples_per_entry == result.max_samples_per_entry
+                                                          ? ""
+                                                          : ".." + std::to_string(result.max_samples_per_entry));
   const std::string n_entries = std::to_string(run.entries.size());
   if (!run.target_mode) {
     plan.push_back("sampling: " + std::string(input.samples ? "" : "default ") + std::to_string(run.goal) +
                    " samples per entry requested, " + per_entry + " taken (whole stratified replicates) for " +
                    n_entries + " entries");
   } else if (result.target_reached) {
-    plan.push_back("sampling: target_error " + shortest_number(input.target_error) + " reached for all " +
-                   n_entries + " entries after " + per_entry + " samples per entry (" + std::to_string(run.passes) +
-                   " passes)");
+    plan.push_back("sampling: target_error " + shortest_number(input.target_error) + " reached for all " + n_entries +
+                   " entries after " + per_entry + " samples per entry (" + std::to_string(run.passes) + " passes)");
   } else {
-    plan.push_back("sampling: target_error " + shortest_number(input.target_error) + " not reached for " +
-                   std::to_string(run.above_target) + " of " + n_entries + " entries (largest error " +
-                   shortest_number(result.max_error_estimate) + ") after " + per_entry + " samples per entry: " +
-                   (run.time_up ? "time limit reached"
-                                : "cap of " + std::to_string(run.goal) + " samples per entry reached"));
+    plan.push_back(
+        "sampling: target_error " + shortest_number(input.target_error) + " not reached for " +
+        std::to_string(run.above_target) + " of " + n_entries + " entries (largest error " +
+        shortest_number(result.max_error_estimate) + ") after " + per_entry + " samples per entry: " +
+        (run.time_up ? "time limit reached" : "cap of " + std::to_string(run.goal) + " samples per entry reached"));
   }
   if (input.time_limit_seconds > 0) {
-    plan.push_back("time limit " + shortest_number(input.time_limit_seconds) + " s: " +
-                   (run.time_up ? "reached, refinement stopped after " + std::to_string(run.passes) + " passes"
-                                : "not reached"));
+    plan.push_back(
+        "time limit " + shortest_number(input.time_limit_seconds) + " s: " +
+        (run.time_up ? "reached, refinement stopped after " + std::to_string(run.passes) + " passes" : "not reached"));
   }
 }
 
@@ -348,8 +347,9 @@ void validate_model(MaterialBakeRun& run) {
                           " shared samples each");
   }
   if (run.comparisons.empty()) {
-    result.plan.push_back("approximations: none to measure (the model uses no approximation with an exact counterpart "
-                          "in the library)");
+    result.plan.push_back(
+        "approximations: none to measure (the model uses no approximation with an exact counterpart "
+        "in the library)");
   }
 }
 
@@ -403,15 +403,16 @@ std::optional<bake::InvalidInput> validate(const MaterialBakeInput& in) {
                         "must be in [1, " + std::to_string(kMaxTable) + "], got " + std::to_string(in.table_mu));
   }
   if (in.table_roughness < 1 || in.table_roughness > kMaxTable) {
-    return InvalidInput("table_roughness", "must be in [1, " + std::to_string(kMaxTable) + "], got " +
-                                               std::to_string(in.table_roughness));
+    return InvalidInput("table_roughness",
+                        "must be in [1, " + std::to_string(kMaxTable) + "], got " + std::to_string(in.table_roughness));
   }
   if (in.samples > kMaxSamples) {
     return InvalidInput("samples", "must be at most " + std::to_string(kMaxSamples) + " per table entry, got " +
                                        std::to_string(in.samples));
   }
   if (!std::isfinite(in.target_error) || in.target_error < 0) {
-    return InvalidInput("target_error", "must be a finite number >= 0 (0: off), got " + shortest_number(in.target_error));
+    return InvalidInput("target_error",
+                        "must be a finite number >= 0 (0: off), got " + shortest_number(in.target_error));
   }
   if (!std::isfinite(in.time_limit_seconds) || in.time_limit_seconds < 0) {
     return InvalidInput("time_limit_seconds",

@@ -64,11 +64,11 @@ struct MaterialBakeInput {
   // Samples per table entry. 0: 4096, or as many as target_error needs (up to 1 048 576). With target_error set,
   // this is the cap. At most 2^30. Counts are rounded up to whole stratified replicates.
   uint64_t samples = 0;
-  double target_error = 0;        // stop refining an entry once its standard error is at most this; 0: off
+  double target_error = 0;  // stop refining an entry once its standard error is at most this; 0: off
   // Stop refining the tables after this long (their first pass still completes; validation and MERL follow);
   // 0: none.
   double time_limit_seconds = 0;
-  uint64_t seed = 1;              // the same input and seed give the same tables
+  uint64_t seed = 1;  // the same input and seed give the same tables
 };
 
 struct EnergyCheck {
@@ -90,8 +90,8 @@ struct ReciprocityCheck {
 
 // The cost of one approximation the model uses: its albedo against the exact form's, same samples.
 struct ApproximationError {
-  std::string name;    // e.g. "fresnel: schlick vs exact (eta from f0)"
-  double max_abs_difference = 0;   // max over μ and channels of |E_approx(μ) − E_exact(μ)|
+  std::string name;               // e.g. "fresnel: schlick vs exact (eta from f0)"
+  double max_abs_difference = 0;  // max over μ and channels of |E_approx(μ) − E_exact(μ)|
   double at_mu = 0;
   double mean_abs_difference = 0;  // over μ and channels
   double std_error = 0;            // of the difference at at_mu, if both estimates were independent (an upper bound)
@@ -105,21 +105,21 @@ struct ValidationReport {
 
 struct MaterialBakeResult {
   std::vector<bake::BakeOutput> outputs;  // in the order listed above; report.json last
-  std::string description;          // Bxdf::describe() of the model
+  std::string description;                // Bxdf::describe() of the model
 
   brdf::AlbedoTable albedo;         // E(μ) as configured, and average (E_avg with its error)
   brdf::AlbedoTable white_furnace;  // E(μ) and E_avg with F = 1, white
   brdf::SplitSumTable split_sum;
-  Rgb average_albedo;               // = albedo.average.value
+  Rgb average_albedo;  // = albedo.average.value
   ValidationReport validation;
 
   uint64_t samples = 0;             // all Monte Carlo samples of the tables (validation samples not included)
   uint64_t validation_samples = 0;  // samples of the approximation comparisons
   double seconds = 0;
-  double max_error_estimate = 0;    // largest standard error of any table entry or average
+  double max_error_estimate = 0;  // largest standard error of any table entry or average
   uint64_t min_samples_per_entry = 0, max_samples_per_entry = 0;
-  bool target_reached = true;       // every entry at or below target_error (true when no target was set)
-  std::vector<std::string> plan;    // what was computed and why, for people
+  bool target_reached = true;     // every entry at or below target_error (true when no target was set)
+  std::vector<std::string> plan;  // what was computed and why, for people
 };
 
 // Throws bake::InvalidInput naming the field ("table_mu": "must be in [1, 1024], got 0", "model.alpha_x": "must be in

@@ -23,8 +23,8 @@ class ProgressTracker {
   void add_planned(double units);
   // One step done: `units` of work (samples or evaluations), `samples` of them Monte Carlo samples. When an entry's
   // error changed, pass its old and new value (-1: none, e.g. before the first estimate).
-  void step(const std::string& stage, double units, uint64_t samples, double planned_delta = 0,
-            double old_error = -1, double new_error = -1);
+  void step(const std::string& stage, double units, uint64_t samples, double planned_delta = 0, double old_error = -1,
+            double new_error = -1);
   void finish();
   uint64_t samples() const;
 

@@ -100,8 +100,7 @@ uint64_t taken_in_blocks(uint64_t requested) {
   return total + (requested ? taken(requested) : 0);
 }
 
-brdf::Estimate estimate_block(const TableModels& models, const Entry& e, int n_mu, uint64_t samples,
-                              uint64_t seed) {
+brdf::Estimate estimate_block(const TableModels& models, const Entry& e, int n_mu, uint64_t samples, uint64_t seed) {
   brdf::AlbedoOptions o;
   o.samples = static_cast<int>(samples);
   o.replicates = kReplicates;

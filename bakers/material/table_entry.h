@@ -22,11 +22,11 @@ enum class Kind { albedo, white, average, white_average, split_sum };
 struct Entry {
   Kind kind = Kind::albedo;
   int i_mu = 0, i_roughness = 0;
-  uint64_t requested = 0;    // samples asked for so far (before rounding up to whole replicates)
-  uint64_t samples = 0;      // samples taken
-  Rgb weighted_sum;          // Σ n_k m_k
-  Rgb weighted_variance;     // Σ n_k² se_k²
-  double planned = 0;        // samples this entry is expected to need in total (for progress)
+  uint64_t requested = 0;  // samples asked for so far (before rounding up to whole replicates)
+  uint64_t samples = 0;    // samples taken
+  Rgb weighted_sum;        // Σ n_k m_k
+  Rgb weighted_variance;   // Σ n_k² se_k²
+  double planned = 0;      // samples this entry is expected to need in total (for progress)
   bool done = false;
 
   Rgb mean() const;
@@ -39,9 +39,9 @@ struct Entry {
 
 // The models the entries integrate.
 struct TableModels {
-  std::unique_ptr<brdf::Bxdf> bxdf;                // as configured
-  std::unique_ptr<brdf::Bxdf> white;               // the white-furnace form: white, Fresnel off
-  std::vector<std::unique_ptr<brdf::Bxdf>> rows;   // the white form at each distinct split-sum roughness
+  std::unique_ptr<brdf::Bxdf> bxdf;               // as configured
+  std::unique_ptr<brdf::Bxdf> white;              // the white-furnace form: white, Fresnel off
+  std::vector<std::unique_ptr<brdf::Bxdf>> rows;  // the white form at each distinct split-sum roughness
 };
 
 // μ at the centre of texel i of n_mu.

@@ -18,8 +18,18 @@ struct Rgb {
   constexpr Rgb operator*(const Rgb& o) const { return {r * o.r, g * o.g, b * o.b}; }
   constexpr Rgb operator*(double s) const { return {r * s, g * s, b * s}; }
   constexpr Rgb operator/(double s) const { return {r / s, g / s, b / s}; }
-  constexpr Rgb& operator+=(const Rgb& o) { r += o.r; g += o.g; b += o.b; return *this; }
-  constexpr Rgb& operator*=(double s) { r *= s; g *= s; b *= s; return *this; }
+  constexpr Rgb& operator+=(const Rgb& o) {
+    r += o.r;
+    g += o.g;
+    b += o.b;
+    return *this;
+  }
+  constexpr Rgb& operator*=(double s) {
+    r *= s;
+    g *= s;
+    b *= s;
+    return *this;
+  }
   constexpr bool operator==(const Rgb&) const = default;
 
   constexpr double operator[](int i) const { return i == 0 ? r : (i == 1 ? g : b); }

@@ -5,7 +5,7 @@
 namespace kiln::plan {
 
 std::optional<bake::InvalidInput> check_forced_names(const std::map<std::string, bool>& forced,
-                                                    const std::vector<std::string>& known) {
+                                                     const std::vector<std::string>& known) {
   for (const auto& [name, value] : forced) {
     if (std::find(known.begin(), known.end(), name) != known.end()) continue;
     std::string list;

@@ -21,7 +21,7 @@ struct Decision {
 // nullopt if every name in `forced` is one of `known`, else the field "force_effects[x]" with the problem
 // 'unknown effect "x"; known effects: a, b, ...'.
 std::optional<bake::InvalidInput> check_forced_names(const std::map<std::string, bool>& forced,
-                                              const std::vector<std::string>& known);
+                                                     const std::vector<std::string>& known);
 
 // Records the planner's decision for `effect`, or the job's forced value with both reasons kept.
 Decision decide(const std::string& effect, bool planned, const std::string& reason,

@@ -13,19 +13,32 @@ const std::array<LightmapEffect, kLightmapEffectCount>& lightmap_effects() {
 
 const char* effect_name(LightmapEffect effect) {
   switch (effect) {
-    case LightmapEffect::point_lights: return "point_lights";
-    case LightmapEffect::spot_lights: return "spot_lights";
-    case LightmapEffect::directional_lights: return "directional_lights";
-    case LightmapEffect::area_lights: return "area_lights";
-    case LightmapEffect::emissive_triangles: return "emissive_triangles";
-    case LightmapEffect::environment_sampling: return "environment_sampling";
-    case LightmapEffect::environment_importance_map: return "environment_importance_map";
-    case LightmapEffect::multiple_importance_sampling: return "multiple_importance_sampling";
-    case LightmapEffect::indirect_bounces: return "indirect_bounces";
-    case LightmapEffect::specular_interreflection: return "specular_interreflection";
-    case LightmapEffect::anisotropy: return "anisotropy";
-    case LightmapEffect::textures: return "textures";
-    case LightmapEffect::russian_roulette: return "russian_roulette";
+    case LightmapEffect::point_lights:
+      return "point_lights";
+    case LightmapEffect::spot_lights:
+      return "spot_lights";
+    case LightmapEffect::directional_lights:
+      return "directional_lights";
+    case LightmapEffect::area_lights:
+      return "area_lights";
+    case LightmapEffect::emissive_triangles:
+      return "emissive_triangles";
+    case LightmapEffect::environment_sampling:
+      return "environment_sampling";
+    case LightmapEffect::environment_importance_map:
+      return "environment_importance_map";
+    case LightmapEffect::multiple_importance_sampling:
+      return "multiple_importance_sampling";
+    case LightmapEffect::indirect_bounces:
+      return "indirect_bounces";
+    case LightmapEffect::specular_interreflection:
+      return "specular_interreflection";
+    case LightmapEffect::anisotropy:
+      return "anisotropy";
+    case LightmapEffect::textures:
+      return "textures";
+    case LightmapEffect::russian_roulette:
+      return "russian_roulette";
   }
   return "unknown";
 }

@@ -7,9 +7,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "bakers/brdf/albedo.h"
 #include "bakers/bake/number_format.h"
 #include "bakers/bake/range_check.h"
+#include "bakers/brdf/albedo.h"
 #include "bakers/brdf/material.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/sampling.h"
@@ -85,13 +85,11 @@ double lobe_distance(const brdf::Bxdf& lobe, bool anisotropic, double* average_a
   return distance / weight;
 }
 
-MaterialAnalysis analyse(const scene::SceneMaterial& m, const std::vector<scene::Texture>& textures,
-                         double tolerance) {
+MaterialAnalysis analyse(const scene::SceneMaterial& m, const std::vector<scene::Texture>& textures, double tolerance) {
   MaterialAnalysis a;
   a.name = m.name;
   Rgb tint = m.base_color;
-  if (m.base_color_texture && *m.base_color_texture >= 0 &&
-      *m.base_color_texture < static_cast<int>(textures.size())) {
+  if (m.base_color_texture && *m.base_color_texture >= 0 && *m.base_color_texture < static_cast<int>(textures.size())) {
     const TextureStats t = texture_stats(textures[*m.base_color_texture], tolerance);
     tint = tint * t.max;
     a.textured = !t.uniform;
@@ -136,17 +134,15 @@ bool has_power(const scene::Light& l) {
   return true;
 }
 
-std::string count_of(int n, const char* what) {
-  return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
-}
+std::string count_of(int n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
 
 struct SceneFacts {
-  std::array<int, 5> lights{};       // with non-zero power, by LightShape
-  int sun_discs = 0;                 // directional lights with an angular diameter
+  std::array<int, 5> lights{};  // with non-zero power, by LightShape
+  int sun_discs = 0;            // directional lights with an angular diameter
   int emissive_triangles = 0;
-  std::vector<bool> used;            // per material
-  std::vector<int> triangles;        // per material
-  double env_max_over_mean = 1;      // of the environment image's luminance
+  std::vector<bool> used;        // per material
+  std::vector<int> triangles;    // per material
+  double env_max_over_mean = 1;  // of the environment image's luminance
 
   int count(scene::LightShape shape) const { return lights[static_cast<int>(shape)]; }
   int area_lights() const { return count(scene::LightShape::rect) + count(scene::LightShape::disk); }
@@ -279,10 +275,10 @@ void decide_environment(Planning& s) {
   const scene::Environment& env = s.scene.environment;
   const bool has_env = s.has_environment();
   s.decide(LightmapEffect::environment_sampling, has_env,
-           has_env ? (env.constant ? "a constant environment " + bake::format_rgb(*env.constant)
-                                   : "an environment image " + std::to_string(env.width) + "x" +
-                                         std::to_string(env.height))
-                   : "no environment (or a black one)");
+           has_env
+               ? (env.constant ? "a constant environment " + bake::format_rgb(*env.constant)
+                               : "an environment image " + std::to_string(env.width) + "x" + std::to_string(env.height))
+               : "no environment (or a black one)");
   bool want = false;
   std::string why;
   if (!has_env) {
@@ -320,8 +316,8 @@ void decide_bounces(Planning& s) {
     why = "no used material reflects light (rho_max = 0)";
   } else if (rho >= 1) {
     p.bounces = max_bounces;
-    why = "rho_max = " + format_number(rho) + " >= 1: light does not decay; capped at " +
-          std::to_string(max_bounces) + " bounces";
+    why = "rho_max = " + format_number(rho) + " >= 1: light does not decay; capped at " + std::to_string(max_bounces) +
+          " bounces";
   } else {
     const int needed = std::max(0, static_cast<int>(std::ceil(std::log(s.budget) / std::log(rho))) - 1);
     p.bounces = std::min(needed, max_bounces);
@@ -358,9 +354,9 @@ void decide_specular(Planning& s) {
 void decide_anisotropy(Planning& s) {
   int n = 0;
   for (const MaterialAnalysis& a : s.plan.materials) n += a.used && a.glossy && a.anisotropic;
-  s.decide(LightmapEffect::anisotropy, n > 0 && s.plan.bounces > 0,
-           n > 0 ? count_of(n, "glossy material") + " with anisotropic lobes"
-                 : "no simulated specular lobe is anisotropic");
+  s.decide(
+      LightmapEffect::anisotropy, n > 0 && s.plan.bounces > 0,
+      n > 0 ? count_of(n, "glossy material") + " with anisotropic lobes" : "no simulated specular lobe is anisotropic");
 }
 
 void decide_textures(Planning& s) {

@@ -29,13 +29,13 @@ struct LightmapPlanOptions {
 // What the planner found out about one material of the scene.
 struct MaterialAnalysis {
   std::string name;
-  bool used = false;             // some triangle of some mesh refers to it
-  double albedo_max = 0;         // max over μ and channels of the directional albedo, base colour × texture maximum
-  double specular_albedo = 0;    // w_s Ē_s: the specular lobe's weighted average albedo
-  double lobe_distance = 0;      // δ (see the top of this file); 0 if the lobe has no albedo
-  bool glossy = false;           // its specular lobe is simulated as itself in bounces
-  bool anisotropic = false;      // its specular lobe has α_x ≠ α_y
-  bool textured = false;         // a base-colour texture that is not uniform
+  bool used = false;           // some triangle of some mesh refers to it
+  double albedo_max = 0;       // max over μ and channels of the directional albedo, base colour × texture maximum
+  double specular_albedo = 0;  // w_s Ē_s: the specular lobe's weighted average albedo
+  double lobe_distance = 0;    // δ (see the top of this file); 0 if the lobe has no albedo
+  bool glossy = false;         // its specular lobe is simulated as itself in bounces
+  bool anisotropic = false;    // its specular lobe has α_x ≠ α_y
+  bool textured = false;       // a base-colour texture that is not uniform
 };
 
 struct LightmapPlan {
@@ -50,8 +50,8 @@ struct LightmapPlan {
   bool anisotropy = false;
   bool textures = false;
   bool russian_roulette = false;
-  int russian_roulette_depth = 3;  // bounces taken with certainty before the roulette starts
-  double albedo_max = 0;           // ρ_max over the used materials
+  int russian_roulette_depth = 3;           // bounces taken with certainty before the roulette starts
+  double albedo_max = 0;                    // ρ_max over the used materials
   std::vector<MaterialAnalysis> materials;  // parallel to Scene::materials
 
   bool enabled(LightmapEffect effect) const;

@@ -46,7 +46,10 @@ double area_pdf(const LightHit& hit, const Vec3& wi, const Vec3& normal, double 
 
 RectLight::RectLight(const Vec3& center, const Vec3& u_edge, const Vec3& v_edge, const Vec3& front, const Rgb& radiance,
                      bool two_sided)
-    : c0_(center - u_edge * 0.5 - v_edge * 0.5), ex_(u_edge), ey_(v_edge), radiance_(usable_emission(radiance)),
+    : c0_(center - u_edge * 0.5 - v_edge * 0.5),
+      ex_(u_edge),
+      ey_(v_edge),
+      radiance_(usable_emission(radiance)),
       two_sided_(two_sided) {
   const Vec3 cr = cross(u_edge, v_edge);
   const double a = length(cr);
@@ -67,10 +70,14 @@ RectLight::RectLight(const Vec3& center, const Vec3& u_edge, const Vec3& v_edge,
 
 Vec3 RectLight::corner(int i) const {
   switch (i & 3) {
-    case 0: return c0_;
-    case 1: return c0_ + ex_;
-    case 2: return c0_ + ex_ + ey_;
-    default: return c0_ + ey_;
+    case 0:
+      return c0_;
+    case 1:
+      return c0_ + ex_;
+    case 2:
+      return c0_ + ex_ + ey_;
+    default:
+      return c0_ + ey_;
   }
 }
 
@@ -202,8 +209,8 @@ DiskLight::DiskLight(const Vec3& center, const Vec3& normal, double radius, cons
   const double ln = length(normal);
   area_ = kPi * radius * radius;
   // Zero radius, no normal or unusable radiance: a black light with zero power.
-  if (!(radius > 0) || !std::isfinite(area_) || !(area_ > 0) || !(ln > 0) || !std::isfinite(ln) ||
-      !is_finite(center) || !usable_radiance(radiance)) {
+  if (!(radius > 0) || !std::isfinite(area_) || !(area_ > 0) || !(ln > 0) || !std::isfinite(ln) || !is_finite(center) ||
+      !usable_radiance(radiance)) {
     area_ = 0;
     radius_ = 0;
     radiance_ = Rgb{};

@@ -51,8 +51,8 @@ class RectLight final : public LightSource {
  private:
   bool lit_side(const Vec3& p) const;  // p strictly on an emitting side
   std::optional<LightSample> sample_spherical(const Vec3& p, Point2 u, double omega) const;
-  Vec3 c0_, ex_, ey_;    // corner and edges
-  Vec3 normal_;          // unit, towards the front side
+  Vec3 c0_, ex_, ey_;  // corner and edges
+  Vec3 normal_;        // unit, towards the front side
   Rgb radiance_;
   bool two_sided_ = false;
   bool orthogonal_ = false;

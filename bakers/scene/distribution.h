@@ -41,7 +41,7 @@ class Distribution1D {
   std::vector<double> func_;  // sanitised values (uniform 1s in the fallback)
   std::vector<double> cdf_;   // size + 1 entries, cdf_[0] = 0, cdf_[size] = 1
   double integral_ = 0;
-  double func_sum_ = 0;       // Σ func_ (after the fallback)
+  double func_sum_ = 0;  // Σ func_ (after the fallback)
   bool fallback_ = false;
 };
 

@@ -19,8 +19,8 @@ EnvironmentLight::EnvironmentLight(const Environment& env, bool importance_map)
   const int w = env.width, h = env.height;
   if (w < 1 || h < 1 || env.equirect.size() != static_cast<size_t>(w) * static_cast<size_t>(h))
     throw std::invalid_argument("environment light: the equirectangular image holds " +
-                                std::to_string(env.equirect.size()) + " texels, not width × height = " +
-                                std::to_string(w) + " × " + std::to_string(h));
+                                std::to_string(env.equirect.size()) +
+                                " texels, not width × height = " + std::to_string(w) + " × " + std::to_string(h));
   image_ = envmap::RgbImage(w, h);
   for (size_t i = 0; i < env.equirect.size(); ++i) {
     const Rgb& c = env.equirect[i];

@@ -32,13 +32,16 @@ double scene_bounding_radius(const Scene& scene) {
 
 std::unique_ptr<LightSource> make_light(const Light& l) {
   switch (l.type) {
-    case LightShape::point: return std::make_unique<PointLight>(l.position, l.color);
+    case LightShape::point:
+      return std::make_unique<PointLight>(l.position, l.color);
     case LightShape::spot:
       return std::make_unique<SpotLight>(l.position, l.direction, l.color, l.inner_cone, l.outer_cone);
-    case LightShape::directional: return std::make_unique<DirectionalLight>(l.direction, l.color, l.angular_diameter);
+    case LightShape::directional:
+      return std::make_unique<DirectionalLight>(l.direction, l.color, l.angular_diameter);
     case LightShape::rect:
       return std::make_unique<RectLight>(l.position, l.u_axis, l.v_axis, l.direction, l.color, l.two_sided);
-    case LightShape::disk: return std::make_unique<DiskLight>(l.position, l.direction, l.radius, l.color, l.two_sided);
+    case LightShape::disk:
+      return std::make_unique<DiskLight>(l.position, l.direction, l.radius, l.color, l.two_sided);
   }
   return std::make_unique<PointLight>(l.position, Rgb{});  // unreachable for a valid LightShape: a black light
 }
@@ -50,11 +53,19 @@ SceneLights::SceneLights(const Scene& scene, const LightSamplingOptions& options
     lights_.push_back(make_light(l));
     bool on = true;
     switch (l.type) {
-      case LightShape::point: on = options.point_lights; break;
-      case LightShape::spot: on = options.spot_lights; break;
-      case LightShape::directional: on = options.directional_lights; break;
+      case LightShape::point:
+        on = options.point_lights;
+        break;
+      case LightShape::spot:
+        on = options.spot_lights;
+        break;
+      case LightShape::directional:
+        on = options.directional_lights;
+        break;
       case LightShape::rect:
-      case LightShape::disk: on = options.area_lights; break;
+      case LightShape::disk:
+        on = options.area_lights;
+        break;
     }
     sampled.push_back(on);
   }

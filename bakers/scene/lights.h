@@ -44,9 +44,9 @@ inline Rgb usable_emission(const Rgb& c) {
 inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 struct LightSample {
-  Vec3 wi;              // unit, world space, from p towards the light
-  Rgb Li;               // radiance arriving at p from direction wi (delta lights: irradiance at normal incidence)
-  double pdf = 0;       // per unit solid angle (includes the choice of an emissive triangle); 0 for delta lights
+  Vec3 wi;         // unit, world space, from p towards the light
+  Rgb Li;          // radiance arriving at p from direction wi (delta lights: irradiance at normal incidence)
+  double pdf = 0;  // per unit solid angle (includes the choice of an emissive triangle); 0 for delta lights
   bool delta = false;
   double distance = kInfinity;  // from p to `point` (for the shadow ray); infinity for directional and environment
   Vec3 point;                   // the sampled point on the light; infinite lights: wi (they have no point)
@@ -62,10 +62,10 @@ struct LightSample {
 
 // Where a ray met a light: what pdf_li and Le need beyond p and wi.
 struct LightHit {
-  Vec3 point;          // the point on the light (area lights, emissive triangles)
-  Vec3 normal;         // the light's geometric normal there (any orientation)
+  Vec3 point;   // the point on the light (area lights, emissive triangles)
+  Vec3 normal;  // the light's geometric normal there (any orientation)
   double distance = kInfinity;
-  int triangle = -1;   // emissive triangles: the index in the container (EmissiveTriangles::find)
+  int triangle = -1;  // emissive triangles: the index in the container (EmissiveTriangles::find)
 };
 
 // What a LightSource is: one per scene LightShape, a directional light with a disc as a sun, and the two lights

@@ -31,8 +31,7 @@ std::optional<LightSample> PointLight::sample_li(const Vec3& p, const Vec3& /*n*
 
 Rgb PointLight::power(double /*scene_radius*/) const { return intensity_ * (4.0 * kPi); }
 
-SpotLight::SpotLight(const Vec3& position, const Vec3& axis, const Rgb& intensity, double inner_cone,
-                     double outer_cone)
+SpotLight::SpotLight(const Vec3& position, const Vec3& axis, const Rgb& intensity, double inner_cone, double outer_cone)
     : position_(position), intensity_(usable_emission(intensity)) {
   const double len = length(axis);
   valid_axis_ = len > 0 && std::isfinite(len) && is_finite(position);

@@ -4,7 +4,8 @@
 // client's importers fill the job messages from glTF, OBJ and FBX.
 //
 // Conventions: +Y up, right-handed; radiance in W·m⁻²·sr⁻¹ per RGB channel, irradiance in W·m⁻²;
-// triangles are counter-clockwise seen from their front (the side the geometric normal (p1 − p0) × (p2 − p0) points to).
+// triangles are counter-clockwise seen from their front (the side the geometric normal (p1 − p0) × (p2 − p0) points
+// to).
 #pragma once
 
 #include <array>
@@ -36,11 +37,11 @@ struct Transform {
 struct Mesh {
   std::string name;
   std::vector<Vec3> positions;
-  std::vector<Vec3> normals;         // per vertex; empty: the geometric normal of each triangle
-  std::vector<Point2> uv;            // texture UVs (set 0); empty if the mesh has none
-  std::vector<Point2> lightmap_uv;   // lightmap UVs (set 1, else set 0); empty: the mesh gets no lightmap
-  std::vector<uint32_t> indices;     // three per triangle, into positions (and the per-vertex arrays)
-  std::vector<uint32_t> material;    // per triangle, into Scene::materials; empty: material 0 for every triangle
+  std::vector<Vec3> normals;        // per vertex; empty: the geometric normal of each triangle
+  std::vector<Point2> uv;           // texture UVs (set 0); empty if the mesh has none
+  std::vector<Point2> lightmap_uv;  // lightmap UVs (set 1, else set 0); empty: the mesh gets no lightmap
+  std::vector<uint32_t> indices;    // three per triangle, into positions (and the per-vertex arrays)
+  std::vector<uint32_t> material;   // per triangle, into Scene::materials; empty: material 0 for every triangle
 };
 
 // An RGB texture in the working space (base colour textures are converted from sRGB on import), sampled bilinearly
@@ -53,10 +54,10 @@ struct Texture {
 
 struct SceneMaterial {
   std::string name;
-  brdf::MaterialSpec bsdf;               // diffuse + specular lobes of the BRDF library
-  Rgb base_color{1, 1, 1};               // multiplies the diffuse lobe (and base_color_texture, if any)
-  std::optional<int> base_color_texture; // into Scene::textures, sampled at the mesh's `uv`
-  Rgb emission{0, 0, 0};                 // emitted radiance L_e (front side only unless two_sided); > 0: an area light
+  brdf::MaterialSpec bsdf;                // diffuse + specular lobes of the BRDF library
+  Rgb base_color{1, 1, 1};                // multiplies the diffuse lobe (and base_color_texture, if any)
+  std::optional<int> base_color_texture;  // into Scene::textures, sampled at the mesh's `uv`
+  Rgb emission{0, 0, 0};                  // emitted radiance L_e (front side only unless two_sided); > 0: an area light
   bool two_sided = false;
 };
 
@@ -69,14 +70,14 @@ struct Light {
   std::string name;
   Rgb color{1, 1, 1};  // point/spot: intensity I (W·sr⁻¹); directional: irradiance E at normal incidence (W·m⁻²);
                        // rect/disk: emitted radiance L_e (W·m⁻²·sr⁻¹), from the front side (along `direction`)
-  Vec3 position;       // point, spot, rect and disk (the centre)
-  Vec3 direction{0, -1, 0};  // spot: the cone axis; directional: the direction light travels; rect/disk: the normal
+  Vec3 position;                // point, spot, rect and disk (the centre)
+  Vec3 direction{0, -1, 0};     // spot: the cone axis; directional: the direction light travels; rect/disk: the normal
   double angular_diameter = 0;  // directional: the sun's disc, radians (0: a delta direction), [0, π/2)
   double inner_cone = 0, outer_cone = 0.7853981633974483;  // spot: radians, smooth falloff between (glTF)
-  Vec3 u_axis{1, 0, 0};         // rect: edge vector along width (full length); disk: unused
-  Vec3 v_axis{0, 0, 1};         // rect: edge vector along height (full length)
-  double radius = 0;            // disk radius; point/spot: 0 (a delta light)
-  bool two_sided = false;       // rect/disk
+  Vec3 u_axis{1, 0, 0};                                    // rect: edge vector along width (full length); disk: unused
+  Vec3 v_axis{0, 0, 1};                                    // rect: edge vector along height (full length)
+  double radius = 0;                                       // disk radius; point/spot: 0 (a delta light)
+  bool two_sided = false;                                  // rect/disk
 };
 
 struct Environment {
@@ -90,14 +91,14 @@ struct Environment {
 };
 
 struct Instance {
-  int mesh = 0;                 // into Scene::meshes
+  int mesh = 0;  // into Scene::meshes
   Transform to_world;
-  std::string lightmap;         // the lightmap it bakes into: empty = "<mesh name>"; instances may share an atlas
+  std::string lightmap;  // the lightmap it bakes into: empty = "<mesh name>"; instances may share an atlas
   // Where this instance's lightmap UVs land in its lightmap: uv' = (s_u·u + o_u, s_v·v + o_v), as
   // {s_u, s_v, o_u, o_v} (Unity's lightmapScaleOffset). Instances sharing an atlas (or several instances of one mesh
   // baking into the same lightmap) need disjoint rectangles, else their texels overlap (scene_check reports it).
   std::array<double, 4> lightmap_scale_offset{1, 1, 0, 0};
-  bool bake = true;             // false: it casts shadows and bounces light but gets no lightmap
+  bool bake = true;  // false: it casts shadows and bounces light but gets no lightmap
 };
 
 struct Scene {

@@ -166,24 +166,42 @@ bool valid_scale_offset(const std::array<double, 4>& st) {
 
 const char* to_string(ProblemKind kind) {
   switch (kind) {
-    case ProblemKind::no_lightmap_uv: return "no_lightmap_uv";
-    case ProblemKind::array_size_mismatch: return "array_size_mismatch";
-    case ProblemKind::index_count: return "index_count";
-    case ProblemKind::index_out_of_range: return "index_out_of_range";
-    case ProblemKind::non_finite_vertex: return "non_finite_vertex";
-    case ProblemKind::degenerate_triangle: return "degenerate_triangle";
-    case ProblemKind::lightmap_uv_out_of_range: return "lightmap_uv_out_of_range";
-    case ProblemKind::degenerate_lightmap_uv: return "degenerate_lightmap_uv";
-    case ProblemKind::overlapping_lightmap_uv: return "overlapping_lightmap_uv";
-    case ProblemKind::material_out_of_range: return "material_out_of_range";
-    case ProblemKind::bad_normal: return "bad_normal";
-    case ProblemKind::non_finite_uv: return "non_finite_uv";
-    case ProblemKind::bad_transform: return "bad_transform";
-    case ProblemKind::bad_instance_mesh: return "bad_instance_mesh";
-    case ProblemKind::bad_lightmap_scale_offset: return "bad_lightmap_scale_offset";
-    case ProblemKind::no_materials: return "no_materials";
-    case ProblemKind::bad_texture: return "bad_texture";
-    case ProblemKind::bad_material_value: return "bad_material_value";
+    case ProblemKind::no_lightmap_uv:
+      return "no_lightmap_uv";
+    case ProblemKind::array_size_mismatch:
+      return "array_size_mismatch";
+    case ProblemKind::index_count:
+      return "index_count";
+    case ProblemKind::index_out_of_range:
+      return "index_out_of_range";
+    case ProblemKind::non_finite_vertex:
+      return "non_finite_vertex";
+    case ProblemKind::degenerate_triangle:
+      return "degenerate_triangle";
+    case ProblemKind::lightmap_uv_out_of_range:
+      return "lightmap_uv_out_of_range";
+    case ProblemKind::degenerate_lightmap_uv:
+      return "degenerate_lightmap_uv";
+    case ProblemKind::overlapping_lightmap_uv:
+      return "overlapping_lightmap_uv";
+    case ProblemKind::material_out_of_range:
+      return "material_out_of_range";
+    case ProblemKind::bad_normal:
+      return "bad_normal";
+    case ProblemKind::non_finite_uv:
+      return "non_finite_uv";
+    case ProblemKind::bad_transform:
+      return "bad_transform";
+    case ProblemKind::bad_instance_mesh:
+      return "bad_instance_mesh";
+    case ProblemKind::bad_lightmap_scale_offset:
+      return "bad_lightmap_scale_offset";
+    case ProblemKind::no_materials:
+      return "no_materials";
+    case ProblemKind::bad_texture:
+      return "bad_texture";
+    case ProblemKind::bad_material_value:
+      return "bad_material_value";
   }
   return "unknown";
 }
@@ -271,28 +289,28 @@ void drop_bad_textures(SceneCheck& c) {
   std::vector<bool> texture_ok(scene.textures.size());
   for (size_t i = 0; i < scene.textures.size(); ++i) {
     const Texture& t = scene.textures[i];
-    texture_ok[i] = t.width > 0 && t.height > 0 &&
-                    t.texels.size() == static_cast<size_t>(t.width) * static_cast<size_t>(t.height);
+    texture_ok[i] =
+        t.width > 0 && t.height > 0 && t.texels.size() == static_cast<size_t>(t.width) * static_cast<size_t>(t.height);
   }
   for (SceneMaterial& m : scene.materials) {
     if (!m.base_color_texture) continue;
     const int t = *m.base_color_texture;
     const bool in_range = t >= 0 && static_cast<size_t>(t) < scene.textures.size();
     if (in_range && texture_ok[t]) continue;
-    c.report.add(problem(Severity::warning, ProblemKind::bad_texture, -1, -1, -1,
-                         "material '" + m.name + "': base colour texture " + std::to_string(t) +
-                             (in_range ? " has " + std::to_string(scene.textures[t].texels.size()) + " texels for " +
-                                             std::to_string(scene.textures[t].width) + "x" +
-                                             std::to_string(scene.textures[t].height)
-                                       : " does not exist (" + std::to_string(scene.textures.size()) + " textures)"),
-                         "the texture is ignored; the material uses its base colour alone"));
+    c.report.add(problem(
+        Severity::warning, ProblemKind::bad_texture, -1, -1, -1,
+        "material '" + m.name + "': base colour texture " + std::to_string(t) +
+            (in_range ? " has " + std::to_string(scene.textures[t].texels.size()) + " texels for " +
+                            std::to_string(scene.textures[t].width) + "x" + std::to_string(scene.textures[t].height)
+                      : " does not exist (" + std::to_string(scene.textures.size()) + " textures)"),
+        "the texture is ignored; the material uses its base colour alone"));
     m.base_color_texture.reset();
   }
 }
 
 // Clamps each channel of `colour` to [0, hi] (NaN → 0) and reports the change, if any.
-void repair_colour(Reporter& report, const SceneMaterial& m, Rgb& colour, double hi, const char* what,
-                   const char* rule, bool all_or_nothing) {
+void repair_colour(Reporter& report, const SceneMaterial& m, Rgb& colour, double hi, const char* what, const char* rule,
+                   bool all_or_nothing) {
   Rgb fixed = colour;
   // A colour with a non-finite channel says nothing reliable about the others (lights.h's usable_emission).
   if (all_or_nothing && !colour.is_finite()) fixed = Rgb{0.0};
@@ -326,8 +344,8 @@ void repair_material_colours(SceneCheck& c) {
 
 void report_size_mismatch(MeshCheck& k, const char* array, size_t got, size_t want, const std::string& action) {
   k.report.add(problem(Severity::warning, ProblemKind::array_size_mismatch, k.m, -1, -1,
-                       k.label + ": " + array + " has " + std::to_string(got) + " entries for " +
-                           std::to_string(want) + (std::string(array) == "material" ? " triangles" : " positions"),
+                       k.label + ": " + array + " has " + std::to_string(got) + " entries for " + std::to_string(want) +
+                           (std::string(array) == "material" ? " triangles" : " positions"),
                        action));
 }
 
@@ -401,10 +419,10 @@ std::optional<Vec3> traced_normal(MeshCheck& k, size_t t, const uint32_t (&i)[3]
   const Vec3 ng = cross(p1 - p0, p2 - p0);
   const double longest = std::max({length(p1 - p0), length(p2 - p1), length(p0 - p2)});
   if (!(length(ng) > kFlatRatio * longest * longest)) {
-    k.report.add(problem(Severity::error, ProblemKind::degenerate_triangle, k.m, -1, at,
-                         tri + " has zero area at float precision (vertices " + fmt(p0) + ", " + fmt(p1) + ", " +
-                             fmt(p2) + ")",
-                         "triangle dropped: it is neither traced nor baked"));
+    k.report.add(
+        problem(Severity::error, ProblemKind::degenerate_triangle, k.m, -1, at,
+                tri + " has zero area at float precision (vertices " + fmt(p0) + ", " + fmt(p1) + ", " + fmt(p2) + ")",
+                "triangle dropped: it is neither traced nor baked"));
     return std::nullopt;
   }
   return ng;
@@ -506,10 +524,10 @@ bool traceable_instance(SceneCheck& c, size_t ii) {
   const int i = static_cast<int>(ii);
   const std::string label = "instance " + std::to_string(ii);
   if (src.mesh < 0 || static_cast<size_t>(src.mesh) >= c.in.meshes.size()) {
-    c.report.add(problem(Severity::error, ProblemKind::bad_instance_mesh, -1, i, -1,
-                         label + " refers to mesh " + std::to_string(src.mesh) + " of " +
-                             std::to_string(c.in.meshes.size()),
-                         "instance skipped"));
+    c.report.add(
+        problem(Severity::error, ProblemKind::bad_instance_mesh, -1, i, -1,
+                label + " refers to mesh " + std::to_string(src.mesh) + " of " + std::to_string(c.in.meshes.size()),
+                "instance skipped"));
     return false;
   }
   if (!usable_transform(src.to_world)) {

@@ -68,18 +68,18 @@ const char* to_string(Severity severity);
 struct Problem {
   Severity severity = Severity::warning;
   ProblemKind kind = ProblemKind::no_lightmap_uv;
-  int mesh = -1;          // into the input's meshes; -1: not about one mesh
-  int instance = -1;      // into the input's instances; -1: about the mesh in every instance
-  int64_t triangle = -1;  // into the input mesh's triangles (indices[3t..3t+2]); -1: not about one triangle
-  int64_t vertex = -1;    // for vertex problems (bad_normal, non_finite_uv)
+  int mesh = -1;                // into the input's meshes; -1: not about one mesh
+  int instance = -1;            // into the input's instances; -1: about the mesh in every instance
+  int64_t triangle = -1;        // into the input mesh's triangles (indices[3t..3t+2]); -1: not about one triangle
+  int64_t vertex = -1;          // for vertex problems (bad_normal, non_finite_uv)
   int64_t other_triangle = -1;  // overlapping_lightmap_uv: the other triangle of the pair (of mesh `other_mesh`,
   int other_mesh = -1, other_instance = -1;  // instance `other_instance`)
-  std::string what;       // for people: what is wrong, with the values
-  std::string action;     // for people: what the bake does about it
+  std::string what;                          // for people: what is wrong, with the values
+  std::string action;                        // for people: what the bake does about it
 };
 
 struct SceneReport {
-  std::vector<Problem> problems;        // at most `max_listed_per_kind` of each kind, in the order found
+  std::vector<Problem> problems;                    // at most `max_listed_per_kind` of each kind, in the order found
   std::array<int64_t, kProblemKindCount> counts{};  // every problem found, listed or not
   int64_t count(ProblemKind kind) const { return counts[static_cast<int>(kind)]; }
   int64_t total() const;
@@ -100,8 +100,8 @@ struct CheckedScene {
     std::vector<uint32_t> source_triangle;
     std::vector<uint8_t> bake;
   };
-  std::vector<MeshTriangles> triangles;    // one per mesh
-  std::vector<uint32_t> source_instance;   // per cleaned instance: its index in the input
+  std::vector<MeshTriangles> triangles;   // one per mesh
+  std::vector<uint32_t> source_instance;  // per cleaned instance: its index in the input
   SceneReport report;
 };
 

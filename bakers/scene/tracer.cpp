@@ -19,13 +19,20 @@ namespace {
 
 const char* error_name(RTCError code) {
   switch (code) {
-    case RTC_ERROR_NONE: return "no error";
-    case RTC_ERROR_UNKNOWN: return "unknown error";
-    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
-    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
-    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
-    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
-    case RTC_ERROR_CANCELLED: return "cancelled";
+    case RTC_ERROR_NONE:
+      return "no error";
+    case RTC_ERROR_UNKNOWN:
+      return "unknown error";
+    case RTC_ERROR_INVALID_ARGUMENT:
+      return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION:
+      return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY:
+      return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU:
+      return "unsupported CPU";
+    case RTC_ERROR_CANCELLED:
+      return "cancelled";
   }
   return "unrecognised error";
 }
@@ -70,9 +77,9 @@ static_assert(sizeof(TriangleFacts) == 8);
 
 // Only for hits that interpolate vertex normals or UVs.
 struct TriangleVertices {
-  float n[3][3];  // the mesh's vertex normals in world space (the inverse transpose applied, not renormalised:
-                  // interpolating them and then normalising is the same as transforming the interpolated normal);
-                  // unused without vertex normals
+  float n[3][3];      // the mesh's vertex normals in world space (the inverse transpose applied, not renormalised:
+                      // interpolating them and then normalising is the same as transforming the interpolated normal);
+                      // unused without vertex normals
   uint32_t index[3];  // the vertex indices, for the UV attributes
 };
 
@@ -87,8 +94,8 @@ constexpr double kFlatNormal = 8 * 0x1.0p-24;
 struct Geometry {
   int instance = 0, mesh = 0;
   const MeshAttributes* source = nullptr;
-  double normal_matrix[9];          // the inverse transpose of the instance's 3×3 part, row-major
-  double mirror = 1;                // sign of its determinant: −1 flips the winding's normal back outwards
+  double normal_matrix[9];  // the inverse transpose of the instance's 3×3 part, row-major
+  double mirror = 1;        // sign of its determinant: −1 flips the winding's normal back outwards
   std::array<double, 4> lightmap_st{1, 1, 0, 0};
 };
 
@@ -131,8 +138,8 @@ struct Tracer::Impl {
   std::vector<TriangleVertices> vertices;
   std::vector<MeshAttributes> meshes;
   size_t triangles = 0;
-  size_t side_bytes = 0;                    // the records and the copied UV attributes
-  std::atomic<int64_t> embree_bytes{0};     // what Embree holds, from its memory monitor
+  size_t side_bytes = 0;                 // the records and the copied UV attributes
+  std::atomic<int64_t> embree_bytes{0};  // what Embree holds, from its memory monitor
   Vec3 lower{INFINITY, INFINITY, INFINITY}, upper{-INFINITY, -INFINITY, -INFINITY};
   std::mutex error_mutex;
   std::string error;  // Embree's last message, from its error callback
@@ -154,10 +161,9 @@ struct Tracer::Impl {
     const RTCError code = rtcGetDeviceError(device);
     if (code == RTC_ERROR_NONE) return;
     std::lock_guard<std::mutex> lock(error_mutex);
-    throw std::runtime_error(std::string("Embree failed while ") + doing + ": " +
-                             (error.empty() ? error_name(code) : error) +
-                             (code == RTC_ERROR_OUT_OF_MEMORY ? " (the scene is too large for this machine's memory)"
-                                                              : ""));
+    throw std::runtime_error(
+        std::string("Embree failed while ") + doing + ": " + (error.empty() ? error_name(code) : error) +
+        (code == RTC_ERROR_OUT_OF_MEMORY ? " (the scene is too large for this machine's memory)" : ""));
   }
 
   ~Impl() {
@@ -188,9 +194,9 @@ double inverse_transpose(const Transform& t, double out[9]) {
                i = t.m[10];
   const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
   // M^-T = cofactor(M) / det.
-  const double cof[9] = {e * i - f * h, -(d * i - f * g), d * h - e * g,  //
-                         -(b * i - c * h), a * i - c * g, -(a * h - b * g),  //
-                         b * f - c * e, -(a * f - c * d), a * e - b * d};
+  const double cof[9] = {e * i - f * h,    -(d * i - f * g), d * h - e * g,     //
+                         -(b * i - c * h), a * i - c * g,    -(a * h - b * g),  //
+                         b * f - c * e,    -(a * f - c * d), a * e - b * d};
   for (int k = 0; k < 9; ++k) out[k] = cof[k] / det;
   return det < 0 ? -1.0 : 1.0;
 }
@@ -436,7 +442,7 @@ inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned pr
   h.u = hu;
   h.v = hv;
   const double w = 1.0 - h.u - h.v;
-  auto point = [&](const float (&q)[3][3], int c) { return q[0][c] * w + q[1][c] * h.u + q[2][c] * h.v; };
+  auto point = [&](const float(&q)[3][3], int c) { return q[0][c] * w + q[1][c] * h.u + q[2][c] * h.v; };
   h.p = {point(r.p, 0), point(r.p, 1), point(r.p, 2)};
   // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
   // anyway (stored as zero), face the ray.
@@ -478,7 +484,6 @@ bool intersect1(RTCScene scene, const Ray& ray, RTCRayHit& rh) {
   rtcIntersect1(scene, &context, &rh);
   return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
 }
-
 
 // `r`: the record of the triangle hit, `g` its geometry.
 HitId make_id(const RTCRayHit& rh, const TriangleRecord& r, const Geometry& g) {
@@ -549,8 +554,8 @@ template <class EmbreeRay, class Init, class Trace, class Collect>
 void trace_stream(std::span<const Ray> rays, size_t out_size, const char* query, Init init, Trace trace,
                   Collect collect) {
   if (out_size != rays.size())
-    throw std::invalid_argument(std::string("tracer: ") + query + " of " + std::to_string(rays.size()) +
-                                " rays into " + std::to_string(out_size) + " results");
+    throw std::invalid_argument(std::string("tracer: ") + query + " of " + std::to_string(rays.size()) + " rays into " +
+                                std::to_string(out_size) + " results");
   constexpr size_t kChunk = 256;
   EmbreeRay buffer[kChunk];
   for (size_t start = 0; start < rays.size(); start += kChunk) {

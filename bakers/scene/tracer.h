@@ -27,20 +27,20 @@ namespace kiln::scene {
 // What a closest-hit query finds, in world space. Barycentrics: p = (1 − u − v)·p0 + u·p1 + v·p2 over the triangle's
 // indices in order.
 struct Hit {
-  double t = 0;            // along the ray, in units of |direction|
-  int instance = 0;        // into scene.instances
-  int mesh = 0;            // into scene.meshes
-  int triangle = 0;        // into that mesh's triangles
-  int material = 0;        // into scene.materials (the mesh's material of that triangle)
+  double t = 0;      // along the ray, in units of |direction|
+  int instance = 0;  // into scene.instances
+  int mesh = 0;      // into scene.meshes
+  int triangle = 0;  // into that mesh's triangles
+  int material = 0;  // into scene.materials (the mesh's material of that triangle)
   double u = 0, v = 0;
-  Vec3 p;                  // the hit point, interpolated in double from the float vertices Embree traced
-  Vec3 ng;                 // unit geometric normal on the front side ((p1 − p0) × (p2 − p0), mirrored instances kept
-                           // outward: the normal transformed by the inverse transpose)
-  Vec3 ns;                 // unit shading normal: interpolated vertex normals transformed by the inverse transpose,
-                           // on ng's side (flipped if the mesh's normals disagree with its winding); ng without them
-  Point2 lightmap_uv;      // in the instance's lightmap (lightmap_scale_offset applied); (0,0) without lightmap UVs
-                           // or when not asked for (HitDetail)
-  Point2 uv;               // texture UV set 0; (0,0) without, or when not asked for
+  Vec3 p;              // the hit point, interpolated in double from the float vertices Embree traced
+  Vec3 ng;             // unit geometric normal on the front side ((p1 − p0) × (p2 − p0), mirrored instances kept
+                       // outward: the normal transformed by the inverse transpose)
+  Vec3 ns;             // unit shading normal: interpolated vertex normals transformed by the inverse transpose,
+                       // on ng's side (flipped if the mesh's normals disagree with its winding); ng without them
+  Point2 lightmap_uv;  // in the instance's lightmap (lightmap_scale_offset applied); (0,0) without lightmap UVs
+                       // or when not asked for (HitDetail)
+  Point2 uv;           // texture UV set 0; (0,0) without, or when not asked for
   bool front_face = true;  // the ray arrived from ng's side
   double offset = 0;       // lift off the surface that clears its float error (ray_offset.h)
 

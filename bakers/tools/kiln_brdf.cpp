@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
+#include "bakers/bake/number_format.h"
 #include "bakers/brdf/albedo.h"
 #include "bakers/brdf/bxdf.h"
-#include "bakers/bake/number_format.h"
 #include "bakers/brdf/model_spec.h"
 
 namespace {
@@ -87,7 +87,8 @@ Vec3 parse_direction(const std::string& flag, const std::string& text) {
   if (v.size() != 3) throw UsageError(flag + ": expected x,y,z, got '" + text + "'");
   const Vec3 d{v[0], v[1], v[2]};
   const double len = length(d);
-  if (!std::isfinite(len) || len == 0.0) throw UsageError(flag + ": must be a finite non-zero vector, got '" + text + "'");
+  if (!std::isfinite(len) || len == 0.0)
+    throw UsageError(flag + ": must be a finite non-zero vector, got '" + text + "'");
   return d / len;  // people type directions like 1,0,1; the library expects unit vectors
 }
 
@@ -157,13 +158,15 @@ Command parse_command(int argc, char** argv) {
   if (auto v = take("--alpha")) s.alpha_x = s.alpha_y = parse_number("--alpha", *v);
   if (auto v = take("--alpha-x")) s.alpha_x = parse_number("--alpha-x", *v);
   if (auto v = take("--alpha-y")) s.alpha_y = parse_number("--alpha-y", *v);
-  if (auto v = take("--fresnel")) s.fresnel = parse_enum<FresnelMode>("--fresnel", *v, fresnel_from_string, fresnel_names());
+  if (auto v = take("--fresnel"))
+    s.fresnel = parse_enum<FresnelMode>("--fresnel", *v, fresnel_from_string, fresnel_names());
   if (auto v = take("--f0")) s.f0 = parse_rgb("--f0", *v);
   if (auto v = take("--eta")) s.eta = parse_number("--eta", *v);
   if (auto v = take("--distribution")) {
     s.distribution = parse_enum<Distribution>("--distribution", *v, distribution_from_string, distribution_names());
   }
-  if (auto v = take("--masking")) s.masking = parse_enum<Masking>("--masking", *v, masking_from_string, masking_names());
+  if (auto v = take("--masking"))
+    s.masking = parse_enum<Masking>("--masking", *v, masking_from_string, masking_names());
   if (auto v = take("--normalization")) {
     s.normalization =
         parse_enum<Normalization>("--normalization", *v, normalization_from_string, normalization_names());
@@ -249,9 +252,9 @@ int run(const Command& cmd) {
   for (int j = 0; j < ss.n_roughness; ++j) {
     for (int i = 0; i < ss.n_mu; ++i) {
       const int k = j * ss.n_mu + i;
-      std::cout << format_number(ss.roughness[j]) << "," << format_number(ss.mu[i]) << ","
-                << format_number(ss.scale[k]) << "," << format_number(ss.bias[k]) << ","
-                << format_number(ss.scale_error[k]) << "," << format_number(ss.bias_error[k]) << "\n";
+      std::cout << format_number(ss.roughness[j]) << "," << format_number(ss.mu[i]) << "," << format_number(ss.scale[k])
+                << "," << format_number(ss.bias[k]) << "," << format_number(ss.scale_error[k]) << ","
+                << format_number(ss.bias_error[k]) << "\n";
     }
   }
   return 0;

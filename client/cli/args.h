@@ -49,8 +49,7 @@ struct Flags {
 
 // Accepts "--flag VALUE", "--flag=VALUE" and "--" (the rest is positional). `command` names the command in errors
 // ("kiln bake material"). Throws UsageError for an unknown flag, a missing value, or a flag given twice.
-Flags parse_flags(const std::vector<std::string>& args, const std::vector<FlagSpec>& specs,
-                  const std::string& command);
+Flags parse_flags(const std::vector<std::string>& args, const std::vector<FlagSpec>& specs, const std::string& command);
 
 // The flags every command takes: --server, --token-file, --help.
 std::vector<FlagSpec> global_flag_specs();

@@ -126,7 +126,8 @@ void require_lightmap_files(const LightmapBake& bake) {
     if (!file.empty() && !fs::is_regular_file(file, ec)) {
       throw UsageError(file + ": no such file (" +
                        (file == bake.scene_file ? "the scene to bake: glTF, OBJ or FBX"
-                                                : "the environment: an equirectangular EXR, HDR, PNG or JPEG") + ")");
+                                                : "the environment: an equirectangular EXR, HDR, PNG or JPEG") +
+                       ")");
     }
   }
 }
@@ -140,9 +141,9 @@ client::ImportedScene import_lightmap_scene(Context& ctx, const LightmapBake& ba
     throw Failure(kExitUsage, e.what());
   }
   for (const std::string& w : scene.warnings) ctx.err << "kiln: " << bake.scene_file << ": " << w << "\n";
-  ctx.err << "kiln: " << bake.scene_file << ": " << scene.job.meshes_size() << " meshes, "
-          << scene.job.instances_size() << " instances, " << scene.job.materials_size() << " materials, "
-          << scene.job.textures_size() << " textures, " << scene.job.lights_size() << " lights\n";
+  ctx.err << "kiln: " << bake.scene_file << ": " << scene.job.meshes_size() << " meshes, " << scene.job.instances_size()
+          << " instances, " << scene.job.materials_size() << " materials, " << scene.job.textures_size()
+          << " textures, " << scene.job.lights_size() << " lights\n";
   return scene;
 }
 
@@ -201,8 +202,9 @@ int cmd_bake_material(Context& ctx, const Flags& f) {
 
 int cmd_bake(Context& ctx, const Flags& f) {
   if (f.positional.empty()) {
-    throw UsageError("missing job type: `kiln bake material ...` or `kiln bake env ...` (see `kiln bake material "
-                     "--help`, `kiln bake env --help`)");
+    throw UsageError(
+        "missing job type: `kiln bake material ...` or `kiln bake env ...` (see `kiln bake material "
+        "--help`, `kiln bake env --help`)");
   }
   if (f.positional[0] == "env" || f.positional[0] == "environment") return cmd_bake_env(ctx, f);
   if (f.positional[0] == "lightmap") return cmd_bake_lightmap(ctx, f);

@@ -109,11 +109,30 @@ const Applies kApplies[] = {
 };
 
 // The flags that describe the job, in the order the default name lists them.
-const char* const kJobFlags[] = {"--albedo",        "--sigma",   "--interreflection", "--alpha",    "--alpha-x",
-                                 "--alpha-y",       "--fresnel", "--f0",              "--eta",      "--distribution",
-                                 "--masking",       "--normalization", "--c",         "--r",        "--p",
-                                 "--bottom-c",      "--bottom-r", "--bottom-p",       "--samples",  "--target-error",
-                                 "--time-limit",    "--seed",    "--table-mu",        "--table-roughness"};
+const char* const kJobFlags[] = {"--albedo",
+                                 "--sigma",
+                                 "--interreflection",
+                                 "--alpha",
+                                 "--alpha-x",
+                                 "--alpha-y",
+                                 "--fresnel",
+                                 "--f0",
+                                 "--eta",
+                                 "--distribution",
+                                 "--masking",
+                                 "--normalization",
+                                 "--c",
+                                 "--r",
+                                 "--p",
+                                 "--bottom-c",
+                                 "--bottom-r",
+                                 "--bottom-p",
+                                 "--samples",
+                                 "--target-error",
+                                 "--time-limit",
+                                 "--seed",
+                                 "--table-mu",
+                                 "--table-roughness"};
 
 constexpr double kHalfPi = 1.5707963267948966;
 
@@ -146,14 +165,12 @@ void microfacet(const Flags& f, Model model, const std::string& model_name, v1::
   // The Fresnel term in force, so that --f0 and --eta are refused where the model would ignore them.
   std::string fresnel = model == Model::cook_torrance ? "exact" : "none";
   if (auto v = f.get("--fresnel")) {
-    m->set_fresnel(parse_choice<v1::Fresnel>("--fresnel", *v,
-                                             {{"none", v1::FRESNEL_NONE},
-                                              {"schlick", v1::FRESNEL_SCHLICK},
-                                              {"exact", v1::FRESNEL_EXACT}}));
+    m->set_fresnel(parse_choice<v1::Fresnel>(
+        "--fresnel", *v, {{"none", v1::FRESNEL_NONE}, {"schlick", v1::FRESNEL_SCHLICK}, {"exact", v1::FRESNEL_EXACT}}));
     fresnel = hyphenated(*v);
   }
-  const std::string in_force = f.has("--fresnel") ? "--fresnel " + fresnel
-                                                  : model_name + "'s default Fresnel term (" + fresnel + ")";
+  const std::string in_force =
+      f.has("--fresnel") ? "--fresnel " + fresnel : model_name + "'s default Fresnel term (" + fresnel + ")";
   if (auto v = f.get("--f0")) {
     if (fresnel != "schlick") {
       throw UsageError("--f0: only --fresnel schlick uses it, and " + in_force +
@@ -163,8 +180,7 @@ void microfacet(const Flags& f, Model model, const std::string& model_name, v1::
   }
   if (auto v = f.get("--eta")) {
     if (fresnel != "exact") {
-      throw UsageError("--eta: only exact Fresnel uses it, and " + in_force +
-                       " would ignore it; add --fresnel exact");
+      throw UsageError("--eta: only exact Fresnel uses it, and " + in_force + " would ignore it; add --fresnel exact");
     }
     m->set_eta(parse_number_in("--eta", *v, 0.1, 10.0));
   }
@@ -242,7 +258,6 @@ void set_model_fields(const Flags& f, Model model, const std::string& model_name
       break;
     }
   }
-
 }
 
 // The table sizes, --merl, and the quality: samples, target error, time limit, seed.
@@ -280,10 +295,18 @@ std::vector<std::string> path_components(const std::string& field_path) {
 // `kiln bake env`: the flag of job.environment.FIELD; none for the image, which is the command's argument.
 std::string environment_flag_for(const std::vector<std::string>& parts) {
   static const std::pair<const char*, const char*> kEnvironment[] = {
-      {"faces", "--faces"},           {"constant", "--constant"},       {"color_space", "--color-space"},
-      {"rotation_degrees", "--rotation"}, {"intensity", "--intensity"}, {"lobe", "--lobe"},
-      {"size", "--size"},             {"levels", "--levels"},           {"irradiance_size", "--irradiance-size"},
-      {"dfg_size", "--dfg-size"},     {"dfg_samples", "--dfg-samples"}, {"preview", "--no-preview"},
+      {"faces", "--faces"},
+      {"constant", "--constant"},
+      {"color_space", "--color-space"},
+      {"rotation_degrees", "--rotation"},
+      {"intensity", "--intensity"},
+      {"lobe", "--lobe"},
+      {"size", "--size"},
+      {"levels", "--levels"},
+      {"irradiance_size", "--irradiance-size"},
+      {"dfg_size", "--dfg-size"},
+      {"dfg_samples", "--dfg-samples"},
+      {"preview", "--no-preview"},
   };
   if (parts.size() == 2) return "";
   for (const auto& [field, flag] : kEnvironment) {

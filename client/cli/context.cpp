@@ -88,8 +88,7 @@ Client& connected_client(Context& ctx) {
   return *ctx.client;
 }
 
-void throw_job_request_error(const Context& ctx, const ServerError& e, const std::string& id,
-                             const std::string& what) {
+void throw_job_request_error(const Context& ctx, const ServerError& e, const std::string& id, const std::string& what) {
   if (e.code() == v1::Error::NOT_FOUND) {
     throw Failure(kExitUsage, "kilnd at " + ctx.server + " has no job '" + id + "' (" + e.message() +
                                   "); list the jobs it has with `kiln jobs`");

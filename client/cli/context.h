@@ -45,8 +45,7 @@ client::Client& connected_client(Context& ctx);
                                           const std::string& what);
 
 // A connection broken while doing `what`, as the Failure that says so.
-[[noreturn]] void throw_connection_lost(const Context& ctx, const client::ConnectionError& e,
-                                        const std::string& what);
+[[noreturn]] void throw_connection_lost(const Context& ctx, const client::ConnectionError& e, const std::string& what);
 
 // Seconds on the steady clock, for progress lines.
 double steady_seconds();

@@ -50,10 +50,9 @@ example:
 namespace {
 
 // The flags that describe the job, in the order the default name lists them.
-const char* const kJobFlags[] = {"--constant",    "--color-space", "--rotation",        "--intensity",
-                                 "--lobe",        "--size",        "--levels",          "--irradiance-size",
-                                 "--dfg-size",    "--dfg-samples", "--samples",         "--target-error",
-                                 "--seed"};
+const char* const kJobFlags[] = {
+    "--constant",        "--color-space", "--rotation",    "--intensity", "--lobe",         "--size", "--levels",
+    "--irradiance-size", "--dfg-size",    "--dfg-samples", "--samples",   "--target-error", "--seed"};
 
 v1::EnvironmentLobe lobe_of(const std::string& flag_text) {
   const std::string text = hyphenated(flag_text);
@@ -86,8 +85,9 @@ void set_source(const Flags& f, EnvironmentBake& bake) {
     parse_color("--constant", *f.get("--constant"), 1e6, job->mutable_constant());
     for (const char* flag : {"--color-space", "--rotation", "--intensity"}) {
       if (f.has(flag)) {
-        throw UsageError(std::string(flag) + ": applies to an image or faces; --constant is already radiance in the "
-                                             "working space");
+        throw UsageError(std::string(flag) +
+                         ": applies to an image or faces; --constant is already radiance in the "
+                         "working space");
       }
     }
   } else if (faces) {
@@ -97,8 +97,9 @@ void set_source(const Flags& f, EnvironmentBake& bake) {
     }
     job->mutable_faces();
   } else if (bake.files.empty()) {
-    throw UsageError("missing environment: `kiln bake env IMAGE`, `--constant R,G,B` or `--faces PX NX PY NY PZ NZ`"
-                     " (see `kiln bake env --help`)");
+    throw UsageError(
+        "missing environment: `kiln bake env IMAGE`, `--constant R,G,B` or `--faces PX NX PY NY PZ NZ`"
+        " (see `kiln bake env --help`)");
   } else if (bake.files.size() > 1) {
     throw UsageError("unexpected argument '" + bake.files[1] +
                      "': one image (six faces go with --faces; see `kiln bake env --help`)");

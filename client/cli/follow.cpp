@@ -43,8 +43,8 @@ void wait_before_rewatch(Context& ctx, const std::string& id, const std::string&
                                    "); the job stays on the server: `kiln watch " + id + "` follows it again");
   }
   const int wait = std::min(1 << (reconnects - 1), 16);
-  ctx.err << "kiln: " << why << " (kilnd at " << ctx.server << ", watching job " << id << "); trying again in "
-          << wait << " s\n"
+  ctx.err << "kiln: " << why << " (kilnd at " << ctx.server << ", watching job " << id << "); trying again in " << wait
+          << " s\n"
           << std::flush;
   std::this_thread::sleep_for(std::chrono::seconds(wait));
 }

@@ -82,8 +82,9 @@ void parse_job_text(const std::string& text, const std::string& label, v1::JobSp
     throw UsageError(label + ":" + error_position(text, errors) + ": " + *errors.error);
   }
   if (spec.job_case() == v1::JobSpec::JOB_NOT_SET) {
-    throw UsageError(label + ": no job in the file; it needs one, e.g. `material { ggx { alpha: 0.3 } }` "
-                             "(see client/examples/)");
+    throw UsageError(label +
+                     ": no job in the file; it needs one, e.g. `material { ggx { alpha: 0.3 } }` "
+                     "(see client/examples/)");
   }
 }
 

@@ -71,8 +71,7 @@ void add_forced_effects(const Flags& f, v1::JobSpec& spec) {
 void set_name(const Flags& f, v1::JobSpec& spec, const std::string& fallback) {
   if (auto v = f.get("--name")) {
     if (v->size() > kMaxNameBytes) {
-      throw UsageError("--name: at most " + std::to_string(kMaxNameBytes) + " bytes, got " +
-                       std::to_string(v->size()));
+      throw UsageError("--name: at most " + std::to_string(kMaxNameBytes) + " bytes, got " + std::to_string(v->size()));
     }
     spec.set_name(*v);
   } else {

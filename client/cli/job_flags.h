@@ -13,7 +13,7 @@
 namespace kiln::v1 {
 class Color;
 class JobSpec;
-}
+}  // namespace kiln::v1
 
 namespace kiln::cli {
 

@@ -6,8 +6,8 @@
 #include <sstream>
 #include <string_view>
 
-#include "client/cli/job_flags.h"
 #include "client/cli/job_file.h"
+#include "client/cli/job_flags.h"
 
 namespace kiln::cli {
 
@@ -72,9 +72,7 @@ std::string default_name(const Flags& f, const std::string& scene) {
 // the wrapper sits on the first line, and only that line's columns shift.
 constexpr std::string_view kOverlayWrapper = "lightmap { ";
 
-std::string wrapped_overlay(const std::string& job_text) {
-  return std::string(kOverlayWrapper) + job_text + "\n}";
-}
+std::string wrapped_overlay(const std::string& job_text) { return std::string(kOverlayWrapper) + job_text + "\n}"; }
 
 // A column of the wrapped text's first line, in the job file.
 int unwrapped_column(int column) { return std::max(column - static_cast<int>(kOverlayWrapper.size()), 1); }
@@ -99,12 +97,13 @@ void read_overlay(LightmapBake& bake) {
   }
   bake.overlay = wrapped.lightmap();
   const v1::LightmapJob& o = bake.overlay;
-  for (const auto& [count, what] : {std::pair{o.meshes_size(), "meshes"}, std::pair{o.instances_size(), "instances"},
-                                    std::pair{o.materials_size(), "materials"},
-                                    std::pair{o.textures_size(), "textures"}}) {
+  for (const auto& [count, what] :
+       {std::pair{o.meshes_size(), "meshes"}, std::pair{o.instances_size(), "instances"},
+        std::pair{o.materials_size(), "materials"}, std::pair{o.textures_size(), "textures"}}) {
     if (count > 0) {
-      throw UsageError(bake.job_file + ": gives " + what + "; they come from the scene file (use material_overrides "
-                                       "to change a material, lights to add lights)");
+      throw UsageError(bake.job_file + ": gives " + what +
+                       "; they come from the scene file (use material_overrides "
+                       "to change a material, lights to add lights)");
     }
   }
 }
@@ -206,10 +205,16 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
   auto starts = [&](const std::string& p) { return field.rfind(prefix + p, 0) == 0; };
   if (starts("environment.image") && !bake.env_file.empty()) return bake.env_file;
   static const std::pair<const char*, const char*> kFlags[] = {
-      {"resolution", "--resolution"},   {"padding", "--padding"},         {"max_bounces", "--max-bounces"},
-      {"radiance", "--radiance"},       {"ao", "--ao"},                   {"directional", "--directional"},
-      {"preview", "--no-preview"},      {"environment.constant", "--env-constant"},
-      {"environment.rotation_degrees", "--env-rotation"},                 {"environment.intensity", "--env-intensity"},
+      {"resolution", "--resolution"},
+      {"padding", "--padding"},
+      {"max_bounces", "--max-bounces"},
+      {"radiance", "--radiance"},
+      {"ao", "--ao"},
+      {"directional", "--directional"},
+      {"preview", "--no-preview"},
+      {"environment.constant", "--env-constant"},
+      {"environment.rotation_degrees", "--env-rotation"},
+      {"environment.intensity", "--env-intensity"},
   };
   for (const auto& [name, flag] : kFlags) {
     if (field == prefix + name || starts(std::string(name) + ".")) return flag;

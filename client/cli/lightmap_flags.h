@@ -13,13 +13,13 @@
 namespace kiln::cli {
 
 struct LightmapBake {
-  v1::JobSpec spec;        // the settings from the flags and the job file; the scene is merged in by merge_scene
-  std::string scene_file;  // glTF, OBJ or FBX
-  std::string env_file;    // --env IMAGE, uploaded; empty without
-  std::string job_file;    // --job FILE.textproto, empty without
-  std::string job_text;    // its text
-  v1::LightmapJob overlay; // its contents
-  int imported_lights = 0; // lights before the job file's (set by merge_scene), to tell errors apart
+  v1::JobSpec spec;         // the settings from the flags and the job file; the scene is merged in by merge_scene
+  std::string scene_file;   // glTF, OBJ or FBX
+  std::string env_file;     // --env IMAGE, uploaded; empty without
+  std::string job_file;     // --job FILE.textproto, empty without
+  std::string job_text;     // its text
+  v1::LightmapJob overlay;  // its contents
+  int imported_lights = 0;  // lights before the job file's (set by merge_scene), to tell errors apart
 };
 
 // Every flag `kiln bake lightmap` accepts, the global ones included.

@@ -47,8 +47,8 @@ void check_output_names(const v1::JobResult& r) {
                                      ", which is not a plain file name; nothing was written");
     }
     if (std::find(names.begin(), names.end(), o.name()) != names.end()) {
-      throw Failure(kExitServer, "kilnd sent two outputs of job " + r.job_id() + " named " + o.name() +
-                                     "; nothing was written");
+      throw Failure(kExitServer,
+                    "kilnd sent two outputs of job " + r.job_id() + " named " + o.name() + "; nothing was written");
     }
     names.push_back(o.name());
   }
@@ -62,16 +62,15 @@ void check_output_names(const v1::JobResult& r) {
                                    " --out " + dir.string() + "` again");
   }
   if (e.code() == v1::Error::NOT_FOUND) {
-    throw Failure(kExitServer, "kilnd at " + ctx.server + " no longer holds " + name + " of job " + r.job_id() +
-                                   " (" + e.message() + "); submit the job again to bake it");
+    throw Failure(kExitServer, "kilnd at " + ctx.server + " no longer holds " + name + " of job " + r.job_id() + " (" +
+                                   e.message() + "); submit the job again to bake it");
   }
   throw Failure(kExitServer, "kilnd at " + ctx.server + " could not send " + name + " of job " + r.job_id() + ": " +
                                  describe_server_error(e));
 }
 
 // The bytes of output `o` into the open file `f` (the temporary `tmp`).
-void stream_output(Context& ctx, const v1::Output& o, const fs::path& tmp, std::ofstream& f,
-                   ProgressPrinter& printer) {
+void stream_output(Context& ctx, const v1::Output& o, const fs::path& tmp, std::ofstream& f, ProgressPrinter& printer) {
   connected_client(ctx).fetch(
       o.digest(),
       [&](std::string_view data) {
@@ -84,8 +83,8 @@ void stream_output(Context& ctx, const v1::Output& o, const fs::path& tmp, std::
 }
 
 // Output `o` into `tmp`, fetched again on a new connection after a broken one; `tmp` is removed on any failure.
-void fetch_output(Context& ctx, const v1::JobResult& r, const v1::Output& o, const fs::path& tmp,
-                  const fs::path& dir, ProgressPrinter& printer) {
+void fetch_output(Context& ctx, const v1::JobResult& r, const v1::Output& o, const fs::path& tmp, const fs::path& dir,
+                  ProgressPrinter& printer) {
   for (int attempt = 0;; ++attempt) {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     if (!f) throw cannot_write(tmp);

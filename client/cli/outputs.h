@@ -33,7 +33,7 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
 std::vector<SavedFile> save_outputs(Context& ctx, const v1::JobResult& r, const std::filesystem::path& dir);
 
 // "job ID STATE: NAME", the cost, and the outputs: those saved into `dir`, else the result's with how to fetch them.
-void print_summary(Context& ctx, const v1::JobResult& r, bool cache_hit, const std::optional<std::filesystem::path>& dir,
-                   const std::vector<SavedFile>& saved);
+void print_summary(Context& ctx, const v1::JobResult& r, bool cache_hit,
+                   const std::optional<std::filesystem::path>& dir, const std::vector<SavedFile>& saved);
 
 }  // namespace kiln::cli

@@ -11,10 +11,10 @@ namespace kiln::cli {
 namespace {
 
 constexpr int kBarWidth = 24;
-constexpr double kMinPlainInterval = 1.0;     // seconds between plain lines
-constexpr int kPlainSteps = 10;               // plain lines per whole job: one each 10 %
-constexpr double kPlainHeartbeat = 30.0;      // seconds after which a plain line comes anyway
-constexpr double kMinRedrawInterval = 0.1;    // seconds between redraws of the terminal line
+constexpr double kMinPlainInterval = 1.0;   // seconds between plain lines
+constexpr int kPlainSteps = 10;             // plain lines per whole job: one each 10 %
+constexpr double kPlainHeartbeat = 30.0;    // seconds after which a plain line comes anyway
+constexpr double kMinRedrawInterval = 0.1;  // seconds between redraws of the terminal line
 
 std::string percent(double fraction) {
   const double f = std::clamp(std::isfinite(fraction) ? fraction : 0.0, 0.0, 1.0);
@@ -41,12 +41,18 @@ int step_of(double fraction) {
 
 std::string state_name(int job_state) {
   switch (job_state) {
-    case v1::JOB_STATE_QUEUED: return "queued";
-    case v1::JOB_STATE_RUNNING: return "running";
-    case v1::JOB_STATE_SUCCEEDED: return "succeeded";
-    case v1::JOB_STATE_FAILED: return "failed";
-    case v1::JOB_STATE_CANCELLED: return "cancelled";
-    default: return "unknown";
+    case v1::JOB_STATE_QUEUED:
+      return "queued";
+    case v1::JOB_STATE_RUNNING:
+      return "running";
+    case v1::JOB_STATE_SUCCEEDED:
+      return "succeeded";
+    case v1::JOB_STATE_FAILED:
+      return "failed";
+    case v1::JOB_STATE_CANCELLED:
+      return "cancelled";
+    default:
+      return "unknown";
   }
 }
 
@@ -73,8 +79,9 @@ std::string ProgressPrinter::describe(const v1::JobEvent& e) {
     default:
       break;
   }
-  if (!e.message().empty()) s += (e.state() == v1::JOB_STATE_FAILED ? ": " : "  (") + printable(e.message()) +
-                                 (e.state() == v1::JOB_STATE_FAILED ? "" : ")");
+  if (!e.message().empty())
+    s += (e.state() == v1::JOB_STATE_FAILED ? ": " : "  (") + printable(e.message()) +
+         (e.state() == v1::JOB_STATE_FAILED ? "" : ")");
   return s;
 }
 

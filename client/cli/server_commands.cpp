@@ -19,10 +19,9 @@ void print_status(Context& ctx, const v1::ServerStatus& s) {
   std::ostream& out = ctx.out;
   out << "kilnd at " << ctx.server << ": " << (s.server_version().empty() ? h.server_version() : s.server_version())
       << ", protocol " << h.protocol_version() << ", up " << format_duration(s.uptime_seconds()) << "\n";
-  out << "  jobs: " << s.queued() << " queued, " << s.running() << " running, " << s.jobs_completed()
-      << " completed, " << s.jobs_failed() << " failed, " << s.cache_hits() << " cache hits\n";
-  out << "  workers: " << s.workers() << ", threads: " << s.threads() << ", connections: " << s.connections()
-      << "\n";
+  out << "  jobs: " << s.queued() << " queued, " << s.running() << " running, " << s.jobs_completed() << " completed, "
+      << s.jobs_failed() << " failed, " << s.cache_hits() << " cache hits\n";
+  out << "  workers: " << s.workers() << ", threads: " << s.threads() << ", connections: " << s.connections() << "\n";
   out << "  store: " << format_bytes(s.store_bytes())
       << (s.store_limit_bytes() ? " of " + format_bytes(s.store_limit_bytes()) : std::string(" (no limit)")) << "\n";
   std::string types;
@@ -47,15 +46,16 @@ v1::JobState state_filter_of(const Flags& f) {
 void print_jobs_table(std::ostream& out, const v1::JobList& list) {
   std::size_t id_width = 2;
   for (const auto& j : list.jobs()) id_width = std::max(id_width, j.job_id().size());
-  out << std::left << std::setw(static_cast<int>(id_width)) << "ID" << "  " << std::setw(10) << "STATE"
-      << std::setw(13) << "TYPE" << std::right << std::setw(4) << "PRI" << "  " << std::left << std::setw(20)
-      << "SUBMITTED" << std::right << std::setw(12) << "BAKING" << "  " << std::left << std::setw(6) << "CACHE"
+  out << std::left << std::setw(static_cast<int>(id_width)) << "ID"
+      << "  " << std::setw(10) << "STATE" << std::setw(13) << "TYPE" << std::right << std::setw(4) << "PRI"
+      << "  " << std::left << std::setw(20) << "SUBMITTED" << std::right << std::setw(12) << "BAKING"
+      << "  " << std::left << std::setw(6) << "CACHE"
       << "NAME\n";
   for (const auto& j : list.jobs()) {
     out << std::left << std::setw(static_cast<int>(id_width)) << j.job_id() << "  " << std::setw(10)
-        << state_name(j.state()) << std::setw(13) << (j.type().empty() ? "-" : j.type()) << std::right
-        << std::setw(4) << j.priority() << "  " << std::left << std::setw(20) << format_time(j.submitted_unix())
-        << std::right << std::setw(12) << format_duration(j.seconds()) << "  " << std::left << std::setw(6)
+        << state_name(j.state()) << std::setw(13) << (j.type().empty() ? "-" : j.type()) << std::right << std::setw(4)
+        << j.priority() << "  " << std::left << std::setw(20) << format_time(j.submitted_unix()) << std::right
+        << std::setw(12) << format_duration(j.seconds()) << "  " << std::left << std::setw(6)
         << (j.cache_hit() ? "hit" : "-") << j.name() << "\n";
   }
   out << std::flush;
@@ -91,8 +91,7 @@ int cmd_jobs(Context& ctx, const Flags& f) {
     throw_connection_lost(ctx, e, "listing jobs");
   }
   if (list.jobs().empty()) {
-    ctx.err << "kiln: kilnd at " << ctx.server << " has no jobs" << (f.has("--state") ? " in that state" : "")
-            << "\n";
+    ctx.err << "kiln: kilnd at " << ctx.server << " has no jobs" << (f.has("--state") ? " in that state" : "") << "\n";
     return kExitOk;
   }
   print_jobs_table(ctx.out, list);

@@ -20,8 +20,8 @@ v1::SubmitReply submit_job(Context& ctx, const v1::JobSpec& spec, std::int32_t p
       if (e.field() == "priority") at = "--priority";
       if (e.field() == "idempotency_key") at = "--idempotency-key";
       const bool named = e.field().empty() || e.message().rfind(e.field() + ":", 0) == 0;
-      throw Failure(kExitUsage, (at.empty() ? "" : at + ": ") + "the server refused the job: " +
-                                    (named ? "" : e.field() + ": ") + e.message());
+      throw Failure(kExitUsage, (at.empty() ? "" : at + ": ") +
+                                    "the server refused the job: " + (named ? "" : e.field() + ": ") + e.message());
     }
     if (e.code() == v1::Error::RESOURCE_EXHAUSTED) {
       throw Failure(kExitServer, "kilnd at " + ctx.server + " cannot take the job now: " + e.message() +

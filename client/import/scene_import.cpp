@@ -12,10 +12,10 @@
 #include <sstream>
 #include <stdexcept>
 
-#include <assimp/Importer.hpp>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <assimp/Importer.hpp>
 #include <boost/property_tree/json_parser.hpp>
 #include <boost/property_tree/ptree.hpp>
 
@@ -77,7 +77,8 @@ GltfExtras gltf_extras(const std::string& path) {
     unsigned i = 0;
     if (const auto materials = tree.get_child_optional("materials")) {
       for (const auto& [key, material] : *materials) {
-        const auto strength = material.get_optional<double>("extensions.KHR_materials_emissive_strength.emissiveStrength");
+        const auto strength =
+            material.get_optional<double>("extensions.KHR_materials_emissive_strength.emissiveStrength");
         if (strength) out.emissive_strength[i] = *strength;
         ++i;
       }
@@ -392,12 +393,14 @@ class Importer {
     aiMatrix4x4 world;
     const auto [first, last] = world_of_node_.equal_range(name);
     if (first == last) {
-      out_.warnings.push_back("light " + name + ": no node of that name places it; it stays where the file's "
+      out_.warnings.push_back("light " + name +
+                              ": no node of that name places it; it stays where the file's "
                               "light itself says, in world space");
     } else {
       world = first->second;
       if (std::next(first) != last) {
-        out_.warnings.push_back("light " + name + ": several nodes have that name; placed by the first (give the "
+        out_.warnings.push_back("light " + name +
+                                ": several nodes have that name; placed by the first (give the "
                                 "nodes unique names to place it by the right one)");
       }
     }
@@ -471,10 +474,10 @@ class Importer {
   ImportedScene out_;
   GltfExtras extras_;
   std::map<std::string, uint32_t> textures_;
-  std::vector<int> mesh_index_;                // aiMesh → job mesh, -1 if dropped
-  std::vector<std::string> lightmap_of_mesh_;  // job mesh → its lightmap name
-  std::vector<bool> has_lightmap_uv_;          // job mesh
-  std::map<unsigned, int> uses_;               // aiMesh → nodes referring to it
+  std::vector<int> mesh_index_;                            // aiMesh → job mesh, -1 if dropped
+  std::vector<std::string> lightmap_of_mesh_;              // job mesh → its lightmap name
+  std::vector<bool> has_lightmap_uv_;                      // job mesh
+  std::map<unsigned, int> uses_;                           // aiMesh → nodes referring to it
   std::multimap<std::string, aiMatrix4x4> world_of_node_;  // in the order the nodes are visited
 };
 

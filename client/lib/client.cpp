@@ -9,11 +9,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <charconv>
 #include <utility>
 
 #include "proto/digest.h"
@@ -194,9 +194,8 @@ struct Client::Impl {
         case proto::FrameDecoder::Status::need_more:
           break;
       }
-      const std::size_t n = wait(
-          [&](auto handler) { socket.async_read_some(asio::buffer(read_buffer), handler); }, deadline,
-          options.read_timeout, "waiting for the server's answer");
+      const std::size_t n = wait([&](auto handler) { socket.async_read_some(asio::buffer(read_buffer), handler); },
+                                 deadline, options.read_timeout, "waiting for the server's answer");
       decoder.feed(std::string_view(read_buffer.data(), n));
     }
   }
@@ -304,8 +303,8 @@ v1::Digest Client::upload_file(const std::string& path, const ProgressFn& progre
   std::ifstream in(path, std::ios::binary);
   std::string bytes(static_cast<std::size_t>(size), '\0');
   if (!in || !in.read(bytes.data(), static_cast<std::streamsize>(size)) || in.peek() != EOF) {
-    throw std::runtime_error("cannot read " + path + " whole: " + (in.bad() ? std::strerror(errno)
-                                                                             : "it changed while being read"));
+    throw std::runtime_error("cannot read " + path +
+                             " whole: " + (in.bad() ? std::strerror(errno) : "it changed while being read"));
   }
   return upload_blob(bytes, progress);
 }
@@ -449,7 +448,8 @@ std::string Client::fetch(const v1::Digest& digest, const ProgressFn& progress) 
   std::string bytes;
   // The size comes from the server: reserve no more than a bounded amount on its word.
   bytes.reserve(static_cast<std::size_t>(std::min<std::uint64_t>(digest.size(), kMaxResponseFrameBytes)));
-  fetch(digest, [&](std::string_view data) { bytes.append(data); }, progress);
+  fetch(
+      digest, [&](std::string_view data) { bytes.append(data); }, progress);
   return bytes;
 }
 

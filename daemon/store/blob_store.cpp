@@ -6,9 +6,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <atomic>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <random>
@@ -22,14 +22,22 @@ namespace kiln::store {
 
 std::string_view to_string(StoreErrc code) {
   switch (code) {
-    case StoreErrc::invalid_argument: return "invalid argument";
-    case StoreErrc::not_found: return "not found";
-    case StoreErrc::already_exists: return "already exists";
-    case StoreErrc::failed_precondition: return "failed precondition";
-    case StoreErrc::out_of_range: return "out of range";
-    case StoreErrc::data_loss: return "data loss";
-    case StoreErrc::resource_exhausted: return "resource exhausted";
-    case StoreErrc::io: return "I/O error";
+    case StoreErrc::invalid_argument:
+      return "invalid argument";
+    case StoreErrc::not_found:
+      return "not found";
+    case StoreErrc::already_exists:
+      return "already exists";
+    case StoreErrc::failed_precondition:
+      return "failed precondition";
+    case StoreErrc::out_of_range:
+      return "out of range";
+    case StoreErrc::data_loss:
+      return "data loss";
+    case StoreErrc::resource_exhausted:
+      return "resource exhausted";
+    case StoreErrc::io:
+      return "I/O error";
   }
   return "unknown";
 }
@@ -37,9 +45,9 @@ std::string_view to_string(StoreErrc code) {
 BlobId make_blob_id(std::string_view digest, uint64_t size) {
   if (!is_sha256_hex(digest)) {
     std::string shown(digest.substr(0, 80));
-    throw StoreError(StoreErrc::invalid_argument,
-                     "blob digest '" + shown + "' is not a SHA-256 digest: expected 64 hex digits, got " +
-                         std::to_string(digest.size()) + " characters");
+    throw StoreError(StoreErrc::invalid_argument, "blob digest '" + shown +
+                                                      "' is not a SHA-256 digest: expected 64 hex digits, got " +
+                                                      std::to_string(digest.size()) + " characters");
   }
   BlobId id{std::string(digest), size};
   for (char& c : id.digest)
@@ -138,10 +146,11 @@ void create_dir(const fs::path& p) {
   fs::create_directories(p, ec);
   if (ec)
     throw StoreError(StoreErrc::io, "cannot create store directory " + p.string() + ": " + ec.message() +
-                                         "; check the --store path and its permissions");
+                                        "; check the --store path and its permissions");
   if (!fs::is_directory(p, ec))
-    throw StoreError(StoreErrc::io, "store path " + p.string() + " exists but is not a directory; "
-                                     "point --store at a directory");
+    throw StoreError(StoreErrc::io, "store path " + p.string() +
+                                        " exists but is not a directory; "
+                                        "point --store at a directory");
 }
 
 double now_seconds() {
@@ -240,14 +249,14 @@ uint64_t BlobStore::append(const BlobId& id, uint64_t offset, std::string_view d
     have = 0;
   }
   if (offset != have)
-    throw StoreError(StoreErrc::failed_precondition,
-                     "upload of " + describe(id) + ": a chunk arrived for offset " + std::to_string(offset) + ", but " +
-                         std::to_string(have) + " bytes have been received; resume from offset " +
-                         std::to_string(have));
+    throw StoreError(StoreErrc::failed_precondition, "upload of " + describe(id) + ": a chunk arrived for offset " +
+                                                         std::to_string(offset) + ", but " + std::to_string(have) +
+                                                         " bytes have been received; resume from offset " +
+                                                         std::to_string(have));
   if (data.size() > id.size - offset)
     throw StoreError(StoreErrc::out_of_range, "upload of " + describe(id) + ": a chunk of " +
-                                                 std::to_string(data.size()) + " bytes at offset " +
-                                                 std::to_string(offset) + " would go past the declared size");
+                                                  std::to_string(data.size()) + " bytes at offset " +
+                                                  std::to_string(offset) + " would go past the declared size");
   if (data.empty()) return offset;
   int fd = ::open(part.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd < 0) throw_errno(errno, "cannot open partial upload " + part.string());
@@ -294,9 +303,10 @@ void BlobStore::complete(const BlobId& id) {
   }
   uint64_t have = st.exists ? st.size : 0;
   if (have < id.size)
-    throw StoreError(StoreErrc::failed_precondition,
-                     "upload of " + describe(id) + " is not finished: " + std::to_string(have) +
-                         " bytes received; send the rest from offset " + std::to_string(have) + " before completing it");
+    throw StoreError(StoreErrc::failed_precondition, "upload of " + describe(id) +
+                                                         " is not finished: " + std::to_string(have) +
+                                                         " bytes received; send the rest from offset " +
+                                                         std::to_string(have) + " before completing it");
   FileDigest got = sha256_file(part);
   if (got.digest != id.digest || got.size != id.size) {
     fs::remove(part, ec);
@@ -392,8 +402,7 @@ void BlobStore::verify_once(const BlobId& id, const fs::path& file) {
     if (verified_.count(id.digest)) return;
   }
   FileDigest got = sha256_file(file);
-  if (got.size != id.size)
-    quarantine_and_throw(id, "its file holds " + std::to_string(got.size) + " bytes");
+  if (got.size != id.size) quarantine_and_throw(id, "its file holds " + std::to_string(got.size) + " bytes");
   if (got.digest != id.digest) quarantine_and_throw(id, "its content hashes to " + got.digest);
   std::lock_guard vlock(verified_mu_);
   verified_.insert(id.digest);
@@ -401,8 +410,9 @@ void BlobStore::verify_once(const BlobId& id, const fs::path& file) {
 
 namespace {
 [[noreturn]] void throw_not_found(const BlobId& id) {
-  throw StoreError(StoreErrc::not_found, describe(id) + " is not in the store; upload it (or re-run the job that "
-                                                        "produced it) first");
+  throw StoreError(StoreErrc::not_found, describe(id) +
+                                             " is not in the store; upload it (or re-run the job that "
+                                             "produced it) first");
 }
 // Fills `out` from the file at `offset`; returns how many bytes it got (fewer where the file ends).
 size_t read_at(int fd, const fs::path& file, uint64_t offset, std::string& out) {
@@ -467,8 +477,8 @@ std::string BlobStore::read_range(const BlobId& id, uint64_t offset, uint64_t le
   if (!st.exists) throw_not_found(id);
   if (st.size != id.size) refuse_size(id, file);
   if (offset > id.size)
-    throw StoreError(StoreErrc::out_of_range, "read of " + describe(id) + " at offset " + std::to_string(offset) +
-                                                 " is past its end");
+    throw StoreError(StoreErrc::out_of_range,
+                     "read of " + describe(id) + " at offset " + std::to_string(offset) + " is past its end");
   verify_once(id, file);
   uint64_t n_want = std::min(length, id.size - offset);
   int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);

@@ -23,18 +23,22 @@ using sqlite::Transaction;
 
 std::string_view to_string(JobState s) {
   switch (s) {
-    case JobState::queued: return "queued";
-    case JobState::running: return "running";
-    case JobState::succeeded: return "succeeded";
-    case JobState::failed: return "failed";
-    case JobState::cancelled: return "cancelled";
+    case JobState::queued:
+      return "queued";
+    case JobState::running:
+      return "running";
+    case JobState::succeeded:
+      return "succeeded";
+    case JobState::failed:
+      return "failed";
+    case JobState::cancelled:
+      return "cancelled";
   }
   return "unknown";
 }
 
 std::optional<JobState> parse_job_state(std::string_view s) {
-  for (JobState st : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed,
-                      JobState::cancelled})
+  for (JobState st : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::cancelled})
     if (s == to_string(st)) return st;
   return std::nullopt;
 }
@@ -298,10 +302,9 @@ void check_new_job(const NewJob& job) {
     if (job.idempotency_key->empty())
       throw StoreError(StoreErrc::invalid_argument, "idempotency key is empty; leave it unset or give a value");
     if (job.idempotency_key->size() > kMaxIdempotencyKey)
-      throw StoreError(StoreErrc::invalid_argument, "idempotency key is " +
-                                                        std::to_string(job.idempotency_key->size()) +
-                                                        " bytes long; at most " + std::to_string(kMaxIdempotencyKey) +
-                                                        " are allowed");
+      throw StoreError(StoreErrc::invalid_argument,
+                       "idempotency key is " + std::to_string(job.idempotency_key->size()) + " bytes long; at most " +
+                           std::to_string(kMaxIdempotencyKey) + " are allowed");
   }
   check_digests(job.input_digests, "input_digests");
   if (job.cached) check_digests(job.cached->output_digests, "cached.output_digests");
@@ -332,9 +335,9 @@ InsertOutcome JobDb::insert(const NewJob& job) {
   if (job.idempotency_key) {
     if (auto existing = find_by_key_locked(db, file_, *job.idempotency_key)) {
       if (existing->spec_key != job.spec_key)
-        throw StoreError(StoreErrc::already_exists,
-                         "idempotency key '" + *job.idempotency_key + "' was already used for job " + existing->id +
-                             " with a different spec; use a new key for a different job");
+        throw StoreError(StoreErrc::already_exists, "idempotency key '" + *job.idempotency_key +
+                                                        "' was already used for job " + existing->id +
+                                                        " with a different spec; use a new key for a different job");
       return {std::move(*existing), false};
     }
   }
@@ -399,9 +402,9 @@ JobRecord transition(sqlite3* db, const fs::path& file, std::string_view id, std
   if (std::find(from.begin(), from.end(), rec->state) == from.end()) {
     std::string allowed;
     for (JobState s : from) allowed += (allowed.empty() ? "" : " or ") + std::string(to_string(s));
-    throw StoreError(StoreErrc::failed_precondition, "cannot mark " + shown_id(id) + " " +
-                                                         std::string(to_string(to)) + ": it is " +
-                                                         std::string(to_string(rec->state)) + ", not " + allowed);
+    throw StoreError(StoreErrc::failed_precondition, "cannot mark " + shown_id(id) + " " + std::string(to_string(to)) +
+                                                         ": it is " + std::string(to_string(rec->state)) + ", not " +
+                                                         allowed);
   }
   update();
   rec = get_locked(db, file, id);
@@ -414,8 +417,7 @@ JobRecord transition(sqlite3* db, const fs::path& file, std::string_view id, std
 JobRecord JobDb::mark_running(std::string_view id) {
   std::lock_guard lock(mu_);
   return transition(impl_->db, file_, id, {JobState::queued}, JobState::running, [&] {
-    Stmt s(impl_->db, file_,
-           "UPDATE jobs SET state = 'running', started = ?2, attempts = attempts + 1 WHERE id = ?1");
+    Stmt s(impl_->db, file_, "UPDATE jobs SET state = 'running', started = ?2, attempts = attempts + 1 WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).run();
   });
 }
@@ -519,14 +521,22 @@ JobCounts JobDb::counts() {
     uint64_t n = static_cast<uint64_t>(s.i64(1));
     if (!st) continue;
     switch (*st) {
-      case JobState::queued: c.queued = n; break;
-      case JobState::running: c.running = n; break;
+      case JobState::queued:
+        c.queued = n;
+        break;
+      case JobState::running:
+        c.running = n;
+        break;
       case JobState::succeeded:
         c.succeeded = n;
         c.cache_hits = static_cast<uint64_t>(s.i64(2));
         break;
-      case JobState::failed: c.failed = n; break;
-      case JobState::cancelled: c.cancelled = n; break;
+      case JobState::failed:
+        c.failed = n;
+        break;
+      case JobState::cancelled:
+        c.cancelled = n;
+        break;
     }
   }
   return c;

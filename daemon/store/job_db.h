@@ -21,7 +21,7 @@
 namespace kiln::store {
 
 enum class JobState { queued, running, succeeded, failed, cancelled };
-std::string_view to_string(JobState s);             // "queued", "running", …: the spelling stored in the database
+std::string_view to_string(JobState s);  // "queued", "running", …: the spelling stored in the database
 std::optional<JobState> parse_job_state(std::string_view s);
 inline bool is_terminal(JobState s) { return s != JobState::queued && s != JobState::running; }
 
@@ -45,7 +45,7 @@ struct NewJob {
 };
 
 struct JobRecord {
-  std::string id;  // 32 lowercase hex digits (128 random bits), never reused
+  std::string id;   // 32 lowercase hex digits (128 random bits), never reused
   int64_t seq = 0;  // arrival order, strictly increasing
   std::string name, type;
   std::string spec;  // empty in list() and results_by_last_used(), which leave payloads out
@@ -58,8 +58,8 @@ struct JobRecord {
   std::string result;  // the serialized result once succeeded (empty in list() and results_by_last_used())
   std::optional<std::string> idempotency_key;
   std::vector<std::string> input_digests, output_digests;
-  double last_used = 0;  // last submit, cache hit or fetch; orders result eviction
-  int32_t attempts = 0;  // times it started running; counts runs that a crash interrupted
+  double last_used = 0;                     // last submit, cache hit or fetch; orders result eviction
+  int32_t attempts = 0;                     // times it started running; counts runs that a crash interrupted
   std::optional<std::string> cache_source;  // set when this job was answered from the result cache
   std::optional<double> evicted;            // when its outputs were evicted; such a result can no longer be fetched
 };
@@ -116,13 +116,12 @@ class JobDb {
   JobRecord mark_running(std::string_view id);  // queued → running; counts an attempt
   JobRecord mark_succeeded(std::string_view id, std::string_view result,
                            const std::vector<std::string>& output_digests);  // running → succeeded
-  JobRecord mark_failed(std::string_view id, std::string_view error);     // queued or running → failed
-  JobRecord mark_cancelled(std::string_view id);                          // queued or running → cancelled
+  JobRecord mark_failed(std::string_view id, std::string_view error);        // queued or running → failed
+  JobRecord mark_cancelled(std::string_view id);                             // queued or running → cancelled
   JobRecord mark_queued(std::string_view id);  // running → queued (a graceful shutdown hands it back)
 
   // Newest first, without spec and result; only `state` if given; only seq < before_seq if given (paging).
-  std::vector<JobRecord> list(size_t limit, std::optional<JobState> state = {},
-                              std::optional<int64_t> before_seq = {});
+  std::vector<JobRecord> list(size_t limit, std::optional<JobState> state = {}, std::optional<int64_t> before_seq = {});
   // At startup: every job that was running when the daemon stopped goes back to queued (or, after
   // max_crash_restarts interrupted runs, to failed). Returns what the queue must hold.
   Recovery recover_unfinished();

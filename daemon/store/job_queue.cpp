@@ -214,8 +214,10 @@ CancelOutcome JobQueue::cancel(std::string_view id) {
       impl_->waiting.erase({t.priority, t.seq, it->first});
       t.where = Impl::Where::removed;
       return CancelOutcome::removed_from_queue;
-    case Impl::Where::removed: return CancelOutcome::removed_from_queue;
-    case Impl::Where::running: return CancelOutcome::signalled;
+    case Impl::Where::removed:
+      return CancelOutcome::removed_from_queue;
+    case Impl::Where::running:
+      return CancelOutcome::signalled;
   }
   return CancelOutcome::unknown;
 }

@@ -23,11 +23,11 @@ namespace kiln::store {
 // A job's latest progress, as watchers see it.
 struct Progress {
   JobState state = JobState::queued;
-  double fraction = 0;                  // of the work done, in [0, 1]
-  std::optional<double> eta_seconds;    // unknown until the baker can estimate it
-  uint64_t samples = 0;                 // taken so far
+  double fraction = 0;                   // of the work done, in [0, 1]
+  std::optional<double> eta_seconds;     // unknown until the baker can estimate it
+  uint64_t samples = 0;                  // taken so far
   std::optional<double> error_estimate;  // current estimated error, when the baker has one
-  std::string message;                  // for people: the error of a failed job, a phase name, …
+  std::string message;                   // for people: the error of a failed job, a phase name, …
 };
 
 // A job handed to a worker.

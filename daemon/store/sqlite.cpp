@@ -10,38 +10,48 @@ namespace {
 StoreErrc errc_for(int rc) {
   if (rc == SQLITE_CONSTRAINT_UNIQUE || rc == SQLITE_CONSTRAINT_PRIMARYKEY) return StoreErrc::already_exists;
   switch (rc & 0xff) {
-    case SQLITE_FULL: return StoreErrc::resource_exhausted;
+    case SQLITE_FULL:
+      return StoreErrc::resource_exhausted;
     case SQLITE_CORRUPT:
-    case SQLITE_NOTADB: return StoreErrc::data_loss;
-    case SQLITE_CONSTRAINT: return StoreErrc::invalid_argument;
-    default: return StoreErrc::io;
+    case SQLITE_NOTADB:
+      return StoreErrc::data_loss;
+    case SQLITE_CONSTRAINT:
+      return StoreErrc::invalid_argument;
+    default:
+      return StoreErrc::io;
   }
 }
 
 }  // namespace
 
 void throw_error(sqlite3* db, int rc, const fs::path& file, const std::string& doing) {
-  std::string msg = "job database " + file.string() + ": " + doing + " failed: " +
-                    (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
+  std::string msg =
+      "job database " + file.string() + ": " + doing + " failed: " + (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
   switch (rc & 0xff) {
-    case SQLITE_FULL: msg += kDiskFullAdvice; break;
+    case SQLITE_FULL:
+      msg += kDiskFullAdvice;
+      break;
     case SQLITE_CORRUPT:
     case SQLITE_NOTADB:
-      msg += "; the file is damaged or is not a kiln job database. Move it aside (kilnd will create a new one) "
-             "or point --store at another directory";
+      msg +=
+          "; the file is damaged or is not a kiln job database. Move it aside (kilnd will create a new one) "
+          "or point --store at another directory";
       break;
     case SQLITE_READONLY:
     case SQLITE_CANTOPEN:
-    case SQLITE_PERM: msg += "; check the permissions of the store directory"; break;
-    default: break;
+    case SQLITE_PERM:
+      msg += "; check the permissions of the store directory";
+      break;
+    default:
+      break;
   }
   throw StoreError(errc_for(rc), msg);
 }
 
 sqlite3* open(const fs::path& file) {
   sqlite3* db = nullptr;
-  const int rc = sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                                 nullptr);
+  const int rc =
+      sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr);
   if (rc != SQLITE_OK) {
     // SQLite allocates a handle even when opening fails; it holds the message, so it is closed after the throw.
     struct Closer {

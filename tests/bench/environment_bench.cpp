@@ -65,7 +65,10 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-struct Probe { int face, x, y; Rgb reference; };
+struct Probe {
+  int face, x, y;
+  Rgb reference;
+};
 
 std::vector<std::vector<Probe>> references(const Cubemap& full, int out_size, int levels) {
   std::vector<double> omega(static_cast<size_t>(full.size()) * full.size());
@@ -79,7 +82,8 @@ std::vector<std::vector<Probe>> references(const Cubemap& full, int out_size, in
     for (int f = 0; f < kFaceCount; ++f)
       for (int j = 0; j < grid; ++j)
         for (int i = 0; i < grid; ++i)
-          out[k].push_back({f, static_cast<int>((i + 0.37) * size / grid), static_cast<int>((j + 0.61) * size / grid), {}});
+          out[k].push_back(
+              {f, static_cast<int>((i + 0.37) * size / grid), static_cast<int>((j + 0.61) * size / grid), {}});
     const SplitSumLobe lobe(brdf::Distribution::ggx, lobe_alpha(prefilter_level_roughness(k, levels)));
     tbb::parallel_for(size_t{0}, out[k].size(), [&](size_t p) {
       Probe& pr = out[k][p];
@@ -137,8 +141,10 @@ int main(int argc, char** argv) {
   bool quick = false;
   for (int i = 1; i < argc; ++i) {
     command += std::string(" ") + argv[i];
-    if (std::strncmp(argv[i], "--table_out=", 12) == 0) table_out = argv[i] + 12;
-    else if (std::strcmp(argv[i], "--quick") == 0) quick = true;
+    if (std::strncmp(argv[i], "--table_out=", 12) == 0)
+      table_out = argv[i] + 12;
+    else if (std::strcmp(argv[i], "--quick") == 0)
+      quick = true;
     else {
       std::fprintf(stderr, "usage: %s [--table_out=FILE] [--quick]\n", argv[0]);
       return 1;
@@ -212,7 +218,8 @@ int main(int argc, char** argv) {
     t += line + "\n";
   }
   t += "\nErrors: relative RMS against brute force at 216 texels per level (est = the bake's own error_estimate). "
-       "Command: `" + command + "`\n";
+       "Command: `" +
+       command + "`\n";
   std::printf("\n%s", t.c_str());
   if (!table_out.empty()) {
     if (FILE* f = std::fopen(table_out.c_str(), "w")) {

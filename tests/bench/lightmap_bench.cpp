@@ -99,9 +99,15 @@ RayPools record_rays(LightmapBakeInput in) {
   RayPools pools;
   for (size_t i = 0; i < log.size(); ++i) {
     switch (log.kind(i)) {
-      case RayKind::closest: pools.closest.push_back(log.ray(i)); break;
-      case RayKind::occlusion: pools.occlusion.push_back(log.ray(i)); break;
-      case RayKind::probe: pools.probe.push_back(log.ray(i)); break;
+      case RayKind::closest:
+        pools.closest.push_back(log.ray(i));
+        break;
+      case RayKind::occlusion:
+        pools.occlusion.push_back(log.ray(i));
+        break;
+      case RayKind::probe:
+        pools.probe.push_back(log.ray(i));
+        break;
     }
   }
   return pools;
@@ -158,7 +164,7 @@ struct Run {
 // the fastest of each. The machine this runs on is shared: measuring the two back to back and keeping the best of a
 // few keeps other load out of the ratio (measured apart, it moved by ±30 % between runs).
 Run timed_bake(const std::string& label, LightmapBakeInput in, const RayPools& pools, int repeats = 1,
-         bool with_baseline = true) {
+               bool with_baseline = true) {
   Run run{label, {}, {}, INFINITY, {INFINITY, INFINITY}};
   for (int i = 0; i < repeats; ++i) {
     const double cpu0 = process_cpu_seconds();
@@ -270,8 +276,9 @@ int main(int argc, char** argv) {
       subdivisions = std::clamp(std::atoi(argv[i] + 12), 0, 8);
       command += std::string(" ") + argv[i];
     } else {
-      std::fprintf(stderr, "usage: lightmap_bench [--table_out=FILE] [--quick] [--resolution=N] [--subdivide=K] "
-                           "[--profile=N [--bake_only]]\n");
+      std::fprintf(stderr,
+                   "usage: lightmap_bench [--table_out=FILE] [--quick] [--resolution=N] [--subdivide=K] "
+                   "[--profile=N [--bake_only]]\n");
       return 2;
     }
   }
@@ -321,11 +328,11 @@ int main(int argc, char** argv) {
                   static_cast<unsigned long long>(r.result.rays), r.result.rays / r.cpu_seconds * 1e-6);
       return 0;
     }
-    std::printf("budget %d: %.3f CPU s, %llu rays, %.2f Mrays/cpu_s; raw Embree %.2f Mrays/cpu_s; ratio (CPU) %.3f, "
-                "(wall) %.3f\n",
-                profile, r.cpu_seconds, static_cast<unsigned long long>(r.result.rays),
-                r.result.rays / r.cpu_seconds * 1e-6, r.result.rays / r.raw.cpu * 1e-6, r.raw.cpu / r.cpu_seconds,
-                r.raw.wall / r.result.seconds);
+    std::printf(
+        "budget %d: %.3f CPU s, %llu rays, %.2f Mrays/cpu_s; raw Embree %.2f Mrays/cpu_s; ratio (CPU) %.3f, "
+        "(wall) %.3f\n",
+        profile, r.cpu_seconds, static_cast<unsigned long long>(r.result.rays), r.result.rays / r.cpu_seconds * 1e-6,
+        r.result.rays / r.raw.cpu * 1e-6, r.raw.cpu / r.cpu_seconds, r.raw.wall / r.result.seconds);
     return 0;
   }
 
@@ -359,21 +366,24 @@ int main(int argc, char** argv) {
     return in;
   };
   std::fprintf(stderr, "planned vs full simulation...\n");
-  const Run planned = timed_bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1), pools, 3);
+  const Run planned =
+      timed_bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1), pools, 3);
   LightmapBakeInput full_in = imported(4096, plan_target, 1);
   full_in.full_simulation = true;
   const Run full = timed_bake("imported box, full simulation, target " + fmt("%.2f", plan_target), full_in, pools, 3);
 
-
   std::string table;
   auto line = [&](const std::string& s) { table += s + "\n"; };
   line("Cornell box (client/examples/scenes/cornell_box.py, 8 lightmaps, " + std::to_string(triangles) +
-       " triangles), " + std::to_string(resolution) + "^2 per "
-       "lightmap; reference: " + std::to_string(reference_samples) + " estimates per texel, its own estimated error " +
+       " triangles), " + std::to_string(resolution) +
+       "^2 per "
+       "lightmap; reference: " +
+       std::to_string(reference_samples) + " estimates per texel, its own estimated error " +
        fmt("%.4f", reference.result.error_estimate) + ", " + fmt("%.1f s", reference.result.seconds) + ".");
   line("");
-  line("| bake | time (s) | CPU (s) | samples | rays | occl. | Mrays/s | Mrays/cpu_s | est. error | error vs ref | "
-       "(ref removed) | raw Embree Mrays/s | Mrays/cpu_s | ratio (wall) | ratio (CPU) |");
+  line(
+      "| bake | time (s) | CPU (s) | samples | rays | occl. | Mrays/s | Mrays/cpu_s | est. error | error vs ref | "
+      "(ref removed) | raw Embree Mrays/s | Mrays/cpu_s | ratio (wall) | ratio (CPU) |");
   line("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
   const double e_ref = reference.result.error_estimate;
   auto row = [&](const Run& r) {
@@ -387,9 +397,11 @@ int main(int argc, char** argv) {
     line("| " + r.label + " | " + fmt("%.2f", b.seconds) + " | " + fmt("%.2f", r.cpu_seconds) + " | " +
          std::to_string(b.samples) + " | " + std::to_string(b.rays) + " | " +
          fmt("%.0f%%", 100.0 * b.occlusion_rays / std::max<uint64_t>(b.rays, 1)) + " | " + fmt("%.2f", mrays) + " | " +
-         fmt("%.2f", mrays_cpu) + " | " + fmt("%.4f", b.error_estimate) + " | " + (comparable ? fmt("%.4f", e) : "n/a") + " | " +
-         (comparable ? fmt("%.4f", std::sqrt(std::max(0.0, e * e - e_ref * e_ref))) : "n/a") + " | " + fmt("%.2f", raw) + " | " +
-         fmt("%.2f", raw_cpu) + " | " + fmt("%.2f", mrays / raw) + " | " + fmt("%.2f", mrays_cpu / raw_cpu) + " |");
+         fmt("%.2f", mrays_cpu) + " | " + fmt("%.4f", b.error_estimate) + " | " +
+         (comparable ? fmt("%.4f", e) : "n/a") + " | " +
+         (comparable ? fmt("%.4f", std::sqrt(std::max(0.0, e * e - e_ref * e_ref))) : "n/a") + " | " +
+         fmt("%.2f", raw) + " | " + fmt("%.2f", raw_cpu) + " | " + fmt("%.2f", mrays / raw) + " | " +
+         fmt("%.2f", mrays_cpu / raw_cpu) + " |");
   };
   for (const Run& r : runs) row(r);
   row(planned);

@@ -22,7 +22,8 @@ inline std::vector<scene::Ray> incoherent_rays(const Vec3& lower, const Vec3& up
   const double diagonal = length(extent);
   std::vector<scene::Ray> rays(count);
   for (scene::Ray& r : rays) {
-    r.origin = lo + Vec3{extent.x * 0.8 * rng.uniform(), extent.y * 0.8 * rng.uniform(), extent.z * 0.8 * rng.uniform()};
+    r.origin =
+        lo + Vec3{extent.x * 0.8 * rng.uniform(), extent.y * 0.8 * rng.uniform(), extent.z * 0.8 * rng.uniform()};
     r.direction = sample_uniform_sphere({rng.uniform(), rng.uniform()});
     r.tmax = occlusion ? diagonal * (1 - rng.uniform()) : INFINITY;
   }

@@ -102,8 +102,10 @@ void register_all() {
     const char* name;
     Query query;
   };
-  const Entry entries[] = {{"closest_id", Query::closest_id},         {"closest_full_hit", Query::closest_full},
-                           {"occluded", Query::occluded},             {"closest_id_stream", Query::closest_stream},
+  const Entry entries[] = {{"closest_id", Query::closest_id},
+                           {"closest_full_hit", Query::closest_full},
+                           {"occluded", Query::occluded},
+                           {"closest_id_stream", Query::closest_stream},
                            {"occluded_stream", Query::occluded_stream}};
   for (const bool robust : {true, false})
     for (const Entry& e : entries)

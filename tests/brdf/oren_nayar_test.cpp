@@ -207,8 +207,8 @@ TEST(OrenNayar, SigmaZeroIsLambertBitForBit) {
       const Rgb expected = lambert.eval(wo, wi);
       // EXPECT_EQ on doubles: with σ = 0 every roughness coefficient is exactly 0 and C1 = A = 1, so the models must
       // compute exactly ρ · (1/π), not something within rounding of it.
-      for (const Bxdf* m : {static_cast<const Bxdf*>(&full), static_cast<const Bxdf*>(&full_ir),
-                            static_cast<const Bxdf*>(&simple)}) {
+      for (const Bxdf* m :
+           {static_cast<const Bxdf*>(&full), static_cast<const Bxdf*>(&full_ir), static_cast<const Bxdf*>(&simple)}) {
         const Rgb f = m->eval(wo, wi);
         ASSERT_EQ(f.r, expected.r);
         ASSERT_EQ(f.g, expected.g);
@@ -241,8 +241,8 @@ TEST(OrenNayar, Reciprocity) {
     const OrenNayar full(rho, sigma, false), full_ir(rho, sigma, true);
     const OrenNayarSimple simple(rho, sigma);
     for (size_t k = 0; k < a.size(); ++k) {
-      for (const Bxdf* m : {static_cast<const Bxdf*>(&full), static_cast<const Bxdf*>(&full_ir),
-                            static_cast<const Bxdf*>(&simple)}) {
+      for (const Bxdf* m :
+           {static_cast<const Bxdf*>(&full), static_cast<const Bxdf*>(&full_ir), static_cast<const Bxdf*>(&simple)}) {
         const Rgb f = m->eval(a[k], b[k]), g = m->eval(b[k], a[k]);
         for (int c = 0; c < 3; ++c) {
           // Relative 1e-14 (a few tens of ulps): the model takes min/max of per-direction quantities and forms
@@ -356,9 +356,10 @@ TEST(OrenNayar, SimplifiedVersusFullMeasured) {
       if (rel > worst_moderate) worst_moderate = rel, worst_moderate_sigma = sigma, worst_moderate_theta = deg;
     }
   }
-  const std::string msg = fmt("simplified vs full albedo, sigma <= 0.5 rad, theta_o <= 60 deg: max relative "
-                              "difference %.4f at sigma = %.2f, theta_o = %.0f deg",
-                              worst_moderate, worst_moderate_sigma, worst_moderate_theta);
+  const std::string msg =
+      fmt("simplified vs full albedo, sigma <= 0.5 rad, theta_o <= 60 deg: max relative "
+          "difference %.4f at sigma = %.2f, theta_o = %.0f deg",
+          worst_moderate, worst_moderate_sigma, worst_moderate_theta);
   std::cout << "[ measured ] " << msg << "\n";
   RecordProperty("simple_vs_full", msg);
   // Measured 0.0834 at σ = 0.5, θo = 60°: the simplified model is within 8.4% of the full one in albedo there.
@@ -473,8 +474,8 @@ TEST(OrenNayar, EnergyFullFirstOrder) {
   // rad it stays below 1 at every θo ≤ 89.9°, and at normal incidence E = C1 < 1. Survey section 6's claim that the
   // model conserves energy is therefore only approximately true; the bound below documents it.
   const Peak p = albedo_peak([](double s) { return std::make_unique<OrenNayar>(Rgb(1), s, false); });
-  report("energy_full", fmt("full first-order: max E = %.6f at sigma = %.2f rad, theta_o = %.1f deg", p.e, p.sigma,
-                            p.theta_deg));
+  report("energy_full",
+         fmt("full first-order: max E = %.6f at sigma = %.2f rad, theta_o = %.1f deg", p.e, p.sigma, p.theta_deg));
   // The peak is in the unclamped range, where the model's albedo matches the independent 1-D reference to 1e-9
   // (AlbedoMatchesAzimuthIntegratedReference); the figure is asserted against that reference to 2e-6 (its 7
   // significant digits), and the location exactly (grid points).
@@ -494,9 +495,9 @@ TEST(OrenNayar, EnergyFullWithInterreflection) {
   // The two-bounce term adds 0.17 σ²/(σ²+0.13) at every θo (see InterreflectionTerm), so where the first-order albedo
   // is near 1 at grazing the sum exceeds 1. Measured: max E = 1.049963 at σ = 0.30 rad, θo = 89.9°.
   const Peak p = albedo_peak([](double s) { return std::make_unique<OrenNayar>(Rgb(1), s, true); });
-  report("energy_full_interreflection",
-         fmt("full + interreflection: max E = %.6f at sigma = %.2f rad, theta_o = %.1f deg", p.e, p.sigma,
-             p.theta_deg));
+  report(
+      "energy_full_interreflection",
+      fmt("full + interreflection: max E = %.6f at sigma = %.2f rad, theta_o = %.1f deg", p.e, p.sigma, p.theta_deg));
   // Independent figure: the 1-D first-order reference plus the closed-form E2. Tolerance as above.
   EXPECT_NEAR(p.e, reference_albedo_full(0.30, 89.9 * kDeg) + 0.17 * ratio(0.30, 0.13), 1e-9);
   EXPECT_NEAR(p.e, 1.049963, 2e-6);
@@ -586,28 +587,25 @@ TEST(OrenNayar, FiniteAndNonNegativeEverywhere) {
   const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
   const double g = std::sqrt(1.0 - 1e-14);  // sin θ for cos θ = 1e-7
   const std::vector<Vec3> dirs = {
-      {0, 0, 1},                // the normal: no azimuth
-      {1e-200, 0, 1},           // tiny sin θ
-      {g, 0, 1e-7},             // grazing, cos θ = 1e-7
-      {-g, 0, 1e-7},            // grazing, opposite azimuth
-      {0, g, 1e-7},             // grazing, perpendicular azimuth
-      {1, 0, 1e-310},           // subnormal cos θ: tan θ overflows
-      {-1, 0, 5e-324},          // smallest subnormal
-      {1, 0, 0},                // on the horizon: reflects nothing
-      {0.6, 0, -0.8},           // back-facing
-      {0, 0, -1},               // straight below
-      {nan, 0, 1},              // NaN components
-      {0, 0, nan},
-      {inf, 0, 1},              // infinite components
-      {0, 0, inf},
-      {0.6, 0, 0.8},
-      direction(89.9 * kDeg, 2.0),
+      {0, 0, 1},                     // the normal: no azimuth
+      {1e-200, 0, 1},                // tiny sin θ
+      {g, 0, 1e-7},                  // grazing, cos θ = 1e-7
+      {-g, 0, 1e-7},                 // grazing, opposite azimuth
+      {0, g, 1e-7},                  // grazing, perpendicular azimuth
+      {1, 0, 1e-310},                // subnormal cos θ: tan θ overflows
+      {-1, 0, 5e-324},               // smallest subnormal
+      {1, 0, 0},                     // on the horizon: reflects nothing
+      {0.6, 0, -0.8},                // back-facing
+      {0, 0, -1},                    // straight below
+      {nan, 0, 1},                   // NaN components
+      {0, 0, nan},     {inf, 0, 1},  // infinite components
+      {0, 0, inf},     {0.6, 0, 0.8}, direction(89.9 * kDeg, 2.0),
   };
   for (double sigma : {0.0, 1e-300, 0.3, 1.0, kPiOver2, 10.0, 1e200}) {
     const OrenNayar full(Rgb(1), sigma, false), full_ir(Rgb(1), sigma, true);
     const OrenNayarSimple simple(Rgb(1), sigma);
-    for (const Bxdf* m : {static_cast<const Bxdf*>(&full), static_cast<const Bxdf*>(&full_ir),
-                          static_cast<const Bxdf*>(&simple)}) {
+    for (const Bxdf* m :
+         {static_cast<const Bxdf*>(&full), static_cast<const Bxdf*>(&full_ir), static_cast<const Bxdf*>(&simple)}) {
       for (const Vec3& wo : dirs) {
         for (const Vec3& wi : dirs) {
           const Rgb f = m->eval(wo, wi);

@@ -170,8 +170,8 @@ TEST(SchlickReference, HalfVectorQuadratureIntegratesKnownFunctions) {
       const Vec3 wo = direction(theta, 0.9);
       EXPECT_NEAR(integrate_half_vectors(wo, feat, [](const Vec3&) { return 1.0; }) / (2.0 * kPi), 1.0, 1e-7);
       EXPECT_NEAR(integrate_half_vectors(wo, feat, [](const Vec3& wi) { return wi.z * kInvPi; }), 1.0, 1e-7);
-      EXPECT_NEAR(integrate_half_vectors(wo, feat, [](const Vec3& wi) { return wi.z * wi.z; }) / (2.0 * kPi / 3.0),
-                  1.0, 1e-7);
+      EXPECT_NEAR(integrate_half_vectors(wo, feat, [](const Vec3& wi) { return wi.z * wi.z; }) / (2.0 * kPi / 3.0), 1.0,
+                  1e-7);
     }
   }
 }
@@ -206,10 +206,10 @@ TEST(SchlickFacts, ZOverPiIsANormalisedDistribution) {
   for (double r : {1.0, 0.5, 0.1, 0.01, 1e-4, 1e-7}) {
     const auto breaks = graded_breaks(0.0, kPiOver2, {{0.0, std::sqrt(r) / 16.0}}, 2.0);
     const double integral = 2.0 * kPi * integrate_panels(breaks, rule, [&](double th) {
-      const double t = std::cos(th), s = std::sin(th);
-      const double d = s * s + r * t * t;  // 1 + r t² − t²
-      return r / (d * d) * t * s;
-    });
+                              const double t = std::cos(th), s = std::sin(th);
+                              const double d = s * s + r * t * t;  // 1 + r t² − t²
+                              return r / (d * d) * t * s;
+                            });
     EXPECT_NEAR(integral / kPi, 1.0, 1e-11) << "r = " << r;
   }
 }
@@ -330,8 +330,7 @@ TEST(SchlickSingle, WhiteFurnaceAnisotropic) {
       }
     }
   }
-  std::cout << "[ figures ] white furnace, p < 1: max |albedo − 1| = " << worst << ", max albedo = " << highest
-            << "\n";
+  std::cout << "[ figures ] white furnace, p < 1: max |albedo − 1| = " << worst << ", max albedo = " << highest << "\n";
 }
 
 // Any C ≤ 1: S(u) ≤ 1 scales the white layer down, so the albedo is ≤ 1 (+ the furnace tolerance, 1e-3) and ≥ C
@@ -398,8 +397,8 @@ TEST(SchlickDouble, EnergyLostToInterreflection) {
       const double loss = 1.0 - reference_albedo(model, wo, features_of(top)).g;
       EXPECT_NEAR(loss, (1.0 - a_top) * a_top_avg, 2e-3) << "C_top = " << c_top << ", θo = " << theta;
       EXPECT_GT(loss, 0.0);
-      std::cout << "[ figures ] double layer, top C = " << c_top << ", r = 0.05 over a white Lambertian: θo = "
-                << theta << "°, energy lost = " << loss << "\n";
+      std::cout << "[ figures ] double layer, top C = " << c_top << ", r = 0.05 over a white Lambertian: θo = " << theta
+                << "°, energy lost = " << loss << "\n";
     }
   }
 }
@@ -429,7 +428,7 @@ TEST(Schlick, Reciprocal) {
 // Sampling.
 
 struct SampleStats {
-  double mean = 0, std_error = 0;    // of the weight (green channel), failed samples counting 0
+  double mean = 0, std_error = 0;      // of the weight (green channel), failed samples counting 0
   double success = 0, success_se = 0;  // fraction of samples that succeeded
 };
 
@@ -491,8 +490,10 @@ TEST(Schlick, SampleAgreesWithPdfAndEval) {
   uint64_t seed = 11;
   for (const Case& c : cases) {
     std::unique_ptr<Bxdf> b;
-    if (c.twin) b = std::make_unique<SchlickDouble>(c.top, c.bottom);
-    else b = std::make_unique<SchlickSingle>(c.top);
+    if (c.twin)
+      b = std::make_unique<SchlickDouble>(c.top, c.bottom);
+    else
+      b = std::make_unique<SchlickSingle>(c.top);
     Features feat = features_of(c.top);
     if (c.twin) feat.peak_width = std::min(feat.peak_width, features_of(c.bottom).peak_width);
     for (double theta : {10.0, 60.0, 85.0}) {
@@ -533,25 +534,18 @@ TEST(Schlick, StableAtTheEdges) {
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
   const double tiny = 1e-7, denorm = 1e-310;
   auto unit = [](double x, double y, double z) { return normalize(Vec3{x, y, z}); };
-  std::vector<Vec3> dirs = {Vec3{0, 0, 1},
-                            unit(1, 0, tiny),
-                            unit(0, 1, tiny),
-                            unit(-0.6, 0.8, tiny),
-                            Vec3{1, 0, 0},          // on the horizon: reflects nothing
-                            Vec3{0.6, 0.0, -0.8},   // back-facing
-                            Vec3{0, 0, -1},
-                            Vec3{denorm, 0, 1},     // denormal tangent components
-                            Vec3{0, denorm, 1},
-                            Vec3{std::sqrt(1 - denorm * denorm), 0, denorm},  // below kHorizonCos: nothing
-                            Vec3{1.0, 0.0, 2e-100},                           // just above it
-                            direction(45, 0.0),
-                            direction(45, kPi),     // h exactly along the normal with direction(45, 0)
-                            direction(89.999, 1.0),
-                            direction(89.999, 1.0 + kPi),  // nearly opposite along the horizon
-                            Vec3{nan, 0, 1},
-                            Vec3{0, 0, nan},
-                            Vec3{inf, 0, 1},
-                            Vec3{0, 0, inf}};
+  std::vector<Vec3> dirs = {
+      Vec3{0, 0, 1},          unit(1, 0, tiny),
+      unit(0, 1, tiny),       unit(-0.6, 0.8, tiny),
+      Vec3{1, 0, 0},                                                            // on the horizon: reflects nothing
+      Vec3{0.6, 0.0, -0.8},                                                     // back-facing
+      Vec3{0, 0, -1},         Vec3{denorm, 0, 1},                               // denormal tangent components
+      Vec3{0, denorm, 1},     Vec3{std::sqrt(1 - denorm * denorm), 0, denorm},  // below kHorizonCos: nothing
+      Vec3{1.0, 0.0, 2e-100},                                                   // just above it
+      direction(45, 0.0),     direction(45, kPi),            // h exactly along the normal with direction(45, 0)
+      direction(89.999, 1.0), direction(89.999, 1.0 + kPi),  // nearly opposite along the horizon
+      Vec3{nan, 0, 1},        Vec3{0, 0, nan},
+      Vec3{inf, 0, 1},        Vec3{0, 0, inf}};
   std::vector<std::unique_ptr<Bxdf>> models;
   for (double r : {0.0, 1e-7, 1e-6, 0.5, 1.0}) {
     for (double p : {0.0, 1e-6, 0.5, 1.0}) {

@@ -605,9 +605,9 @@ TEST(Client, UnixSocket) {
 }
 
 TEST(Client, BadAddressesAreRefusedWithAReason) {
-  const std::vector<std::string> addresses = {"",        "localhost", "localhost:", ":7700",
-                                              "host:0",  "host:65536", "host:77x",  "::1:7700",
-                                              "unix:",   "unix:/" + std::string(200, 'x')};
+  const std::vector<std::string> addresses = {
+      "",           "localhost", "localhost:", ":7700", "host:0",
+      "host:65536", "host:77x",  "::1:7700",   "unix:", "unix:/" + std::string(200, 'x')};
   for (const std::string& address : addresses) {
     EXPECT_THROW(Client(address, quick()), std::invalid_argument) << address;
   }

@@ -67,7 +67,9 @@ std::string usage_error_of(F f) {
   return "(no error)";
 }
 
-std::string usage_error(const std::string& s) { return usage_error_of([&] { from_flags(s); }); }
+std::string usage_error(const std::string& s) {
+  return usage_error_of([&] { from_flags(s); });
+}
 
 v1::JobSpec from_text(const std::string& text) {
   v1::JobSpec spec;
@@ -75,7 +77,9 @@ v1::JobSpec from_text(const std::string& text) {
   return spec;
 }
 
-std::string text_error(const std::string& text) { return usage_error_of([&] { from_text(text); }); }
+std::string text_error(const std::string& text) {
+  return usage_error_of([&] { from_text(text); });
+}
 
 // The daemon's translation layer accepts the spec (the same checks a real submit meets).
 ::testing::AssertionResult daemon_accepts(const v1::JobSpec& spec) {
@@ -280,7 +284,9 @@ TEST(KilnCliBakeFlags, ServerFieldsMapBackToFlags) {
 
 EnvironmentBake env_from(const std::string& s) { return environment_bake_from_flags(words("env " + s)); }
 
-std::string env_usage_error(const std::string& s) { return usage_error_of([&] { env_from(s); }); }
+std::string env_usage_error(const std::string& s) {
+  return usage_error_of([&] { env_from(s); });
+}
 
 TEST(KilnCliBakeEnv, EveryFlagMaps) {
   const EnvironmentBake b = env_from(
@@ -424,8 +430,9 @@ TEST(KilnCliJobFiles, ExamplesParseMatchTheirFlagsAndPassTheDaemonsChecks) {
     }
     from_comment.clear_name();
     spec.clear_name();
-    EXPECT_TRUE(MessageDifferencer::Equals(spec, from_comment))
-        << "file:\n" << spec.DebugString() << "flags:\n" << from_comment.DebugString();
+    EXPECT_TRUE(MessageDifferencer::Equals(spec, from_comment)) << "file:\n"
+                                                                << spec.DebugString() << "flags:\n"
+                                                                << from_comment.DebugString();
   }
   // A GGX dielectric, an Oren-Nayar clay, a Cook-Torrance glass with MERL, a Schlick brushed metal; a constant
   // environment.
@@ -439,7 +446,7 @@ TEST(KilnCliJobFiles, ParseErrorsGiveFileLineAndColumn) {
       {"material {\n  ggx {\n    alpha: \"high\"\n  }\n}\n", "job.textproto:3:12: "},
       {"material {\n  ggx {\n    fresnel: FRESNEL_SCHLIK\n  }\n}\n", "job.textproto:3:14: "},
       {"material {\n  ggx { alpha: 0.3 }\n", "job.textproto:3:1: "},  // unclosed brace: the error is at the end
-      {"material { ggx { } oren_nayar { } }\n", "job.textproto:1:"},    // two models of one oneof
+      {"material { ggx { } oren_nayar { } }\n", "job.textproto:1:"},  // two models of one oneof
       {"# only a comment\n", "job.textproto: no job in the file"},
       {"", "job.textproto: no job in the file"},
   };
@@ -476,15 +483,15 @@ TEST(KilnCliJobFiles, UnreadableAndOversizedFilesAreUsageErrors) {
 
 TEST(KilnCliJobFiles, ServerFieldPathsAreLocatedInTheText) {
   const std::string text =
-      "name: \"x\"\n"              // 1
-      "material {\n"               // 2
-      "  ggx {\n"                  // 3
-      "    alpha: -0.2\n"          // 4
-      "    f0 { r: 2 g: 0 }\n"     // 5
-      "  }\n"                      // 6
-      "  table_mu: 1\n"            // 7
-      "}\n"                        // 8
-      "quality { samples: 0 }\n"   // 9
+      "name: \"x\"\n"                                // 1
+      "material {\n"                                 // 2
+      "  ggx {\n"                                    // 3
+      "    alpha: -0.2\n"                            // 4
+      "    f0 { r: 2 g: 0 }\n"                       // 5
+      "  }\n"                                        // 6
+      "  table_mu: 1\n"                              // 7
+      "}\n"                                          // 8
+      "quality { samples: 0 }\n"                     // 9
       "force_effects { key: \"x\" value: true }\n";  // 10
   EXPECT_EQ(locate_field(text, "job.material.ggx.alpha"), "4:5");
   EXPECT_EQ(locate_field(text, "job.material.ggx.f0.r"), "5:10");
@@ -633,7 +640,10 @@ TEST(KilnCliReport, AssembledJsonCarriesCostPlanAndDigests) {
             std::string::npos)
       << j;
   EXPECT_NE(j.find("\"sha256\": \"" + std::string(64, 'a') + "\", \"size\": 1234"), std::string::npos) << j;
-  EXPECT_EQ(json_string(std::string("a\x01" "b", 3)), "\"a\\u0001b\"");
+  EXPECT_EQ(json_string(std::string("a\x01"
+                                    "b",
+                                    3)),
+            "\"a\\u0001b\"");
 }
 
 TEST(KilnCliReport, ReportJsonIsTheServersOwnWhenItSendsOne) {
@@ -744,8 +754,10 @@ TEST(KilnCliBinary, HelpAndUsageErrors) {
       {{"bake"}, "kiln: missing job type: `kiln bake material ...`"},
       {{"bake", "lightmap"}, "kiln: missing scene: `kiln bake lightmap SCENE.gltf --out DIR`"},
       {{"bake", "texture"}, "kiln: unknown job type 'texture'"},
-      {{"bake", "lightmap", "s.gltf", "--resolution", "3"}, "kiln: --resolution: must be a whole number in [4, 8192], got 3"},
-      {{"bake", "lightmap", "s.gltf", "--env", "a.exr", "--env-constant", "1"}, "kiln: --env-constant: give one environment"},
+      {{"bake", "lightmap", "s.gltf", "--resolution", "3"},
+       "kiln: --resolution: must be a whole number in [4, 8192], got 3"},
+      {{"bake", "lightmap", "s.gltf", "--env", "a.exr", "--env-constant", "1"},
+       "kiln: --env-constant: give one environment"},
       {{"bake", "lightmap", "s.gltf", "--env-rotation", "10"}, "kiln: --env-rotation: turns an --env image"},
       {{"frobnicate"}, "kiln: unknown command 'frobnicate'"},
       {{"--colour", "status"}, "kiln: unknown option --colour before the command"},
@@ -832,7 +844,9 @@ class FakeKilnd {
     ::close(listen_fd_);
   }
   // Configure first, then start.
-  void start() { thread_ = std::thread([this] { run(); }); }
+  void start() {
+    thread_ = std::thread([this] { run(); });
+  }
   const std::string& address() const { return address_; }
 
   // Adds an output with these bytes; `served` may be changed afterwards to serve other bytes.
@@ -1073,9 +1087,9 @@ TEST(KilnCliBinary, SubmitWaitOutWritesVerifiedOutputsAndReport) {
   k.start();
   const fs::path job = write_job("ggx.textproto", "material { ggx { alpha: 0.3 } }\n");
   const fs::path out = scratch() / "out-submit";
-  const Outcome r = kiln(with_server(k, {"submit", job.string(), "--out", out.string(), "--priority", "7",
-                                     "--idempotency-key", "ci-1"}),
-                     kToken);
+  const Outcome r = kiln(
+      with_server(k, {"submit", job.string(), "--out", out.string(), "--priority", "7", "--idempotency-key", "ci-1"}),
+      kToken);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(read(out / "albedo.exr"), k.served[k.result.outputs(0).digest().sha256()]);
   EXPECT_EQ(read(out / "split_sum.exr"), "split sum bytes");
@@ -1085,8 +1099,7 @@ TEST(KilnCliBinary, SubmitWaitOutWritesVerifiedOutputsAndReport) {
   }
   // Where the outputs went and what the bake cost, on stdout; progress lines on stderr.
   EXPECT_NE(r.out.find("job j1 succeeded: ggx"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("cost: 4.19 M samples, 12.2 s of baking, error estimate 3.0e-04, cache miss"),
-            std::string::npos)
+  EXPECT_NE(r.out.find("cost: 4.19 M samples, 12.2 s of baking, error estimate 3.0e-04, cache miss"), std::string::npos)
       << r.out;
   EXPECT_NE(r.out.find("outputs in " + out.string() + "/:"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("report.json"), std::string::npos) << r.out;
@@ -1171,8 +1184,8 @@ TEST(KilnCliBinary, RefusedFieldsPointAtTheFileLineOrTheFlag) {
 
   // The flag check would refuse -0.2 already; a value the client lets through gets the server's word, by flag.
   const Outcome b = kiln(with_server(k, {"bake", "material", "--model", "ggx", "--alpha", "0.2", "--out",
-                                     (scratch() / "out-refused").string()}),
-                     kToken);
+                                         (scratch() / "out-refused").string()}),
+                         kToken);
   EXPECT_EQ(b.status, 2) << b.err;
   EXPECT_EQ(b.err, "kiln: --alpha: the server refused the job: job.material.ggx.alpha: must be in (0, 1], got -0.2\n");
 }
@@ -1224,8 +1237,7 @@ TEST(KilnCliBinary, TokensComeFromTheFlagOrTheEnvironment) {
   EXPECT_EQ(file.status, 0) << file.err;
   const Outcome env_file = kiln(with_server(k, {"status"}), "KILN_TOKEN_FILE=" + token.string());
   EXPECT_EQ(env_file.status, 0) << env_file.err;
-  EXPECT_NE(file.out.find("kilnd at " + k.address() + ": fake-kilnd 0, protocol 1, up 1 h 02 min"),
-            std::string::npos)
+  EXPECT_NE(file.out.find("kilnd at " + k.address() + ": fake-kilnd 0, protocol 1, up 1 h 02 min"), std::string::npos)
       << file.out;
   EXPECT_NE(file.out.find("jobs: 2 queued, 1 running, 0 completed, 0 failed, 7 cache hits"), std::string::npos)
       << file.out;
@@ -1329,10 +1341,26 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   std::ofstream(job) << "material_overrides { name: \"white\" bsdf { specular { ggx { alpha: 0.2 } } } }\n"
                         "lights { name: \"sun\" directional { direction { y: -1 } } }\n"
                         "resolution: 128\npadding: 2\n";
-  LightmapBake bake = lightmap_bake_from_flags(std::vector<std::string>{
-      "lightmap", "scene.gltf", "--job", job.string(), "--resolution", "32", "--env-constant", "0.5",
-      "--env-intensity", "2", "--target-error", "0.05", "--max-samples", "512", "--time-limit", "20", "--ao",
-      "--no-preview", "--force", "environment_sampling=on"});
+  LightmapBake bake = lightmap_bake_from_flags(std::vector<std::string>{"lightmap",
+                                                                        "scene.gltf",
+                                                                        "--job",
+                                                                        job.string(),
+                                                                        "--resolution",
+                                                                        "32",
+                                                                        "--env-constant",
+                                                                        "0.5",
+                                                                        "--env-intensity",
+                                                                        "2",
+                                                                        "--target-error",
+                                                                        "0.05",
+                                                                        "--max-samples",
+                                                                        "512",
+                                                                        "--time-limit",
+                                                                        "20",
+                                                                        "--ao",
+                                                                        "--no-preview",
+                                                                        "--force",
+                                                                        "environment_sampling=on"});
   EXPECT_EQ(bake.scene_file, "scene.gltf");
   v1::LightmapJob imported;
   v1::Mesh* m = imported.add_meshes();
@@ -1344,10 +1372,10 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   merge_scene(bake, imported);
   const v1::LightmapJob& j = bake.spec.lightmap();
   EXPECT_EQ(j.meshes_size(), 1);
-  EXPECT_EQ(j.lights_size(), 2);            // the scene's and the job file's
+  EXPECT_EQ(j.lights_size(), 2);  // the scene's and the job file's
   EXPECT_EQ(j.material_overrides_size(), 1);
-  EXPECT_EQ(j.resolution(), 32u);           // the flag over the job file
-  EXPECT_EQ(j.padding(), 2u);               // the job file where no flag is given
+  EXPECT_EQ(j.resolution(), 32u);  // the flag over the job file
+  EXPECT_EQ(j.padding(), 2u);      // the job file where no flag is given
   EXPECT_TRUE(j.ao());
   EXPECT_FALSE(j.preview());
   EXPECT_EQ(j.environment().constant().g(), 0.5);
@@ -1365,7 +1393,8 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.environment.intensity"), "--env-intensity");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.meshes[0].geometry"), "scene.gltf");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.lights[0].color.r"), "scene.gltf");
-  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.material_overrides[0].name"), job.string() + ":1:22");  // the column of `name` in the file
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.material_overrides[0].name"),
+            job.string() + ":1:22");  // the column of `name` in the file
 
   std::ofstream(job) << "meshes { name: \"extra\" }\n";
   try {

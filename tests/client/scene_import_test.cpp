@@ -64,8 +64,8 @@ TEST(SceneImport, CornellBoxMeshesUvsInstancesAndEmission) {
   const v1::LightmapJob& j = s.job;
   std::map<std::string, int> meshes;
   for (int i = 0; i < j.meshes_size(); ++i) meshes[j.meshes(i).name()] = i;
-  for (const char* name : {"floor", "ceiling", "back_wall", "left_wall", "right_wall", "short_block", "tall_block",
-                           "light"}) {
+  for (const char* name :
+       {"floor", "ceiling", "back_wall", "left_wall", "right_wall", "short_block", "tall_block", "light"}) {
     EXPECT_TRUE(meshes.count(name)) << name;
   }
   // Every instance bakes into its mesh's lightmap, and every mesh has lightmap UVs (TEXCOORD_1) inside [0, 1].
@@ -307,14 +307,13 @@ TEST(SceneImport, GltfBaseColourTexturesAreUploadedOnceWithTheirBytes) {
   g.images = {R"({"uri": "red%20tile.png"})", "{\"uri\": \"data:image/png;base64," + base64(green) + "\"}",
               "{\"bufferView\": " + std::to_string(g.add_buffer_image(blue)) + ", \"mimeType\": \"image/png\"}",
               R"({"uri": "missing.png"})"};
-  g.materials = {
-      R"({"name": "brick", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})",
-      R"({"name": "brick_again", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})",
-      R"({"name": "grass", "pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}})",
-      R"({"name": "sea", "pbrMetallicRoughness": {"baseColorTexture": {"index": 2}}})",
-      R"({"name": "lost", "pbrMetallicRoughness": {"baseColorTexture": {"index": 3},)"
-      R"( "baseColorFactor": [0.2, 0.3, 0.4, 1]}})",
-      R"({"name": "plain", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}})"};
+  g.materials = {R"({"name": "brick", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})",
+                 R"({"name": "brick_again", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})",
+                 R"({"name": "grass", "pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}})",
+                 R"({"name": "sea", "pbrMetallicRoughness": {"baseColorTexture": {"index": 2}}})",
+                 R"({"name": "lost", "pbrMetallicRoughness": {"baseColorTexture": {"index": 3},)"
+                 R"( "baseColorFactor": [0.2, 0.3, 0.4, 1]}})",
+                 R"({"name": "plain", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}})"};
   g.place_each_mesh();
   const client::ImportedScene s = client::import_scene(g.write(dir.path(), "textured").string());
   const v1::LightmapJob& j = s.job;
@@ -377,13 +376,12 @@ TEST(SceneImport, GltfMetallicRoughnessBecomesGgxOverLambert) {
     double base[3], albedo, alpha, f0[3];
     bool two_sided;
   };
-  const Expected cases[] = {
-      // 0.04 + (c − 0.04)·0.25; α = 0.5²
-      {"painted", {0.5, 0.6, 0.7}, 0.75, 0.25, {0.155, 0.18, 0.205}, true},
-      // a metal: f0 = base, no diffuse; roughness 0.01 is below the 0.03 floor, so α = 0.03²
-      {"polished", {0.9, 0.8, 0.1}, 0.0, 0.0009, {0.9, 0.8, 0.1}, false},
-      // glTF's defaults: base 1, metallic 1, roughness 1
-      {"defaults", {1, 1, 1}, 0.0, 1.0, {1, 1, 1}, false}};
+  const Expected cases[] = {// 0.04 + (c − 0.04)·0.25; α = 0.5²
+                            {"painted", {0.5, 0.6, 0.7}, 0.75, 0.25, {0.155, 0.18, 0.205}, true},
+                            // a metal: f0 = base, no diffuse; roughness 0.01 is below the 0.03 floor, so α = 0.03²
+                            {"polished", {0.9, 0.8, 0.1}, 0.0, 0.0009, {0.9, 0.8, 0.1}, false},
+                            // glTF's defaults: base 1, metallic 1, roughness 1
+                            {"defaults", {1, 1, 1}, 0.0, 1.0, {1, 1, 1}, false}};
   for (const Expected& e : cases) {
     SCOPED_TRACE(e.name);
     const v1::SceneMaterial& m = material_named(s.job, e.name);
@@ -417,8 +415,7 @@ TEST(SceneImport, GltfEmissiveMaterialsTakeTheirStrengthByIndex) {
       R"({"emissiveFactor": [1, 0.5, 0.25], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}})",
       R"({"name": "lamp", "emissiveFactor": [0.5, 0.5, 0.5],)"
       R"( "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 10}}})",
-      R"({"name": "lamp", "emissiveFactor": [0.5, 0.5, 0.5]})",
-      R"({"name": "dark"})"};
+      R"({"name": "lamp", "emissiveFactor": [0.5, 0.5, 0.5]})", R"({"name": "dark"})"};
   g.place_each_mesh();
   const client::ImportedScene s = client::import_scene(g.write(dir.path(), "emissive").string());
   const v1::LightmapJob& j = s.job;
@@ -456,21 +453,20 @@ TEST(SceneImport, GltfPunctualLightsArePlacedByTheirNodes) {
               R"( "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.6}})",
               R"({"type": "directional", "color": [1, 1, 0.5], "intensity": 3})"};
   const double kPi = 3.14159265358979323846;
-  g.nodes = {
-      R"({"name": "floor", "mesh": 0})",
-      // 1: a parent moved to (10, 0, 0), scaled by 2, turned 90° about +Y: its children's (x, y, z) land at
-      // (10 + 2z, 2y, −2x), and their directions turn (x, y, z) → (z, y, −x).
-      "{\"name\": \"rig\", \"translation\": [10, 0, 0], \"scale\": [2, 2, 2], \"rotation\": " +
-          quaternion(0, 1, 0, kPi / 2) + ", \"children\": [2, 3]}",
-      // 2: the point light at (1, 2, 3) in the rig: (10 + 6, 4, −2) in the world.
-      R"({"name": "bulb_node", "translation": [1, 2, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}})",
-      // 3: the spot at (0, 5, 1) in the rig, turned −45° about +X: it shines along −Z turned, (0, −√½, −√½), which
-      // the rig turns to (−√½, −√½, 0); its position is (10 + 2, 10, 0).
-      "{\"name\": \"cone_node\", \"translation\": [0, 5, 1], \"rotation\": " + quaternion(1, 0, 0, -kPi / 4) +
-          ", \"extensions\": {\"KHR_lights_punctual\": {\"light\": 1}}}",
-      // 4: the sun turned −60° about +X at the root: −Z becomes (0, −sin 60°, −cos 60°).
-      "{\"name\": \"sun_node\", \"translation\": [0, 100, 0], \"rotation\": " + quaternion(1, 0, 0, -kPi / 3) +
-          ", \"extensions\": {\"KHR_lights_punctual\": {\"light\": 2}}}"};
+  g.nodes = {R"({"name": "floor", "mesh": 0})",
+             // 1: a parent moved to (10, 0, 0), scaled by 2, turned 90° about +Y: its children's (x, y, z) land at
+             // (10 + 2z, 2y, −2x), and their directions turn (x, y, z) → (z, y, −x).
+             "{\"name\": \"rig\", \"translation\": [10, 0, 0], \"scale\": [2, 2, 2], \"rotation\": " +
+                 quaternion(0, 1, 0, kPi / 2) + ", \"children\": [2, 3]}",
+             // 2: the point light at (1, 2, 3) in the rig: (10 + 6, 4, −2) in the world.
+             R"({"name": "bulb_node", "translation": [1, 2, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}})",
+             // 3: the spot at (0, 5, 1) in the rig, turned −45° about +X: it shines along −Z turned, (0, −√½, −√½),
+             // which the rig turns to (−√½, −√½, 0); its position is (10 + 2, 10, 0).
+             "{\"name\": \"cone_node\", \"translation\": [0, 5, 1], \"rotation\": " + quaternion(1, 0, 0, -kPi / 4) +
+                 ", \"extensions\": {\"KHR_lights_punctual\": {\"light\": 1}}}",
+             // 4: the sun turned −60° about +X at the root: −Z becomes (0, −sin 60°, −cos 60°).
+             "{\"name\": \"sun_node\", \"translation\": [0, 100, 0], \"rotation\": " + quaternion(1, 0, 0, -kPi / 3) +
+                 ", \"extensions\": {\"KHR_lights_punctual\": {\"light\": 2}}}"};
   g.roots = {0, 1, 4};
   const client::ImportedScene s = client::import_scene(g.write(dir.path(), "lit").string());
   const v1::LightmapJob& j = s.job;

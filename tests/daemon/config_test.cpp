@@ -27,7 +27,7 @@ TEST(Config, DefaultsListenOnLoopbackOnly) {
 TEST(Config, FlagsOverrideTheFileWhereverConfigStands) {
   const std::string f = write_file("a.conf", "# comment\nworkers: 3\nstore: \"/srv/kiln\"\nthreads: 2\n");
   const CommandLine cl = parse_command_line({"--workers", "5", "--config", f, "--listen", "127.0.0.1:0"});
-  EXPECT_EQ(cl.config.workers, 5u);       // the flag wins although it came first
+  EXPECT_EQ(cl.config.workers, 5u);         // the flag wins although it came first
   EXPECT_EQ(cl.config.store, "/srv/kiln");  // from the file
   EXPECT_EQ(cl.config.threads, 2u);
   EXPECT_EQ(cl.config.listen, "127.0.0.1:0");
@@ -56,10 +56,14 @@ TEST(Config, SyntaxErrorsNameFileAndLine) {
 
 TEST(Config, BadFlagsAreRefusedWithTheFlagNamed) {
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
-      {{"--workers", "0"}, "--workers"},       {{"--workers", "x"}, "--workers"},
-      {{"--workers", "-1"}, "--workers"},      {{"--threads", "99999"}, "--threads"},
-      {{"--idle-timeout", "0"}, "--idle-timeout"}, {{"--frame-deadline", "nan"}, "--frame-deadline"},
-      {{"--bogus", "1"}, "unknown argument '--bogus'"}, {{"--listen"}, "--listen: missing value"},
+      {{"--workers", "0"}, "--workers"},
+      {{"--workers", "x"}, "--workers"},
+      {{"--workers", "-1"}, "--workers"},
+      {{"--threads", "99999"}, "--threads"},
+      {{"--idle-timeout", "0"}, "--idle-timeout"},
+      {{"--frame-deadline", "nan"}, "--frame-deadline"},
+      {{"--bogus", "1"}, "unknown argument '--bogus'"},
+      {{"--listen"}, "--listen: missing value"},
       {{"--config"}, "--config: missing"},
   };
   for (const auto& [args, fragment] : cases) {

@@ -250,7 +250,8 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
   const std::vector<BadCase> cases = {
       {"job.lightmap.meshes", [&](v1::JobSpec& s) { lm(s)->clear_meshes(); }},
       {"job.lightmap.meshes[1].name", [&](v1::JobSpec& s) { lm(s)->mutable_meshes(1)->set_name("floor"); }},
-      {"job.lightmap.meshes[0].name", [&](v1::JobSpec& s) { lm(s)->mutable_meshes(0)->set_name(std::string(257, 'x')); }},
+      {"job.lightmap.meshes[0].name",
+       [&](v1::JobSpec& s) { lm(s)->mutable_meshes(0)->set_name(std::string(257, 'x')); }},
       {"job.lightmap.meshes[0].name", [&](v1::JobSpec& s) { lm(s)->mutable_meshes(0)->clear_name(); }},
       {"job.lightmap.meshes[1].geometry", [&](v1::JobSpec& s) { lm(s)->mutable_meshes(1)->clear_geometry(); }},
       {"job.lightmap.meshes[1].geometry.sha256",
@@ -275,15 +276,19 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
       {"job.lightmap.materials[1].emission.r",
        [&](v1::JobSpec& s) { lm(s)->mutable_materials(1)->mutable_emission()->set_r(-1); }},
       {"job.lightmap.materials[1].bsdf.specular.ggx.alpha",
-       [&](v1::JobSpec& s) { lm(s)->mutable_materials(1)->mutable_bsdf()->mutable_specular()->mutable_ggx()->set_alpha(2); }},
+       [&](v1::JobSpec& s) {
+         lm(s)->mutable_materials(1)->mutable_bsdf()->mutable_specular()->mutable_ggx()->set_alpha(2);
+       }},
       {"job.lightmap.material_overrides[0].name",
        [&](v1::JobSpec& s) { lm(s)->mutable_material_overrides(0)->set_name("marble"); }},
-      {"job.lightmap.material_overrides[1].name", [&](v1::JobSpec& s) { *lm(s)->add_material_overrides() = lm(s)->material_overrides(0); }},
+      {"job.lightmap.material_overrides[1].name",
+       [&](v1::JobSpec& s) { *lm(s)->add_material_overrides() = lm(s)->material_overrides(0); }},
       {"job.lightmap.material_overrides[0].bsdf.diffuse.oren_nayar.sigma",
        [&](v1::JobSpec& s) {
          lm(s)->mutable_material_overrides(0)->mutable_bsdf()->mutable_diffuse()->mutable_oren_nayar()->set_sigma(3);
        }},
-      {"job.lightmap.lights[0].color.b", [&](v1::JobSpec& s) { lm(s)->mutable_lights(0)->mutable_color()->set_b(1e13); }},
+      {"job.lightmap.lights[0].color.b",
+       [&](v1::JobSpec& s) { lm(s)->mutable_lights(0)->mutable_color()->set_b(1e13); }},
       {"job.lightmap.lights[0].point.position.y",
        [&](v1::JobSpec& s) { lm(s)->mutable_lights(0)->mutable_point()->mutable_position()->set_y(nan); }},
       {"job.lightmap.lights[1].spot.outer_cone_angle",
@@ -298,7 +303,8 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
        [&](v1::JobSpec& s) { lm(s)->mutable_lights(2)->mutable_directional()->set_angular_diameter(0.6); }},
       {"job.lightmap.lights[3].rect.v",
        [&](v1::JobSpec& s) { set(lm(s)->mutable_lights(3)->mutable_rect()->mutable_v(), 3, 0, 0); }},
-      {"job.lightmap.lights[4].disk.radius", [&](v1::JobSpec& s) { lm(s)->mutable_lights(4)->mutable_disk()->set_radius(0); }},
+      {"job.lightmap.lights[4].disk.radius",
+       [&](v1::JobSpec& s) { lm(s)->mutable_lights(4)->mutable_disk()->set_radius(0); }},
       {"job.lightmap.lights[4]", [&](v1::JobSpec& s) { lm(s)->mutable_lights(4)->clear_disk(); }},
       {"job.lightmap.lights[1].name", [&](v1::JobSpec& s) { lm(s)->mutable_lights(1)->set_name("bulb"); }},
       {"job.lightmap.environment", [&](v1::JobSpec& s) { lm(s)->mutable_environment()->clear_image(); }},
@@ -311,7 +317,8 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
        [&](v1::JobSpec& s) { set(lm(s)->mutable_environment()->mutable_constant(), 2e6, 0, 0); }},
       {"job.lightmap.resolution", [&](v1::JobSpec& s) { lm(s)->set_resolution(3); }},
       {"job.lightmap.resolution", [&](v1::JobSpec& s) { lm(s)->set_resolution(8192); }},  // 2 x 8192² > 2^24 texels
-      {"job.lightmap.lightmaps[0].resolution", [&](v1::JobSpec& s) { lm(s)->mutable_lightmaps(0)->set_resolution(9000); }},
+      {"job.lightmap.lightmaps[0].resolution",
+       [&](v1::JobSpec& s) { lm(s)->mutable_lightmaps(0)->set_resolution(9000); }},
       {"job.lightmap.lightmaps[0].name", [&](v1::JobSpec& s) { lm(s)->mutable_lightmaps(0)->set_name("nowhere"); }},
       {"job.lightmap.padding", [&](v1::JobSpec& s) { lm(s)->set_padding(65); }},
       {"job.lightmap.max_bounces", [&](v1::JobSpec& s) { lm(s)->set_max_bounces(2000); }},
@@ -320,7 +327,8 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
       {"job.quality.target_error", [&](v1::JobSpec& s) { s.mutable_quality()->set_target_error(0); }},
       {"job.quality.time_limit_seconds", [&](v1::JobSpec& s) { s.mutable_quality()->set_time_limit_seconds(-1); }},
       {"job.force_effects[warp_drive]", [&](v1::JobSpec& s) { (*s.mutable_force_effects())["warp_drive"] = true; }},
-      {"job.lightmap", [&](v1::JobSpec& s) {  // 10 blobs of 500 MiB: beyond the 4 GiB a job may read
+      {"job.lightmap",
+       [&](v1::JobSpec& s) {  // 10 blobs of 500 MiB: beyond the 4 GiB a job may read
          for (int i = 0; i < 10; ++i) {
            v1::Mesh* m = lm(s)->add_meshes();
            m->set_name("big" + std::to_string(i));
@@ -356,9 +364,13 @@ std::string triangle_blob(uint32_t flags = 1u | 4u | 8u) {
   w.u32(1);
   w.u32(flags);
   for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 0.f, 1.f}) w.f32(v);
-  if (flags & 1u) for (int i = 0; i < 3; ++i) for (float v : {0.f, 1.f, 0.f}) w.f32(v);
-  if (flags & 2u) for (float v : {0.f, 0.f, 1.f, 0.f, 0.f, 1.f}) w.f32(v);
-  if (flags & 4u) for (float v : {0.1f, 0.1f, 0.9f, 0.1f, 0.1f, 0.9f}) w.f32(v);
+  if (flags & 1u)
+    for (int i = 0; i < 3; ++i)
+      for (float v : {0.f, 1.f, 0.f}) w.f32(v);
+  if (flags & 2u)
+    for (float v : {0.f, 0.f, 1.f, 0.f, 0.f, 1.f}) w.f32(v);
+  if (flags & 4u)
+    for (float v : {0.1f, 0.1f, 0.9f, 0.1f, 0.1f, 0.9f}) w.f32(v);
   for (uint32_t i : {0u, 2u, 1u}) w.u32(i);
   if (flags & 8u) w.u32(2);
   return w.bytes;

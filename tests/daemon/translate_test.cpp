@@ -110,8 +110,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadSpec{"quality { target_error: 0 } material { ggx { } }", "job.quality.target_error", "(0, 1]"},
         BadSpec{"quality { target_error: -1 } material { ggx { } }", "job.quality.target_error", "got -1"},
         BadSpec{"quality { time_limit_seconds: 1e9 } material { ggx { } }", "job.quality.time_limit_seconds", "got"},
-        BadSpec{"force_effects { key: \"volumes\" value: true } material { ggx { } }",
-                "job.force_effects[volumes]", "unknown effect"}));
+        BadSpec{"force_effects { key: \"volumes\" value: true } material { ggx { } }", "job.force_effects[volumes]",
+                "unknown effect"}));
 
 TEST(Translate, BoundsTheNameAndTheEffects) {
   v1::JobSpec spec = spec_from("material { ggx { } }");
@@ -129,14 +129,16 @@ TEST(Translate, BoundsTheNameAndTheEffects) {
 
 TEST(Translate, ForcingMerlOverridesTheFlag) {
   EXPECT_TRUE(translate(spec_from("force_effects { key: \"merl\" value: true } material { ggx { } }")).material().merl);
-  EXPECT_FALSE(
-      translate(spec_from("force_effects { key: \"merl\" value: false } material { ggx { } merl: true }")).material().merl);
+  EXPECT_FALSE(translate(spec_from("force_effects { key: \"merl\" value: false } material { ggx { } merl: true }"))
+                   .material()
+                   .merl);
 }
 
 // ---- The environment job ----------------------------------------------------------------------------------------
 
 // A well-formed digest (of bytes no store holds) for the form checks.
-constexpr const char* kDigest = "sha256: \"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\" size: 1000";
+constexpr const char* kDigest =
+    "sha256: \"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\" size: 1000";
 
 std::string faces_text(int n) {
   std::string t = "faces { ";
@@ -205,8 +207,9 @@ TEST(TranslateEnvironment, SameBakeSameKeyAndEverySettingChangesIt) {
       "image { sha256: \"1123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\" size: 1000 }";
   for (const std::string& text : {
            "environment { " + other_digest + " }",
-           std::string("environment { image { sha256: \"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\""
-                       " size: 1001 } }"),
+           std::string(
+               "environment { image { sha256: \"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\""
+               " size: 1001 } }"),
            "environment { " + faces_text(6) + " }",
            std::string("environment { constant { r: 1 g: 1 b: 1 } }"),
            "environment { " + image + " color_space: \"srgb_texture\" }",
@@ -238,17 +241,22 @@ INSTANTIATE_TEST_SUITE_P(
         BadSpec{"environment { }", "job.environment", "no environment given"},
         BadSpec{"environment { image { sha256: \"abc\" size: 10 } }", "job.environment.image.sha256", "64 lowercase"},
         BadSpec{"environment { image { sha256: \"0123456789ABCDEF0123456789abcdef0123456789abcdef0123456789abcdef\" "
-                "size: 10 } }", "job.environment.image.sha256", "64 lowercase"},
-        BadSpec{"environment { image { sha256: \"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\" } }",
-                "job.environment.image.size", "0 bytes"},
+                "size: 10 } }",
+                "job.environment.image.sha256", "64 lowercase"},
+        BadSpec{
+            "environment { image { sha256: \"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\" } }",
+            "job.environment.image.size", "0 bytes"},
         BadSpec{"environment { image { sha256: \"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\" "
-                "size: 536870913 } }", "job.environment.image.size", "at most 512 MiB"},
+                "size: 536870913 } }",
+                "job.environment.image.size", "at most 512 MiB"},
         BadSpec{"environment { faces { } }", "job.environment.faces.digests", "exactly six faces"},
         BadSpec{"environment { faces { digests { } digests { } digests { } digests { } digests { } } }",
                 "job.environment.faces.digests", "got 5"},
-        BadSpec{"environment { faces { digests {} digests {} digests {} digests {} digests {} digests {} digests {} } }",
-                "job.environment.faces.digests", "got 7"},
-        BadSpec{"environment { faces { digests { sha256: \"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\" "
+        BadSpec{
+            "environment { faces { digests {} digests {} digests {} digests {} digests {} digests {} digests {} } }",
+            "job.environment.faces.digests", "got 7"},
+        BadSpec{"environment { faces { digests { sha256: "
+                "\"0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef\" "
                 "size: 5 } digests {} digests {} digests {} digests {} digests {} } }",
                 "job.environment.faces.digests[1].sha256", "64 lowercase"},
         BadSpec{"environment { constant { r: -1 } }", "job.environment.constant.r", "got -1"},
@@ -276,7 +284,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadSpec{"environment { " IMAGE "dfg_size: 1 }", "job.environment.dfg_size", "got 1"},
         BadSpec{"environment { " IMAGE "dfg_size: 2000 }", "job.environment.dfg_size", "got 2000"},
         BadSpec{"environment { " IMAGE "dfg_samples: 8 }", "job.environment.dfg_samples", "got 8"},
-        BadSpec{"environment { " IMAGE "dfg_samples: 2000000 }", "job.environment.dfg_samples", "[16, 1048576], got 2e+06"},
+        BadSpec{"environment { " IMAGE "dfg_samples: 2000000 }", "job.environment.dfg_samples",
+                "[16, 1048576], got 2e+06"},
         BadSpec{"quality { samples: 2 } environment { " IMAGE "}", "job.quality.samples", "[4, 65536], got 2"},
         BadSpec{"quality { samples: 100000 } environment { " IMAGE "}", "job.quality.samples", "got 100000"},
         BadSpec{"quality { target_error: 0.00001 } environment { " IMAGE "}", "job.quality.target_error", "got 1e-05"},
@@ -289,8 +298,8 @@ INSTANTIATE_TEST_SUITE_P(
                 "value: true } environment { " IMAGE "}",
                 "job.force_effects[a_name_that_is_much_longer_than_sixty_four_bytes_which_is_the_li]",
                 "1 to 64 bytes, got 72"},
-        BadSpec{"force_effects { key: \"volumes\" value: true } environment { " IMAGE "}",
-                "job.force_effects[volumes]", "unknown effect 'volumes'"}));
+        BadSpec{"force_effects { key: \"volumes\" value: true } environment { " IMAGE "}", "job.force_effects[volumes]",
+                "unknown effect 'volumes'"}));
 #undef IMAGE
 
 TEST(TranslateEnvironment, TwoSourcesCannotBeWritten) {

@@ -79,12 +79,12 @@ TEST(CubemapConvention, FaceCentresAndCornersFollowTheOpenGlTable) {
     Vec3 centre, c00, c10, c01, c11;
   };
   const Expect table[kFaceCount] = {
-      {{1, 0, 0}, {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {1, -1, -1}},          // +X: sc = −rz, tc = −ry
-      {{-1, 0, 0}, {-1, 1, -1}, {-1, 1, 1}, {-1, -1, -1}, {-1, -1, 1}},     // −X: sc = +rz, tc = −ry
-      {{0, 1, 0}, {-1, 1, -1}, {1, 1, -1}, {-1, 1, 1}, {1, 1, 1}},          // +Y: sc = +rx, tc = +rz
-      {{0, -1, 0}, {-1, -1, 1}, {1, -1, 1}, {-1, -1, -1}, {1, -1, -1}},     // −Y: sc = +rx, tc = −rz
-      {{0, 0, 1}, {-1, 1, 1}, {1, 1, 1}, {-1, -1, 1}, {1, -1, 1}},          // +Z: sc = +rx, tc = −ry
-      {{0, 0, -1}, {1, 1, -1}, {-1, 1, -1}, {1, -1, -1}, {-1, -1, -1}}};    // −Z: sc = −rx, tc = −ry
+      {{1, 0, 0}, {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {1, -1, -1}},        // +X: sc = −rz, tc = −ry
+      {{-1, 0, 0}, {-1, 1, -1}, {-1, 1, 1}, {-1, -1, -1}, {-1, -1, 1}},   // −X: sc = +rz, tc = −ry
+      {{0, 1, 0}, {-1, 1, -1}, {1, 1, -1}, {-1, 1, 1}, {1, 1, 1}},        // +Y: sc = +rx, tc = +rz
+      {{0, -1, 0}, {-1, -1, 1}, {1, -1, 1}, {-1, -1, -1}, {1, -1, -1}},   // −Y: sc = +rx, tc = −rz
+      {{0, 0, 1}, {-1, 1, 1}, {1, 1, 1}, {-1, -1, 1}, {1, -1, 1}},        // +Z: sc = +rx, tc = −ry
+      {{0, 0, -1}, {1, 1, -1}, {-1, 1, -1}, {1, -1, -1}, {-1, -1, -1}}};  // −Z: sc = −rx, tc = −ry
   for (int f = 0; f < kFaceCount; ++f) {
     const std::string name(kFaceNames[f]);
     expect_vec_near(face_uv_to_direction(f, 0.5, 0.5), table[f].centre, 0, name + " centre");
@@ -179,10 +179,18 @@ TEST(CubemapSampling, ContinuousAcrossEveryFaceEdgeAndCorner) {
           const double along = std::clamp(k / 64.0, 1e-6, 1.0 - 1e-6);
           double s_in, t_in, s_out, t_out;
           switch (edge) {
-            case 0: s_in = eps, s_out = -eps, t_in = t_out = along; break;
-            case 1: s_in = 1 - eps, s_out = 1 + eps, t_in = t_out = along; break;
-            case 2: t_in = eps, t_out = -eps, s_in = s_out = along; break;
-            default: t_in = 1 - eps, t_out = 1 + eps, s_in = s_out = along; break;
+            case 0:
+              s_in = eps, s_out = -eps, t_in = t_out = along;
+              break;
+            case 1:
+              s_in = 1 - eps, s_out = 1 + eps, t_in = t_out = along;
+              break;
+            case 2:
+              t_in = eps, t_out = -eps, s_in = s_out = along;
+              break;
+            default:
+              t_in = 1 - eps, t_out = 1 + eps, s_in = s_out = along;
+              break;
           }
           const Vec3 d_in = face_uv_to_direction(f, s_in, t_in), d_out = face_uv_to_direction(f, s_out, t_out);
           ASSERT_EQ(direction_to_face_uv(d_in).face, f);

@@ -307,7 +307,9 @@ TEST(EnvInput, RadianceHdrIsDecodedAsLinear) {
 // ---- Six-face input --------------------------------------------------------------------------------------------
 
 // A smooth function of the direction (degree 2, positive, different per channel).
-Rgb face_fn(const Vec3& d) { return {1.0 + 0.5 * d.x + 0.3 * d.y * d.y, 0.8 + 0.4 * d.y, 1.0 + 0.3 * d.z + 0.2 * d.x * d.y}; }
+Rgb face_fn(const Vec3& d) {
+  return {1.0 + 0.5 * d.x + 0.3 * d.y * d.y, 0.8 + 0.4 * d.y, 1.0 + 0.3 * d.z + 0.2 * d.x * d.y};
+}
 
 // The six faces of `cube` as EXR images (first row of the picture = row t ≈ 0, cubemap.h).
 std::vector<std::string> encode_faces(const Cubemap& cube) {

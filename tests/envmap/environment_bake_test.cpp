@@ -7,9 +7,9 @@
 #include <cmath>
 #include <sstream>
 
+#include "bakers/envmap/sh.h"
 #include "bakers/image/exr.h"
 #include "bakers/image/ktx2.h"
-#include "bakers/envmap/sh.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::envmap {
@@ -24,50 +24,50 @@ const bake::BakeOutput& output(const EnvironmentBakeResult& r, const std::string
 
 TEST(EnvironmentBake, ConstantEnvironmentIsConstantEverywhere) {
   for (EnvLobe lobe : {EnvLobe::ggx, EnvLobe::beckmann, EnvLobe::cook_torrance, EnvLobe::schlick}) {
-  SCOPED_TRACE(to_string(lobe));
-  EnvironmentBakeInput in;
-  in.lobe = lobe;
-  in.preview = lobe == EnvLobe::ggx;
-  in.force_effects["sun_light"] = true;  // forced on with no sun: a no-op, recorded
-  in.constant = Rgb{0.5, 1.0, 2.0};
-  in.size = 16;
-  in.irradiance_size = 4;
-  in.dfg_size = 4;
-  in.dfg_samples = 64;
-  const EnvironmentBakeResult r = bake_environment(in);
-  // Every level of the specular chain: half floats hold 0.5, 1 and 2 exactly.
-  const image::Ktx2Image ktx = image::decode_ktx2(output(r, "specular.ktx2").bytes);
-  EXPECT_EQ(ktx.faces, 6);
-  EXPECT_EQ(ktx.levels, 3);  // 16, 8, 4
-  for (int k = 0; k < ktx.levels; ++k) {
-    for (int f = 0; f < 6; ++f) {
-      const auto& px = ktx.image(k, f);
-      for (size_t i = 0; i < px.size(); i += 4) {
-        ASSERT_EQ(px[i], 0.5f);
-        ASSERT_EQ(px[i + 1], 1.0f);
-        ASSERT_EQ(px[i + 2], 2.0f);
+    SCOPED_TRACE(to_string(lobe));
+    EnvironmentBakeInput in;
+    in.lobe = lobe;
+    in.preview = lobe == EnvLobe::ggx;
+    in.force_effects["sun_light"] = true;  // forced on with no sun: a no-op, recorded
+    in.constant = Rgb{0.5, 1.0, 2.0};
+    in.size = 16;
+    in.irradiance_size = 4;
+    in.dfg_size = 4;
+    in.dfg_samples = 64;
+    const EnvironmentBakeResult r = bake_environment(in);
+    // Every level of the specular chain: half floats hold 0.5, 1 and 2 exactly.
+    const image::Ktx2Image ktx = image::decode_ktx2(output(r, "specular.ktx2").bytes);
+    EXPECT_EQ(ktx.faces, 6);
+    EXPECT_EQ(ktx.levels, 3);  // 16, 8, 4
+    for (int k = 0; k < ktx.levels; ++k) {
+      for (int f = 0; f < 6; ++f) {
+        const auto& px = ktx.image(k, f);
+        for (size_t i = 0; i < px.size(); i += 4) {
+          ASSERT_EQ(px[i], 0.5f);
+          ASSERT_EQ(px[i + 1], 1.0f);
+          ASSERT_EQ(px[i + 2], 2.0f);
+        }
       }
     }
-  }
-  EXPECT_EQ(ktx.key_values.at("kiln:roughness_per_level"), "0,0.5,1");
-  // Irradiance of a constant L is π L (float output: 1e-6 relative).
-  const image::FloatImage irr = image::decode_exr(output(r, "irradiance_py.exr").bytes);
-  EXPECT_NEAR(irr.at(1, 2, 2), 2.0 * kPi, 2.0 * kPi * 1e-6);
-  // SH of a constant: only the constant term, and evaluating it (Y0 · E0, Y0 = 1/(2 sqrt(π))) gives π L at every
-  // normal; sh.txt prints round-trip doubles, so 1e-9 is rounding of the projection's sum.
-  std::istringstream sh(output(r, "sh.txt").bytes);
-  std::string header;
-  std::getline(sh, header);
-  double e0r, e0g, e0b;
-  sh >> e0r >> e0g >> e0b;
-  EXPECT_NEAR(e0b * 0.28209479177387814, 2.0 * kPi, 1e-9);
-  // ktx2, 3 levels × 6 EXR faces, 6 irradiance, sh, dfg, report (+ preview)
-  EXPECT_EQ(r.outputs.size(), 1u + 3 * 6 + 6 + 3 + (in.preview ? 1 : 0));
-  EXPECT_EQ(ktx.key_values.at("kiln:lobe"), to_string(lobe));
-  EXPECT_FALSE(r.sun_found);
-  const std::string report = output(r, "report.json").bytes;
-  EXPECT_NE(report.find("no-op"), std::string::npos) << report;
-  EXPECT_NE(report.find("\"lobe\": \"" + std::string(to_string(lobe)) + "\""), std::string::npos);
+    EXPECT_EQ(ktx.key_values.at("kiln:roughness_per_level"), "0,0.5,1");
+    // Irradiance of a constant L is π L (float output: 1e-6 relative).
+    const image::FloatImage irr = image::decode_exr(output(r, "irradiance_py.exr").bytes);
+    EXPECT_NEAR(irr.at(1, 2, 2), 2.0 * kPi, 2.0 * kPi * 1e-6);
+    // SH of a constant: only the constant term, and evaluating it (Y0 · E0, Y0 = 1/(2 sqrt(π))) gives π L at every
+    // normal; sh.txt prints round-trip doubles, so 1e-9 is rounding of the projection's sum.
+    std::istringstream sh(output(r, "sh.txt").bytes);
+    std::string header;
+    std::getline(sh, header);
+    double e0r, e0g, e0b;
+    sh >> e0r >> e0g >> e0b;
+    EXPECT_NEAR(e0b * 0.28209479177387814, 2.0 * kPi, 1e-9);
+    // ktx2, 3 levels × 6 EXR faces, 6 irradiance, sh, dfg, report (+ preview)
+    EXPECT_EQ(r.outputs.size(), 1u + 3 * 6 + 6 + 3 + (in.preview ? 1 : 0));
+    EXPECT_EQ(ktx.key_values.at("kiln:lobe"), to_string(lobe));
+    EXPECT_FALSE(r.sun_found);
+    const std::string report = output(r, "report.json").bytes;
+    EXPECT_NE(report.find("no-op"), std::string::npos) << report;
+    EXPECT_NE(report.find("\"lobe\": \"" + std::string(to_string(lobe)) + "\""), std::string::npos);
   }
 }
 
@@ -106,7 +106,8 @@ TEST(EnvironmentBake, HorizonStepFromFacesGivesTheAnalyticIrradiance) {
     in.target_error = 0.05;
     const EnvironmentBakeResult r = bake_environment(in);
     for (int f = 0; f < 6; ++f) {
-      const image::FloatImage irr = image::decode_exr(output(r, "irradiance_" + std::string(kFaceNames[f]) + ".exr").bytes);
+      const image::FloatImage irr =
+          image::decode_exr(output(r, "irradiance_" + std::string(kFaceNames[f]) + ".exr").bytes);
       for (int y = 0; y < 8; ++y)
         for (int x = 0; x < 8; ++x) {
           const Vec3 n = texel_direction(f, x, y, 8);

@@ -9,10 +9,10 @@
 
 #include <algorithm>
 #include <array>
-#include <stdexcept>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -39,7 +39,8 @@ std::string test_environment_exr() {
   img.height = kH;
   img.channels = 3;
   img.channel_names = {"R", "G", "B"};
-  const Vec3 spot = normalize(Vec3{std::sin(40.0 * kPi / 180), std::tan(20.0 * kPi / 180), -std::cos(40.0 * kPi / 180)});
+  const Vec3 spot =
+      normalize(Vec3{std::sin(40.0 * kPi / 180), std::tan(20.0 * kPi / 180), -std::cos(40.0 * kPi / 180)});
   for (int y = 0; y < kH; ++y) {
     for (int x = 0; x < kW; ++x) {
       const double u = (x + 0.5) / kW, v = (y + 0.5) / kH;
@@ -76,12 +77,18 @@ struct TexelRef {
 };
 TexelRef rotated_source(int face, int x, int y, int n) {
   switch (face) {
-    case 0: return {4, x, y};
-    case 1: return {5, x, y};
-    case 2: return {2, n - 1 - y, x};
-    case 3: return {3, y, n - 1 - x};
-    case 4: return {1, x, y};
-    case 5: return {0, x, y};
+    case 0:
+      return {4, x, y};
+    case 1:
+      return {5, x, y};
+    case 2:
+      return {2, n - 1 - y, x};
+    case 3:
+      return {3, y, n - 1 - x};
+    case 4:
+      return {1, x, y};
+    case 5:
+      return {0, x, y};
   }
   return {face, x, y};
 }
@@ -89,7 +96,6 @@ TexelRef rotated_source(int face, int x, int y, int n) {
 double max_abs_diff(const Rgb& a, const Rgb& b) {
   return std::max({std::abs(a.r - b.r), std::abs(a.g - b.g), std::abs(a.b - b.b)});
 }
-
 
 constexpr int kSize = 32;
 constexpr int kLevels = 4;  // 32, 16, 8, 4 (the bake stops at 4²): ρ = 0, 1/3, 2/3, 1
@@ -301,10 +307,10 @@ Cubemap level_cube(const EnvironmentBakeResult& r, int k) {
 }
 
 // Measured over the pairs of every level (the largest edge difference / local interior difference): 0.95, 0.89,
-// 0.68, 0.81 at levels 0–3; the control below gives 19.7. Along an edge the two texel centres are 1/N radians apart, as far as in-face
-// neighbours next to the edge (plane spacing 2/N at a slope of 1/(1 + a²) = ½), so a seamless map has ratios near 1
-// or below; 1.5 leaves room for a gradient that is steeper across the edge than along it, and catches a seam (a face
-// turned or shifted by one texel gives ratios of several, see the control below).
+// 0.68, 0.81 at levels 0–3; the control below gives 19.7. Along an edge the two texel centres are 1/N radians apart, as
+// far as in-face neighbours next to the edge (plane spacing 2/N at a slope of 1/(1 + a²) = ½), so a seamless map has
+// ratios near 1 or below; 1.5 leaves room for a gradient that is steeper across the edge than along it, and catches a
+// seam (a face turned or shifted by one texel gives ratios of several, see the control below).
 constexpr double kEdgeRatio = 1.5;
 
 double worst_edge_ratio(const Cubemap& c, TexelRef* where = nullptr) {

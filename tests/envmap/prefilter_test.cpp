@@ -32,7 +32,9 @@ double rel_diff(const Rgb& a, const Rgb& b) {
   return m;
 }
 
-struct Errors { double max_rel = 0, rms_rel = 0; };
+struct Errors {
+  double max_rel = 0, rms_rel = 0;
+};
 Errors compare(const Cubemap& out, const Cubemap& ref) {
   Errors e;
   double acc = 0;
@@ -56,31 +58,31 @@ TEST(Prefilter, RoughnessMapping) {
 }
 
 constexpr brdf::Distribution kLobes[] = {brdf::Distribution::ggx, brdf::Distribution::beckmann,
-                                          brdf::Distribution::schlick_beckmann};
+                                         brdf::Distribution::schlick_beckmann};
 
 TEST(Prefilter, ConstantEnvironmentStaysConstantAtEveryLevel) {
   const Rgb c{0.25, 3.0, 1000.0};
   for (auto lobe : kLobes)
-  for (int src : {1, 8, 16}) {
-    PrefilterOptions o{5, 64};
-    o.distribution = lobe;
-    const auto chain = prefilter_specular(Cubemap(src, c), 16, o);
-    ASSERT_EQ(chain.size(), 5u);
-    for (size_t k = 0; k < chain.size(); ++k) {
-      EXPECT_EQ(chain[k].cube.size(), std::max(1, 16 >> k));
+    for (int src : {1, 8, 16}) {
+      PrefilterOptions o{5, 64};
+      o.distribution = lobe;
+      const auto chain = prefilter_specular(Cubemap(src, c), 16, o);
+      ASSERT_EQ(chain.size(), 5u);
+      for (size_t k = 0; k < chain.size(); ++k) {
+        EXPECT_EQ(chain[k].cube.size(), std::max(1, 16 >> k));
+        for (int f = 0; f < kFaceCount; ++f)
+          for (const Rgb& t : chain[k].cube.face(f))
+            for (int i = 0; i < 3; ++i)
+              // Σ c w_i / Σ w_i over ≤ 64 positive weights, each sample a convex (bi/trilinear) mix of equal values:
+              // a few dozen roundings, ≤ 1e-13 relative (observed ~1e-15).
+              EXPECT_NEAR(t[i], c[i], 1e-13 * c[i]) << "src " << src << " level " << k;
+        // The group estimates agree to rounding too.
+        EXPECT_LT(chain[k].error_estimate, 1e-13);
+      }
+      const Cubemap ref = brute_force_prefilter(Cubemap(src, c), 4, 0.5, lobe);
       for (int f = 0; f < kFaceCount; ++f)
-        for (const Rgb& t : chain[k].cube.face(f))
-          for (int i = 0; i < 3; ++i)
-            // Σ c w_i / Σ w_i over ≤ 64 positive weights, each sample a convex (bi/trilinear) mix of equal values:
-            // a few dozen roundings, ≤ 1e-13 relative (observed ~1e-15).
-            EXPECT_NEAR(t[i], c[i], 1e-13 * c[i]) << "src " << src << " level " << k;
-      // The group estimates agree to rounding too.
-      EXPECT_LT(chain[k].error_estimate, 1e-13);
+        for (const Rgb& t : ref.face(f)) EXPECT_NEAR(t.g, c.g, 1e-13 * c.g);
     }
-    const Cubemap ref = brute_force_prefilter(Cubemap(src, c), 4, 0.5, lobe);
-    for (int f = 0; f < kFaceCount; ++f)
-      for (const Rgb& t : ref.face(f)) EXPECT_NEAR(t.g, c.g, 1e-13 * c.g);
-  }
 }
 
 // Test (3). The error of filtered importance sampling against the exact convolution has two parts:
@@ -96,29 +98,29 @@ TEST(Prefilter, ConstantEnvironmentStaysConstantAtEveryLevel) {
 // (ρ = 0.25, α = 1/16, about 7° wide in l against 5.6° texels) is resolved.
 TEST(Prefilter, MatchesBruteForceConvolutionForEveryLobe) {
   for (auto lobe : kLobes)
-  for (auto env : {&smooth_env, &spot_env}) {
-    if (lobe != brdf::Distribution::ggx && env == &smooth_env) continue;  // time: the spot env is the harder one
-    const Cubemap src = cubemap_from(16, env);
-    PrefilterOptions o{5, 64};
-    o.distribution = lobe;
-    const auto coarse = prefilter_specular(src, 16, o);
-    o.samples = 1024;
-    const auto fine = prefilter_specular(src, 16, o);
-    // Level 0 is the source itself (the mirror).
-    for (int f = 0; f < kFaceCount; ++f) EXPECT_EQ(coarse[0].cube.face(f), src.face(f));
-    for (size_t k = 1; k < coarse.size(); ++k) {
-      const Cubemap ref = brute_force_prefilter(src, coarse[k].cube.size(), coarse[k].roughness, lobe, 4);
-      const Errors e64 = compare(coarse[k].cube, ref), e1024 = compare(fine[k].cube, ref);
-      std::printf("%s %s level %zu rho %.2f: N=64 est %.1e rms %.2e max %.2e | N=1024 est %.1e rms %.2e max %.2e\n",
-                  brdf::to_string(lobe).c_str(), env == &smooth_env ? "smooth" : "spot  ", k, coarse[k].roughness,
-                  coarse[k].error_estimate, e64.rms_rel, e64.max_rel, fine[k].error_estimate, e1024.rms_rel,
-                  e1024.max_rel);
-      EXPECT_LT(e64.max_rel, 0.20) << "level " << k;
-      EXPECT_LT(e64.rms_rel, 0.12) << "level " << k;
-      EXPECT_LT(e1024.rms_rel, e64.rms_rel / 4) << "level " << k;
-      EXPECT_LT(e1024.max_rel, 0.02) << "level " << k;
+    for (auto env : {&smooth_env, &spot_env}) {
+      if (lobe != brdf::Distribution::ggx && env == &smooth_env) continue;  // time: the spot env is the harder one
+      const Cubemap src = cubemap_from(16, env);
+      PrefilterOptions o{5, 64};
+      o.distribution = lobe;
+      const auto coarse = prefilter_specular(src, 16, o);
+      o.samples = 1024;
+      const auto fine = prefilter_specular(src, 16, o);
+      // Level 0 is the source itself (the mirror).
+      for (int f = 0; f < kFaceCount; ++f) EXPECT_EQ(coarse[0].cube.face(f), src.face(f));
+      for (size_t k = 1; k < coarse.size(); ++k) {
+        const Cubemap ref = brute_force_prefilter(src, coarse[k].cube.size(), coarse[k].roughness, lobe, 4);
+        const Errors e64 = compare(coarse[k].cube, ref), e1024 = compare(fine[k].cube, ref);
+        std::printf("%s %s level %zu rho %.2f: N=64 est %.1e rms %.2e max %.2e | N=1024 est %.1e rms %.2e max %.2e\n",
+                    brdf::to_string(lobe).c_str(), env == &smooth_env ? "smooth" : "spot  ", k, coarse[k].roughness,
+                    coarse[k].error_estimate, e64.rms_rel, e64.max_rel, fine[k].error_estimate, e1024.rms_rel,
+                    e1024.max_rel);
+        EXPECT_LT(e64.max_rel, 0.20) << "level " << k;
+        EXPECT_LT(e64.rms_rel, 0.12) << "level " << k;
+        EXPECT_LT(e1024.rms_rel, e64.rms_rel / 4) << "level " << k;
+        EXPECT_LT(e1024.max_rel, 0.02) << "level " << k;
+      }
     }
-  }
 }
 
 // Point 4: the reported error_estimate is honest. Against a full brute-force convolution of every level, the
@@ -159,8 +161,11 @@ TEST(Prefilter, ErrorEstimateIsWithinAFactorThreeOfTheMeasuredError) {
           const Cubemap ref = brute_force_prefilter(src, chain[k].cube.size(), chain[k].roughness, lobe);
           const double measured = rgb_rel_rms(chain[k].cube, ref), est = chain[k].error_estimate;
           std::printf("%s env %d N=%d level %zu (%d²): measured %.2e estimate %.2e (noise %.1e, checked %.1e on %d)\n",
-                      brdf::to_string(lobe).c_str(), env == &smooth_env ? 0 : env == &spot_env ? 1 : 2, n, k,
-                      chain[k].cube.size(), measured, est, chain[k].noise_estimate, chain[k].checked_error,
+                      brdf::to_string(lobe).c_str(),
+                      env == &smooth_env ? 0
+                      : env == &spot_env ? 1
+                                         : 2,
+                      n, k, chain[k].cube.size(), measured, est, chain[k].noise_estimate, chain[k].checked_error,
                       chain[k].checked_texels);
           if (measured < 1e-4) {
             EXPECT_LT(est, 1e-3);

@@ -40,7 +40,8 @@ int coverage(int i, int x, int y) {
   const double cx = preview_sphere_center_x(i), cy = kPreviewSphereCenterY, r = kPreviewSphereRadius;
   // Nearest and farthest points of the square [x, x+1] × [y, y+1] from the centre.
   const double nx = std::clamp(cx, double(x), x + 1.0) - cx, ny = std::clamp(cy, double(y), y + 1.0) - cy;
-  const double fx = std::max(std::abs(x - cx), std::abs(x + 1 - cx)), fy = std::max(std::abs(y - cy), std::abs(y + 1 - cy));
+  const double fx = std::max(std::abs(x - cx), std::abs(x + 1 - cx)),
+               fy = std::max(std::abs(y - cy), std::abs(y + 1 - cy));
   if (fx * fx + fy * fy <= r * r) return 1;
   if (nx * nx + ny * ny > r * r) return -1;
   return 0;
@@ -59,7 +60,8 @@ int sphere_at(int x, int y, int& cover) {
 void expect_code(const image::Png8Image& png, int x, int y, const Rgb& linear, const char* what) {
   for (int c = 0; c < 3; ++c) {
     // One 8-bit code: see the file comment.
-    ASSERT_NEAR(png.at(x, y, c), srgb_code(linear[c]), 1) << what << " at pixel (" << x << ", " << y << ") channel " << c;
+    ASSERT_NEAR(png.at(x, y, c), srgb_code(linear[c]), 1)
+        << what << " at pixel (" << x << ", " << y << ") channel " << c;
   }
 }
 
@@ -234,8 +236,8 @@ TEST(Preview, InterpolatesBetweenLevelsAndClampsBeyondTheChain) {
 
 TEST(Preview, BlackAndOverbrightEnvironmentsStayDefined) {
   // A black environment: no median, no mean; exposure 1 and an all-black picture.
-  const image::Png8Image black = image::decode_png(
-      render_preview({Cubemap(4)}, {0.0}, Cubemap(2), constant_dfg(1.0, 0.0), "lin_rec709"));
+  const image::Png8Image black =
+      image::decode_png(render_preview({Cubemap(4)}, {0.0}, Cubemap(2), constant_dfg(1.0, 0.0), "lin_rec709"));
   EXPECT_EQ(black.metadata.at("kiln:exposure"), "1");
   for (uint8_t v : black.pixels) ASSERT_EQ(v, 0);
   // Mostly black with a bright sun on the horizon towards −Z (inside the background's ±45° band, but far less than

@@ -36,8 +36,8 @@ TEST(AutoExposure, ABlackMedianFallsBackToTheMeanAndABlackPictureToOne) {
   EXPECT_EQ(mostly_black.from, AutoExposure::Key::mean);
   EXPECT_EQ(mostly_black.key, 1.0);
   EXPECT_EQ(mostly_black.multiplier, kMidGrey);
-  for (const std::vector<double>& black : {std::vector<double>{}, std::vector<double>{0, 0, 0},
-                                           std::vector<double>{kNaN}, std::vector<double>{1e-310}}) {
+  for (const std::vector<double>& black :
+       {std::vector<double>{}, std::vector<double>{0, 0, 0}, std::vector<double>{kNaN}, std::vector<double>{1e-310}}) {
     // Empty, all black, all NaN, and a key whose 0.18 / key overflows: exposure 1.
     const AutoExposure e = auto_exposure(black);
     EXPECT_EQ(e.from, AutoExposure::Key::black);

@@ -249,20 +249,20 @@ TEST(Ktx2, HeaderFieldsSitAtTheirSpecifiedOffsets) {
   const uint32_t dfd_at = u32(f, 48), dfd_len = u32(f, 52);
   EXPECT_EQ(dfd_at, 80u + 24u * 5u);  // right after the level index
   EXPECT_EQ(dfd_len, 4u + 24u + 16u * 4u);
-  EXPECT_EQ(u32(f, dfd_at), dfd_len);  // dfdTotalSize
+  EXPECT_EQ(u32(f, dfd_at), dfd_len);       // dfdTotalSize
   EXPECT_EQ(u32(f, 56), dfd_at + dfd_len);  // kvdByteOffset: right after the DFD
-  EXPECT_EQ(u64(f, 64), 0u);  // sgdByteOffset
-  EXPECT_EQ(u64(f, 72), 0u);  // sgdByteLength
+  EXPECT_EQ(u64(f, 64), 0u);                // sgdByteOffset
+  EXPECT_EQ(u64(f, 72), 0u);                // sgdByteLength
 
   // The basic descriptor block, word by word (Khronos Data Format Specification, basic descriptor block).
   const size_t b = dfd_at + 4;
-  EXPECT_EQ(u32(f, b), 0u);                      // vendorId 0 (Khronos), descriptorType 0 (basic)
-  EXPECT_EQ(u32(f, b + 4), 2u | (88u << 16));    // versionNumber 2, descriptorBlockSize 24 + 16·4
-  EXPECT_EQ(u32(f, b + 8) & 0xff, 1u);           // colorModel RGBSDA
-  EXPECT_EQ((u32(f, b + 8) >> 8) & 0xff, 1u);    // colorPrimaries BT709
-  EXPECT_EQ((u32(f, b + 8) >> 16) & 0xff, 1u);   // transferFunction LINEAR
-  EXPECT_EQ(u32(f, b + 12), 0u);                 // texel block 1×1×1×1
-  EXPECT_EQ(u32(f, b + 16), 8u);                 // bytesPlane0 = 8 bytes per texel
+  EXPECT_EQ(u32(f, b), 0u);                     // vendorId 0 (Khronos), descriptorType 0 (basic)
+  EXPECT_EQ(u32(f, b + 4), 2u | (88u << 16));   // versionNumber 2, descriptorBlockSize 24 + 16·4
+  EXPECT_EQ(u32(f, b + 8) & 0xff, 1u);          // colorModel RGBSDA
+  EXPECT_EQ((u32(f, b + 8) >> 8) & 0xff, 1u);   // colorPrimaries BT709
+  EXPECT_EQ((u32(f, b + 8) >> 16) & 0xff, 1u);  // transferFunction LINEAR
+  EXPECT_EQ(u32(f, b + 12), 0u);                // texel block 1×1×1×1
+  EXPECT_EQ(u32(f, b + 16), 8u);                // bytesPlane0 = 8 bytes per texel
   EXPECT_EQ(u32(f, b + 20), 0u);
   const uint32_t channel_ids[4] = {0, 1, 2, 15};
   for (uint32_t c = 0; c < 4; ++c) {
@@ -419,7 +419,7 @@ TEST(Ktx2, SpecificCorruptionsGiveClearErrors) {
     return s;
   };
   expect_rejected("not a ktx file at all, just some text", "identifier");
-  expect_rejected(with(12, 37), "vkFormat");                   // R8G8B8A8_UNORM
+  expect_rejected(with(12, 37), "vkFormat");  // R8G8B8A8_UNORM
   expect_rejected(with(16, 4), "typeSize");
   expect_rejected(with(20, 0xffffffffu), "pixelWidth");
   expect_rejected(with(20, 4), "cube map");

@@ -19,21 +19,27 @@ namespace kiln::test {
 Daemon::Daemon(std::vector<std::string> extra_flags, std::filesystem::path dir) {
   if (dir.empty()) {
     std::random_device rd;
-    dir = std::filesystem::temp_directory_path() / ("kiln_it_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
+    dir =
+        std::filesystem::temp_directory_path() / ("kiln_it_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
   }
   dir_ = dir;
   std::filesystem::create_directories(dir_);
   socket_ = dir_ / "kilnd.sock";
   token_ = "integration-test-token-0123456789";
   const auto token_file = dir_ / "tokens";
-  {
-    std::ofstream(token_file) << token_ << "\n";
-  }
+  { std::ofstream(token_file) << token_ << "\n"; }
   std::filesystem::permissions(token_file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
   const auto out = dir_ / "kilnd.out";
   std::filesystem::remove(out);
-  std::vector<std::string> args = {KILND_BIN, "--listen", "127.0.0.1:0", "--socket", socket_.string(),
-                                   "--store", (dir_ / "store").string(), "--token-file", token_file.string()};
+  std::vector<std::string> args = {KILND_BIN,
+                                   "--listen",
+                                   "127.0.0.1:0",
+                                   "--socket",
+                                   socket_.string(),
+                                   "--store",
+                                   (dir_ / "store").string(),
+                                   "--token-file",
+                                   token_file.string()};
   args.insert(args.end(), extra_flags.begin(), extra_flags.end());
   pid_ = ::fork();
   if (pid_ == 0) {

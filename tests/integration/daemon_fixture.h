@@ -23,8 +23,8 @@ class Daemon {
   pid_t pid() const { return pid_; }
   std::string log() const;  // what kilnd wrote to stderr so far
 
-  void kill9();       // SIGKILL, as a crash
-  int terminate();    // SIGTERM and wait; the exit status
+  void kill9();     // SIGKILL, as a crash
+  int terminate();  // SIGTERM and wait; the exit status
   void keep() { keep_ = true; }
 
   // The daemon's resident memory in KiB (from /proc).

@@ -94,7 +94,8 @@ TEST(Daemon, IdenticalJobIsACacheHitWithTheSameDigests) {
   EXPECT_NE(second.job_id(), first.job_id());
   const auto r1 = c.result(first.job_id()), r2 = c.result(second.job_id());
   ASSERT_EQ(r1.outputs_size(), r2.outputs_size());
-  for (int i = 0; i < r1.outputs_size(); ++i) EXPECT_EQ(r1.outputs(i).digest().sha256(), r2.outputs(i).digest().sha256());
+  for (int i = 0; i < r1.outputs_size(); ++i)
+    EXPECT_EQ(r1.outputs(i).digest().sha256(), r2.outputs(i).digest().sha256());
   EXPECT_TRUE(r2.report().cache_hit());
   EXPECT_EQ(c.status().cache_hits(), 1u);
 }

@@ -1,8 +1,8 @@
 // The environment job end to end: an image generated here is uploaded to the real kilnd, baked, and its outputs
 // fetched and checked; images the decoder refuses fail the job with the decoder's message, and the daemon goes on.
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <sys/wait.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -320,8 +320,10 @@ TEST(EnvironmentService, KilnBakeEnvWritesTheOutputs) {
     t << d.token() << "\n";
   }
   const std::string command = std::string(KILN_BIN) + " --server " + d.tcp() + " --token-file " + token.string() +
-                              " bake env " + sky.string() + " --size 16 --irradiance-size 8 --dfg-size 8 "
-                              "--dfg-samples 64 --samples 32 --out " + out.string() + " 2>&1";
+                              " bake env " + sky.string() +
+                              " --size 16 --irradiance-size 8 --dfg-size 8 "
+                              "--dfg-samples 64 --samples 32 --out " +
+                              out.string() + " 2>&1";
   FILE* p = ::popen(command.c_str(), "r");
   ASSERT_NE(p, nullptr);
   std::string said;

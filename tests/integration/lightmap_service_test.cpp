@@ -79,8 +79,8 @@ TEST(LightmapService, KilnBakeLightmapWritesValidOutputsAndTheSecondRunIsACacheH
   ASSERT_EQ(first.status, 0) << first.said;
   EXPECT_NE(first.said.find("8 meshes"), std::string::npos) << "the import summary is printed: " << first.said;
 
-  for (const char* name : {"floor", "ceiling", "back_wall", "left_wall", "right_wall", "short_block", "tall_block",
-                           "light"}) {
+  for (const char* name :
+       {"floor", "ceiling", "back_wall", "left_wall", "right_wall", "short_block", "tall_block", "light"}) {
     const std::string n = name;
     const image::FloatImage irradiance = image::decode_exr(read(out / (n + "_irradiance.exr")));
     const image::FloatImage validity = image::decode_exr(read(out / (n + "_validity.exr")));

@@ -69,8 +69,9 @@ TEST(LightmapBake, OpenPlaneUnderAUniformSkyHasIrradiancePi) {
 // 1b. Inside a closed sphere of albedo ρ emitting L_e everywhere, the radiance is L_e/(1 − ρ) and E = π L_e/(1 − ρ).
 // The facets keep their geometric normals: with interpolated normals the cosine lobe of a facet tilts against its
 // plane and E over the tilted hemisphere is less than π L (by about 1 % for this 12-ring sphere), which is the
-// right answer for those normals but not the analytic one. Tolerance per texel: 6 of its own estimated standard errors (≈ 2e-9 chance each under normality; a few hundred
-// texels) plus the bias the planner allowed for truncating the bounces (≤ target/4).
+// right answer for those normals but not the analytic one. Tolerance per texel: 6 of its own estimated standard errors
+// (≈ 2e-9 chance each under normality; a few hundred texels) plus the bias the planner allowed for truncating the
+// bounces (≤ target/4).
 TEST(LightmapBake, ClosedSphereFurnaceGivesLeOverOneMinusRho) {
   for (double rho : {0.0, 0.5}) {
     scene::Scene s;
@@ -125,7 +126,8 @@ TEST(LightmapBake, RectangleLightMatchesLambertsFormula) {
   const image::FloatImage E = b.image("floor_irradiance.exr"), err = b.image("floor_error.exr");
   for (int y = 0; y < 16; ++y) {
     for (int x = 0; x < 16; ++x) {
-      const double expected = texel_average(16, x, y, 2.0, [&](const Vec3& p) { return rect_irradiance(s.lights[0], p); });
+      const double expected =
+          texel_average(16, x, y, 2.0, [&](const Vec3& p) { return rect_irradiance(s.lights[0], p); });
       EXPECT_NEAR(E.at(x, y, 0), expected, expected * (6 * err.at(x, y, 0) + 1e-3) + 1e-9) << x << "," << y;
     }
   }
@@ -235,7 +237,8 @@ TEST(LightmapBake, TheEstimatedErrorIsHonest) {
   int n = 0;
   for (int y = 0; y < 16; ++y) {
     for (int x = 0; x < 16; ++x) {
-      const double expected = texel_average(16, x, y, 2.0, [&](const Vec3& p) { return rect_irradiance(s.lights[0], p); });
+      const double expected =
+          texel_average(16, x, y, 2.0, [&](const Vec3& p) { return rect_irradiance(s.lights[0], p); });
       const double rel = (E.at(x, y, 0) - expected) / expected;
       sum_sq += rel * rel;
       ++n;

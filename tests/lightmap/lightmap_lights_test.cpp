@@ -39,13 +39,14 @@ int add_facing_quad(scene::Scene& s, const std::string& name, Vec3 c, Vec3 norma
   const Vec3 n = normalize(normal);
   const Vec3 t = normalize(std::abs(n.y) < 0.9 ? cross(Vec3{0, 1, 0}, n) : cross(Vec3{1, 0, 0}, n));
   const Vec3 b = cross(n, t);  // t × b = n: counter-clockwise seen from the front
-  return test::add_quad(s, name, c - t * h - b * h, c + t * h - b * h, c + t * h + b * h, c - t * h + b * h, material, 4);
+  return test::add_quad(s, name, c - t * h - b * h, c + t * h - b * h, c + t * h + b * h, c - t * h + b * h, material,
+                        4);
 }
 
 // Compares lightmap `map` of a bake with `expected` per valid texel: |E − expected| ≤ 6 σ̂ + rel·expected + abs.
 // Returns the number of texels compared.
-int expect_matches(const LightmapBakeResult& r, const std::string& map, const std::vector<double>& expected,
-                   double rel, double abs, const std::string& what) {
+int expect_matches(const LightmapBakeResult& r, const std::string& map, const std::vector<double>& expected, double rel,
+                   double abs, const std::string& what) {
   const image::FloatImage E = exr_output(r, map + "_irradiance.exr"), err = exr_output(r, map + "_error.exr");
   int n = 0;
   for (int y = 0; y < E.height; ++y) {
@@ -88,8 +89,8 @@ TEST(LightmapLights, SpotLightFollowsTheGltfFalloff) {
     const Vec3 d = l.position - p;
     const double r = length(d);
     const Vec3 wi = d / r;
-    return l.color.r * khr_spot_falloff(dot(-wi, l.direction), l.inner_cone, l.outer_cone) *
-           std::max(0.0, dot(n, wi)) / (r * r);
+    return l.color.r * khr_spot_falloff(dot(-wi, l.direction), l.inner_cone, l.outer_cone) * std::max(0.0, dot(n, wi)) /
+           (r * r);
   });
   const auto lit = std::count_if(expected.begin(), expected.end(), [](double e) { return e > 0; });
   ASSERT_GT(lit, 20) << "the cone and its ramp cover texels";
@@ -144,9 +145,8 @@ TEST(LightmapLights, SunDiscGivesECosTheta) {
   sun.angular_diameter = 0.1;
   sun.color = Rgb{2.0};
   s.lights.push_back(sun);
-  const auto expected = texel_means(s, "floor", kW, [&](const Vec3&, const Vec3& n) {
-    return sun.color.r * dot(n, -sun.direction);
-  });
+  const auto expected =
+      texel_means(s, "floor", kW, [&](const Vec3&, const Vec3& n) { return sun.color.r * dot(n, -sun.direction); });
   const LightmapBakeResult r = bake_lightmaps(lightmap_input(s, kW, 0.005));
   EXPECT_EQ(expect_matches(r, "floor", expected, kStorage, 1e-9, "sun disc"), kW * kW);
 }
@@ -220,15 +220,13 @@ TEST(LightmapLights, EnvironmentRotationTurnsTheImageAboutY) {
   in.max_samples = 512;
   const LightmapBakeResult r = bake_lightmaps(in);
   EXPECT_EQ(expect_matches(r, "north", std::vector<double>(kW * kW, kPi), kHorizonBlur, 0, "facing -Z"), kW * kW);
-  EXPECT_EQ(expect_matches(r, "south", std::vector<double>(kW * kW, 0.0), 0, kHorizonBlur * kPi, "facing +Z"),
-            kW * kW);
+  EXPECT_EQ(expect_matches(r, "south", std::vector<double>(kW * kW, 0.0), 0, kHorizonBlur * kPi, "facing +Z"), kW * kW);
 
   scene::Scene c = black_floor();
   c.environment.constant = Rgb{1.0};
   c.environment.rotation_degrees = 90;
   const LightmapBakeResult rc = bake_lightmaps(lightmap_input(c, kW, 0.01));
-  EXPECT_EQ(expect_matches(rc, "floor", std::vector<double>(kW * kW, kPi), kStorage, 0, "rotated constant"),
-            kW * kW);
+  EXPECT_EQ(expect_matches(rc, "floor", std::vector<double>(kW * kW, kPi), kStorage, 0, "rotated constant"), kW * kW);
 }
 
 // Two lights at once (a point light and a delta sun): E is the sum. Next-event estimation picks one light per

@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cctype>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -116,8 +116,8 @@ class JsonReader {
       }
       return Json{arr};
     }
-    for (const auto& [word, j] : {std::pair{"true", Json{true}}, std::pair{"false", Json{false}},
-                                  std::pair{"null", Json{nullptr}}}) {
+    for (const auto& [word, j] :
+         {std::pair{"true", Json{true}}, std::pair{"false", Json{false}}, std::pair{"null", Json{nullptr}}}) {
       if (s_.compare(i_, std::strlen(word), word) == 0) return i_ += std::strlen(word), j;
     }
     size_t used = 0;
@@ -202,9 +202,8 @@ TEST(LightmapOutputs, AmbientOcclusionIsOneInTheOpenAndAnalyticNextToAWall) {
   const int W = 32;
   const uint64_t N = 256;
   const double d = 0.1 * scene::scene_bounding_radius(s);
-  const auto expected = test::texel_means(s, "floor", W, [&](const Vec3& p, const Vec3&) {
-    return ao_next_to_infinite_wall(std::abs(p.x) - 0.05, d);
-  });
+  const auto expected = test::texel_means(
+      s, "floor", W, [&](const Vec3& p, const Vec3&) { return ao_next_to_infinite_wall(std::abs(p.x) - 0.05, d); });
   LightmapBakeInput in = lightmap_input(s, W, 0.5);
   in.ao = true;
   in.min_samples = in.max_samples = N;
@@ -216,7 +215,7 @@ TEST(LightmapOutputs, AmbientOcclusionIsOneInTheOpenAndAnalyticNextToAWall) {
       const double texel = 4.0 / W;
       const double x_lo = -2 + x * texel, x_hi = x_lo + texel, z_lo = -2 + y * texel, z_hi = z_lo + texel;
       if (x_hi > -0.05 - texel && x_lo < 0.05 + texel) continue;  // under the wall or moved by the leak pass
-      if (z_lo < -2 + d || z_hi > 2 - d) continue;                 // the wall's ends are within reach
+      if (z_lo < -2 + d || z_hi > 2 - d) continue;                // the wall's ends are within reach
       const double p = expected[static_cast<size_t>(y) * W + x];
       if (p < 0.99) ++near_wall;
       EXPECT_NEAR(ao.at(x, y, 0), p, 6 * std::sqrt(p * (1 - p) / N) + 1e-6) << "texel " << x << "," << y;

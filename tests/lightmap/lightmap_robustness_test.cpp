@@ -384,10 +384,9 @@ TEST(LightmapRobustness, NonFiniteLightColoursEmitNothing) {
   sun.type = scene::LightShape::directional;
   sun.color = Rgb{kNaN, 1.0, 1.0};
   s.lights = {point, good, spot, bad_rect, sun};
-  const std::vector<Vec3> polygon{good.position - good.u_axis * 0.5 - good.v_axis * 0.5,
-                                  good.position + good.u_axis * 0.5 - good.v_axis * 0.5,
-                                  good.position + good.u_axis * 0.5 + good.v_axis * 0.5,
-                                  good.position - good.u_axis * 0.5 + good.v_axis * 0.5};
+  const std::vector<Vec3> polygon{
+      good.position - good.u_axis * 0.5 - good.v_axis * 0.5, good.position + good.u_axis * 0.5 - good.v_axis * 0.5,
+      good.position + good.u_axis * 0.5 + good.v_axis * 0.5, good.position - good.u_axis * 0.5 + good.v_axis * 0.5};
   const auto expected = texel_means(s, "floor", 16, [&](const Vec3& p, const Vec3& n) {
     return good.color.r * scene::polygon_projected_solid_angle(polygon, p, n);
   });
@@ -428,10 +427,9 @@ TEST(LightmapRobustness, NaNEmissionEmitsNothing) {
   rect.v_axis = {0, 0, 0.4};
   rect.color = Rgb{10.0};
   s.lights = {nan_point, rect};
-  const std::vector<Vec3> rect_polygon{rect.position - rect.u_axis * 0.5 - rect.v_axis * 0.5,
-                                       rect.position + rect.u_axis * 0.5 - rect.v_axis * 0.5,
-                                       rect.position + rect.u_axis * 0.5 + rect.v_axis * 0.5,
-                                       rect.position - rect.u_axis * 0.5 + rect.v_axis * 0.5};
+  const std::vector<Vec3> rect_polygon{
+      rect.position - rect.u_axis * 0.5 - rect.v_axis * 0.5, rect.position + rect.u_axis * 0.5 - rect.v_axis * 0.5,
+      rect.position + rect.u_axis * 0.5 + rect.v_axis * 0.5, rect.position - rect.u_axis * 0.5 + rect.v_axis * 0.5};
   const auto expected = texel_means(s, "floor", 16, [&](const Vec3& p, const Vec3& n) {
     // The quad shadows floor points near it from the rect light: leave those out (NaN: not compared).
     if (p.x > 0.2 && p.z < -0.2) return kNaN;
@@ -564,11 +562,12 @@ TEST(LightmapRobustness, SphereUnderASunHasNoAcne) {
     s.lights.push_back(sun);
     const int W = 32;
     const double cut = smooth ? 0.2 : 0.0;
-    const auto lit = texel_means(s, "ball", W, [&](const Vec3&, const Vec3& n) { return dot(n, to_sun) > cut ? 1.0 : 0.0; });
-    const auto dark = texel_means(s, "ball", W, [&](const Vec3&, const Vec3& n) { return dot(n, to_sun) < -cut ? 1.0 : 0.0; });
-    const auto expected = texel_means(s, "ball", W, [&](const Vec3&, const Vec3& n) {
-      return 3.0 * std::max(0.0, dot(n, to_sun));
-    });
+    const auto lit =
+        texel_means(s, "ball", W, [&](const Vec3&, const Vec3& n) { return dot(n, to_sun) > cut ? 1.0 : 0.0; });
+    const auto dark =
+        texel_means(s, "ball", W, [&](const Vec3&, const Vec3& n) { return dot(n, to_sun) < -cut ? 1.0 : 0.0; });
+    const auto expected =
+        texel_means(s, "ball", W, [&](const Vec3&, const Vec3& n) { return 3.0 * std::max(0.0, dot(n, to_sun)); });
     const LightmapBakeResult r = bake_lightmaps(lightmap_input(s, W, 0.01));
     const image::FloatImage E = exr_output(r, "ball_irradiance.exr");
     int n_lit = 0, n_dark = 0;
@@ -577,8 +576,8 @@ TEST(LightmapRobustness, SphereUnderASunHasNoAcne) {
         const size_t t = static_cast<size_t>(y) * W + x;
         if (lit[t] == 1.0) {
           ++n_lit;
-          EXPECT_NEAR(E.at(x, y, 0), expected[t], 1e-6 * expected[t]) << (smooth ? "smooth" : "faceted") << " lit texel "
-                                                                      << x << "," << y;
+          EXPECT_NEAR(E.at(x, y, 0), expected[t], 1e-6 * expected[t])
+              << (smooth ? "smooth" : "faceted") << " lit texel " << x << "," << y;
         } else if (dark[t] == 1.0) {
           ++n_dark;
           EXPECT_EQ(E.at(x, y, 0), 0.0f) << (smooth ? "smooth" : "faceted") << " dark texel " << x << "," << y;

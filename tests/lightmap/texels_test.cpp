@@ -318,15 +318,17 @@ scene::Scene grid_scene(const std::string& name, int n, double lo, double hi, Po
 
 // The unit square of UV as a wavy 10 m patch.
 scene::Scene wavy_grid(int n) {
-  return grid_scene("grid", n, 0.0, 1.0,
-                    [](double u, double v) { return Vec3{u * 10, std::sin(20 * u) * std::cos(15 * v), v * 10}; });
+  return grid_scene("grid", n, 0.0, 1.0, [](double u, double v) {
+    return Vec3{u * 10, std::sin(20 * u) * std::cos(15 * v), v * 10};
+  });
 }
 
 TEST(Texels, SamplesLieOnTheirTrianglesAndMapBackToTheirTexels) {
   // A curved (non-planar) 6×6-quad patch with a skewed instance transform.
   constexpr int N = 6;
-  scene::Scene s = grid_scene("patch", N, 0.05, 0.95,
-                              [](double u, double v) { return Vec3{u, 0.3 * std::sin(3 * u) * std::cos(2 * v), v}; });
+  scene::Scene s = grid_scene("patch", N, 0.05, 0.95, [](double u, double v) {
+    return Vec3{u, 0.3 * std::sin(3 * u) * std::cos(2 * v), v};
+  });
   const scene::Mesh& m = s.meshes[0];
   s.instances[0].to_world = skewed_transform(false);
   const int W = 37, H = 23;  // not square, not a multiple of the grid
@@ -354,8 +356,8 @@ TEST(Texels, SamplesLieOnTheirTrianglesAndMapBackToTheirTexels) {
         // The world position is the same barycentric combination of the transformed vertices (scene size ~10:
         // 1e-12 relative is a few hundred ulps).
         const auto& T = s.instances[0].to_world;
-        const Vec3 p = T.point(m.positions[idx[0]]) * b0 + T.point(m.positions[idx[1]]) * b1 +
-                       T.point(m.positions[idx[2]]) * b2;
+        const Vec3 p =
+            T.point(m.positions[idx[0]]) * b0 + T.point(m.positions[idx[1]]) * b1 + T.point(m.positions[idx[2]]) * b2;
         EXPECT_LT(length(p - smp.position), 1e-12 * 10);
         EXPECT_NEAR(length(smp.geometric_normal), 1.0, 1e-12);
         EXPECT_NEAR(length(smp.shading_normal), 1.0, 1e-12);

@@ -21,8 +21,8 @@ scene::Mesh box_mesh(const Vec3& lo, const Vec3& hi) {
   const Vec3 d = hi - lo;
   const Vec3 X{d.x, 0, 0}, Y{0, d.y, 0}, Z{0, 0, d.z};
   // (corner, e1, e2) with e1 × e2 along the outward normal.
-  const Vec3 faces[6][3] = {{Vec3{hi.x, lo.y, lo.z}, Y, Z}, {lo, Z, Y}, {Vec3{lo.x, hi.y, lo.z}, Z, X},
-                            {lo, X, Z},                     {Vec3{lo.x, lo.y, hi.z}, X, Y}, {lo, Y, X}};
+  const Vec3 faces[6][3] = {{Vec3{hi.x, lo.y, lo.z}, Y, Z}, {lo, Z, Y}, {Vec3{lo.x, hi.y, lo.z}, Z, X}, {lo, X, Z},
+                            {Vec3{lo.x, lo.y, hi.z}, X, Y}, {lo, Y, X}};
   for (const auto& f : faces) {
     const uint32_t base = static_cast<uint32_t>(m.positions.size());
     m.positions.insert(m.positions.end(), {f[0], f[0] + f[1], f[0] + f[1] + f[2], f[0] + f[2]});
@@ -34,8 +34,7 @@ scene::Mesh box_mesh(const Vec3& lo, const Vec3& hi) {
 struct WallScene {
   scene::Scene scene;  // cleaned
   scene::Tracer tracer;
-  explicit WallScene(double half, bool two_sided)
-      : scene(make(half, two_sided)), tracer(scene) {}
+  explicit WallScene(double half, bool two_sided) : scene(make(half, two_sided)), tracer(scene) {}
 
   static scene::Scene make(double half, bool two_sided) {
     scene::Scene s;

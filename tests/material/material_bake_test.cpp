@@ -99,13 +99,20 @@ class JsonChecker {
     const size_t start = pos_;
     const char c = s_[pos_];
     bool ok;
-    if (c == '{') ok = object(path);
-    else if (c == '[') ok = array(path);
-    else if (c == '"') ok = string(nullptr);
-    else if (c == 't') ok = literal("true");
-    else if (c == 'f') ok = literal("false");
-    else if (c == 'n') ok = literal("null");
-    else ok = number();
+    if (c == '{')
+      ok = object(path);
+    else if (c == '[')
+      ok = array(path);
+    else if (c == '"')
+      ok = string(nullptr);
+    else if (c == 't')
+      ok = literal("true");
+    else if (c == 'f')
+      ok = literal("false");
+    else if (c == 'n')
+      ok = literal("null");
+    else
+      ok = number();
     if (ok && c != '{' && c != '[') scalars_[path] = s_.substr(start, pos_ - start);
     return ok;
   }
@@ -379,7 +386,7 @@ TEST(MaterialBake, TimeLimitStopsRefinementAndSaysSo) {
   in.model = ggx(0.3);
   in.table_mu = 4;
   in.table_roughness = 2;
-  in.target_error = 1e-7;        // unreachable: ~10^11 samples per entry
+  in.target_error = 1e-7;          // unreachable: ~10^11 samples per entry
   in.samples = uint64_t{1} << 30;  // so the cap is not what stops it
   in.time_limit_seconds = 0.3;
   const MaterialBakeResult r = bake_material(in);
@@ -465,14 +472,28 @@ TEST(MaterialBake, ReportJsonIsValidAndHasTheExpectedKeys) {
   EXPECT_EQ(r.outputs[2].media_type, "application/json");
   JsonChecker json(r.outputs[2].bytes);
   ASSERT_TRUE(json.parse()) << "invalid JSON near byte " << json.error_at() << ":\n" << r.outputs[2].bytes;
-  for (const char* key :
-       {"baker", "model.description", "settings.table_mu", "settings.target_error", "average_albedo.value",
-        "average_albedo.std_error", "validation.energy.max_albedo", "validation.energy.max_albedo_mu",
-        "validation.energy.white_furnace_max_albedo", "validation.energy.conserves_energy",
-        "validation.reciprocity.max_relative_difference", "validation.reciprocity.pairs",
-        "validation.approximations[].name", "validation.approximations[].max_abs_albedo_difference", "cost.samples",
-        "cost.seconds", "cost.max_error_estimate", "cost.target_reached", "outputs[].name", "outputs[].bytes",
-        "outputs[].media_type", "outputs[].color_space"}) {
+  for (const char* key : {"baker",
+                          "model.description",
+                          "settings.table_mu",
+                          "settings.target_error",
+                          "average_albedo.value",
+                          "average_albedo.std_error",
+                          "validation.energy.max_albedo",
+                          "validation.energy.max_albedo_mu",
+                          "validation.energy.white_furnace_max_albedo",
+                          "validation.energy.conserves_energy",
+                          "validation.reciprocity.max_relative_difference",
+                          "validation.reciprocity.pairs",
+                          "validation.approximations[].name",
+                          "validation.approximations[].max_abs_albedo_difference",
+                          "cost.samples",
+                          "cost.seconds",
+                          "cost.max_error_estimate",
+                          "cost.target_reached",
+                          "outputs[].name",
+                          "outputs[].bytes",
+                          "outputs[].media_type",
+                          "outputs[].color_space"}) {
     EXPECT_TRUE(json.paths().count(key)) << "report.json lacks " << key;
   }
   EXPECT_EQ(json.scalars().at("baker"), std::string("\"") + kMaterialBakerVersion + "\"");

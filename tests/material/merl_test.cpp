@@ -72,8 +72,7 @@ TEST_F(MerlFiles, LambertTabulatesToRhoOverPiWhereverTheCellCentreIsAboveTheHori
   for (int ih = 0; ih < kMerlThetaH; ++ih) {
     for (int id = 0; id < kMerlThetaD; ++id) {
       for (int ip = 0; ip < kMerlPhiD; ++ip) {
-        const MerlDirections w =
-            merl_directions(theta_h_of(ih + 0.5), theta_d_of(id + 0.5), phi_d_of(ip + 0.5));
+        const MerlDirections w = merl_directions(theta_h_of(ih + 0.5), theta_d_of(id + 0.5), phi_d_of(ip + 0.5));
         const size_t k = MerlTable::merl_index(ih, id, ip);
         const Rgb& f = table.f[k];
         // f / scale then × scale: two roundings of a double, so a few ulps. A cell whose centre is below the
@@ -206,8 +205,8 @@ TEST_F(MerlGgx, LookupNearCellCentresMatchesEvalWithinTheCellSizeBound) {
     for (int ch = 0; ch < 3; ++ch) {
       const double tol = 2.0 * bound[ch] + 1e-12 * exact[ch];
       ASSERT_LE(std::fabs(looked_up[ch] - exact[ch]), tol)
-          << "cell " << q.c[0] << "," << q.c[1] << "," << q.c[2] << " channel " << ch << ": lookup "
-          << looked_up[ch] << " eval " << exact[ch];
+          << "cell " << q.c[0] << "," << q.c[1] << "," << q.c[2] << " channel " << ch << ": lookup " << looked_up[ch]
+          << " eval " << exact[ch];
       if (exact[ch] > 0) worst_relative = std::fmax(worst_relative, std::fabs(looked_up[ch] - exact[ch]) / exact[ch]);
     }
     ++checked;

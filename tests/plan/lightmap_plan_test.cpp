@@ -178,7 +178,7 @@ TEST(LightmapPlan, AlbedoEstimatedForGeneralMaterialsAndClosedForLambertianOnes)
   brdf::AlbedoOptions options;
   options.samples = 4096;
   const Rgb e = brdf::directional_albedo(brdf::Material(layered.bsdf), 0.5, options).value;
-  const Rgb e_s = Rgb{0.2};  // the specular lobe's albedo, Lambertian: exact
+  const Rgb e_s = Rgb{0.2};                              // the specular lobe's albedo, Lambertian: exact
   const double estimated = e_s.r + 0.9 * (e.r - e_s.r);  // ρ = E_s + tint (E − E_s), red being the largest
   EXPECT_NEAR(p.albedo_max, estimated, 2e-3 * estimated);
   EXPECT_NEAR(p.materials[0].specular_albedo, 0.2, 1e-12);

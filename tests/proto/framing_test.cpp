@@ -271,8 +271,11 @@ TEST(Framing, AppendFrameRefusesTooLargeMessagesAndLeavesOutputAlone) {
 TEST(Framing, ParseFrameRejectsGarbage) {
   v1::Request r;
   EXPECT_FALSE(parse_frame("\xff\xff\xff", r));
-  EXPECT_FALSE(parse_frame("\x0a\x05" "ab", r));  // a length-delimited field running past the end
-  EXPECT_TRUE(parse_frame("", r));               // the empty message
+  EXPECT_FALSE(
+      parse_frame("\x0a\x05"
+                  "ab",
+                  r));              // a length-delimited field running past the end
+  EXPECT_TRUE(parse_frame("", r));  // the empty message
 }
 
 // A plain whole-buffer decoder with the same rules, to check the incremental one against.

@@ -102,8 +102,12 @@ TEST(EnvironmentLight, SamplingMatchesPdfLiWithRotation) {
   o.max_depth = 7;
   o.presplit = 2;
   o.test_count = 2;
-  const auto r = test::direction_chi2(test::light_sampler_at(light, {}, {0, 1, 0}),
-                                      [&](const Vec3& w) { return light.pdf_li({}, {0, 1, 0}, w, {}); }, o);
+  const auto r = test::direction_chi2(
+      test::light_sampler_at(light, {}, {0, 1, 0}),
+      [&](const Vec3& w) {
+        return light.pdf_li({}, {0, 1, 0}, w, {});
+      },
+      o);
   EXPECT_TRUE(r.passed) << r.details;
   // Over the whole sphere the density integrates to 1 (quadrature of the pixel outlines: ~1e-5, allowed 1e-4).
   EXPECT_NEAR(r.pdf_integral, 1.0, 1e-4) << r.details;
@@ -149,8 +153,12 @@ TEST(EnvironmentLight, OneTexelHotSpotStaysFiniteAndUnbiased) {
   o.n_phi = 32;
   o.samples = 200000;
   o.test_count = 2;
-  const auto r = test::direction_chi2(test::light_sampler_at(light, {}, {0, 1, 0}),
-                                      [&](const Vec3& w) { return light.pdf_li({}, {0, 1, 0}, w, {}); }, o);
+  const auto r = test::direction_chi2(
+      test::light_sampler_at(light, {}, {0, 1, 0}),
+      [&](const Vec3& w) {
+        return light.pdf_li({}, {0, 1, 0}, w, {});
+      },
+      o);
   EXPECT_TRUE(r.passed) << r.details;
 }
 
@@ -159,7 +167,12 @@ TEST(EnvironmentLight, RotationFollowsEnvInput) {
   // angle (decode_environment refuses it; a hand-built scene may carry it) is no rotation for both, never a NaN.
   Pcg32 gen(4);
   for (double rotation : {0.0, 37.0, -200.0, 725.5, std::numeric_limits<double>::quiet_NaN()}) {
-    const Environment env = image_env(16, 8, [&](int, int) { return Rgb{gen.uniform(), gen.uniform(), 0}; }, rotation);
+    const Environment env = image_env(
+        16, 8,
+        [&](int, int) {
+          return Rgb{gen.uniform(), gen.uniform(), 0};
+        },
+        rotation);
     const EnvironmentLight light(env);
     envmap::EnvironmentInput input;
     input.image = envmap::RgbImage(16, 8);

@@ -31,12 +31,12 @@ TEST(PolygonIrradiance, MatchesTheParallelRectangleClosedForm) {
   const double a = 2.0, b = 0.7, h = 1.3;
   const std::vector<Vec3> rect = {{0, h, 0}, {a, h, 0}, {a, h, b}, {0, h, b}};
   // Both are closed forms evaluated in double: they agree to rounding.
-  EXPECT_TRUE(test::close(polygon_projected_solid_angle(rect, {0, 0, 0}, {0, 1, 0}),
-                          parallel_rect_corner(a, b, h), 1e-13));
+  EXPECT_TRUE(
+      test::close(polygon_projected_solid_angle(rect, {0, 0, 0}, {0, 1, 0}), parallel_rect_corner(a, b, h), 1e-13));
   // Reversed winding: the same.
   const std::vector<Vec3> reversed(rect.rbegin(), rect.rend());
-  EXPECT_TRUE(test::close(polygon_projected_solid_angle(reversed, {0, 0, 0}, {0, 1, 0}),
-                          parallel_rect_corner(a, b, h), 1e-13));
+  EXPECT_TRUE(
+      test::close(polygon_projected_solid_angle(reversed, {0, 0, 0}, {0, 1, 0}), parallel_rect_corner(a, b, h), 1e-13));
   // Superposition: a point under the middle of a rectangle sees four corner rectangles.
   const std::vector<Vec3> big = {{-1, h, -0.5}, {1.5, h, -0.5}, {1.5, h, 0.8}, {-1, h, 0.8}};
   const double four = parallel_rect_corner(1, 0.5, h) + parallel_rect_corner(1.5, 0.5, h) +
@@ -104,8 +104,8 @@ TEST(RectLight, ParallelogramIsSampledByArea) {
   const RectLight para({0, 2, 0}, {2, 0, 0}, {0.8, 0, 1}, {0, -1, 0}, Rgb{1}, false);
   EXPECT_FALSE(para.uses_spherical_sampling({0, 0, 0}));
   EXPECT_TRUE(test::close(para.area(), 2.0, 1e-15));
-  expect_irradiance(para, {0.2, 0, 0.1}, {0, 1, 0}, polygon_projected_solid_angle(corners(para), {0.2, 0, 0.1}, {0, 1, 0}),
-                    301, "parallelogram");
+  expect_irradiance(para, {0.2, 0, 0.1}, {0, 1, 0},
+                    polygon_projected_solid_angle(corners(para), {0.2, 0, 0.1}, {0, 1, 0}), 301, "parallelogram");
 }
 
 // Cells about the direction to the light's centre, out to 1.1 × the widest angle to its boundary.
@@ -127,8 +127,8 @@ test::DirectionChi2Options cells_around(const Vec3& p, const std::vector<Vec3>& 
 
 void expect_chi2(const LightSource& light, const Vec3& p, const Vec3& n, const test::DirectionChi2Options& o,
                  const std::string& what) {
-  const auto r = test::direction_chi2(test::light_sampler_at(light, p, n),
-                                      [&](const Vec3& w) { return light.pdf_li(p, n, w, {}); }, o);
+  const auto r = test::direction_chi2(
+      test::light_sampler_at(light, p, n), [&](const Vec3& w) { return light.pdf_li(p, n, w, {}); }, o);
   EXPECT_TRUE(r.passed) << what << ": " << r.details;
   // The cells hold the whole light, so the density integrates to 1 over them, up to the adaptive quadrature's
   // error along the light's outline (a jump of the pdf that its error estimate under-reports: measured up to
@@ -239,7 +239,8 @@ TEST(DiskLight, SamplingMatchesPdfLi) {
   const Vec3 c{0, 1, 0};
   const DiskLight disk(c, {0, -1, 0}, 1.0, Rgb{1}, false);
   for (const Vec3& p : {Vec3{0.3, 0.6, 0.1}, Vec3{2.5, 0.2, -1.0}}) {
-    auto o = cells_around(p, regular_polygon(c, 1.0 / std::cos(kPi / 64), 64), c, 600 + static_cast<uint64_t>(p.x * 10));
+    auto o =
+        cells_around(p, regular_polygon(c, 1.0 / std::cos(kPi / 64), 64), c, 600 + static_cast<uint64_t>(p.x * 10));
     expect_chi2(disk, p, {0, 1, 0}, o, "disk");
   }
 }
@@ -250,9 +251,9 @@ TEST(DiskLight, SingularCasesStayFinite) {
   EXPECT_FALSE(disk.sample_li({2, 1, 0}, {0, 1, 0}, {0.5, 0.5}));  // on the plane, outside
   EXPECT_EQ(disk.pdf_li({2, 1, 0}, {0, 1, 0}, {-1, 0, 0}, {}), 0.0);
   // Zero radius, zero normal, NaN radiance: black.
-  for (const DiskLight& dead : {DiskLight({0, 1, 0}, {0, -1, 0}, 0.0, Rgb{1}, false),
-                                DiskLight({0, 1, 0}, {0, 0, 0}, 1.0, Rgb{1}, false),
-                                DiskLight({0, 1, 0}, {0, -1, 0}, 1.0, Rgb{std::nan("")}, false)}) {
+  for (const DiskLight& dead :
+       {DiskLight({0, 1, 0}, {0, -1, 0}, 0.0, Rgb{1}, false), DiskLight({0, 1, 0}, {0, 0, 0}, 1.0, Rgb{1}, false),
+        DiskLight({0, 1, 0}, {0, -1, 0}, 1.0, Rgb{std::nan("")}, false)}) {
     EXPECT_FALSE(dead.sample_li({0, 0, 0}, {0, 1, 0}, {0.5, 0.5}));
     EXPECT_TRUE(dead.power(1).is_black());
   }

@@ -37,7 +37,7 @@ TEST(EmissiveTriangles, FrontSidesAndPower) {
   // Le: front side only for the one-sided, both for the two-sided.
   LightHit hit;
   hit.triangle = 0;
-  EXPECT_EQ(tris.Le({}, {0, 1, 0}, hit).r, 2.0);   // a ray going up reaches the down-facing front
+  EXPECT_EQ(tris.Le({}, {0, 1, 0}, hit).r, 2.0);  // a ray going up reaches the down-facing front
   EXPECT_TRUE(tris.Le({}, {0, -1, 0}, hit).is_black());
   hit.triangle = 2;
   EXPECT_EQ(tris.Le({}, {1, 0, 0}, hit).g, 5.0);
@@ -50,8 +50,8 @@ TEST(EmissiveTriangles, IrradianceMatchesLambertsFormula) {
   struct Case {
     Vec3 p, n;
   };
-  const Case cases[] = {{{0.5, 0, 0.5}, {0, 1, 0}}, {{-0.2, 0.2, 0.3}, normalize(Vec3{-1, 1, 0})},
-                        {{0.3, 0.95, 0.6}, {0, 1, 0}}};
+  const Case cases[] = {
+      {{0.5, 0, 0.5}, {0, 1, 0}}, {{-0.2, 0.2, 0.3}, normalize(Vec3{-1, 1, 0})}, {{0.3, 0.95, 0.6}, {0, 1, 0}}};
   uint64_t seed = 40;
   for (const Case& c : cases) {
     for (int channel : {0, 2}) {
@@ -65,8 +65,8 @@ TEST(EmissiveTriangles, IrradianceMatchesLambertsFormula) {
       const auto e = test::estimate_irradiance(tris, c.p, c.n, 200000, ++seed, channel);
       ASSERT_TRUE(e.all_finite);
       // 5 standard errors of the estimator (false failure ~1 in 1.7 million); Lambert's formula is exact.
-      EXPECT_NEAR(e.mean, exact, 5 * e.standard_error + 1e-12) << "p = (" << c.p.x << ", " << c.p.y << ", " << c.p.z
-                                                                << "), channel " << channel;
+      EXPECT_NEAR(e.mean, exact, 5 * e.standard_error + 1e-12)
+          << "p = (" << c.p.x << ", " << c.p.y << ", " << c.p.z << "), channel " << channel;
     }
   }
 }
@@ -144,10 +144,10 @@ TEST(EmissiveTriangles, FromSceneTransformsAndSkipsBadInput) {
   const int i0 = tris.find(0, 0), i1 = tris.find(1, 0);
   ASSERT_GE(i0, 0);
   ASSERT_GE(i1, 0);
-  EXPECT_EQ(tris.find(0, 1), -1);  // black material
-  EXPECT_EQ(tris.find(0, 2), -1);  // index out of range
-  EXPECT_EQ(tris.find(0, 3), -1);  // NaN vertex
-  EXPECT_EQ(tris.find(0, 4), -1);  // degenerate
+  EXPECT_EQ(tris.find(0, 1), -1);   // black material
+  EXPECT_EQ(tris.find(0, 2), -1);   // index out of range
+  EXPECT_EQ(tris.find(0, 3), -1);   // NaN vertex
+  EXPECT_EQ(tris.find(0, 4), -1);   // degenerate
   EXPECT_EQ(tris.find(0, -1), -1);  // no such triangle or instance
   EXPECT_EQ(tris.find(0, 1 << 30), -1);
   EXPECT_EQ(tris.find(-1, 0), -1);

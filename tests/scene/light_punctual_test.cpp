@@ -116,8 +116,8 @@ void check_sun(double diameter_deg, uint64_t seed) {
   o.seed = seed;
   o.shape_only = true;  // the cone lies inside the cells and sampling never fails
   const Vec3 n{0, 1, 0};
-  const auto r = test::direction_chi2(test::light_sampler_at(sun, {}, n),
-                                      [&](const Vec3& w) { return sun.pdf_li({}, n, w, {}); }, o);
+  const auto r = test::direction_chi2(
+      test::light_sampler_at(sun, {}, n), [&](const Vec3& w) { return sun.pdf_li({}, n, w, {}); }, o);
   EXPECT_TRUE(r.passed) << diameter_deg << "° sun: " << r.details;
   EXPECT_EQ(r.failures, 0);
   // The cells hold the whole cone: ∫ pdf = 1, to the quadrature's error at the cone's rim (a jump of the pdf; the

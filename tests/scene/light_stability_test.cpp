@@ -27,10 +27,10 @@ std::vector<std::unique_ptr<LightSource>> hostile_lights(double scale) {
   out.push_back(std::make_unique<SpotLight>(c, Vec3{0, -1, 0}, Rgb{5}, 0.3, 0.3));
   out.push_back(std::make_unique<DirectionalLight>(Vec3{0, -1, 0}, Rgb{1e5}, 0.5 * kPi / 180));
   out.push_back(std::make_unique<DirectionalLight>(Vec3{1e-300, -1e-300, 0}, Rgb{1}, 1e-9));
-  out.push_back(std::make_unique<RectLight>(c, Vec3{1, 0, 0} * scale, Vec3{0, 0, 1e-9} * scale, Vec3{0, -1, 0},
-                                            Rgb{1}, true));
-  out.push_back(std::make_unique<RectLight>(c, Vec3{1, 0, 0} * scale, Vec3{0, 0, 1} * scale, Vec3{0, -1, 0},
-                                            Rgb{1e30}, false));
+  out.push_back(
+      std::make_unique<RectLight>(c, Vec3{1, 0, 0} * scale, Vec3{0, 0, 1e-9} * scale, Vec3{0, -1, 0}, Rgb{1}, true));
+  out.push_back(
+      std::make_unique<RectLight>(c, Vec3{1, 0, 0} * scale, Vec3{0, 0, 1} * scale, Vec3{0, -1, 0}, Rgb{1e30}, false));
   out.push_back(std::make_unique<DiskLight>(c, Vec3{0, -1, 0}, 1e-12 * scale, Rgb{1}, true));
   out.push_back(std::make_unique<DiskLight>(c, Vec3{0, 1, 1}, 1.0 * scale, Rgb{1}, false));
   out.push_back(std::make_unique<EmissiveTriangles>(std::vector<EmissiveTriangle>{
@@ -40,7 +40,7 @@ std::vector<std::unique_ptr<LightSource>> hostile_lights(double scale) {
   env.width = 32;
   env.height = 16;
   env.equirect.assign(32 * 16, Rgb{0});
-  env.equirect[0] = Rgb{1e30};            // at the pole row
+  env.equirect[0] = Rgb{1e30};             // at the pole row
   env.equirect[5 * 32 + 7] = Rgb{1e-300};  // denormal-adjacent
   env.rotation_degrees = 1e9;
   out.push_back(std::make_unique<EnvironmentLight>(env));

@@ -31,8 +31,8 @@ struct DirectionDraw {
 using DirectionSampler = std::function<std::optional<DirectionDraw>(Point2)>;
 
 struct DirectionChi2Options {
-  Vec3 axis{0, 0, 1};       // cells are (θ, φ) about this axis ...
-  double theta_max = kPi;   // ... for θ ≤ theta_max; directions beyond join the failed samples' category
+  Vec3 axis{0, 0, 1};      // cells are (θ, φ) about this axis ...
+  double theta_max = kPi;  // ... for θ ≤ theta_max; directions beyond join the failed samples' category
   int n_theta = 24, n_phi = 48;
   int64_t samples = 200000;
   uint64_t seed = 7;
@@ -50,7 +50,7 @@ struct DirectionChi2Options {
 struct DirectionChi2Result {
   bool passed = false;
   double p_value = 0, threshold = 0;
-  double pdf_integral = 0;    // ∫ pdf over the cells
+  double pdf_integral = 0;  // ∫ pdf over the cells
   double pdf_integral_error = 0;
   int64_t failures = 0;
   int64_t pdf_mismatches = 0;  // samples whose reported pdf differs from pdf(wi) by more than 1e-6 relative
@@ -61,7 +61,8 @@ struct DirectionChi2Result {
 // Gauss–Legendre; failed samples and samples beyond theta_max form one category with expectation N (1 − ∫ pdf)
 // (0 with shape_only).
 // Also checks that every sample reports the density pdf() gives its direction (sample_li against pdf_li).
-inline DirectionChi2Result direction_chi2(const DirectionSampler& sampler, const std::function<double(const Vec3&)>& pdf,
+inline DirectionChi2Result direction_chi2(const DirectionSampler& sampler,
+                                          const std::function<double(const Vec3&)>& pdf,
                                           const DirectionChi2Options& o) {
   DirectionChi2Result res;
   res.threshold = sidak_significance(o.significance, o.test_count);
@@ -124,9 +125,9 @@ inline DirectionChi2Result direction_chi2(const DirectionSampler& sampler, const
   res.p_value = p.p_value;
   res.passed = p.p_value > res.threshold && res.pdf_mismatches == 0;
   std::ostringstream out;
-  out << "chi2 = " << p.statistic << ", dof = " << p.dof << ", p = " << p.p_value << " (reject below "
-      << res.threshold << "), pdf integral over the cells " << res.pdf_integral << " +- " << res.pdf_integral_error
-      << ", failed " << res.failures << " / " << o.samples << ", pdf mismatches " << res.pdf_mismatches << "\n"
+  out << "chi2 = " << p.statistic << ", dof = " << p.dof << ", p = " << p.p_value << " (reject below " << res.threshold
+      << "), pdf integral over the cells " << res.pdf_integral << " +- " << res.pdf_integral_error << ", failed "
+      << res.failures << " / " << o.samples << ", pdf mismatches " << res.pdf_mismatches << "\n"
       << p.worst;
   res.details = out.str();
   return res;

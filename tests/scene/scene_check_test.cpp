@@ -74,18 +74,18 @@ TEST(SceneCheck, TriangleProblemsAtTheirIndices) {
   Scene s = base_scene();
   s.meshes.push_back(strip("good"));
   Mesh m = strip("bad");
-  m.indices[3 * 1 + 2] = 999;                        // triangle 1: index out of range
-  m.positions[3 * 2 + 1] = {kNaN, 0, 0};              // triangle 2: NaN vertex
-  m.positions[3 * 3 + 2] = {2.0 * 3 + 0.5, 0, 0};     // triangle 3: collinear (zero area)
-  m.lightmap_uv[3 * 4 + 1] = {1.25, 0.1};             // triangle 4: lightmap UV outside [0,1]
+  m.indices[3 * 1 + 2] = 999;                      // triangle 1: index out of range
+  m.positions[3 * 2 + 1] = {kNaN, 0, 0};           // triangle 2: NaN vertex
+  m.positions[3 * 3 + 2] = {2.0 * 3 + 0.5, 0, 0};  // triangle 3: collinear (zero area)
+  m.lightmap_uv[3 * 4 + 1] = {1.25, 0.1};          // triangle 4: lightmap UV outside [0,1]
   m.lightmap_uv[3 * 5 + 2] = {m.lightmap_uv[3 * 5 + 1].x - 0.1, m.lightmap_uv[3 * 5 + 1].y};  // 5: UVs collinear
-  m.material[6] = 7;                                  // triangle 6: material out of range (2 materials)
-  for (int c = 0; c < 3; ++c)                         // triangle 8's UVs: triangle 7's, shifted by (-0.03, 0.03)
+  m.material[6] = 7;           // triangle 6: material out of range (2 materials)
+  for (int c = 0; c < 3; ++c)  // triangle 8's UVs: triangle 7's, shifted by (-0.03, 0.03)
     m.lightmap_uv[3 * 8 + c] = {m.lightmap_uv[3 * 7 + c].x - 0.03, m.lightmap_uv[3 * 7 + c].y + 0.03};
-  m.positions[3 * 9] = {INFINITY, 0, 0};              // triangle 9: infinite vertex
-  m.normals[0] = {0, 0, 0};                           // vertex 0 (triangle 0): zero normal
-  m.normals[4] = {kNaN, 0, 1};                        // vertex 4 (triangle 1, dropped): NaN normal
-  m.uv[1] = {kNaN, 0.5};                              // vertex 1: NaN texture UV
+  m.positions[3 * 9] = {INFINITY, 0, 0};  // triangle 9: infinite vertex
+  m.normals[0] = {0, 0, 0};               // vertex 0 (triangle 0): zero normal
+  m.normals[4] = {kNaN, 0, 1};            // vertex 4 (triangle 1, dropped): NaN normal
+  m.uv[1] = {kNaN, 0.5};                  // vertex 1: NaN texture UV
   s.meshes.push_back(m);
   s.instances.push_back(instance(0));
   s.instances.push_back(instance(1));
@@ -122,8 +122,7 @@ TEST(SceneCheck, TriangleProblemsAtTheirIndices) {
   EXPECT_EQ(c.triangles[1].bake, (std::vector<uint8_t>{1, 0, 0, 1, 1, 1}));
   ASSERT_EQ(cm.indices.size(), 18u);
   for (size_t t = 0; t < 6; ++t)
-    for (int k = 0; k < 3; ++k)
-      EXPECT_EQ(cm.indices[3 * t + k], m.indices[3 * c.triangles[1].source_triangle[t] + k]);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(cm.indices[3 * t + k], m.indices[3 * c.triangles[1].source_triangle[t] + k]);
   ASSERT_EQ(cm.material.size(), 6u);
   EXPECT_EQ(cm.material[3], 0u);  // triangle 6's material 7 → 0
   EXPECT_EQ(cm.material[1], 0u);  // triangle 4 keeps its own (4 % 2)
@@ -157,10 +156,10 @@ TEST(SceneCheck, MeshLevelProblems) {
   Mesh no_lm = strip("no_lightmap", 2);
   no_lm.lightmap_uv.clear();
   Mesh bad_normals = strip("bad_arrays", 3);
-  bad_normals.normals.pop_back();          // 8 normals for 9 positions
-  bad_normals.uv.push_back({0, 0});        // 10 UVs
-  bad_normals.material.pop_back();         // 2 materials for 3 triangles
-  bad_normals.indices.push_back(0);        // 10 indices
+  bad_normals.normals.pop_back();    // 8 normals for 9 positions
+  bad_normals.uv.push_back({0, 0});  // 10 UVs
+  bad_normals.material.pop_back();   // 2 materials for 3 triangles
+  bad_normals.indices.push_back(0);  // 10 indices
   Mesh bad_lm = strip("bad_lightmap_uv", 2);
   bad_lm.lightmap_uv.pop_back();
   s.meshes = {no_lm, bad_normals, bad_lm};
@@ -303,7 +302,8 @@ TEST(SceneCheck, OverlapFindsExactlyThePlantedPairsInALargeMesh) {
                 t.meshes.push_back(m);
                 t.instances.push_back({});
                 return t;
-              }()).report.clean());
+              }())
+                  .report.clean());
   // Plant one small triangle strictly inside the lower-left triangle of quad (10, 20), and one across the diagonal
   // of quad (100, 40): one and two overlapping pairs.
   const double h = 1.0 / n;
@@ -363,7 +363,7 @@ TEST(SceneCheck, SliverThresholdIsRelative) {
   for (double scale : {1e-6, 1.0, 1e6}) {
     Scene s = base_scene();
     Mesh m;
-    m.positions = {{0, 0, 0}, {scale, 0, 0}, {0.5 * scale, 1e-4 * scale, 0},    // thin but valid (1e-4)
+    m.positions = {{0, 0, 0}, {scale, 0, 0}, {0.5 * scale, 1e-4 * scale, 0},   // thin but valid (1e-4)
                    {0, 0, 0}, {scale, 0, 0}, {0.5 * scale, 1e-8 * scale, 0}};  // flat at float precision
     m.indices = {0, 1, 2, 3, 4, 5};
     s.meshes.push_back(m);

@@ -27,7 +27,8 @@ double red(const Texture& t, double u, double v) { return sample_bilinear(t, {u,
 TEST(TextureSample, TexelCentresReadTheirTexel) {
   const Texture t = ramp();
   for (int j = 0; j < 2; ++j)
-    for (int i = 0; i < 4; ++i) EXPECT_TRUE(kiln::test::close(red(t, (i + 0.5) / 4, (j + 0.5) / 2), i + 10.0 * j, 0, 1e-12));
+    for (int i = 0; i < 4; ++i)
+      EXPECT_TRUE(kiln::test::close(red(t, (i + 0.5) / 4, (j + 0.5) / 2), i + 10.0 * j, 0, 1e-12));
 }
 
 TEST(TextureSample, BilinearBetweenCentres) {
@@ -50,8 +51,7 @@ TEST(TextureSample, WrapsAroundAndVZeroIsTheTopRow) {
   EXPECT_TRUE(kiln::test::close(red(t, 1.5 / 4, 0.25), 1, 0, 1e-12));  // the top row is row 0
   // Periodic: whole-number shifts of the UV read the same (up to the rounding of u + 3, v − 5: 1e-12).
   for (double u : {0.05, 0.4, 0.93})
-    for (double v : {0.1, 0.6})
-      EXPECT_TRUE(kiln::test::close(red(t, u + 3, v - 5), red(t, u, v), 0, 1e-12));
+    for (double v : {0.1, 0.6}) EXPECT_TRUE(kiln::test::close(red(t, u + 3, v - 5), red(t, u, v), 0, 1e-12));
   EXPECT_TRUE(std::isfinite(red(t, 1e300, -1e300)));
 }
 

@@ -69,7 +69,8 @@ inline Mesh uv_sphere(int stacks, int slices, const std::string& name = "sphere"
       else  // ring i is half a slice ahead: b lies between c and d
         m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
     }
-  for (int j = 0; j < slices; ++j) m.indices.insert(m.indices.end(), {south, ring(stacks - 1, j), ring(stacks - 1, j + 1)});
+  for (int j = 0; j < slices; ++j)
+    m.indices.insert(m.indices.end(), {south, ring(stacks - 1, j), ring(stacks - 1, j + 1)});
   return m;
 }
 
@@ -106,7 +107,8 @@ inline Mesh box(int n, bool inward, const std::string& name = "box") {
     const Vec3 n{r[1], r[4], r[7]};
     for (const Vec3& p : face.positions)
       out.positions.push_back(Vec3{r[0] * p.x + r[1] * p.y + r[2] * p.z, r[3] * p.x + r[4] * p.y + r[5] * p.z,
-                                   r[6] * p.x + r[7] * p.y + r[8] * p.z} + n);
+                                   r[6] * p.x + r[7] * p.y + r[8] * p.z} +
+                              n);
     for (size_t k = 0; k < face.positions.size(); ++k) out.normals.push_back(inward ? -n : n);
     for (size_t t = 0; t < face.indices.size(); t += 3) {
       const uint32_t a = base + face.indices[t], b = base + face.indices[t + 1], c = base + face.indices[t + 2];

@@ -86,13 +86,15 @@ TEST(Tracer, HitsMatchAnIndependentDoublePrecisionTest) {
     const Vec3 d = target - origin;
     const Vec3 dir{float(d.x), float(d.y), float(d.z)};  // the ray Embree sees, exactly
     // Skip grazing incidence (cos < 0.1): float errors in u, v grow as 1/cos there; covered by the offset tests.
-    if (std::fabs(dot(normalize(dir), normalize(cross(m.positions[1] - m.positions[0], m.positions[2] - m.positions[0])))) < 0.1)
+    if (std::fabs(dot(normalize(dir),
+                      normalize(cross(m.positions[1] - m.positions[0], m.positions[2] - m.positions[0])))) < 0.1)
       continue;
     const auto ref = reference_hit(origin, dir, m.positions[0], m.positions[1], m.positions[2]);
     ASSERT_TRUE(ref.has_value());
     const auto hit = tracer.intersect({origin, dir});
     ASSERT_TRUE(hit.has_value()) << "triangle " << k;
-    EXPECT_TRUE(kiln::test::close(hit->t, (*ref)[0], 1e-5, 1e-5)) << hit->t << " " << (*ref)[0] << " u " << hit->u << " " << (*ref)[1] << " v " << hit->v << " " << (*ref)[2];
+    EXPECT_TRUE(kiln::test::close(hit->t, (*ref)[0], 1e-5, 1e-5))
+        << hit->t << " " << (*ref)[0] << " u " << hit->u << " " << (*ref)[1] << " v " << hit->v << " " << (*ref)[2];
     EXPECT_TRUE(kiln::test::close(hit->u, (*ref)[1], 1e-5, 1e-5));
     EXPECT_TRUE(kiln::test::close(hit->v, (*ref)[2], 1e-5, 1e-5));
     EXPECT_TRUE(kiln::test::close(length(hit->p - target), 0, 0, 1e-4));
@@ -339,8 +341,8 @@ TEST(RayOffset, BoundScalesWithTheTriangleAndItsDistanceFromTheOrigin) {
   const double unit = self_intersection_offset(a, b, c, {0.5, 0.3, 0});
   for (double s : {1e-3, 1e4}) {
     // Exactly linear in a uniform scale (all terms are), up to double rounding.
-    EXPECT_TRUE(kiln::test::close(self_intersection_offset(a * s, b * s, c * s, Vec3{0.5, 0.3, 0} * s), unit * s,
-                                  1e-12));
+    EXPECT_TRUE(
+        kiln::test::close(self_intersection_offset(a * s, b * s, c * s, Vec3{0.5, 0.3, 0} * s), unit * s, 1e-12));
   }
   // Far from the origin the coordinate term dominates: ∝ the largest coordinate.
   const Vec3 far{1e4, 0, 0};

@@ -180,8 +180,8 @@ TEST(BlobStore, DigestMismatchIsRejectedAndDiscarded) {
 TEST(BlobStore, MalformedDigestsAreRefusedNotUsedAsPaths) {
   TempDir tmp;
   BlobStore store(tmp.path());
-  for (std::string bad : {std::string("../../etc/passwd"), std::string("abc"), std::string(64, 'g'),
-                          std::string(63, 'a') + "/"}) {
+  for (std::string bad :
+       {std::string("../../etc/passwd"), std::string("abc"), std::string(64, 'g'), std::string(63, 'a') + "/"}) {
     expect_store_error([&] { make_blob_id(bad, 1); }, StoreErrc::invalid_argument);
     expect_store_error([&] { store.append(BlobId{bad, 1}, 0, "x"); }, StoreErrc::invalid_argument);
     expect_store_error([&] { store.read(BlobId{bad, 1}); }, StoreErrc::invalid_argument);
@@ -191,8 +191,7 @@ TEST(BlobStore, MalformedDigestsAreRefusedNotUsedAsPaths) {
   for (auto& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   EXPECT_EQ(make_blob_id(upper, 3), id_of("abc"));
   BlobStore limited(tmp.path(), BlobStoreOptions{.max_blob_size = 1000});
-  expect_store_error([&] { limited.append(BlobId{std::string(64, 'a'), 1001}, 0, "x"); },
-                     StoreErrc::invalid_argument);
+  expect_store_error([&] { limited.append(BlobId{std::string(64, 'a'), 1001}, 0, "x"); }, StoreErrc::invalid_argument);
 }
 
 TEST(BlobStore, CrashLeftoverTmpFileIsNeverServedAndIsCleanedUp) {

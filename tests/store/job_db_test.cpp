@@ -125,7 +125,7 @@ TEST(JobDb, StateChangesAndTheirRefusals) {
   expect_store_error([&] { db.mark_running("nope"); }, StoreErrc::not_found);
 
   std::string q = db.insert(job("b")).job.id;
-  EXPECT_EQ(db.mark_cancelled(q).state, JobState::cancelled);  // a queued job can be cancelled
+  EXPECT_EQ(db.mark_cancelled(q).state, JobState::cancelled);                       // a queued job can be cancelled
   expect_store_error([&] { db.mark_running(q); }, StoreErrc::failed_precondition);  // and then never runs
   std::string f = db.insert(job("c")).job.id;
   db.mark_running(f);
@@ -471,10 +471,10 @@ TEST(JobDb, EnforceRetentionEvictsOldResultsNeverQueuedInputs) {
   BlobStore blobs(tmp.path());
   JobDb db(tmp.db());
   auto bytes = [](int i) { return std::string(1000, static_cast<char>('a' + i)); };
-  BlobId in_old = blobs.put(bytes(0));    // input of a finished job
-  BlobId out_old = blobs.put(bytes(1));   // its output, not used for long
-  BlobId out_new = blobs.put(bytes(2));   // a recently fetched result
-  BlobId in_queued = blobs.put(bytes(3)); // input of a queued job: pinned
+  BlobId in_old = blobs.put(bytes(0));     // input of a finished job
+  BlobId out_old = blobs.put(bytes(1));    // its output, not used for long
+  BlobId out_new = blobs.put(bytes(2));    // a recently fetched result
+  BlobId in_queued = blobs.put(bytes(3));  // input of a queued job: pinned
   NewJob old_job = job("old", 0, "k-old");
   old_job.input_digests = {in_old.digest};
   std::string old_id = db.insert(old_job).job.id;

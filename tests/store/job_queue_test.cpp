@@ -86,8 +86,7 @@ TEST(JobQueue, ConcurrentProducersThenOneConsumerGetsExactOrder) {
   for (size_t i = 1; i < popped.size(); ++i) {
     const auto& a = popped[i - 1];
     const auto& b = popped[i];
-    EXPECT_TRUE(a.priority > b.priority || (a.priority == b.priority && a.seq < b.seq))
-        << a.id << " before " << b.id;
+    EXPECT_TRUE(a.priority > b.priority || (a.priority == b.priority && a.seq < b.seq)) << a.id << " before " << b.id;
   }
 }
 
@@ -139,8 +138,7 @@ TEST(JobQueue, ConsumersDrainingAFullQueueEachSeeQueueOrder) {
     total += v.size();
     // With no new arrivals, whatever one consumer takes later ranks after what it took earlier.
     for (size_t i = 1; i < v.size(); ++i)
-      EXPECT_TRUE(v[i - 1].priority > v[i].priority ||
-                  (v[i - 1].priority == v[i].priority && v[i - 1].seq < v[i].seq));
+      EXPECT_TRUE(v[i - 1].priority > v[i].priority || (v[i - 1].priority == v[i].priority && v[i - 1].seq < v[i].seq));
   }
   EXPECT_EQ(total, static_cast<size_t>(kJobs));
 }

@@ -142,8 +142,8 @@ PearsonResult pearson_chi2(const std::vector<double>& observed, const std::vecto
     const std::string what = c.index == kPool ? "pooled categories"
                              : name           ? name(c.index)
                                               : "category " + std::to_string(c.index);
-    out << "  " << contribution[order[k]] << "  " << what << ": observed " << c.observed << ", expected "
-        << c.expected << "\n";
+    out << "  " << contribution[order[k]] << "  " << what << ": observed " << c.observed << ", expected " << c.expected
+        << "\n";
   }
   r.worst = out.str();
   return r;

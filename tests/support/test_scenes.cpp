@@ -223,7 +223,6 @@ image::FloatImage exr_output(const lightmap::LightmapBakeResult& result, const s
   return image::decode_exr(find_output(result, name).bytes);
 }
 
-
 // ---- The bundled Cornell box (client/examples/scenes/cornell_box.py, ported line for line) ----
 
 namespace {
@@ -311,9 +310,9 @@ scene::Scene cornell_box() {
   add_mesh(s, cornell_mesh("short_block", block(0.33, 0.37, 0.6, 0.6, 0.6, -17), white));
   add_mesh(s, cornell_mesh("tall_block", block(-0.33, -0.3, 0.6, 1.2, 0.6, 18), white));
   // Just below the ceiling so that it does not coincide with it; faces down.
-  add_mesh(s, cornell_mesh("light",
-                           face({-0.25, 1.99, -0.25}, {0.25, 1.99, -0.25}, {0.25, 1.99, 0.25}, {-0.25, 1.99, 0.25}),
-                           light));
+  add_mesh(
+      s, cornell_mesh("light", face({-0.25, 1.99, -0.25}, {0.25, 1.99, -0.25}, {0.25, 1.99, 0.25}, {-0.25, 1.99, 0.25}),
+                      light));
   return s;
 }
 

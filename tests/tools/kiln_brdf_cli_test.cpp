@@ -1,12 +1,12 @@
 // The kiln-brdf program: its answers agree with closed forms, and bad input gets one line and a non-zero exit.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
 #include <string>
-#include <sys/wait.h>
 
 #include "bakers/math/constants.h"
 
@@ -99,7 +99,8 @@ TEST_P(KilnBrdfCliErrors, OneLineErrorAndNonZeroExit) {
 INSTANTIATE_TEST_SUITE_P(
     Cases, KilnBrdfCliErrors,
     ::testing::Values(BadInput{"eval --model phong --wo 0,0,1 --wi 0,0,1", "--model: expected one of"},
-                      BadInput{"eval --model ggx --alpha -0.2 --wo 0,0,1 --wi 0,0,1", "alpha_x: must be in (0, 1], got -0.2"},
+                      BadInput{"eval --model ggx --alpha -0.2 --wo 0,0,1 --wi 0,0,1",
+                               "alpha_x: must be in (0, 1], got -0.2"},
                       BadInput{"eval --model ggx --alpha 1.5 --wo 0,0,1 --wi 0,0,1", "must be in (0, 1]"},
                       BadInput{"eval --model ggx --alpha nan --wo 0,0,1 --wi 0,0,1", "got nan"},
                       BadInput{"eval --model lambert --albedo 2 --wo 0,0,1 --wi 0,0,1", "albedo: must be in [0, 1]"},
