@@ -10,6 +10,7 @@
 #include "daemon/store/retention.h"
 #include "daemon/translate.h"
 #include "daemon/workers.h"
+#include "proto/bounds.h"
 #include "proto/digest.h"
 #include "proto/framing.h"
 #include "proto/kiln.pb.h"
@@ -26,7 +27,6 @@ constexpr std::size_t kMaxIdempotencyKeyBytes = 128;
 constexpr std::size_t kMaxJobIdBytes = 64;
 constexpr uint32_t kMaxQueryDigests = 1024;
 constexpr uint32_t kHeartbeatSeconds = 10;
-constexpr uint32_t kMaxListJobs = 1000;
 
 // A request failed: the error goes into the response with its code, message and field.
 struct Failure {
@@ -313,8 +313,11 @@ void Service::blob_put(const v1::Request& req, v1::Response& resp) {
 void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response& resp) {
   if (shutting_down_) fail(v1::Error::UNAVAILABLE, "the server is shutting down; submit again after it restarts");
   const v1::Submit& sub = req.submit();
-  if (sub.priority() < -100 || sub.priority() > 100) {
-    fail(v1::Error::INVALID_ARGUMENT, "must be in [-100, 100], got " + std::to_string(sub.priority()), "priority");
+  if (!bounds::kPriority.contains(sub.priority())) {
+    fail(v1::Error::INVALID_ARGUMENT,
+         "must be in [" + std::to_string(bounds::kPriority.lo) + ", " + std::to_string(bounds::kPriority.hi) +
+             "], got " + std::to_string(sub.priority()),
+         "priority");
   }
   if (sub.idempotency_key().size() > kMaxIdempotencyKeyBytes) {
     fail(v1::Error::INVALID_ARGUMENT, "at most 128 bytes", "idempotency_key");
@@ -508,7 +511,12 @@ void Service::status(v1::Response& resp) {
 
 void Service::list_jobs(const v1::Request& req, v1::Response& resp) {
   const auto& l = req.list_jobs();
-  if (l.limit() > kMaxListJobs) fail(v1::Error::INVALID_ARGUMENT, "must be in [0, 1000]", "list_jobs.limit");
+  if (!bounds::kListJobsLimit.contains(l.limit())) {
+    fail(v1::Error::INVALID_ARGUMENT,
+         "must be in [" + std::to_string(bounds::kListJobsLimit.lo) + ", " + std::to_string(bounds::kListJobsLimit.hi) +
+             "]",
+         "list_jobs.limit");
+  }
   std::optional<store::JobState> state;
   switch (l.state()) {
     case v1::JOB_STATE_UNSPECIFIED:

@@ -37,11 +37,11 @@ void microfacet_roughness(const kiln::v1::Microfacet& m, const std::string& path
     throw InvalidField(path + (m.has_alpha_x() ? ".alpha_y" : ".alpha_x"), "alpha_x and alpha_y go together");
   }
   if (m.has_alpha()) {
-    check_range(path + ".alpha", m.alpha(), 0.0, 1.0, true);
+    check_range(path + ".alpha", m.alpha(), bounds::kAlpha);
     s.alpha_x = s.alpha_y = m.alpha();
   } else if (m.has_alpha_x()) {
-    check_range(path + ".alpha_x", m.alpha_x(), 0.0, 1.0, true);
-    check_range(path + ".alpha_y", m.alpha_y(), 0.0, 1.0, true);
+    check_range(path + ".alpha_x", m.alpha_x(), bounds::kAlpha);
+    check_range(path + ".alpha_y", m.alpha_y(), bounds::kAlpha);
     s.alpha_x = m.alpha_x();
     s.alpha_y = m.alpha_y();
   }
@@ -98,9 +98,9 @@ void microfacet_terms(const kiln::v1::Microfacet& m, const std::string& path, br
 void microfacet(const kiln::v1::Microfacet& m, const std::string& path, brdf::ModelSpec& s) {
   microfacet_roughness(m, path, s);
   fresnel(m.fresnel(), path + ".fresnel", s.fresnel);
-  if (m.has_f0()) s.f0 = color(m.f0(), path + ".f0", 0.0, 1.0);
+  if (m.has_f0()) s.f0 = color(m.f0(), path + ".f0", bounds::kReflectance);
   if (m.has_eta()) {
-    check_range(path + ".eta", m.eta(), 0.1, 10.0, false);
+    check_range(path + ".eta", m.eta(), bounds::kEta);
     s.eta = m.eta();
   }
   microfacet_terms(m, path, s);
@@ -110,9 +110,9 @@ void microfacet(const kiln::v1::Microfacet& m, const std::string& path, brdf::Mo
 void oren_nayar(const kiln::v1::OrenNayar& on, bool full, const std::string& path, brdf::ModelSpec& s) {
   const std::string p = path + (full ? ".oren_nayar" : ".oren_nayar_simple");
   s.model = full ? brdf::Model::oren_nayar : brdf::Model::oren_nayar_simple;
-  if (on.has_albedo()) s.albedo = color(on.albedo(), p + ".albedo", 0.0, 1.0);
+  if (on.has_albedo()) s.albedo = color(on.albedo(), p + ".albedo", bounds::kReflectance);
   if (on.has_sigma()) {
-    check_range(p + ".sigma", on.sigma(), 0.0, 1.5707963267948966, false);
+    check_range(p + ".sigma", on.sigma(), bounds::kSigma);
     s.sigma = on.sigma();
   }
   if (on.interreflection() && !full) {
@@ -123,13 +123,13 @@ void oren_nayar(const kiln::v1::OrenNayar& on, bool full, const std::string& pat
 
 brdf::SchlickLayer schlick_layer(const kiln::v1::SchlickLayer& l, const std::string& path) {
   brdf::SchlickLayer out;
-  if (l.has_c()) out.c = color(l.c(), path + ".c", 0.0, 1.0);
+  if (l.has_c()) out.c = color(l.c(), path + ".c", bounds::kReflectance);
   if (l.has_r()) {
-    check_range(path + ".r", l.r(), 0.0, 1.0, false);
+    check_range(path + ".r", l.r(), bounds::kSchlickParameter);
     out.r = l.r();
   }
   if (l.has_p()) {
-    check_range(path + ".p", l.p(), 0.0, 1.0, false);
+    check_range(path + ".p", l.p(), bounds::kSchlickParameter);
     out.p = l.p();
   }
   return out;
@@ -150,7 +150,8 @@ brdf::ModelSpec model(const Message& m, const std::string& path) {
   switch (m.model_case()) {
     case MJ::kLambert:
       s.model = brdf::Model::lambert;
-      if (m.lambert().has_albedo()) s.albedo = color(m.lambert().albedo(), path + ".lambert.albedo", 0.0, 1.0);
+      if (m.lambert().has_albedo())
+        s.albedo = color(m.lambert().albedo(), path + ".lambert.albedo", bounds::kReflectance);
       break;
     case MJ::kOrenNayar:
       oren_nayar(m.oren_nayar(), true, path, s);
@@ -222,7 +223,7 @@ brdf::MaterialSpec material_spec(const kiln::v1::Layered& l, const std::string& 
     if (spec.combine != brdf::Combine::weights) {
       throw InvalidField(path + ".specular_weight", "applies to combine COMBINE_WEIGHTS only");
     }
-    check_range(path + ".specular_weight", l.specular_weight(), 0.0, 1.0, false);
+    check_range(path + ".specular_weight", l.specular_weight(), bounds::kSpecularWeight);
     spec.specular_weight = l.specular_weight();
   }
   if (auto problem = brdf::validate(spec)) throw baker_problem(path, *problem);

@@ -40,7 +40,7 @@ void environment_source(const EJ& e, const store::BlobStore* blobs, BakeRequest&
       break;
     }
     case EJ::kConstant:
-      in.constant = color(e.constant(), kPath + ".constant", 0.0, 1e6);
+      in.constant = color(e.constant(), kPath + ".constant", bounds::kEnvironmentConstant);
       break;
     case EJ::SOURCE_NOT_SET:
       throw InvalidField(kPath,
@@ -64,12 +64,12 @@ void decode_options(const EJ& e, envmap::EnvironmentBakeInput& in) {
   }
   if (e.has_rotation_degrees()) {
     if (constant) image_only("rotation_degrees");
-    check_range(kPath + ".rotation_degrees", e.rotation_degrees(), -360.0, 360.0, false);
+    check_range(kPath + ".rotation_degrees", e.rotation_degrees(), bounds::kRotationDegrees);
     in.decode.rotation_degrees = e.rotation_degrees();
   }
   if (e.has_intensity()) {
     if (constant) image_only("intensity");
-    check_range(kPath + ".intensity", e.intensity(), 0.0, envmap::kMaxEnvIntensity, true);
+    check_range(kPath + ".intensity", e.intensity(), bounds::kEnvironmentIntensity);
     in.decode.intensity = e.intensity();
   }
 }
@@ -100,20 +100,22 @@ void cube_settings(const EJ& e, envmap::EnvironmentBakeInput& in) {
     }
     in.size = static_cast<int>(n);
   }
-  set_count(e.has_levels(), e.levels(), kPath + ".levels", 1, most_levels(in.size), in.levels);
-  set_count(e.has_irradiance_size(), e.irradiance_size(), kPath + ".irradiance_size", 1, 256, in.irradiance_size);
-  set_count(e.has_dfg_size(), e.dfg_size(), kPath + ".dfg_size", 2, 1024, in.dfg_size);
-  set_count(e.has_dfg_samples(), e.dfg_samples(), kPath + ".dfg_samples", 16, double(1 << 20), in.dfg_samples);
+  set_count(e.has_levels(), e.levels(), kPath + ".levels", bounds::WholeRange{bounds::kLevels.lo, most_levels(in.size)},
+            in.levels);
+  set_count(e.has_irradiance_size(), e.irradiance_size(), kPath + ".irradiance_size", bounds::kIrradianceSize,
+            in.irradiance_size);
+  set_count(e.has_dfg_size(), e.dfg_size(), kPath + ".dfg_size", bounds::kDfgSize, in.dfg_size);
+  set_count(e.has_dfg_samples(), e.dfg_samples(), kPath + ".dfg_samples", bounds::kDfgSamples, in.dfg_samples);
   if (e.has_preview()) in.preview = e.preview();
 }
 
 void environment_quality(const kiln::v1::Quality& q, envmap::EnvironmentBakeInput& in) {
   if (q.has_samples()) {
-    check_range("job.quality.samples", static_cast<double>(q.samples()), 4, 65536, false);
+    check_range("job.quality.samples", static_cast<double>(q.samples()), bounds::kEnvironmentSamples.real());
     in.samples = static_cast<int>(q.samples());
   }
   if (q.has_target_error()) {
-    check_range("job.quality.target_error", q.target_error(), 1e-4, 1.0, false);
+    check_range("job.quality.target_error", q.target_error(), bounds::kEnvironmentTargetError);
     in.target_error = q.target_error();
   }
   if (q.has_time_limit_seconds()) {

@@ -14,20 +14,20 @@ constexpr std::size_t kMaxColorSpaceBytes = 64;
 
 }  // namespace
 
-void check_range(const std::string& field, double v, double lo, double hi, bool lo_open) {
-  if (auto problem = bake::check_range(field, v, lo, hi, lo_open)) throw InvalidField(field, problem->problem());
+void check_range(const std::string& field, double v, const bounds::Range& range) {
+  if (auto problem = bake::check_range(field, v, range)) throw InvalidField(field, problem->problem());
 }
 
-void set_count(bool given, double v, const std::string& field, double lo, double hi, int& out) {
+void set_count(bool given, double v, const std::string& field, const bounds::WholeRange& range, int& out) {
   if (!given) return;
-  check_range(field, v, lo, hi, false);
+  check_range(field, v, range.real());
   out = static_cast<int>(v);
 }
 
-Rgb color(const kiln::v1::Color& c, const std::string& field, double lo, double hi) {
-  check_range(field + ".r", c.r(), lo, hi, false);
-  check_range(field + ".g", c.g(), lo, hi, false);
-  check_range(field + ".b", c.b(), lo, hi, false);
+Rgb color(const kiln::v1::Color& c, const std::string& field, const bounds::Range& range) {
+  check_range(field + ".r", c.r(), range);
+  check_range(field + ".g", c.g(), range);
+  check_range(field + ".b", c.b(), range);
   return Rgb{c.r(), c.g(), c.b()};
 }
 

@@ -10,6 +10,7 @@
 #include "bakers/brdf/material.h"
 #include "bakers/math/rgb.h"
 #include "daemon/translate.h"
+#include "proto/bounds.h"
 
 namespace kiln::v1 {
 class Brdf;
@@ -24,12 +25,12 @@ namespace kiln::daemon::detail {
 // The longest effect name a job may force.
 inline constexpr std::size_t kMaxEffectNameBytes = 64;
 
-// v in [lo, hi] (or (lo, hi] with lo_open) and finite.
-void check_range(const std::string& field, double v, double lo, double hi, bool lo_open);
-// An optional whole-number setting: when given, v in [lo, hi] is stored in `out`.
-void set_count(bool given, double v, const std::string& field, double lo, double hi, int& out);
-// Each channel in [lo, hi].
-Rgb color(const kiln::v1::Color& c, const std::string& field, double lo, double hi);
+// v in the range (proto/bounds.h declares the protocol's) and finite.
+void check_range(const std::string& field, double v, const bounds::Range& range);
+// An optional whole-number setting: when given, v in the range is stored in `out`.
+void set_count(bool given, double v, const std::string& field, const bounds::WholeRange& range, int& out);
+// Each channel in the range.
+Rgb color(const kiln::v1::Color& c, const std::string& field, const bounds::Range& range);
 // A baker's complaint about a field of its input, as that field under `prefix` in the spec.
 InvalidField baker_problem(const std::string& prefix, const bake::InvalidInput& problem);
 // An input blob's digest: well formed, within kMaxInputBlobBytes and, with a store, stored whole.

@@ -30,11 +30,10 @@ constexpr int kMaxLights = 65536;
 constexpr int kMaxLightmapSettings = 65536;
 constexpr uint64_t kMaxTotalTexels = uint64_t{1} << 24;  // 4096² texels: ~1 GiB of per-texel state in the baker
 constexpr double kMaxCoordinate = 1e9;                   // beyond it float32 geometry has no precision left
+constexpr bounds::Range kCoordinate{-kMaxCoordinate, kMaxCoordinate};
 constexpr double kMaxLightColor = 1e12;
 constexpr double kMaxEmission = 1e9;
-constexpr double kMaxEnvRadiance = 1e6;
-constexpr double kMaxTimeLimitSeconds = 7 * 86400;  // the baker's bound
-constexpr uint64_t kDefaultMinSamples = 16;         // the baker's default, capped by max_samples
+constexpr uint64_t kDefaultMinSamples = 16;  // the baker's default, capped by max_samples
 constexpr double kHalfPi = 1.5707963267948966;
 
 std::string at(const std::string& path, int i) { return path + "[" + std::to_string(i) + "]"; }
@@ -52,9 +51,9 @@ void check_count(int n, int most, const std::string& field, const char* what) {
 }
 
 Vec3 vector(const kiln::v1::Vector3& v, const std::string& field) {
-  check_range(field + ".x", v.x(), -kMaxCoordinate, kMaxCoordinate, false);
-  check_range(field + ".y", v.y(), -kMaxCoordinate, kMaxCoordinate, false);
-  check_range(field + ".z", v.z(), -kMaxCoordinate, kMaxCoordinate, false);
+  check_range(field + ".x", v.x(), kCoordinate);
+  check_range(field + ".y", v.y(), kCoordinate);
+  check_range(field + ".z", v.z(), kCoordinate);
   return {v.x(), v.y(), v.z()};
 }
 
@@ -78,11 +77,11 @@ scene::Light spot_light(const kiln::v1::SpotLight& s, const std::string& p, scen
   out.position = vector(s.position(), p + ".position");
   out.direction = direction(s.direction(), p + ".direction", s.has_direction());
   if (s.has_outer_cone_angle()) {
-    check_range(p + ".outer_cone_angle", s.outer_cone_angle(), 0.0, kHalfPi, true);
+    check_range(p + ".outer_cone_angle", s.outer_cone_angle(), bounds::Range{0.0, kHalfPi, true});
     out.outer_cone = s.outer_cone_angle();
   }
   if (s.has_inner_cone_angle()) {
-    check_range(p + ".inner_cone_angle", s.inner_cone_angle(), 0.0, out.outer_cone, false);
+    check_range(p + ".inner_cone_angle", s.inner_cone_angle(), bounds::Range{0.0, out.outer_cone});
     out.inner_cone = s.inner_cone_angle();
   }
   return out;
@@ -93,7 +92,7 @@ scene::Light directional_light(const kiln::v1::DirectionalLight& d, const std::s
   out.direction = direction(d.direction(), p + ".direction", d.has_direction());
   out.angular_diameter = 0.00935;  // the sun's, as kiln.proto documents
   if (d.has_angular_diameter()) {
-    check_range(p + ".angular_diameter", d.angular_diameter(), 0.0, 0.5, false);
+    check_range(p + ".angular_diameter", d.angular_diameter(), bounds::Range{0.0, 0.5});
     out.angular_diameter = d.angular_diameter();
   }
   return out;
@@ -119,7 +118,7 @@ scene::Light disk_light(const kiln::v1::DiskLight& d, const std::string& p, scen
   out.type = scene::LightShape::disk;
   out.position = vector(d.center(), p + ".center");
   out.direction = direction(d.normal(), p + ".normal", d.has_normal());
-  check_range(p + ".radius", d.radius(), 0.0, 1e6, true);
+  check_range(p + ".radius", d.radius(), bounds::Range{0.0, 1e6, true});
   out.radius = d.radius();
   out.two_sided = d.two_sided();
   return out;
@@ -129,7 +128,7 @@ scene::Light light(const kiln::v1::Light& l, const std::string& path) {
   scene::Light out;
   check_name(l.name(), path + ".name");
   out.name = l.name();
-  if (l.has_color()) out.color = color(l.color(), path + ".color", 0.0, kMaxLightColor);
+  if (l.has_color()) out.color = color(l.color(), path + ".color", bounds::Range{0.0, kMaxLightColor});
   using L = kiln::v1::Light;
   switch (l.type_case()) {
     case L::kPoint:
@@ -154,7 +153,7 @@ scene::SceneMaterial material(const kiln::v1::SceneMaterial& m, const std::strin
   check_name(m.name(), path + ".name");
   out.name = m.name();
   out.bsdf = material_spec(m.bsdf(), path + ".bsdf");
-  if (m.has_base_color()) out.base_color = color(m.base_color(), path + ".base_color", 0.0, 1.0);
+  if (m.has_base_color()) out.base_color = color(m.base_color(), path + ".base_color", bounds::kReflectance);
   if (m.has_base_color_texture()) {
     if (m.base_color_texture() >= static_cast<uint32_t>(textures)) {
       throw InvalidField(path + ".base_color_texture", "index " + std::to_string(m.base_color_texture()) +
@@ -163,7 +162,7 @@ scene::SceneMaterial material(const kiln::v1::SceneMaterial& m, const std::strin
     }
     out.base_color_texture = static_cast<int>(m.base_color_texture());
   }
-  if (m.has_emission()) out.emission = color(m.emission(), path + ".emission", 0.0, kMaxEmission);
+  if (m.has_emission()) out.emission = color(m.emission(), path + ".emission", bounds::Range{0.0, kMaxEmission});
   out.two_sided = m.two_sided();
   return out;
 }
@@ -174,12 +173,12 @@ void environment(const kiln::v1::SceneEnvironment& e, const std::string& path, c
   using E = kiln::v1::SceneEnvironment;
   double intensity = 1;
   if (e.has_intensity()) {
-    check_range(path + ".intensity", e.intensity(), 0.0, envmap::kMaxEnvIntensity, true);
+    check_range(path + ".intensity", e.intensity(), bounds::kEnvironmentIntensity);
     intensity = e.intensity();
   }
   switch (e.source_case()) {
     case E::kConstant: {
-      const Rgb c = color(e.constant(), path + ".constant", 0.0, kMaxEnvRadiance);
+      const Rgb c = color(e.constant(), path + ".constant", bounds::kEnvironmentConstant);
       if (!e.color_space().empty()) {
         throw InvalidField(path + ".color_space",
                            "applies to an image; a constant colour is already radiance in "
@@ -196,7 +195,7 @@ void environment(const kiln::v1::SceneEnvironment& e, const std::string& path, c
     case E::kImage:
       r.inputs.push_back(input_blob(e.image(), path + ".image", blobs));
       if (!e.color_space().empty()) check_color_space(e.color_space(), path + ".color_space");
-      check_range(path + ".rotation_degrees", e.rotation_degrees(), -360.0, 360.0, false);
+      check_range(path + ".rotation_degrees", e.rotation_degrees(), bounds::kRotationDegrees);
       in.environment_decode.color_space = e.color_space();
       in.environment_decode.rotation_degrees = e.rotation_degrees();
       in.environment_decode.intensity = intensity;
@@ -300,8 +299,8 @@ void material_overrides(const kiln::v1::LightmapJob& j, const std::map<std::stri
     }
     scene::SceneMaterial& m = sc.materials[it->second];
     if (o.has_bsdf()) m.bsdf = material_spec(o.bsdf(), p + ".bsdf");
-    if (o.has_base_color()) m.base_color = color(o.base_color(), p + ".base_color", 0.0, 1.0);
-    if (o.has_emission()) m.emission = color(o.emission(), p + ".emission", 0.0, kMaxEmission);
+    if (o.has_base_color()) m.base_color = color(o.base_color(), p + ".base_color", bounds::kReflectance);
+    if (o.has_emission()) m.emission = color(o.emission(), p + ".emission", bounds::Range{0.0, kMaxEmission});
   }
   if (sc.materials.empty()) {
     // A scene without materials: every triangle is the documented default, Lambert 0.8.
@@ -319,9 +318,9 @@ void lightmap_scale_offset(const kiln::v1::Instance& inst, const std::string& p,
   for (int k = 0; k < inst.lightmap_scale_offset_size(); ++k) {
     const std::string f = at(p + ".lightmap_scale_offset", k);
     if (k < 2) {
-      check_range(f, inst.lightmap_scale_offset(k), 0.0, 1.0, true);
+      check_range(f, inst.lightmap_scale_offset(k), bounds::Range{0.0, 1.0, true});
     } else {
-      check_range(f, inst.lightmap_scale_offset(k), 0.0, 1.0, false);
+      check_range(f, inst.lightmap_scale_offset(k), bounds::Range{0.0, 1.0});
       if (inst.lightmap_scale_offset(k) >= 1.0) throw InvalidField(f, "an offset is in [0, 1), got 1");
     }
     out.lightmap_scale_offset[k] = inst.lightmap_scale_offset(k);
@@ -340,7 +339,7 @@ scene::Instance instance(const kiln::v1::Instance& inst, const std::string& p, i
                                              std::to_string(inst.transform_size()));
   }
   for (int k = 0; k < inst.transform_size(); ++k) {
-    check_range(at(p + ".transform", k), inst.transform(k), -kMaxCoordinate, kMaxCoordinate, false);
+    check_range(at(p + ".transform", k), inst.transform(k), kCoordinate);
     out.to_world.m[k] = inst.transform(k);
   }
   check_name(inst.lightmap(), p + ".lightmap");
@@ -383,7 +382,7 @@ void lights(const kiln::v1::LightmapJob& j, scene::Scene& sc) {
 // The job's resolution and each named lightmap's own.
 void resolutions(const kiln::v1::LightmapJob& j, const std::set<std::string>& lightmap_names,
                  lightmap::LightmapBakeInput& in) {
-  set_count(j.has_resolution(), j.resolution(), kPath + ".resolution", 4, 8192, in.resolution);
+  set_count(j.has_resolution(), j.resolution(), kPath + ".resolution", bounds::kLightmapResolution, in.resolution);
   for (int i = 0; i < j.lightmaps_size(); ++i) {
     const kiln::v1::LightmapSettings& l = j.lightmaps(i);
     const std::string p = at(kPath + ".lightmaps", i);
@@ -394,7 +393,7 @@ void resolutions(const kiln::v1::LightmapJob& j, const std::set<std::string>& li
     }
     if (in.resolutions.count(l.name())) throw InvalidField(p + ".name", "'" + l.name() + "' is set twice");
     int resolution = in.resolution;
-    set_count(l.has_resolution(), l.resolution(), p + ".resolution", 4, 8192, resolution);
+    set_count(l.has_resolution(), l.resolution(), p + ".resolution", bounds::kLightmapResolution, resolution);
     in.resolutions[l.name()] = resolution;
   }
 }
@@ -417,8 +416,8 @@ void check_texels(const std::set<std::string>& lightmap_names, const lightmap::L
 
 // Padding, bounces and which outputs to write.
 void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& in) {
-  set_count(j.has_padding(), j.padding(), kPath + ".padding", 0, 64, in.padding);
-  set_count(j.has_max_bounces(), j.max_bounces(), kPath + ".max_bounces", 0, 1024, in.max_bounces);
+  set_count(j.has_padding(), j.padding(), kPath + ".padding", bounds::kLightmapPadding, in.padding);
+  set_count(j.has_max_bounces(), j.max_bounces(), kPath + ".max_bounces", bounds::kMaxBounces, in.max_bounces);
   in.radiance = j.radiance();
   in.ao = j.ao();
   in.directional = j.directional();
@@ -427,16 +426,16 @@ void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& 
 
 void lightmap_quality(const kiln::v1::Quality& q, lightmap::LightmapBakeInput& in) {
   if (q.has_samples()) {
-    check_range("job.quality.samples", static_cast<double>(q.samples()), 1, double(1 << 20), false);
+    check_range("job.quality.samples", static_cast<double>(q.samples()), bounds::kLightmapSamples.real());
     in.max_samples = q.samples();
   }
   in.min_samples = std::min(kDefaultMinSamples, in.max_samples);
   if (q.has_target_error()) {
-    check_range("job.quality.target_error", q.target_error(), 0.0, 1.0, true);
+    check_range("job.quality.target_error", q.target_error(), bounds::kLightmapTargetError);
     in.target_error = q.target_error();
   }
   if (q.has_time_limit_seconds()) {
-    check_range("job.quality.time_limit_seconds", q.time_limit_seconds(), 0.0, kMaxTimeLimitSeconds, true);
+    check_range("job.quality.time_limit_seconds", q.time_limit_seconds(), bounds::kLightmapTimeLimitSeconds);
     in.time_limit_seconds = q.time_limit_seconds();
   }
   in.seed = q.seed();

@@ -22,15 +22,15 @@ void material_effects(const kiln::v1::JobSpec& spec, material::MaterialBakeInput
 
 void material_quality(const kiln::v1::Quality& q, material::MaterialBakeInput& in) {
   if (q.has_samples()) {
-    check_range("job.quality.samples", static_cast<double>(q.samples()), 1, double(1 << 24), false);
+    check_range("job.quality.samples", static_cast<double>(q.samples()), bounds::kMaterialSamples.real());
     in.samples = q.samples();
   }
   if (q.has_target_error()) {
-    check_range("job.quality.target_error", q.target_error(), 0.0, 1.0, true);
+    check_range("job.quality.target_error", q.target_error(), bounds::kMaterialTargetError);
     in.target_error = q.target_error();
   }
   if (q.has_time_limit_seconds()) {
-    check_range("job.quality.time_limit_seconds", q.time_limit_seconds(), 0.0, 86400.0, true);
+    check_range("job.quality.time_limit_seconds", q.time_limit_seconds(), bounds::kMaterialTimeLimitSeconds);
     in.time_limit_seconds = q.time_limit_seconds();
   }
   in.seed = q.seed();
@@ -42,8 +42,9 @@ void translate_material(const kiln::v1::JobSpec& spec, BakeRequest& r) {
   const kiln::v1::MaterialJob& m = spec.material();
   material::MaterialBakeInput& in = r.input.emplace<material::MaterialBakeInput>();
   in.model = material_job_model(m, "job.material");
-  set_count(m.has_table_mu(), m.table_mu(), "job.material.table_mu", 2, 1024, in.table_mu);
-  set_count(m.has_table_roughness(), m.table_roughness(), "job.material.table_roughness", 2, 1024, in.table_roughness);
+  set_count(m.has_table_mu(), m.table_mu(), "job.material.table_mu", bounds::kTableSize, in.table_mu);
+  set_count(m.has_table_roughness(), m.table_roughness(), "job.material.table_roughness", bounds::kTableSize,
+            in.table_roughness);
   in.merl = m.merl();
   material_effects(spec, in);
   material_quality(spec.quality(), in);

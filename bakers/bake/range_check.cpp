@@ -6,16 +6,15 @@
 
 namespace kiln::bake {
 
-std::optional<InvalidInput> check_range(const std::string& field, double v, double lo, double hi, bool lo_open) {
-  const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
-  if (ok) return std::nullopt;
-  return InvalidInput(field, std::string("must be in ") + (lo_open ? "(" : "[") + format_number(lo) + ", " +
-                                 format_number(hi) + "], got " + format_number(v));
+std::optional<InvalidInput> check_range(const std::string& field, double v, const bounds::Range& range) {
+  if (std::isfinite(v) && range.contains(v)) return std::nullopt;
+  return InvalidInput(field, std::string("must be in ") + (range.lo_open ? "(" : "[") + format_number(range.lo) + ", " +
+                                 format_number(range.hi) + "], got " + format_number(v));
 }
 
-std::optional<InvalidInput> check_rgb(const std::string& field, const Rgb& c, double lo, double hi) {
+std::optional<InvalidInput> check_rgb(const std::string& field, const Rgb& c, const bounds::Range& range) {
   for (int i = 0; i < 3; ++i) {
-    if (auto e = check_range(field, c[i], lo, hi)) return e;
+    if (auto e = check_range(field, c[i], range)) return e;
   }
   return std::nullopt;
 }

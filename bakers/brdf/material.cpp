@@ -43,7 +43,8 @@ Rgb lookup(const std::vector<Rgb>& table, double mu) {
 std::optional<bake::InvalidInput> validate(const MaterialSpec& spec) {
   if (auto e = validate(spec.diffuse)) return e->under("diffuse");
   if (auto e = validate(spec.specular)) return e->under("specular");
-  if (spec.combine == Combine::weights) return bake::check_range("specular_weight", spec.specular_weight, 0.0, 1.0);
+  if (spec.combine == Combine::weights)
+    return bake::check_range("specular_weight", spec.specular_weight, bounds::kSpecularWeight);
   return std::nullopt;
 }
 

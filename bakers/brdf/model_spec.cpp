@@ -64,9 +64,9 @@ using bake::check_range;
 using bake::check_rgb;
 
 std::optional<bake::InvalidInput> check_layer(const std::string& prefix, const SchlickLayer& l) {
-  if (auto e = check_rgb(prefix + "c", l.c, 0.0, 1.0)) return e;
-  if (auto e = check_range(prefix + "r", l.r, 0.0, 1.0, false)) return e;
-  return check_range(prefix + "p", l.p, 0.0, 1.0, false);
+  if (auto e = check_rgb(prefix + "c", l.c, bounds::kReflectance)) return e;
+  if (auto e = check_range(prefix + "r", l.r, bounds::kSchlickParameter)) return e;
+  return check_range(prefix + "p", l.p, bounds::kSchlickParameter);
 }
 
 }  // namespace
@@ -94,23 +94,23 @@ FresnelMode fresnel_mode(const ModelSpec& spec) {
 std::optional<bake::InvalidInput> validate(const ModelSpec& spec) {
   switch (spec.model) {
     case Model::lambert:
-      return check_rgb("albedo", spec.albedo, 0.0, 1.0);
+      return check_rgb("albedo", spec.albedo, bounds::kReflectance);
     case Model::oren_nayar:
     case Model::oren_nayar_simple:
-      if (auto e = check_rgb("albedo", spec.albedo, 0.0, 1.0)) return e;
+      if (auto e = check_rgb("albedo", spec.albedo, bounds::kReflectance)) return e;
       // Oren & Nayar's fits were made for σ up to about 40° and slopes beyond 90° mean nothing.
-      return check_range("sigma", spec.sigma, 0.0, kPiOver2, false);
+      return check_range("sigma", spec.sigma, bounds::kSigma);
     case Model::cook_torrance:
     case Model::ggx:
     case Model::beckmann:
-      if (auto e = check_range("alpha_x", spec.alpha_x, 0.0, 1.0, true)) return e;
-      if (auto e = check_range("alpha_y", spec.alpha_y, 0.0, 1.0, true)) return e;
+      if (auto e = check_range("alpha_x", spec.alpha_x, bounds::kAlpha)) return e;
+      if (auto e = check_range("alpha_y", spec.alpha_y, bounds::kAlpha)) return e;
       if (fresnel_mode(spec) == FresnelMode::schlick) {
-        if (auto e = check_rgb("f0", spec.f0, 0.0, 1.0)) return e;
+        if (auto e = check_rgb("f0", spec.f0, bounds::kReflectance)) return e;
       }
       if (fresnel_mode(spec) == FresnelMode::exact) {
         // Dielectric interfaces: 0.1 and 10 are far beyond any real pair of media (diamond in air is 2.42).
-        if (auto e = check_range("eta", spec.eta, 0.1, 10.0, false)) return e;
+        if (auto e = check_range("eta", spec.eta, bounds::kEta)) return e;
       }
       return std::nullopt;
     case Model::schlick:

@@ -327,27 +327,25 @@ void write_report(EnvironmentRun& run) {
 }  // namespace
 
 std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& in) {
+  using bake::check_range;
   using bake::InvalidInput;
-  const auto range = [](const char* field, double v, double lo, double hi) {
-    return bake::check_range(field, v, lo, hi);
-  };
-  if (!is_power_of_two(in.size) || in.size < 4 || in.size > 2048) {
-    return InvalidInput("size", "must be a power of two in [4, 2048], got " + std::to_string(in.size));
+  if (!is_power_of_two(in.size) || !bounds::kCubeSize.contains(in.size)) {
+    return InvalidInput("size", "must be a power of two in [" + std::to_string(bounds::kCubeSize.lo) + ", " +
+                                    std::to_string(bounds::kCubeSize.hi) + "], got " + std::to_string(in.size));
   }
   if (in.levels != 0) {
-    if (auto e = range("levels", in.levels, 1, default_levels(in.size))) return e;
+    const bounds::Range levels{static_cast<double>(bounds::kLevels.lo), static_cast<double>(default_levels(in.size))};
+    if (auto e = check_range("levels", in.levels, levels)) return e;
   }
-  if (auto e = range("irradiance_size", in.irradiance_size, 1, 256)) return e;
-  if (auto e = range("dfg_size", in.dfg_size, 2, 1024)) return e;
+  if (auto e = check_range("irradiance_size", in.irradiance_size, bounds::kIrradianceSize.real())) return e;
+  if (auto e = check_range("dfg_size", in.dfg_size, bounds::kDfgSize.real())) return e;
   if (in.samples != 0) {
-    if (auto e = range("samples", in.samples, 4, 65536)) return e;
+    if (auto e = check_range("samples", in.samples, bounds::kEnvironmentSamples.real())) return e;
   }
-  if (auto e = range("dfg_samples", in.dfg_samples, 16, 1 << 20)) return e;
-  if (auto e = range("target_error", in.target_error, 1e-4, 1.0)) return e;
+  if (auto e = check_range("dfg_samples", in.dfg_samples, bounds::kDfgSamples.real())) return e;
+  if (auto e = check_range("target_error", in.target_error, bounds::kEnvironmentTargetError)) return e;
   if (in.constant) {
-    for (int c = 0; c < 3; ++c) {
-      if (auto e = range("constant", (*in.constant)[c], 0.0, 1e6)) return e;
-    }
+    if (auto e = bake::check_rgb("constant", *in.constant, bounds::kEnvironmentConstant)) return e;
   } else if (!in.faces.empty()) {
     if (in.faces.size() != 6) {
       return InvalidInput("faces", "a cube needs exactly 6 face images (+X, -X, +Y, -Y, +Z, -Z), got " +

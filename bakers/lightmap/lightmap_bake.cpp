@@ -306,22 +306,23 @@ void write_outputs(LightmapBakeRun& run) {
 }  // namespace
 
 std::optional<bake::InvalidInput> validate(const LightmapBakeInput& in) {
+  using bake::check_range;
   using bake::InvalidInput;
-  const auto range = [](const std::string& field, double v, double lo, double hi) {
-    return bake::check_range(field, v, lo, hi);
-  };
-  if (auto e = range("resolution", in.resolution, 4, 8192)) return e;
+  if (auto e = check_range("resolution", in.resolution, bounds::kLightmapResolution.real())) return e;
   for (const auto& [name, r] : in.resolutions) {
-    if (auto e = range("resolutions[" + name + "]", r, 4, 8192)) return e;
+    if (auto e = check_range("resolutions[" + name + "]", r, bounds::kLightmapResolution.real())) return e;
   }
-  if (auto e = range("padding", in.padding, 0, 64)) return e;
-  if (auto e = bake::check_range("target_error", in.target_error, 0, 1, true)) return e;
-  if (auto e = range("max_samples", static_cast<double>(in.max_samples), 1, 1 << 20)) return e;
-  if (auto e = range("min_samples", static_cast<double>(in.min_samples), 1, static_cast<double>(in.max_samples))) {
+  if (auto e = check_range("padding", in.padding, bounds::kLightmapPadding.real())) return e;
+  if (auto e = check_range("target_error", in.target_error, bounds::kLightmapTargetError)) return e;
+  if (auto e = check_range("max_samples", static_cast<double>(in.max_samples), bounds::kLightmapSamples.real())) {
     return e;
   }
-  if (auto e = range("time_limit_seconds", in.time_limit_seconds, 0, 7 * 86400)) return e;
-  if (auto e = range("max_bounces", in.max_bounces, 0, 1024)) return e;
+  const bounds::Range min_samples{1, static_cast<double>(in.max_samples)};
+  if (auto e = check_range("min_samples", static_cast<double>(in.min_samples), min_samples)) return e;
+  // 0 is "no limit" here; the protocol leaves the field unset for that.
+  const bounds::Range time_limit{0, bounds::kLightmapTimeLimitSeconds.hi};
+  if (auto e = check_range("time_limit_seconds", in.time_limit_seconds, time_limit)) return e;
+  if (auto e = check_range("max_bounces", in.max_bounces, bounds::kMaxBounces.real())) return e;
   if (!in.textures.empty() && !in.scene.textures.empty()) {
     return InvalidInput("textures", "give textures either decoded in the scene or encoded, not both");
   }

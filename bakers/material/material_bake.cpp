@@ -1,4 +1,5 @@
 #include "bakers/material/material_bake.h"
+#include "proto/bounds.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -24,7 +25,7 @@ namespace {
 using Clock = ProgressTracker::Clock;
 using brdf::Estimate;
 
-constexpr int kMaxTable = 1024;
+constexpr int kMaxTable = bounds::kTableSize.hi;  // the library also accepts one-entry tables
 constexpr uint64_t kMaxSamples = uint64_t{1} << 30;
 constexpr uint64_t kDefaultSamples = 4096;
 constexpr uint64_t kDefaultCap = uint64_t{1} << 20;  // per entry when only target_error is given

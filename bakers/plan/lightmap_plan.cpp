@@ -200,8 +200,8 @@ SceneFacts gather(const scene::Scene& scene) {
 }
 
 void check_options(const LightmapPlanOptions& o) {
-  if (auto e = bake::check_range("target_error", o.target_error, 0, 1, true)) throw *e;
-  if (auto e = bake::check_range("max_bounces", o.max_bounces, 0, 1024)) throw *e;
+  if (auto e = bake::check_range("target_error", o.target_error, bounds::kLightmapTargetError)) throw *e;
+  if (auto e = bake::check_range("max_bounces", o.max_bounces, bounds::kMaxBounces.real())) throw *e;
   if (auto e = check_forced_names(o.force_effects, lightmap_effect_names())) throw *e;
 }
 

@@ -73,18 +73,18 @@ double parse_number(const std::string& flag, const std::string& text) {
   return v;
 }
 
-double parse_number_in(const std::string& flag, const std::string& text, double lo, double hi, bool lo_open) {
+double parse_number_in(const std::string& flag, const std::string& text, const bounds::Range& range) {
   const double v = parse_number(flag, text);
-  if ((lo_open ? v > lo : v >= lo) && v <= hi) return v;
-  throw UsageError(flag + ": must be in " + (lo_open ? "(" : "[") + format_number(lo) + ", " + format_number(hi) +
-                   "], got " + text);
+  if (range.contains(v)) return v;
+  throw UsageError(flag + ": must be in " + (range.lo_open ? "(" : "[") + format_number(range.lo) + ", " +
+                   format_number(range.hi) + "], got " + text);
 }
 
-std::int64_t parse_whole(const std::string& flag, const std::string& text, std::int64_t lo, std::int64_t hi) {
+std::int64_t parse_whole(const std::string& flag, const std::string& text, const bounds::WholeRange& range) {
   const double v = parse_number(flag, text);
-  if (v != std::floor(v) || v < static_cast<double>(lo) || v > static_cast<double>(hi)) {
-    throw UsageError(flag + ": must be a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
-                     "], got " + text);
+  if (v != std::floor(v) || v < static_cast<double>(range.lo) || v > static_cast<double>(range.hi)) {
+    throw UsageError(flag + ": must be a whole number in [" + std::to_string(range.lo) + ", " +
+                     std::to_string(range.hi) + "], got " + text);
   }
   return static_cast<std::int64_t>(v);
 }

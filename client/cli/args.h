@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "proto/bounds.h"
+
 namespace kiln::cli {
 
 // The command line is wrong: printed as one line, exit status 2.
@@ -56,9 +58,9 @@ std::vector<FlagSpec> global_flag_specs();
 
 // Numbers from the command line; errors name the flag and repeat what was given.
 double parse_number(const std::string& flag, const std::string& text);
-// A finite number in [lo, hi], or (lo, hi] when lo_open.
-double parse_number_in(const std::string& flag, const std::string& text, double lo, double hi, bool lo_open = false);
-// A whole number in [lo, hi]; "1e6" is accepted as 1000000.
-std::int64_t parse_whole(const std::string& flag, const std::string& text, std::int64_t lo, std::int64_t hi);
+// A finite number in the range (proto/bounds.h declares the protocol's).
+double parse_number_in(const std::string& flag, const std::string& text, const bounds::Range& range);
+// A whole number in the range; "1e6" is accepted as 1000000.
+std::int64_t parse_whole(const std::string& flag, const std::string& text, const bounds::WholeRange& range);
 
 }  // namespace kiln::cli

@@ -134,9 +134,9 @@ const char* const kJobFlags[] = {"--albedo",
                                  "--table-mu",
                                  "--table-roughness"};
 
-constexpr double kHalfPi = 1.5707963267948966;
-
-void set_color(const std::string& flag, const std::string& text, v1::Color* c) { parse_color(flag, text, 1.0, c); }
+void set_color(const std::string& flag, const std::string& text, v1::Color* c) {
+  parse_color(flag, text, bounds::kReflectance, c);
+}
 
 template <typename Enum>
 Enum parse_choice(const std::string& flag, const std::string& text,
@@ -158,9 +158,9 @@ void microfacet(const Flags& f, Model model, const std::string& model_name, v1::
     throw UsageError(std::string(f.has("--alpha-x") ? "--alpha-y" : "--alpha-x") +
                      ": missing; --alpha-x and --alpha-y go together");
   }
-  if (auto v = f.get("--alpha")) m->set_alpha(parse_number_in("--alpha", *v, 0.0, 1.0, true));
-  if (auto v = f.get("--alpha-x")) m->set_alpha_x(parse_number_in("--alpha-x", *v, 0.0, 1.0, true));
-  if (auto v = f.get("--alpha-y")) m->set_alpha_y(parse_number_in("--alpha-y", *v, 0.0, 1.0, true));
+  if (auto v = f.get("--alpha")) m->set_alpha(parse_number_in("--alpha", *v, bounds::kAlpha));
+  if (auto v = f.get("--alpha-x")) m->set_alpha_x(parse_number_in("--alpha-x", *v, bounds::kAlpha));
+  if (auto v = f.get("--alpha-y")) m->set_alpha_y(parse_number_in("--alpha-y", *v, bounds::kAlpha));
 
   // The Fresnel term in force, so that --f0 and --eta are refused where the model would ignore them.
   std::string fresnel = model == Model::cook_torrance ? "exact" : "none";
@@ -182,7 +182,7 @@ void microfacet(const Flags& f, Model model, const std::string& model_name, v1::
     if (fresnel != "exact") {
       throw UsageError("--eta: only exact Fresnel uses it, and " + in_force + " would ignore it; add --fresnel exact");
     }
-    m->set_eta(parse_number_in("--eta", *v, 0.1, 10.0));
+    m->set_eta(parse_number_in("--eta", *v, bounds::kEta));
   }
   if (auto v = f.get("--distribution")) {
     m->set_distribution(parse_choice<v1::Distribution>("--distribution", *v,
@@ -206,13 +206,13 @@ void microfacet(const Flags& f, Model model, const std::string& model_name, v1::
 void schlick_layer(const Flags& f, const std::string& prefix, v1::SchlickLayer* l) {
   const std::string c = prefix + "c", r = prefix + "r", p = prefix + "p";
   if (auto v = f.get(c)) set_color(c, *v, l->mutable_c());
-  if (auto v = f.get(r)) l->set_r(parse_number_in(r, *v, 0.0, 1.0));
-  if (auto v = f.get(p)) l->set_p(parse_number_in(p, *v, 0.0, 1.0));
+  if (auto v = f.get(r)) l->set_r(parse_number_in(r, *v, bounds::kSchlickParameter));
+  if (auto v = f.get(p)) l->set_p(parse_number_in(p, *v, bounds::kSchlickParameter));
 }
 
 void oren_nayar(const Flags& f, Model model, v1::OrenNayar* on) {
   if (auto v = f.get("--albedo")) set_color("--albedo", *v, on->mutable_albedo());
-  if (auto v = f.get("--sigma")) on->set_sigma(parse_number_in("--sigma", *v, 0.0, kHalfPi));
+  if (auto v = f.get("--sigma")) on->set_sigma(parse_number_in("--sigma", *v, bounds::kSigma));
   if (auto v = f.get("--interreflection")) {
     if (*v != "on" && *v != "off") throw UsageError("--interreflection: expected on or off, got '" + *v + "'");
     if (*v == "on" && model != Model::oren_nayar) {
@@ -263,15 +263,17 @@ void set_model_fields(const Flags& f, Model model, const std::string& model_name
 // The table sizes, --merl, and the quality: samples, target error, time limit, seed.
 void set_tables_and_quality(const Flags& f, v1::JobSpec& spec) {
   v1::MaterialJob* job = spec.mutable_material();
-  if (f.has("--table-mu")) job->set_table_mu(whole_flag(f, "--table-mu", 2, 1024));
-  if (f.has("--table-roughness")) job->set_table_roughness(whole_flag(f, "--table-roughness", 2, 1024));
+  if (f.has("--table-mu")) job->set_table_mu(whole_flag(f, "--table-mu", bounds::kTableSize));
+  if (f.has("--table-roughness")) job->set_table_roughness(whole_flag(f, "--table-roughness", bounds::kTableSize));
   job->set_merl(f.has("--merl"));
 
   v1::Quality* q = spec.mutable_quality();
-  if (auto v = f.get("--samples")) q->set_samples(static_cast<std::uint64_t>(parse_whole("--samples", *v, 1, 1 << 24)));
-  if (auto v = f.get("--target-error")) q->set_target_error(parse_number_in("--target-error", *v, 0.0, 1.0, true));
+  if (auto v = f.get("--samples"))
+    q->set_samples(static_cast<std::uint64_t>(parse_whole("--samples", *v, bounds::kMaterialSamples)));
+  if (auto v = f.get("--target-error"))
+    q->set_target_error(parse_number_in("--target-error", *v, bounds::kMaterialTargetError));
   if (auto v = f.get("--time-limit")) {
-    q->set_time_limit_seconds(parse_number_in("--time-limit", *v, 0.0, 86400.0, true));
+    q->set_time_limit_seconds(parse_number_in("--time-limit", *v, bounds::kMaterialTimeLimitSeconds));
   }
   set_seed_and_drop_empty_quality(f, spec);
 }

@@ -82,7 +82,7 @@ void set_source(const Flags& f, EnvironmentBake& bake) {
     if (!bake.files.empty()) {
       throw UsageError("--constant: give one environment, not also the file '" + bake.files[0] + "'");
     }
-    parse_color("--constant", *f.get("--constant"), 1e6, job->mutable_constant());
+    parse_color("--constant", *f.get("--constant"), bounds::kEnvironmentConstant, job->mutable_constant());
     for (const char* flag : {"--color-space", "--rotation", "--intensity"}) {
       if (f.has(flag)) {
         throw UsageError(std::string(flag) +
@@ -114,18 +114,21 @@ void set_image_and_bake_settings(const Flags& f, v1::EnvironmentJob& env) {
     if (v->empty() || v->size() > 64) throw UsageError("--color-space: expected a name of 1 to 64 bytes");
     env.set_color_space(*v);
   }
-  if (auto v = f.get("--rotation")) env.set_rotation_degrees(parse_number_in("--rotation", *v, -360, 360));
-  if (auto v = f.get("--intensity")) env.set_intensity(parse_number_in("--intensity", *v, 0, 1e6, true));
+  if (auto v = f.get("--rotation"))
+    env.set_rotation_degrees(parse_number_in("--rotation", *v, bounds::kRotationDegrees));
+  if (auto v = f.get("--intensity"))
+    env.set_intensity(parse_number_in("--intensity", *v, bounds::kEnvironmentIntensity));
   if (auto v = f.get("--lobe")) env.set_lobe(lobe_of(*v));
   if (f.has("--size")) {
-    const std::uint32_t n = whole_flag(f, "--size", 4, 2048);
+    const std::uint32_t n = whole_flag(f, "--size", bounds::kCubeSize);
     if ((n & (n - 1)) != 0) throw UsageError("--size: must be a power of two in [4, 2048], got " + *f.get("--size"));
     env.set_size(n);
   }
-  if (f.has("--levels")) env.set_levels(whole_flag(f, "--levels", 1, 10));  // the server checks it against --size
-  if (f.has("--irradiance-size")) env.set_irradiance_size(whole_flag(f, "--irradiance-size", 1, 256));
-  if (f.has("--dfg-size")) env.set_dfg_size(whole_flag(f, "--dfg-size", 2, 1024));
-  if (f.has("--dfg-samples")) env.set_dfg_samples(whole_flag(f, "--dfg-samples", 16, 1 << 20));
+  if (f.has("--levels"))
+    env.set_levels(whole_flag(f, "--levels", bounds::kLevels));  // the server checks it against --size
+  if (f.has("--irradiance-size")) env.set_irradiance_size(whole_flag(f, "--irradiance-size", bounds::kIrradianceSize));
+  if (f.has("--dfg-size")) env.set_dfg_size(whole_flag(f, "--dfg-size", bounds::kDfgSize));
+  if (f.has("--dfg-samples")) env.set_dfg_samples(whole_flag(f, "--dfg-samples", bounds::kDfgSamples));
   if (f.has("--no-preview")) env.set_preview(false);
 }
 
@@ -146,8 +149,10 @@ EnvironmentBake environment_bake_from_flags(const Flags& f) {
   set_source(f, bake);
   set_image_and_bake_settings(f, *bake.spec.mutable_environment());
   v1::Quality* q = bake.spec.mutable_quality();
-  if (auto v = f.get("--samples")) q->set_samples(static_cast<std::uint64_t>(parse_whole("--samples", *v, 4, 65536)));
-  if (auto v = f.get("--target-error")) q->set_target_error(parse_number_in("--target-error", *v, 1e-4, 1.0));
+  if (auto v = f.get("--samples"))
+    q->set_samples(static_cast<std::uint64_t>(parse_whole("--samples", *v, bounds::kEnvironmentSamples)));
+  if (auto v = f.get("--target-error"))
+    q->set_target_error(parse_number_in("--target-error", *v, bounds::kEnvironmentTargetError));
   set_seed_and_drop_empty_quality(f, bake.spec);
   add_forced_effects(f, bake.spec);
   set_name(f, bake.spec, default_name(f, bake.files));

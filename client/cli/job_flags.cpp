@@ -40,14 +40,14 @@ std::string given_flag_words(const Flags& f, std::span<const char* const> flags)
   return words;
 }
 
-std::uint32_t whole_flag(const Flags& f, const char* flag, std::int64_t lo, std::int64_t hi) {
-  return static_cast<std::uint32_t>(parse_whole(flag, *f.get(flag), lo, hi));
+std::uint32_t whole_flag(const Flags& f, const char* flag, const bounds::WholeRange& range) {
+  return static_cast<std::uint32_t>(parse_whole(flag, *f.get(flag), range));
 }
 
 void set_seed_and_drop_empty_quality(const Flags& f, v1::JobSpec& spec) {
   v1::Quality* q = spec.mutable_quality();
   if (auto v = f.get("--seed")) {
-    q->set_seed(static_cast<std::uint64_t>(parse_whole("--seed", *v, 0, std::int64_t{1} << 53)));
+    q->set_seed(static_cast<std::uint64_t>(parse_whole("--seed", *v, bounds::kSeed)));
   }
   if (!q->has_samples() && !q->has_target_error() && !q->has_time_limit_seconds() && q->seed() == 0) {
     spec.clear_quality();
@@ -79,7 +79,7 @@ void set_name(const Flags& f, v1::JobSpec& spec, const std::string& fallback) {
   }
 }
 
-void parse_color(const std::string& flag, const std::string& text, double hi, v1::Color* c) {
+void parse_color(const std::string& flag, const std::string& text, const bounds::Range& range, v1::Color* c) {
   std::vector<std::string> parts;
   std::stringstream ss(text);
   for (std::string item; std::getline(ss, item, ',');) parts.push_back(item);
@@ -88,7 +88,7 @@ void parse_color(const std::string& flag, const std::string& text, double hi, v1
     throw UsageError(flag + ": expected one value or three (R,G,B), got '" + text + "'");
   }
   double v[3];
-  for (std::size_t i = 0; i < 3; ++i) v[i] = parse_number_in(flag, parts[parts.size() == 1 ? 0 : i], 0.0, hi);
+  for (std::size_t i = 0; i < 3; ++i) v[i] = parse_number_in(flag, parts[parts.size() == 1 ? 0 : i], range);
   c->set_r(v[0]);
   c->set_g(v[1]);
   c->set_b(v[2]);

@@ -30,7 +30,7 @@ std::vector<FlagSpec> bake_flag_specs(std::initializer_list<const char*> with_va
 std::string given_flag_words(const Flags& f, std::span<const char* const> flags);
 
 // A whole-number flag that was given, in [lo, hi]. Throws UsageError naming the flag.
-std::uint32_t whole_flag(const Flags& f, const char* flag, std::int64_t lo, std::int64_t hi);
+std::uint32_t whole_flag(const Flags& f, const char* flag, const bounds::WholeRange& range);
 
 // --seed into spec.quality, if given: whole numbers a double holds exactly (the flag is parsed as a number like the
 // others). Then a quality with nothing set (seed 0 is the default) is left out of the spec.
@@ -42,7 +42,7 @@ void add_forced_effects(const Flags& flags, v1::JobSpec& spec);
 void set_name(const Flags& flags, v1::JobSpec& spec, const std::string& default_name);
 
 // A colour flag: one value (grey) or three (R,G,B), each in [0, hi]. Throws UsageError naming the flag.
-void parse_color(const std::string& flag, const std::string& text, double hi, v1::Color* c);
+void parse_color(const std::string& flag, const std::string& text, const bounds::Range& range, v1::Color* c);
 
 // Job files spell names with underscores (oren_nayar, cook_torrance), flags with hyphens: both are accepted.
 std::string hyphenated(std::string s);

@@ -125,12 +125,13 @@ void set_environment(const Flags& f, LightmapBake& bake) {
   }
   if (auto v = f.get("--env-constant")) {
     env = job->mutable_environment();
-    parse_color("--env-constant", *v, 1e6, env->mutable_constant());
+    parse_color("--env-constant", *v, bounds::kEnvironmentConstant, env->mutable_constant());
   }
-  if (auto v = f.get("--env-rotation")) env->set_rotation_degrees(parse_number_in("--env-rotation", *v, -360, 360));
+  if (auto v = f.get("--env-rotation"))
+    env->set_rotation_degrees(parse_number_in("--env-rotation", *v, bounds::kRotationDegrees));
   if (auto v = f.get("--env-intensity")) {
     if (!env) throw UsageError("--env-intensity: multiplies an environment: add --env IMAGE or --env-constant");
-    env->set_intensity(parse_number_in("--env-intensity", *v, 0, 1e6, true));
+    env->set_intensity(parse_number_in("--env-intensity", *v, bounds::kEnvironmentIntensity));
   }
 }
 
@@ -162,9 +163,9 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
   v1::LightmapJob* job = bake.spec.mutable_lightmap();
 
   set_environment(f, bake);
-  if (f.has("--resolution")) job->set_resolution(whole_flag(f, "--resolution", 4, 8192));
-  if (f.has("--padding")) job->set_padding(whole_flag(f, "--padding", 0, 64));
-  if (f.has("--max-bounces")) job->set_max_bounces(whole_flag(f, "--max-bounces", 0, 1024));
+  if (f.has("--resolution")) job->set_resolution(whole_flag(f, "--resolution", bounds::kLightmapResolution));
+  if (f.has("--padding")) job->set_padding(whole_flag(f, "--padding", bounds::kLightmapPadding));
+  if (f.has("--max-bounces")) job->set_max_bounces(whole_flag(f, "--max-bounces", bounds::kMaxBounces));
   if (f.has("--radiance")) job->set_radiance(true);
   if (f.has("--ao")) job->set_ao(true);
   if (f.has("--directional")) job->set_directional(true);
@@ -172,10 +173,12 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
 
   v1::Quality* q = bake.spec.mutable_quality();
   if (auto v = f.get("--max-samples")) {
-    q->set_samples(static_cast<std::uint64_t>(parse_whole("--max-samples", *v, 1, 1 << 20)));
+    q->set_samples(static_cast<std::uint64_t>(parse_whole("--max-samples", *v, bounds::kLightmapSamples)));
   }
-  if (auto v = f.get("--target-error")) q->set_target_error(parse_number_in("--target-error", *v, 0, 1.0, true));
-  if (auto v = f.get("--time-limit")) q->set_time_limit_seconds(parse_number_in("--time-limit", *v, 0, 604800, true));
+  if (auto v = f.get("--target-error"))
+    q->set_target_error(parse_number_in("--target-error", *v, bounds::kLightmapTargetError));
+  if (auto v = f.get("--time-limit"))
+    q->set_time_limit_seconds(parse_number_in("--time-limit", *v, bounds::kLightmapTimeLimitSeconds));
   set_seed_and_drop_empty_quality(f, bake.spec);
   add_forced_effects(f, bake.spec);
   set_name(f, bake.spec, default_name(f, bake.scene_file));

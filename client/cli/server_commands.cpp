@@ -6,6 +6,7 @@
 #include "client/cli/format.h"
 #include "client/cli/progress.h"
 #include "client/cli/subcommands.h"
+#include "proto/bounds.h"
 
 namespace kiln::cli {
 namespace {
@@ -79,7 +80,7 @@ int cmd_status(Context& ctx, const Flags&) {
 int cmd_jobs(Context& ctx, const Flags& f) {
   if (!f.positional.empty()) throw UsageError("unexpected argument '" + f.positional[0] + "' (see `kiln jobs --help`)");
   std::uint32_t limit = 0;
-  if (auto v = f.get("--limit")) limit = static_cast<std::uint32_t>(parse_whole("--limit", *v, 1, 1000));
+  if (auto v = f.get("--limit")) limit = static_cast<std::uint32_t>(parse_whole("--limit", *v, bounds::WholeRange{1, bounds::kListJobsLimit.hi}));
   const v1::JobState state = state_filter_of(f);
   v1::JobList list;
   try {

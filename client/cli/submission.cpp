@@ -1,5 +1,7 @@
 #include "client/cli/submission.h"
 
+#include "proto/bounds.h"
+
 namespace kiln::cli {
 namespace {
 
@@ -35,7 +37,7 @@ v1::SubmitReply submit_job(Context& ctx, const v1::JobSpec& spec, std::int32_t p
 
 std::int32_t priority_of(const Flags& f) {
   auto v = f.get("--priority");
-  return v ? static_cast<std::int32_t>(parse_whole("--priority", *v, -100, 100)) : 0;
+  return v ? static_cast<std::int32_t>(parse_whole("--priority", *v, bounds::kPriority)) : 0;
 }
 
 std::string idempotency_key_of(const Flags& f) {
