@@ -1,10 +1,10 @@
 // Symmetries of the whole environment bake, on a small generated environment with no symmetry of its own:
 //   rotation  — turning the input 90° about +Y moves the output faces as the conventions say, at every level of the
-//               specular chain and in the irradiance cube (issue 4, test 4);
+//               specular chain and in the irradiance cube;
 //   edges     — the two texels on either side of every cube edge agree as closely as neighbouring texels inside a
-//               face do, at every level (issue 4, test 5);
+//               face do, at every level;
 //   container — specular.ktx2 of a real bake holds every level and face of the EXR faces, to half precision, with
-//               its key/value metadata (issue 4, test 6).
+//               its key/value metadata.
 #include <gtest/gtest.h>
 
 #include <algorithm>
