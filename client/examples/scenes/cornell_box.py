@@ -8,7 +8,12 @@ Every mesh has TEXCOORD_0 (per-face 0..1, for textures) and TEXCOORD_1 (lightmap
 mesh's own atlas, charts separated by a margin so that dilation by a few texels at 64^2 and above cannot bleed one
 chart into another). Reflectances are those of the classic scene, rounded.
 
-Usage: cornell_box.py OUTPUT.gltf
+With --atlas the same box is one lightmap atlas: a glTF mesh per material, all named `cornell_box`, whose
+TEXCOORD_1 together hold every planar face of the box as a chart, all at the same texel density, ATLAS_MARGIN apart
+(4 texels at 256^2). kiln names a lightmap after its mesh, so the whole box bakes into one lightmap, `cornell_box`, as
+it does in a baker with one atlas per object (Cycles, with the meshes joined).
+
+Usage: cornell_box.py [--atlas] OUTPUT.gltf
 """
 import base64
 import json
@@ -17,6 +22,7 @@ import struct
 import sys
 
 MARGIN = 1.0 / 16  # of the atlas, around and between charts: 4 texels at 64^2, 32 at 512^2
+ATLAS_MARGIN = 1.0 / 64  # the single atlas's: 4 texels at 256^2, so that no texel a chart covers touches another
 
 
 def quad(p0, p1, p2, p3):
@@ -80,9 +86,37 @@ def atlas(faces):
     return rects
 
 
-def mesh_arrays(faces):
+def shelf_pack(sizes, scale):
+    """Rectangles of sizes (metres) times scale packed in shelves (tallest first) into the unit square, ATLAS_MARGIN
+    around and between them; None if they do not fit."""
+    order = sorted(range(len(sizes)), key=lambda i: -sizes[i][1])
+    rects = [None] * len(sizes)
+    u, v, shelf = ATLAS_MARGIN, ATLAS_MARGIN, 0.0
+    for i in order:
+        w, h = sizes[i][0] * scale, sizes[i][1] * scale
+        if u + w + ATLAS_MARGIN > 1:  # the next shelf
+            u, v, shelf = ATLAS_MARGIN, v + shelf + ATLAS_MARGIN, 0.0
+        if u + w + ATLAS_MARGIN > 1 or v + h + ATLAS_MARGIN > 1:
+            return None
+        rects[i] = (u, v, u + w, v + h)
+        u, shelf = u + w + ATLAS_MARGIN, max(shelf, h)
+    return rects
+
+
+def single_atlas(faces):
+    """Lightmap UV rectangles for the faces of the whole scene in one atlas: one scale (texel density) for all, the
+    largest at which they pack (bisection over the scale)."""
+    sizes = [(dist(f[0], f[1]), dist(f[1], f[2])) for f in faces]
+    low, high = 0.0, 1.0 / max(max(w, h) for w, h in sizes)
+    for _ in range(50):
+        mid = (low + high) / 2
+        low, high = (mid, high) if shelf_pack(sizes, mid) else (low, mid)
+    return shelf_pack(sizes, low)
+
+
+def mesh_arrays(faces, rects=None):
     positions, normals, uv0, uv1, indices = [], [], [], [], []
-    for face, (u0, v0, u1, v1) in zip(faces, atlas(faces)):
+    for face, (u0, v0, u1, v1) in zip(faces, rects or atlas(faces)):
         n = normalize(cross(sub(face[1], face[0]), sub(face[2], face[0])))
         base = len(positions)
         corners = [(0, 1), (1, 1), (1, 0), (0, 0)]  # glTF UVs: v = 0 at the top of the image
@@ -95,7 +129,16 @@ def mesh_arrays(faces):
     return positions, normals, uv0, uv1, indices
 
 
-def build():
+def primitives_in_one_atlas(meshes):
+    """The meshes' faces grouped by material (in order of first use), each face with its rectangle in one atlas."""
+    by_material = {}
+    for material, faces in meshes.values():
+        by_material.setdefault(material, []).extend(faces)
+    rects = iter(single_atlas([f for faces in by_material.values() for f in faces]))
+    return [(material, faces, [next(rects) for _ in faces]) for material, faces in by_material.items()]
+
+
+def build(one_atlas=False):
     meshes = {
         "floor": ("white", [quad((-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1))]),
         "ceiling": ("white", [quad((-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1))]),
@@ -138,8 +181,8 @@ def build():
         accessors.append(acc)
         return len(accessors) - 1
 
-    for name, (material, faces) in meshes.items():
-        positions, normals, uv0, uv1, indices = mesh_arrays(faces)
+    def primitive(material, faces, rects=None):
+        positions, normals, uv0, uv1, indices = mesh_arrays(faces, rects)
         n = len(positions)
         attributes = {
             "POSITION": add(positions, "<3f", n, "VEC3", 5126, 34962, minmax=True),
@@ -148,9 +191,18 @@ def build():
             "TEXCOORD_1": add(uv1, "<2f", n, "VEC2", 5126, 34962),
         }
         idx = add(indices, "<I", len(indices), "SCALAR", 5125, 34963)
-        gltf_meshes.append({"name": name, "primitives": [{"attributes": attributes, "indices": idx,
-                                                          "material": material_index[material]}]})
-        nodes.append({"name": name, "mesh": len(gltf_meshes) - 1})
+        return {"attributes": attributes, "indices": idx, "material": material_index[material]}
+
+    if one_atlas:
+        # One glTF mesh per material, all named cornell_box: kiln names a lightmap after its mesh, and Assimp (kiln's
+        # importer) renames the primitives of a multi-primitive mesh NAME-0, NAME-1, ..., which would split the atlas.
+        placed = [("cornell_box", "cornell_box_" + material, primitive(material, faces, rects))
+                  for material, faces, rects in primitives_in_one_atlas(meshes)]
+    else:
+        placed = [(name, name, primitive(material, faces)) for name, (material, faces) in meshes.items()]
+    for mesh_name, node_name, p in placed:
+        gltf_meshes.append({"name": mesh_name, "primitives": [p]})
+        nodes.append({"name": node_name, "mesh": len(gltf_meshes) - 1})
 
     return {
         "asset": {"version": "2.0", "generator": "kiln client/examples/scenes/cornell_box.py"},
@@ -168,11 +220,14 @@ def build():
 
 
 def main():
-    if len(sys.argv) != 2:
+    args = sys.argv[1:]
+    one_atlas = "--atlas" in args
+    args = [a for a in args if a != "--atlas"]
+    if len(args) != 1 or args[0].startswith("-"):
         sys.stderr.write(__doc__)
         return 2
-    with open(sys.argv[1], "w") as f:
-        json.dump(build(), f, indent=1)
+    with open(args[0], "w") as f:
+        json.dump(build(one_atlas), f, indent=1)
         f.write("\n")
     return 0
 
