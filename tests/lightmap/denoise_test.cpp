@@ -1,5 +1,6 @@
 // The lightmap denoiser (bakers/lightmap/denoise.h) on synthetic images: it smooths noise without moving the mean,
-// never crosses a chart border, a crease or an invalid texel, and returns finite colours for any input.
+// never crosses a chart border, a crease or an invalid texel, and returns finite colours for any input. Its guides
+// (texel_guides.h): charts by shared UV edges, and the texels' positions, normals and sizes.
 #include "bakers/lightmap/denoise.h"
 
 #include <gtest/gtest.h>
@@ -11,8 +12,12 @@
 #include <string>
 #include <vector>
 
+#include "bakers/lightmap/lightmap_state.h"
+#include "bakers/lightmap/texel_guides.h"
+#include "bakers/lightmap/texels.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/rng.h"
+#include "tests/support/test_scenes.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -267,6 +272,84 @@ TEST(Denoise, BadSizesAndOptionsAreRefusedByName) {
   o = {};
   o.levels = 0;
   EXPECT_EQ(denoise(c, v, g, o).colour, c) << "no levels: the identity";
+}
+
+// ---- Guides ----
+
+// Two triangles of a quad, vertices split along the diagonal (as at a hard edge) but with equal UVs: one chart.
+// Moving one side's UVs (a seam in the lightmap) makes two; a triangle with an index out of range is alone.
+TEST(TexelGuides, ChartsJoinTrianglesThatShareAnEdgeInUvSpace) {
+  scene::Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  m.lightmap_uv = {{0, 0}, {0.5, 0}, {0.5, 0.5}, {0, 0}, {0.5, 0.5}, {0, 0.5}};
+  m.indices = {0, 1, 2, 3, 4, 5};
+  EXPECT_EQ(uv_charts(m), (std::vector<uint32_t>{0, 0}));
+  m.lightmap_uv[3] = {0.6, 0.6};
+  m.lightmap_uv[4] = {0.9, 0.9};
+  EXPECT_EQ(uv_charts(m), (std::vector<uint32_t>{0, 1}));
+  m.lightmap_uv[3] = {0, 0};
+  m.lightmap_uv[4] = {0.5, 0.5};
+  m.indices.insert(m.indices.end(), {0, 1, 99});
+  m.lightmap_uv[5] = {std::nan(""), 0.5};
+  EXPECT_EQ(uv_charts(m), (std::vector<uint32_t>{0, 1, 2})) << "a NaN UV and an index out of range share no edge";
+}
+
+// test::add_box's atlas puts each face in a cell of its own: six charts of two triangles each.
+TEST(TexelGuides, EachFaceOfABoxAtlasIsAChart) {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("white", 0.5));
+  test::add_box(s, "box", {0, 0, 0}, {1, 1, 1}, 0);
+  EXPECT_EQ(uv_charts(s.meshes[0]), (std::vector<uint32_t>{0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5}));
+}
+
+LightmapState state_of(const scene::Scene& s, const std::string& name, int resolution) {
+  RasterOptions raster;
+  raster.width = raster.height = resolution;
+  return make_lightmap_state(name, rasterize_lightmap(s, name, raster), LeakReport{}, false, false);
+}
+
+// A 2 m floor at 16² texels: every texel is valid, faces +Y, measures 2/16 m, and stands at the weighted mean of its
+// sample points (test::texel_means, the rasterizer's own points and weights; rounding only: 1e-12).
+TEST(TexelGuides, AFloorsGuidesAreItsTexelsPointsNormalAndSize) {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("white", 0.5));
+  test::add_floor(s, 2.0, 0, 4);
+  const TexelGuides g = texel_guides(state_of(s, "floor", 16), s);
+  ASSERT_EQ(g.width, 16);
+  const auto mean_x = test::texel_means(s, "floor", 16, [](const Vec3& p, const Vec3&) { return p.x; });
+  const auto mean_z = test::texel_means(s, "floor", 16, [](const Vec3& p, const Vec3&) { return p.z; });
+  for (size_t t = 0; t < g.valid.size(); ++t) {
+    ASSERT_TRUE(g.valid[t]) << t;
+    EXPECT_NEAR(g.position[t].x, mean_x[t], 1e-12) << t;
+    EXPECT_NEAR(g.position[t].y, 0.0, 1e-12) << t;
+    EXPECT_NEAR(g.position[t].z, mean_z[t], 1e-12) << t;
+    EXPECT_NEAR(g.normal[t].y, 1.0, 1e-12) << t;
+    EXPECT_NEAR(g.texel_size[t], 2.0 / 16, 1e-9) << t;  // float world vertices: 1e-9 relative
+    EXPECT_EQ(g.chart[t], 0u) << t;
+  }
+}
+
+// Two instances of one floor mesh in one atlas, side by side: two charts, though they share a mesh and their texels
+// touch.
+TEST(TexelGuides, InstancesOfOneMeshAreChartsOfTheirOwn) {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("white", 0.5));
+  test::add_floor(s, 2.0, 0, 4);
+  s.instances[0].lightmap = "atlas";
+  s.instances[0].lightmap_scale_offset = {0.5, 1, 0, 0};
+  scene::Instance right = s.instances[0];
+  right.to_world.m[3] = 3;  // 3 m along +X
+  right.lightmap_scale_offset = {0.5, 1, 0.5, 0};
+  s.instances.push_back(right);
+  const TexelGuides g = texel_guides(state_of(s, "atlas", 16), s);
+  for (int y = 0; y < 16; ++y) {
+    for (int x = 0; x < 16; ++x) {
+      const size_t t = static_cast<size_t>(y) * 16 + x;
+      ASSERT_TRUE(g.valid[t]);
+      EXPECT_EQ(g.chart[t], g.chart[x < 8 ? 0 : 15]) << x << "," << y;
+    }
+  }
+  EXPECT_NE(g.chart[0], g.chart[15]);
 }
 
 }  // namespace
