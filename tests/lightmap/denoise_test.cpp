@@ -359,8 +359,9 @@ TEST(TexelGuides, InstancesOfOneMeshAreChartsOfTheirOwn) {
 // Bakes with denoising against analytic answers per texel (test::texel_means: the field averaged over the
 // rasterizer's own points). The raw texels are held to 6 of their estimated standard errors σ̂ (lightmap_lights_test:
 // ≈ 2e-9 chance per texel under normality); a denoised texel may move further (the filter moves a texel by at most
-// 2.25 σ_l of its standard error per level, denoise.h), measured at most 5.3 σ̂ on these scenes: 8 σ̂ is allowed. The
-// mean over a map is the bias that matters to a viewer: 0.5 % is allowed, beside the noise of the raw mean.
+// 2.25 σ_l of its standard error per level, denoise.h): at most 4.6 σ̂ here, 5.3 σ̂ over variants of these scenes'
+// lights, sizes and budgets; 8 σ̂ is allowed. The mean over a map is the bias that matters to a viewer: 0.5 % is
+// allowed, beside the noise of the raw mean.
 
 // The luminance of every texel of `map`'s raw and denoised images and its estimated standard error.
 struct Texels {
