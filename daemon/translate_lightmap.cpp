@@ -422,6 +422,7 @@ void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& 
   in.ao = j.ao();
   in.directional = j.directional();
   in.preview = !j.has_preview() || j.preview();
+  in.denoise = j.denoise();
 }
 
 void lightmap_quality(const kiln::v1::Quality& q, lightmap::LightmapBakeInput& in) {
@@ -475,6 +476,7 @@ std::string scene_hash(const kiln::v1::LightmapJob& j) {
   scene_part.clear_ao();
   scene_part.clear_directional();
   scene_part.clear_preview();
+  scene_part.clear_denoise();
   std::string bytes;
   {
     google::protobuf::io::StringOutputStream stream(&bytes);
@@ -539,7 +541,7 @@ std::string lightmap_canonical_text(const BakeRequest& r) {
     << "\nmax_bounces=" << in.max_bounces << "\nforce_effects=";
   for (const auto& [effect, on] : in.force_effects) o << effect << (on ? "+" : "-") << ";";
   o << "\nradiance=" << in.radiance << "\nao=" << in.ao << "\ndirectional=" << in.directional
-    << "\npreview=" << in.preview << "\n";
+    << "\npreview=" << in.preview << "\ndenoise=" << in.denoise << "\n";
   return o.str();
 }
 

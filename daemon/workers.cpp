@@ -76,6 +76,7 @@ std::string describe_output(const bake::BakeOutput& o) {
     const std::string t = tail;
     return n.size() > t.size() && n.compare(n.size() - t.size(), t.size(), t) == 0;
   };
+  if (ends("_irradiance_denoised.exr")) return "the irradiance through the denoiser (report.json says which), dilated";
   if (ends("_irradiance.exr")) return "irradiance E (W/m^2) per lightmap texel, RGB float, dilated by the padding";
   if (ends("_validity.exr")) return "texel validity: 1 valid, 0 invalid (before dilation)";
   if (ends("_error.exr")) return "the estimated relative standard error of each texel's irradiance";

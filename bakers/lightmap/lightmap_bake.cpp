@@ -272,6 +272,11 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
   options.padding = in.padding;
   options.color_space = run.color_space;
   for (bake::BakeOutput& o : encode_lightmap(m.image, options)) outputs.push_back(std::move(o));
+  if (in.denoise) {
+    const Clock::time_point t0 = Clock::now();
+    outputs.push_back(denoised_output(m, run.scene(), in.denoise_options, in.padding, run.color_space));
+    run.report.denoise_seconds += seconds_since(t0);
+  }
   if (in.radiance) outputs.push_back(radiance_output(m, run.scene(), run.materials, run.color_space));
   if (in.ao) outputs.push_back(ao_output(m, run.ctx.ao_distance));
   std::optional<ShError> sh;
@@ -293,6 +298,7 @@ void write_report(LightmapBakeRun& run) {
   report.tracer_triangles = run.tracer->triangle_count();
   report.tracer_bytes = run.tracer->memory_bytes();
   report.scene_problems = run.checked.report.total();
+  report.denoise = run.in.denoise ? &run.in.denoise_options : nullptr;
   run.result.outputs.push_back({"report.json", "application/json", "", report_json(run.result, report)});
 }
 

@@ -6,6 +6,7 @@
 //   NAME_irradiance.exr   RGB float32, scene-linear, irradiance E in W·m⁻², dilated by `padding` texels
 //   NAME_validity.exr     1 valid, 0 invalid, before dilation
 //   NAME_error.exr        the estimated relative error per texel
+//   NAME_irradiance_denoised.exr  the irradiance through the denoiser (denoise.h), dilated likewise (on request)
 //   NAME_radiance.exr     ρE/π (on request)        NAME_ao.exr  ambient occlusion (on request)
 //   NAME_sh.exr           order-1 SH of incoming radiance, 4 RGB coefficients as 12 channels (on request)
 //   NAME_preview.png      the irradiance through OpenColorIO's display transform
@@ -22,6 +23,7 @@
 #include "bakers/bake/invalid_input.h"
 #include "bakers/bake/output.h"
 #include "bakers/envmap/env_input.h"
+#include "bakers/lightmap/denoise.h"
 #include "bakers/plan/decision.h"
 #include "bakers/scene/scene.h"
 
@@ -66,6 +68,9 @@ struct LightmapBakeInput {
   bool ao = false;           // NAME_ao.exr
   bool directional = false;  // NAME_sh.exr
   bool preview = true;       // NAME_preview.png
+  bool denoise = false;      // NAME_irradiance_denoised.exr as well (denoise.h); NAME_irradiance.exr is unchanged
+  // The denoiser's settings: benchmarks tune them; a job always has the defaults (so they are not in the cache key).
+  DenoiseOptions denoise_options;
 
   // Benchmarks only, not part of a job (the service never sets it, and it is not in the cache key): receives the
   // rays the transport and the leak probes trace (ray_log.h).

@@ -12,10 +12,6 @@
 namespace kiln::lightmap {
 namespace {
 
-constexpr const char* kUvConvention =
-    "u right, v down: row 0 (the first row stored) is v = 0, as in glTF; texel (x, y) centre at "
-    "((x + 0.5)/W, (y + 0.5)/H)";
-
 // Doubles beyond the float range would become infinities in the file.
 float to_float(double v) {
   constexpr double kMax = std::numeric_limits<float>::max();
@@ -145,7 +141,7 @@ std::vector<bake::BakeOutput> encode_lightmap(const LightmapImage& lm, const Lig
     img.metadata["kiln:colorspace"] = space;
     img.metadata["kiln:lightmap"] = lm.name();
     img.metadata["kiln:resolution"] = std::to_string(lm.width()) + "x" + std::to_string(lm.height());
-    img.metadata["kiln:uv_convention"] = kUvConvention;
+    img.metadata["kiln:uv_convention"] = kLightmapUvConvention;
   };
 
   image::FloatImage irradiance = lm.irradiance_image(options.padding);

@@ -22,6 +22,11 @@
 
 namespace kiln::lightmap {
 
+// The kiln:uv_convention of every lightmap image.
+inline constexpr const char* kLightmapUvConvention =
+    "u right, v down: row 0 (the first row stored) is v = 0, as in glTF; texel (x, y) centre at "
+    "((x + 0.5)/W, (y + 0.5)/H)";
+
 // The standard error of the mean of n values from their sum and the sum of their squares: √(s²/n) with the sample
 // variance s² = (Σ y² − n ȳ²)/(n − 1); needs n ≥ 2. Shared by the irradiance and the SH error estimates.
 double standard_error_of_mean(double sum, double sum_sq, uint32_t n);

@@ -10,6 +10,8 @@
 #include "bakers/image/display_png.h"
 #include "bakers/image/exr.h"
 #include "bakers/image/png.h"
+#include "bakers/lightmap/dilate.h"
+#include "bakers/lightmap/texel_guides.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/sampling.h"
 
@@ -104,6 +106,33 @@ std::string preview_png(const image::FloatImage& irradiance, const std::vector<u
 }
 
 }  // namespace
+
+bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& scene, const DenoiseOptions& options,
+                                 int padding, const std::string& color_space) {
+  const LightmapImage& img = m.image;
+  std::vector<Rgb> mean(img.texel_count());
+  std::vector<double> variance(img.texel_count(), 0.0);
+  for (size_t t = 0; t < img.texel_count(); ++t) {
+    if (!img.valid(t)) continue;
+    mean[t] = img.mean(t);
+    const double standard_error = img.relative_error(t) * luminance(mean[t]);  // NaN or ∞ below 2 estimates
+    variance[t] = standard_error * standard_error;
+  }
+  const DenoiseResult d = denoise(mean, variance, texel_guides(m, scene), options);
+  constexpr double kMax = std::numeric_limits<float>::max();  // beyond it, an infinity in the file
+  image::FloatImage out = texel_image(img, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
+    for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(std::clamp(d.colour[t][c], -kMax, kMax));
+  });
+  dilate(out, img.validity(), padding);
+  out.metadata["kiln:content"] = "irradiance, denoised by an " + describe(options);
+  out.metadata["kiln:units"] = "W/m^2";
+  out.metadata["kiln:colorspace"] = color_space;
+  out.metadata["kiln:lightmap"] = m.name;
+  out.metadata["kiln:resolution"] = std::to_string(img.width()) + "x" + std::to_string(img.height());
+  out.metadata["kiln:uv_convention"] = kLightmapUvConvention;
+  out.metadata["kiln:padding"] = std::to_string(padding);
+  return {m.name + "_irradiance_denoised.exr", "image/x-exr", "scene_linear", image::encode_exr(out)};
+}
 
 bake::BakeOutput radiance_output(const LightmapState& m, const scene::Scene& scene,
                                  const std::vector<ShadingMaterial>& materials, const std::string& color_space) {

@@ -1,17 +1,24 @@
-// The per-lightmap outputs beside the irradiance, validity and error images (lightmap_image.h): the diffuse radiance
-// ρE/π, ambient occlusion, order-1 SH of incoming radiance, and the preview PNG. File names, channels and metadata
-// as listed in lightmap_bake.h.
+// The per-lightmap outputs beside the irradiance, validity and error images (lightmap_image.h): the denoised
+// irradiance, the diffuse radiance ρE/π, ambient occlusion, order-1 SH of incoming radiance, and the preview PNG. File
+// names, channels and metadata as listed in lightmap_bake.h.
 #pragma once
 
 #include <string>
 #include <vector>
 
 #include "bakers/bake/output.h"
+#include "bakers/lightmap/denoise.h"
 #include "bakers/lightmap/integrator.h"
 #include "bakers/lightmap/lightmap_state.h"
 #include "bakers/scene/scene.h"
 
 namespace kiln::lightmap {
+
+// NAME_irradiance_denoised.exr: the irradiance through the denoiser (denoise.h), guided by texel_guides(m, scene)
+// (`scene` the one the texels were rasterized from), each texel's variance (relative_error · luminance of the mean)²;
+// dilated by `padding` texels, with NAME_irradiance.exr's metadata and a kiln:content naming the filter.
+bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& scene, const DenoiseOptions& options,
+                                 int padding, const std::string& color_space);
 
 // NAME_radiance.exr: the irradiance times the texel's diffuse reflectance, over π.
 bake::BakeOutput radiance_output(const LightmapState& m, const scene::Scene& scene,

@@ -54,6 +54,18 @@ Json tracer_json(const LightmapReport& report) {
           {"bytes_per_triangle", per_triangle}};
 }
 
+Json denoise_json(const LightmapReport& report) {
+  if (!report.denoise) return {{"denoised", false}};
+  const DenoiseOptions& o = *report.denoise;
+  return {{"denoised", true},
+          {"filter", describe(o)},
+          {"levels", o.levels},
+          {"sigma_luminance", o.sigma_luminance},
+          {"sigma_normal", o.sigma_normal},
+          {"sigma_position", o.sigma_position},
+          {"seconds", report.denoise_seconds}};
+}
+
 }  // namespace
 
 std::string report_json(const LightmapBakeResult& result, const LightmapReport& report) {
@@ -76,6 +88,7 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["curve"] = curve_json(result.curve);
   j["lightmaps"] = Json::array();
   for (const LightmapReportEntry& m : report.lightmaps) j["lightmaps"].push_back(lightmap_json(m));
+  j["denoise"] = denoise_json(report);
   j["tracer"] = tracer_json(report);
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.

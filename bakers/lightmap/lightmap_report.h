@@ -1,5 +1,6 @@
 // report.json of the lightmap bake: the plan, the samples and rays, the time, the error estimate and its curve over
-// the passes, per lightmap its texels, error, leaks and memory, the tracer's size and the scene's problems.
+// the passes, per lightmap its texels, error, leaks and memory, whether it was denoised and how, the tracer's size and
+// the scene's problems.
 #pragma once
 
 #include <cstddef>
@@ -8,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "bakers/lightmap/denoise.h"
 #include "bakers/lightmap/leaks.h"
 #include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/lightmap/lightmap_image.h"
@@ -37,6 +39,8 @@ struct LightmapReport {
   size_t tracer_triangles = 0;
   size_t tracer_bytes = 0;
   int64_t scene_problems = 0;  // all of them; result.skipped lists the ones that are listed
+  const DenoiseOptions* denoise = nullptr;  // the denoiser's settings when NAME_irradiance_denoised.exr was asked for
+  double denoise_seconds = 0;               // its guides and filter, over every lightmap
 };
 
 // The JSON text, ending in a newline.

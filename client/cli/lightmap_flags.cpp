@@ -18,9 +18,9 @@ lightmap UVs from TEXCOORD_1, else TEXCOORD_0; instances; metallic-roughness mat
 textures; emissive materials as area lights; KHR_lights_punctual), uploads its meshes, textures and environment (a
 blob the server already holds is not sent again), submits the job, waits with a progress display and writes every
 output into DIR: NAME_irradiance.exr (irradiance E in W/m^2), NAME_validity.exr, NAME_error.exr, NAME_preview.png for
-each lightmap NAME (a mesh's name), on request NAME_radiance.exr, NAME_ao.exr, NAME_sh.exr, and report.json (plan,
-samples, rays, time, error estimate, error-versus-time curve). What the importer dropped or approximated is printed.
-Ctrl-C cancels the job on the server (a second Ctrl-C leaves it running).
+each lightmap NAME (a mesh's name), on request NAME_irradiance_denoised.exr, NAME_radiance.exr, NAME_ao.exr,
+NAME_sh.exr, and report.json (plan, samples, rays, time, error estimate, error-versus-time curve). What the importer
+dropped or approximated is printed. Ctrl-C cancels the job on the server (a second Ctrl-C leaves it running).
 
 the environment (at most one; none: black):
   --env IMAGE                  an equirectangular (2:1) OpenEXR, Radiance HDR, PNG or JPEG file
@@ -38,6 +38,9 @@ the bake:
   --radiance                   also write NAME_radiance.exr (rho E / pi)
   --ao                         also write NAME_ao.exr (ambient occlusion)
   --directional                also write NAME_sh.exr (order-1 SH of incoming radiance)
+  --denoise                    also write NAME_irradiance_denoised.exr: the irradiance through an edge-aware filter
+                               guided by normals, positions, charts and each texel's estimated error (biased; the raw
+                               NAME_irradiance.exr is written as always)
   --no-preview                 do not render NAME_preview.png
   --job FILE.textproto         a kiln.v1.LightmapJob in protobuf text format merged over the imported scene: its
                                material_overrides (any material by name, with any model of the BRDF library), lights
@@ -61,7 +64,7 @@ std::string default_name(const Flags& f, const std::string& scene) {
   std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
   if (auto v = f.get("--env")) name += " env=" + std::filesystem::path(*v).filename().string();
   name += given_flag_words(f, kJobFlags);
-  for (const char* flag : {"--radiance", "--ao", "--directional", "--no-preview"}) {
+  for (const char* flag : {"--radiance", "--ao", "--directional", "--denoise", "--no-preview"}) {
     if (f.has(flag)) name += " " + std::string(flag + 2);
   }
   if (auto v = f.get("--job")) name += " job=" + std::filesystem::path(*v).filename().string();
@@ -139,7 +142,7 @@ void set_environment(const Flags& f, LightmapBake& bake) {
 
 std::vector<FlagSpec> bake_lightmap_flag_specs() {
   return bake_flag_specs({"--name", "--out", "--priority", "--idempotency-key", "--env", "--job"}, kJobFlags,
-                         {"--radiance", "--ao", "--directional", "--no-preview", "--wait"});
+                         {"--radiance", "--ao", "--directional", "--denoise", "--no-preview", "--wait"});
 }
 
 LightmapBake lightmap_bake_from_flags(const std::vector<std::string>& args) {
@@ -169,6 +172,7 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
   if (f.has("--radiance")) job->set_radiance(true);
   if (f.has("--ao")) job->set_ao(true);
   if (f.has("--directional")) job->set_directional(true);
+  if (f.has("--denoise")) job->set_denoise(true);
   if (f.has("--no-preview")) job->set_preview(false);
 
   v1::Quality* q = bake.spec.mutable_quality();
@@ -199,6 +203,7 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
   if (flags.radiance()) merged.set_radiance(true);
   if (flags.ao()) merged.set_ao(true);
   if (flags.directional()) merged.set_directional(true);
+  if (flags.denoise()) merged.set_denoise(true);
   if (flags.has_preview()) merged.set_preview(flags.preview());
   *bake.spec.mutable_lightmap() = std::move(merged);
 }
@@ -214,6 +219,7 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
       {"radiance", "--radiance"},
       {"ao", "--ao"},
       {"directional", "--directional"},
+      {"denoise", "--denoise"},
       {"preview", "--no-preview"},
       {"environment.constant", "--env-constant"},
       {"environment.rotation_degrees", "--env-rotation"},

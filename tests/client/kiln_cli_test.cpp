@@ -1358,6 +1358,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
                                                                         "--time-limit",
                                                                         "20",
                                                                         "--ao",
+                                                                        "--denoise",
                                                                         "--no-preview",
                                                                         "--force",
                                                                         "environment_sampling=on"});
@@ -1377,6 +1378,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   EXPECT_EQ(j.resolution(), 32u);  // the flag over the job file
   EXPECT_EQ(j.padding(), 2u);      // the job file where no flag is given
   EXPECT_TRUE(j.ao());
+  EXPECT_TRUE(j.denoise());
   EXPECT_FALSE(j.preview());
   EXPECT_EQ(j.environment().constant().g(), 0.5);
   EXPECT_EQ(j.environment().intensity(), 2);
@@ -1385,10 +1387,12 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   EXPECT_TRUE(bake.spec.force_effects().at("environment_sampling"));
   const daemon::BakeRequest r = daemon::translate(bake.spec);
   EXPECT_EQ(r.lightmap().resolution, 32);
+  EXPECT_TRUE(r.lightmap().denoise);
   EXPECT_EQ(r.lightmap().scene.materials[0].bsdf.specular.alpha_x, 0.2);
   EXPECT_EQ(r.lightmap().scene.lights[1].type, scene::LightShape::directional);
 
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.resolution"), "--resolution");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.denoise"), "--denoise");
   EXPECT_EQ(lightmap_field_origin(bake, "job.quality.target_error"), "--target-error");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.environment.intensity"), "--env-intensity");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.meshes[0].geometry"), "scene.gltf");

@@ -111,6 +111,7 @@ v1::JobSpec full_job() {
   j->set_ao(true);
   j->set_directional(true);
   j->set_preview(false);
+  j->set_denoise(true);
   spec.mutable_quality()->set_samples(256);
   spec.mutable_quality()->set_target_error(0.05);
   spec.mutable_quality()->set_time_limit_seconds(30);
@@ -175,7 +176,7 @@ TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   EXPECT_EQ(in.resolutions.at("atlas"), 64);
   EXPECT_EQ(in.padding, 2);
   EXPECT_EQ(in.max_bounces, 5);
-  EXPECT_TRUE(in.radiance && in.ao && in.directional);
+  EXPECT_TRUE(in.radiance && in.ao && in.directional && in.denoise);
   EXPECT_FALSE(in.preview);
   EXPECT_EQ(in.max_samples, 256u);
   EXPECT_EQ(in.min_samples, 16u);
@@ -459,6 +460,7 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
       [](v1::JobSpec& s) { s.mutable_quality()->set_seed(8); },
       [](v1::JobSpec& s) { s.mutable_quality()->set_target_error(0.04); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_ao(false); },
+      [](v1::JobSpec& s) { s.mutable_lightmap()->set_denoise(false); },  // a raw job shares no entry with it
       [](v1::JobSpec& s) { *s.mutable_lightmap()->mutable_meshes(1)->mutable_geometry() = digest('f'); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_lights(0)->mutable_color()->set_r(11); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_materials(1)->mutable_emission()->set_g(13); },

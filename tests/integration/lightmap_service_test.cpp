@@ -1,7 +1,8 @@
 // The lightmap job end to end against the real kilnd: `kiln bake lightmap` on the project's generated Cornell box
 // (small and fast: 16² texels per lightmap, target error 0.1) writes valid outputs; the same submit again is a cache
-// hit with the same output digests; a corrupt mesh blob fails the job naming the mesh's field, a bad field is
-// refused at submit naming its path, and the daemon goes on serving.
+// hit with the same output digests, and with --denoise another job that adds the denoised lightmaps; a corrupt mesh
+// blob fails the job naming the mesh's field, a bad field is refused at submit naming its path, and the daemon goes
+// on serving.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -123,6 +124,22 @@ TEST(LightmapService, KilnBakeLightmapWritesValidOutputsAndTheSecondRunIsACacheH
     EXPECT_FALSE(a.outputs(i).description().empty()) << a.outputs(i).name();
   }
   EXPECT_EQ(read(out / "floor_irradiance.exr"), read(again / "floor_irradiance.exr"));
+
+  // --denoise reaches the baker as another job (no cache hit on the raw one): the same raw lightmaps, and a denoised
+  // one beside each, which the job without the flag did not write.
+  const fs::path denoised = d.dir() / "denoised";
+  const CliRun third = kiln(d, args + denoised.string() + " --denoise");
+  ASSERT_EQ(third.status, 0) << third.said;
+  EXPECT_EQ(third.said.find("cache hit"), std::string::npos) << third.said;
+  for (const char* name : {"floor", "tall_block", "light"}) {
+    const std::string n = name;
+    EXPECT_FALSE(fs::exists(out / (n + "_irradiance_denoised.exr"))) << n;
+    EXPECT_EQ(read(denoised / (n + "_irradiance.exr")), read(out / (n + "_irradiance.exr"))) << n;
+    const image::FloatImage d_img = image::decode_exr(read(denoised / (n + "_irradiance_denoised.exr")));
+    EXPECT_EQ(d_img.width, 16) << n;
+    for (float v : d_img.pixels) ASSERT_TRUE(std::isfinite(v) && v >= 0) << n << ": " << v;
+  }
+  EXPECT_NE(read(denoised / "report.json").find("\"denoised\": true"), std::string::npos);
 }
 #endif
 

@@ -104,7 +104,7 @@ class LightmapJobKeywords(unittest.TestCase):
                     {"name": "panel", "rect": {"center": (0, 3, 0), "u": (1, 0, 0), "v": (0, 0, 1)}}],
             environment={"image": sky, "rotation_degrees": 90, "intensity": 2},
             material_overrides=[{"name": "oak", "base_color": 0.25}],
-            lightmaps={"floor": 64}, resolution=32, padding=2, max_bounces=4, ao=True, preview=False,
+            lightmaps={"floor": 64}, resolution=32, padding=2, max_bounces=4, ao=True, preview=False, denoise=True,
             name="keywords", samples=256, target_error=0.05, seed=9, force_effects={"textures": False})
         j = job.lightmap
         self.assertEqual([m.name for m in j.meshes], ["floor", "wall"])
@@ -130,6 +130,7 @@ class LightmapJobKeywords(unittest.TestCase):
         self.assertEqual((j.lightmaps[0].name, j.lightmaps[0].resolution), ("floor", 64))
         self.assertEqual((j.resolution, j.padding, j.max_bounces, j.ao), (32, 2, 4, True))
         self.assertTrue(j.HasField("preview") and not j.preview)
+        self.assertTrue(j.denoise)
         self.assertEqual((job.quality.samples, job.quality.seed), (256, 9))
         self.assertEqual(dict(job.force_effects), {"textures": False})
 
@@ -228,6 +229,17 @@ class LightmapAgainstKilnd(unittest.TestCase):
         self.assertTrue(again.cache_hit)
         self.assertEqual({o.name: o.digest.sha256 for o in self.c.result(again.job_id).outputs},
                          {o.name: o.digest.sha256 for o in result.outputs})
+
+        # Asking for the denoised lightmap is another job, which adds it to the same outputs.
+        denoised = kiln.lightmap_job([floor], environment=sky, resolution=n, padding=0, target_error=0.01, seed=1,
+                                     denoise=True, name="python furnace, denoised")
+        reply = self.c.submit(denoised)
+        self.assertFalse(reply.cache_hit)
+        self.assertEqual(self.c.watch(reply.job_id).state, pb.JOB_STATE_SUCCEEDED)
+        outputs = {o.name: o.digest.sha256 for o in self.c.result(reply.job_id).outputs}
+        self.assertEqual(set(outputs) - {o.name for o in result.outputs}, {"floor_irradiance_denoised.exr"})
+        self.assertEqual(outputs["floor_irradiance.exr"],
+                         {o.name: o.digest.sha256 for o in result.outputs}["floor_irradiance.exr"])
 
     def test_floor_under_a_point_light_has_i_cos_over_r_squared(self):
         # A point light of intensity I at height H over the floor's centre, nothing else: at distance ρ from its
