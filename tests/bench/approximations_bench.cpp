@@ -35,6 +35,7 @@
 #include "bakers/math/constants.h"
 #include "bakers/math/rng.h"
 #include "bakers/math/sampling.h"
+#include "tests/bench/table_file.h"
 
 namespace kiln::brdf {
 namespace {
@@ -633,14 +634,5 @@ int main(int argc, char** argv) {
   for (Pair& p : pairs) measure(p);
   const std::string t = table(pairs, command);
   std::printf("\n%s", t.c_str());
-  if (!table_out.empty()) {
-    if (FILE* f = std::fopen(table_out.c_str(), "w")) {
-      std::fputs(t.c_str(), f);
-      std::fclose(f);
-    } else {
-      std::fprintf(stderr, "cannot write %s\n", table_out.c_str());
-      return 1;
-    }
-  }
-  return 0;
+  return kiln::bench::write_table_file(t, table_out);
 }

@@ -40,6 +40,7 @@
 #include "bakers/lightmap/texel_guides.h"
 #include "bakers/math/rng.h"
 #include "tests/support/test_scenes.h"
+#include "tests/bench/table_file.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -306,11 +307,5 @@ int main(int argc, char** argv) {
   line("");
   line("Command: " + command + " (" + std::to_string(tbb::this_task_arena::max_concurrency()) + " TBB threads)");
   std::fputs(table.c_str(), stdout);
-  if (!table_out.empty()) {
-    if (FILE* f = std::fopen(table_out.c_str(), "w")) {
-      std::fputs(table.c_str(), f);
-      std::fclose(f);
-    }
-  }
-  return 0;
+  return kiln::bench::write_table_file(table, table_out);
 }

@@ -32,6 +32,7 @@
 #include "bakers/envmap/prefilter.h"
 #include "bakers/envmap/sun.h"
 #include "bakers/math/constants.h"
+#include "tests/bench/table_file.h"
 
 namespace kiln::envmap {
 namespace {
@@ -221,14 +222,5 @@ int main(int argc, char** argv) {
        "Command: `" +
        command + "`\n";
   std::printf("\n%s", t.c_str());
-  if (!table_out.empty()) {
-    if (FILE* f = std::fopen(table_out.c_str(), "w")) {
-      std::fputs(t.c_str(), f);
-      std::fclose(f);
-    } else {
-      std::fprintf(stderr, "cannot write %s\n", table_out.c_str());
-      return 1;
-    }
-  }
-  return 0;
+  return kiln::bench::write_table_file(t, table_out);
 }

@@ -64,6 +64,7 @@
 #include "bakers/scene/scene_check.h"
 #include "bakers/scene/tracer.h"
 #include "tests/support/test_scenes.h"
+#include "tests/bench/table_file.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -419,14 +420,5 @@ int main(int argc, char** argv) {
   line("");
   line("Command: " + command + " (" + std::to_string(tbb::this_task_arena::max_concurrency()) + " TBB threads)");
   std::fputs(table.c_str(), stdout);
-  if (!table_out.empty()) {
-    if (FILE* f = std::fopen(table_out.c_str(), "w")) {
-      std::fputs(table.c_str(), f);
-      std::fclose(f);
-    } else {
-      std::fprintf(stderr, "cannot write %s\n", table_out.c_str());
-      return 1;
-    }
-  }
-  return 0;
+  return kiln::bench::write_table_file(table, table_out);
 }
