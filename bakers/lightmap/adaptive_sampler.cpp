@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "bakers/lightmap/path_sampler.h"
 #include "bakers/lightmap/texel_neighbourhood.h"
 #include "bakers/math/rng.h"
 
@@ -28,21 +29,19 @@ uint64_t mix(uint64_t a, uint64_t b) {
 
 // What one work item's estimates add to a texel, accumulated by its worker alone and then merged (merge()).
 struct Partial {
-  Rgb sum;                        // of the accepted irradiance estimates
-  double sum_y2 = 0;              // of their luminances squared
-  uint32_t count = 0, tried = 0;  // accepted; tried (accepted or dropped)
+  Rgb sum;               // of the accepted irradiance estimates
+  ReplicaSums replicas;  // their luminances and counts per replica
+  uint32_t tried = 0;    // accepted or dropped
   Rgb ao;
   std::array<Rgb, 4> sh{};
   std::array<double, 4> sh_y2{};
 
-  // One accepted estimate: irradiance E, AO, and (`directional`) the SH coefficients summed with total sample weight
-  // `weight`.
-  void add(const Rgb& E, const Rgb& ao_estimate, const std::array<Rgb, 4>& sh_weighted, double weight,
+  // One accepted estimate of replica `replica`: irradiance E, AO, and (`directional`) the SH coefficients summed
+  // with total sample weight `weight`.
+  void add(int replica, const Rgb& E, const Rgb& ao_estimate, const std::array<Rgb, 4>& sh_weighted, double weight,
            bool directional) {
     sum += E;
-    const double y = luminance(E);
-    sum_y2 += y * y;
-    ++count;
+    replicas.add(replica, luminance(E));
     ao += ao_estimate;
     if (!directional) return;
     for (int c = 0; c < 4; ++c) {
@@ -56,7 +55,7 @@ struct Partial {
 
 void merge(LightmapState& m, size_t t, const Partial& p) {
   m.attempts[t] += p.tried;
-  m.image.merge(t, p.sum, p.sum_y2, p.count);
+  m.image.merge(t, p.sum, p.replicas);
   if (!m.ao_sum.empty()) m.ao_sum[t] += p.ao;
   if (!m.sh_sum.empty()) {
     for (int c = 0; c < 4; ++c) {
@@ -68,10 +67,10 @@ void merge(LightmapState& m, size_t t, const Partial& p) {
 
 // ---- Scheduling ----
 
-// The relative variance of one estimate, v = n·(relative standard error)², per texel (−1: none). Empty unless some
-// texel of the lightmap has its min_samples: budget-bound bakes (min_samples = max_samples) never need it, and it is
-// O(texels) per pass.
-std::vector<double> relative_variances(const LightmapState& m, const SamplingOptions& o) {
+// The variance of one estimate relative to the metric's luminance, v = n·error², per texel (−1: none). Empty unless
+// some texel of the lightmap has its min_samples: budget-bound bakes (min_samples = max_samples) never need it, and it
+// is O(texels) per pass.
+std::vector<double> error_variances(const LightmapState& m, const SamplingOptions& o) {
   const LightmapImage& img = m.image;
   bool any_adaptive = false;
   for (size_t t = 0; t < img.texel_count() && !any_adaptive; ++t) {
@@ -80,10 +79,11 @@ std::vector<double> relative_variances(const LightmapState& m, const SamplingOpt
   std::vector<double> v;
   if (!any_adaptive) return v;
   v.assign(img.texel_count(), -1);
+  const double brightness = o.metric == ErrorMetric::lightmap ? img.brightness() : 0.0;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, img.texel_count(), 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) {
-      if (img.valid(t) && img.count(t) >= 2) {
-        const double e = img.relative_error(t);
+      if (img.valid(t) && img.count(t) >= kReplicas) {
+        const double e = img.error(t, o.metric, brightness);
         v[t] = std::isfinite(e) ? e * e * img.count(t) : -1;
       }
     }
@@ -107,7 +107,7 @@ double pooled_goal(const std::vector<double>& v, int x, int y, int w, int h, dou
 
 // The estimates texel (x, y) gets this pass; 0 when it has enough.
 uint64_t texel_batch(const LightmapState& m, const std::vector<double>& v, int x, int y, const SamplingOptions& o,
-                     double rare_event_samples) {
+                     double rare_event_paths) {
   const LightmapImage& img = m.image;
   const int w = img.width(), h = img.height();
   const size_t t = static_cast<size_t>(y) * w + x;
@@ -118,23 +118,29 @@ uint64_t texel_batch(const LightmapState& m, const std::vector<double>& v, int x
   if (tried >= o.max_samples) return 0;
   const uint64_t n = img.count(t);
   double goal = static_cast<double>(o.min_samples);
-  if (n >= o.min_samples) goal = std::max(pooled_goal(v, x, y, w, h, o.target_error), rare_event_samples);
+  if (n >= o.min_samples) {
+    // Every estimate traces one path per sample point of the texel.
+    const double paths_per_estimate = static_cast<double>(std::max<size_t>(1, m.texels.at(t).size()));
+    goal = std::max(pooled_goal(v, x, y, w, h, o.target_error), std::ceil(rare_event_paths / paths_per_estimate));
+  }
   const double want = std::ceil(goal) - static_cast<double>(n);
   if (!(want >= 1)) return 0;
-  const uint64_t growth = std::max<uint64_t>(1, tried / 2);
-  return std::min({static_cast<uint64_t>(std::min(want, 1e12)), growth, o.max_samples - tried});
+  // Whole rounds of the replicas, so that they stay equal in count (and each replica's sequence in whole runs).
+  const auto round_up = [](uint64_t k) { return (k + kReplicas - 1) / kReplicas * kReplicas; };
+  const uint64_t growth = round_up(std::max<uint64_t>(1, tried / 2));
+  return std::min({round_up(static_cast<uint64_t>(std::min(want, 1e12))), growth, o.max_samples - tried});
 }
 
 // One lightmap's batches, row-parallel, concatenated in row order.
-void schedule_lightmap(const LightmapState& m, uint32_t map, const SamplingOptions& o, double rare_event_samples,
+void schedule_lightmap(const LightmapState& m, uint32_t map, const SamplingOptions& o, double rare_event_paths,
                        std::vector<TexelBatch>& out) {
-  const std::vector<double> v = relative_variances(m, o);
+  const std::vector<double> v = error_variances(m, o);
   const int w = m.image.width(), h = m.image.height();
   std::vector<std::vector<TexelBatch>> rows(h);
   tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& ry) {
     for (int y = ry.begin(); y != ry.end(); ++y) {
       for (int x = 0; x < w; ++x) {
-        const uint64_t batch = texel_batch(m, v, x, y, o, rare_event_samples);
+        const uint64_t batch = texel_batch(m, v, x, y, o, rare_event_paths);
         if (batch > 0) rows[y].push_back({map, static_cast<uint32_t>(batch), static_cast<size_t>(y) * w + x});
       }
     }
@@ -159,7 +165,7 @@ std::vector<WorkItem> work_items(const std::vector<TexelBatch>& batches, const s
   std::vector<WorkItem> items;
   partials = 0;
   // Fixed, not from the thread count (the split decides the streams, so the bytes would follow the machine):
-  // enough items for a few dozen cores.
+  // enough items for a few dozen cores. Pieces are whole rounds of the replicas.
   constexpr size_t spread = 1024;
   if (batches.size() >= spread) {
     items.reserve(batches.size());
@@ -170,7 +176,8 @@ std::vector<WorkItem> work_items(const std::vector<TexelBatch>& batches, const s
   }
   const uint64_t pieces = (spread + batches.size() - 1) / batches.size();
   for (const TexelBatch& j : batches) {
-    const uint64_t size = std::max<uint64_t>(1, (j.batch + pieces - 1) / pieces);
+    const uint64_t size =
+        (std::max<uint64_t>(1, (j.batch + pieces - 1) / pieces) + kReplicas - 1) / kReplicas * kReplicas;
     const uint64_t start = maps[j.map].attempts[j.texel];
     for (uint64_t done = 0; done < j.batch; done += size) {
       const auto count = static_cast<uint32_t>(std::min<uint64_t>(size, j.batch - done));
@@ -181,7 +188,8 @@ std::vector<WorkItem> work_items(const std::vector<TexelBatch>& batches, const s
 }
 
 // One estimate of a texel's irradiance (and AO, SH): a path per sample point, each weighted by the point's share of
-// the texel. `bad` when some path's contribution was dropped; the weight covers the paths kept.
+// the texel, each point with its own sequences in replica `replica` (path_sampler.h). `bad` when some path's
+// contribution was dropped; the weight covers the paths kept.
 struct TexelEstimate {
   Rgb E, ao;
   std::array<Rgb, 4> sh{};
@@ -190,12 +198,15 @@ struct TexelEstimate {
 };
 
 TexelEstimate estimate_texel(const LightmapState& m, size_t t, const TransportContext& ctx, bool directional,
-                             Pcg32& rng, PassCounts& counts) {
+                             uint64_t texel_seed, uint64_t estimate, Pcg32& rng, PassCounts& counts) {
   const std::span<const TexelSample> samples = m.texels.at(t);
+  const uint64_t replica = estimate % kReplicas;
+  const auto index = static_cast<uint32_t>(estimate / kReplicas);
   TexelEstimate s;
   for (size_t k = 0; k < samples.size(); ++k) {
     const Receiver& rec = m.receivers[m.texels.first[t] + k];
-    const IrradianceEstimate e = estimate_irradiance(ctx, rec, rng);
+    PathSampler sampler(mix(texel_seed, k * kReplicas + replica), index, rng);
+    const IrradianceEstimate e = estimate_irradiance(ctx, rec, sampler);
     counts.rays += e.rays;
     counts.occlusion_rays += e.occlusion_rays;
     counts.general_vertices += e.general_vertices;
@@ -215,23 +226,26 @@ TexelEstimate estimate_texel(const LightmapState& m, size_t t, const TransportCo
   return s;
 }
 
-// An item's estimates, from its own stream.
+// An item's estimates: quasi-random sequences per texel, sample point and replica; a pseudo-random stream of its own
+// for the deeper path vertices.
 Partial estimate_item(const LightmapState& m, const WorkItem& item, const TransportContext& ctx,
                       const SamplingOptions& o, PassCounts& counts) {
-  Pcg32 rng(mix(mix(o.seed, item.map), mix(item.texel, item.first)));
+  const uint64_t texel_seed = mix(mix(o.seed, item.map), item.texel);
+  Pcg32 rng(mix(texel_seed, item.first));
   Partial p;
   for (uint32_t b = 0; b < item.count; ++b) {
     ++p.tried;
-    const TexelEstimate s = estimate_texel(m, item.texel, ctx, o.directional, rng, counts);
+    const uint64_t estimate = item.first + b;
+    const TexelEstimate s = estimate_texel(m, item.texel, ctx, o.directional, texel_seed, estimate, rng, counts);
     if (s.bad) ++counts.dropped;
     if (!(s.weight > 0)) continue;
     const double inv_weight = 1.0 / s.weight;  // one division for the four channels below
-    const Rgb estimate = s.E * inv_weight;
-    if (!LightmapImage::acceptable(estimate)) {
+    const Rgb irradiance = s.E * inv_weight;
+    if (!LightmapImage::acceptable(irradiance)) {
       ++counts.dropped;
       continue;
     }
-    p.add(estimate, s.ao * inv_weight, s.sh, s.weight, o.directional);
+    p.add(static_cast<int>(estimate % kReplicas), irradiance, s.ao * inv_weight, s.sh, s.weight, o.directional);
   }
   return p;
 }
@@ -257,15 +271,15 @@ struct SharedCounts {
 }  // namespace
 
 std::vector<TexelBatch> schedule_pass(const std::vector<LightmapState>& maps, const SamplingOptions& options) {
-  // Rule of three: n estimates that never met some contribution only say that its probability per path is below
-  // 3/n (95 % confidence). A texel whose estimates barely vary (in the open under a constant sky, or black) would
-  // stop at min_samples while missing anything that only some of its paths find; no texel stops before 3/n ≤
-  // target, i.e. before anything reaching it through more than a fraction `target` of its paths would have shown.
-  // (Texels with real variance need more than this anyway once v > 3·target.)
-  const double rare_event_samples = std::ceil(3.0 / options.target_error);
+  // Rule of three: n paths that never met some contribution only say that its probability per path is below 3/n
+  // (95 % confidence). A texel whose estimates barely vary (in the open under a constant sky, or black) would stop
+  // at min_samples while missing anything that only some of its paths find; no texel stops before its paths (over
+  // all its sample points) number 3/target, i.e. before anything reaching it through more than a fraction `target`
+  // of its paths would have shown. (Texels with real variance need more than this anyway once v > 3·target.)
+  const double rare_event_paths = std::ceil(3.0 / options.target_error);
   std::vector<TexelBatch> batches;
   for (size_t mi = 0; mi < maps.size(); ++mi) {
-    schedule_lightmap(maps[mi], static_cast<uint32_t>(mi), options, rare_event_samples, batches);
+    schedule_lightmap(maps[mi], static_cast<uint32_t>(mi), options, rare_event_paths, batches);
   }
   return batches;
 }

@@ -5,8 +5,10 @@
 // rather than thousands (scheduling and the error summary run between passes, on all texels) and the error curve
 // still has a point per pass.
 //
-// Each estimate draws from a stream seeded by (bake seed, lightmap, texel, index of the estimate's batch piece), so
-// the bytes depend neither on the thread count nor on the order of execution.
+// Each estimate draws its first path vertices from the quasi-random sequences of (bake seed, lightmap, texel, sample
+// point, replica) at its index in the replica (path_sampler.h), and its deeper ones from a stream seeded by (bake
+// seed, lightmap, texel, index of the estimate's batch piece), so the bytes depend neither on the thread count nor
+// on the order of execution. Batches are whole rounds of the replicas.
 #pragma once
 
 #include <chrono>
@@ -14,13 +16,15 @@
 #include <vector>
 
 #include "bakers/bake/control.h"
+#include "bakers/lightmap/error_metric.h"
 #include "bakers/lightmap/integrator.h"
 #include "bakers/lightmap/lightmap_state.h"
 
 namespace kiln::lightmap {
 
 struct SamplingOptions {
-  double target_error = 0.01;   // relative standard error per texel, (0, 1]
+  double target_error = 0.01;  // per texel under `metric`, (0, 1]
+  ErrorMetric metric = ErrorMetric::lightmap;
   uint64_t min_samples = 16;    // per texel before any texel may stop
   uint64_t max_samples = 4096;  // per texel, counting dropped estimates
   uint64_t seed = 1;

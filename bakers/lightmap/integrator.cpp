@@ -4,6 +4,7 @@
 #include <cmath>
 #include <utility>
 
+#include "bakers/lightmap/path_sampler.h"
 #include "bakers/lightmap/ray_log.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/sampling.h"
@@ -36,13 +37,8 @@ double balance(double a, double b) { return a > 0 ? a / (a + b) : 0.0; }
 
 struct Walk {
   const TransportContext& ctx;
-  Pcg32& rng;
+  PathSampler& sampler;
   IrradianceEstimate& out;
-
-  Point2 u2() { return {rng.uniform(), rng.uniform()}; }
-  // For the point on a light: 32 bits per coordinate are ample (Pcg32::uniform32; the light choice and Russian
-  // roulette draw one such number each).
-  Point2 u2_32() { return {rng.uniform32(), rng.uniform32()}; }
 
   // A closest-hit query into `hit` (untouched on a miss); true on a hit.
   bool trace(const scene::Ray& ray, scene::Hit& hit) {
@@ -122,16 +118,16 @@ struct Walk {
     return m.base_color * scene::sample_bilinear(ctx.scene->textures[m.texture], hit.uv);
   }
 
-  // Next-event estimation from surface point `from` with shading normal ns: one light by power, one point on it.
+  // Next-event estimation from surface point `from` (path vertex `vertex`) with shading normal ns: one light by
+  // power, one point on it.
   // `f_cos(wi)` is the reflectance times cos θ for a world direction, `pdf_other(wi)` the density the other strategy
   // would have drawn it with. Returns f·Li·w/p; `radiance` receives Li·w/p for the SH (receiver only).
   template <class F, class Pdf>
-  Rgb next_event(const scene::SurfacePoint& from, const Vec3& ns, F&& f_cos, Pdf&& pdf_other, Rgb* radiance = nullptr,
-                 Vec3* direction = nullptr) {
-    const auto choice = ctx.lights->sample(rng.uniform32());
+  Rgb next_event(int vertex, const scene::SurfacePoint& from, const Vec3& ns, F&& f_cos, Pdf&& pdf_other,
+                 Rgb* radiance = nullptr, Vec3* direction = nullptr) {
+    const auto choice = ctx.lights->sample(sampler.light_choice(vertex));
     if (!choice) return Rgb{};
-    // The point on the light: with a single light the choice spent none of its number, which serves again.
-    const Point2 u = ctx.lights->single() ? Point2{choice->u_remapped, rng.uniform32()} : u2_32();
+    const Point2 u = sampler.light_point(vertex);
     // The emissive triangles directly, inlined, so that their sample stays in registers; the other lights through
     // the interface (whose sample comes back through memory).
     if (choice->index == ctx.emissive_light) {
@@ -203,8 +199,8 @@ struct Walk {
         const Rgb rho = m.texture < 0 ? m.rho : m.lambertian->A + m.lambertian->B * tint(m, hit);
         auto f_cos = [&](const Vec3& w) { return rho * (std::max(0.0, dot(w, ns)) * kInvPi); };
         auto pdf = [&](const Vec3& w) { return std::max(0.0, dot(w, ns)) * kInvPi; };
-        L += beta * next_event(surface, ns, f_cos, pdf);
-        const Vec3 local = sample_cosine_hemisphere(rng);
+        L += beta * next_event(depth, surface, ns, f_cos, pdf);
+        const Vec3 local = sampler.cosine_direction(depth);
         if (!(local.z > 0)) break;  // on the rim of the hemisphere: cos θ = 0 reflects nothing
         wi = frame.from_local(local);
         pdf_wi = local.z * kInvPi;
@@ -218,8 +214,9 @@ struct Walk {
           return m.bsdf->eval(wo_local, wi_local, t) * std::abs(wi_local.z);
         };
         auto pdf = [&](const Vec3& w) { return m.bsdf->pdf(wo_local, frame.to_local(w)); };
-        L += beta * next_event(surface, ns, f_cos, pdf);
-        const std::optional<brdf::BsdfSample> s = m.bsdf->sample(wo_local, u2(), rng.uniform(), t);
+        L += beta * next_event(depth, surface, ns, f_cos, pdf);
+        const std::optional<brdf::BsdfSample> s =
+            m.bsdf->sample(wo_local, sampler.direction(depth), sampler.lobe(depth), t);
         if (!s) break;
         wi = frame.from_local(s->wi);
         pdf_wi = s->pdf;
@@ -236,7 +233,7 @@ struct Walk {
       if (depth + 1 > plan.bounces) break;
       if (plan.russian_roulette && depth >= plan.russian_roulette_depth) {
         const double q = std::max(0.05, 1.0 - beta.max());
-        if (rng.uniform32() < q) break;
+        if (sampler.roulette() < q) break;
         beta = beta * (1.0 / (1.0 - q));  // one division, not one per channel
       }
       wo = -wi;
@@ -308,9 +305,9 @@ std::vector<ShadingMaterial> shading_materials(const scene::Scene& scene, const 
   return out;
 }
 
-IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, Pcg32& rng) {
+IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, PathSampler& sampler) {
   IrradianceEstimate out;
-  Walk walk{ctx, rng, out};
+  Walk walk{ctx, sampler, out};
   const scene::SurfacePoint& surface = r.surface;
   const Frame frame = Frame::from_normal(r.ns);
   auto cosine = [&](const Vec3& wi) { return Rgb{std::max(0.0, dot(wi, r.ns))}; };
@@ -319,12 +316,12 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   // 1. Light sampling.
   Rgb radiance;
   Vec3 direction;
-  Rgb E = ctx.directional ? walk.next_event(surface, r.ns, cosine, cosine_pdf, &radiance, &direction)
-                          : walk.next_event(surface, r.ns, cosine, cosine_pdf);
+  Rgb E = ctx.directional ? walk.next_event(0, surface, r.ns, cosine, cosine_pdf, &radiance, &direction)
+                          : walk.next_event(0, surface, r.ns, cosine, cosine_pdf);
   if (ctx.directional) add_sh(out.sh, direction, radiance);
 
   // 2. Cosine sampling.
-  const Vec3 local = sample_cosine_hemisphere(rng);
+  const Vec3 local = sampler.cosine_direction(0);
   const Vec3 wi = frame.from_local(local);
   if (local.z > 0 && dot(wi, surface.ng) > 0) {
     const double pdf = local.z * kInvPi;

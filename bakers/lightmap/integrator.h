@@ -19,7 +19,6 @@
 
 #include "bakers/brdf/material.h"
 #include "bakers/math/rgb.h"
-#include "bakers/math/rng.h"
 #include "bakers/math/vec3.h"
 #include "bakers/plan/lightmap_plan.h"
 #include "bakers/scene/ray_offset.h"
@@ -32,6 +31,7 @@ class SceneLights;
 
 namespace kiln::lightmap {
 
+class PathSampler;
 class RayLog;
 
 // A scene material as the transport evaluates it, after the plan's substitutions (a specular lobe the planner pruned
@@ -91,7 +91,7 @@ struct IrradianceEstimate {
   bool dropped = false;           // a non-finite contribution was discarded
 };
 
-// One sample of every estimate at `r`, with `rng` supplying the random numbers.
-IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, Pcg32& rng);
+// One sample of every estimate at `r`, with `sampler` supplying the random numbers (path_sampler.h).
+IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, PathSampler& sampler);
 
 }  // namespace kiln::lightmap

@@ -213,6 +213,7 @@ void rasterize_texels(LightmapBakeRun& run) {
 SamplingOptions sampling_options(const LightmapBakeRun& run) {
   SamplingOptions o;
   o.target_error = run.in.target_error;
+  o.metric = run.in.error_metric;
   o.min_samples = run.in.min_samples;
   o.max_samples = run.in.max_samples;
   o.seed = run.in.seed;
@@ -227,8 +228,9 @@ SamplingOptions sampling_options(const LightmapBakeRun& run) {
 // After a pass: the error over every valid texel of every lightmap, a point of the curve and the progress.
 void record_pass(LightmapBakeRun& run, uint64_t pass) {
   std::vector<LightmapImage::ErrorSummary> summaries(run.maps.size());
-  tbb::parallel_for(size_t{0}, run.maps.size(),
-                    [&](size_t mi) { summaries[mi] = run.maps[mi].image.error_summary(run.in.target_error); });
+  tbb::parallel_for(size_t{0}, run.maps.size(), [&](size_t mi) {
+    summaries[mi] = run.maps[mi].image.error_summary(run.in.target_error, 0, run.in.error_metric);
+  });
   double sum_sq = 0;
   size_t estimated = 0, above = 0, valid = 0;
   for (const LightmapImage::ErrorSummary& e : summaries) {
@@ -271,6 +273,7 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
   LightmapOutputOptions options;
   options.padding = in.padding;
   options.color_space = run.color_space;
+  options.metric = in.error_metric;
   for (bake::BakeOutput& o : encode_lightmap(m.image, options)) outputs.push_back(std::move(o));
   if (in.denoise) {
     const Clock::time_point t0 = Clock::now();
@@ -285,13 +288,14 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
     outputs.push_back(sh_output(m, *sh, run.color_space));
   }
   if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space));
-  run.report.lightmaps.push_back({m.name, m.image.width(), m.image.error_summary(in.target_error), sh, m.leaks,
-                                  lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional))});
+  run.report.lightmaps.push_back({m.name, m.image.width(), m.image.error_summary(in.target_error, 0, in.error_metric),
+                                  sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional))});
 }
 
 void write_report(LightmapBakeRun& run) {
   LightmapReport& report = run.report;
   report.target_error = run.in.target_error;
+  report.error_metric = run.in.error_metric;
   report.dropped_samples = run.dropped;
   report.color_space = run.color_space;
   report.plan = &run.plan;

@@ -24,6 +24,7 @@
 #include "bakers/bake/output.h"
 #include "bakers/envmap/env_input.h"
 #include "bakers/lightmap/denoise.h"
+#include "bakers/lightmap/error_metric.h"
 #include "bakers/plan/decision.h"
 #include "bakers/scene/scene.h"
 
@@ -31,7 +32,7 @@ namespace kiln::lightmap {
 
 class RayLog;
 
-inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-4";
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-5";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
 struct EncodedTexture {
@@ -52,9 +53,10 @@ struct LightmapBakeInput {
   std::map<std::string, int> resolutions;  // per lightmap name, overriding `resolution`
   int padding = 4;                         // texels of dilation, [0, 64]
 
-  double target_error = 0.01;     // relative standard error per texel the adaptive sampling aims at
-  uint64_t min_samples = 16;      // per texel before any texel may stop, [1, max_samples]
-  uint64_t max_samples = 4096;    // per texel, [1, 1 << 20]
+  double target_error = 0.01;  // the error per texel, under error_metric, the adaptive sampling aims at
+  ErrorMetric error_metric = ErrorMetric::lightmap;  // what target_error measures (error_metric.h)
+  uint64_t min_samples = 16;                         // per texel before any texel may stop, [1, max_samples]
+  uint64_t max_samples = 4096;                       // per texel, [1, 1 << 20]
   double time_limit_seconds = 0;  // stop after this long (texels not yet reached keep what they have); 0: none
   uint64_t seed = 1;              // the same input and seed give the same bytes
 
@@ -81,7 +83,7 @@ struct LightmapBakeInput {
 struct ErrorPoint {
   double seconds = 0;
   uint64_t samples = 0;
-  double error = 0;  // RMS over valid texels of the estimated relative standard error
+  double error = 0;  // RMS over valid texels of the estimated error under the input's error_metric
 };
 
 struct LightmapBakeResult {

@@ -38,7 +38,7 @@ LightmapImage::LightmapImage(std::string name, int width, int height, std::vecto
                                 std::to_string(validity_.size()));
   }
   sum_.assign(validity_.size(), Rgb{});
-  sum_y2_.assign(validity_.size(), 0.0);
+  replicas_.assign(validity_.size(), ReplicaSums{});
   count_.assign(validity_.size(), 0);
 }
 
@@ -51,42 +51,61 @@ double standard_error_of_mean(double sum, double sum_sq, uint32_t n) {
 
 bool LightmapImage::acceptable(const Rgb& e) { return e.is_finite() && e.min() >= 0; }
 
-bool LightmapImage::add(size_t texel, const Rgb& e) {
+bool LightmapImage::add(size_t texel, const Rgb& e, int replica) {
   if (!valid(texel) || !acceptable(e)) return false;
-  const double y = luminance(e);
-  merge(texel, e, y * y, 1);
+  ReplicaSums one;
+  one.add(replica >= 0 ? replica % kReplicas : static_cast<int>(count_[texel] % kReplicas), luminance(e));
+  merge(texel, e, one);
   return true;
 }
 
-void LightmapImage::merge(size_t texel, const Rgb& sum, double sum_y2, uint32_t count) {
+void LightmapImage::merge(size_t texel, const Rgb& sum, const ReplicaSums& replicas) {
+  const uint64_t count = replicas.count();
   if (!valid(texel) || count == 0) return;
   sum_[texel] += sum;
-  sum_y2_[texel] += sum_y2;
-  count_[texel] += count;
+  replicas_[texel].merge(replicas);
+  count_[texel] += static_cast<uint32_t>(count);
 }
 
 Rgb LightmapImage::mean(size_t texel) const { return count_[texel] > 0 ? sum_[texel] / count_[texel] : Rgb{}; }
 
-double LightmapImage::relative_error(size_t texel, double floor) const {
+double LightmapImage::standard_error(size_t texel) const {
   if (!valid(texel)) return 0;
-  const uint32_t n = count_[texel];
-  if (n < 2) return std::numeric_limits<double>::infinity();
-  const double mean_y = luminance(sum_[texel]) / n;
-  const double standard_error = standard_error_of_mean(luminance(sum_[texel]), sum_y2_[texel], n);
-  const double denominator = std::max(mean_y, floor);
-  // All estimates 0 (non-negative ones with a zero mean): no light reaches the texel, and that is exact.
-  if (!(denominator > 0)) return 0;
-  return standard_error / denominator;
+  return replica_standard_error(replicas_[texel]);
 }
 
-LightmapImage::ErrorSummary LightmapImage::error_summary(double target, double floor) const {
+double LightmapImage::brightness() const {
+  double sum = 0;
+  size_t n = 0;
+  for (size_t t = 0; t < texel_count(); ++t) {
+    if (!valid(t) || count_[t] == 0) continue;
+    sum += luminance(sum_[t]) / count_[t];
+    ++n;
+  }
+  return n > 0 ? sum / n : 0.0;
+}
+
+double LightmapImage::error(size_t texel, ErrorMetric metric, double brightness, double floor) const {
+  if (!valid(texel)) return 0;
+  const double se = standard_error(texel);
+  if (!std::isfinite(se)) return std::numeric_limits<double>::infinity();
+  const double mean_y = luminance(sum_[texel]) / count_[texel];
+  const double denominator = std::max(metric == ErrorMetric::texel ? mean_y : brightness, floor);
+  // Texel metric, all estimates 0 (non-negative ones with a zero mean): no light reaches the texel, and that is
+  // exact. Lightmap metric, a black lightmap: the same for every texel.
+  if (!(denominator > 0)) return 0;
+  return se / denominator;
+}
+
+LightmapImage::ErrorSummary LightmapImage::error_summary(double target, double floor, ErrorMetric metric) const {
   ErrorSummary s;
+  s.brightness = brightness();
   double sum_sq = 0;
   for (size_t t = 0; t < texel_count(); ++t) {
     s.estimates += count_[t];
     if (!valid(t)) continue;
     ++s.valid;
-    const double e = relative_error(t, floor);
+    const double e = error(t, metric, s.brightness, floor);
     if (!std::isfinite(e)) {
       ++s.above_target;
       continue;
@@ -117,10 +136,11 @@ image::FloatImage LightmapImage::validity_image() const {
   return img;
 }
 
-image::FloatImage LightmapImage::error_image(double floor) const {
+image::FloatImage LightmapImage::error_image(double floor, ErrorMetric metric) const {
   image::FloatImage img = blank(*this, 1, {"Y"});
+  const double b = metric == ErrorMetric::lightmap ? brightness() : 0.0;
   for (size_t t = 0; t < texel_count(); ++t) {
-    const double e = relative_error(t, floor);
+    const double e = error(t, metric, b, floor);
     img.pixels[t] = std::isfinite(e) ? to_float(e) : 1.0f;  // no estimate yet: reported as 100 %
   }
   return img;
@@ -151,9 +171,15 @@ std::vector<bake::BakeOutput> encode_lightmap(const LightmapImage& lm, const Lig
   image::FloatImage validity = lm.validity_image();
   common(validity, "validity", "1 valid, 0 invalid (before dilation)", "data");
 
-  image::FloatImage error = lm.error_image(options.error_floor);
-  common(error, "relative error", "standard error of the mean luminance / max(mean luminance, floor)", "data");
+  image::FloatImage error = lm.error_image(options.error_floor, options.metric);
+  common(error, "relative error",
+         options.metric == ErrorMetric::texel
+             ? "standard error of the mean luminance / max(mean luminance, floor)"
+             : "standard error of the mean luminance / max(lightmap brightness, floor)",
+         "data");
   error.metadata["kiln:error_floor"] = bake::format_number(options.error_floor);
+  error.metadata["kiln:error_metric"] = to_string(options.metric);
+  if (options.metric == ErrorMetric::lightmap) error.metadata["kiln:brightness"] = bake::format_number(lm.brightness());
 
   std::vector<bake::BakeOutput> out;
   out.push_back({lm.name() + "_irradiance.exr", "image/x-exr", "scene_linear", image::encode_exr(irradiance)});

@@ -1,13 +1,15 @@
-// One lightmap's estimates as they accumulate: per texel the sum of the irradiance estimates (RGB), the sum of the
-// squares of their luminance and their count, so that the transport can tell where the estimated relative error is
+// One lightmap's estimates as they accumulate: per texel the sum of the irradiance estimates (RGB), their count and
+// their luminance summed per replica (replica_sums.h), so that the transport can tell where the estimated error is
 // still above its target; then resolved into the output images NAME_irradiance.exr (RGB, W·m⁻², dilated),
 // NAME_validity.exr (1 valid, 0 invalid, before dilation) and NAME_error.exr (estimated relative error).
 //
-// The error of a texel: its n estimates X_1..X_n are independent and unbiased (one per pass, each the weighted
-// average over the texel's sample points); with Y = luminance, the sample variance s² = (Σ Y² − n Ȳ²)/(n − 1) and
-// the standard error of the mean s/√n, the relative error is s/√n / max(Ȳ, floor). The floor (≥ 0, in W·m⁻²) keeps
-// nearly black texels from demanding endless samples; with floor 0, a texel whose estimates are all 0 has error 0.
-// A texel with fewer than two estimates has no error estimate (relative_error is +∞; the error image says 1).
+// The error of a texel: its estimates are unbiased (each the weighted average over the texel's sample points of one
+// path per point) and fall into kReplicas independently scrambled replicas; the standard error s of the mean
+// luminance Ȳ comes from the spread of the replica means (replica_sums.h). The error is s over a luminance chosen by
+// the metric (error_metric.h): the lightmap's brightness B (mean luminance of its valid texels) or the texel's own
+// Ȳ, in either case at least `floor` (≥ 0, W·m⁻²), which keeps nearly black texels from demanding endless samples.
+// With floor 0, a texel whose estimates are all 0 has error 0. A texel with an empty replica (fewer than kReplicas
+// estimates) has no error estimate (+∞; the error image says 1).
 //
 // Texel layout and UV convention as in texels.h (row-major, top row first).
 #pragma once
@@ -18,6 +20,8 @@
 
 #include "bakers/bake/output.h"
 #include "bakers/image/exr.h"
+#include "bakers/lightmap/error_metric.h"
+#include "bakers/lightmap/replica_sums.h"
 #include "bakers/math/rgb.h"
 
 namespace kiln::lightmap {
@@ -44,62 +48,72 @@ class LightmapImage {
   bool valid(size_t texel) const { return validity_[texel] != 0; }
   const std::vector<uint8_t>& validity() const { return validity_; }
 
-  // Adds one independent, unbiased estimate of the texel's irradiance (W·m⁻²). An estimate with a NaN, infinite or
-  // negative channel, or for an invalid texel, is refused (returns false): it must never reach a texel, and the
-  // caller counts it for the report. Different texels may be added to from different threads at once; one texel
-  // from one thread at a time.
-  bool add(size_t texel, const Rgb& estimate);
+  // Adds one unbiased estimate of the texel's irradiance (W·m⁻²) to replica `replica` (by default the next in turn,
+  // count mod kReplicas, as the sampler interleaves them). An estimate with a NaN, infinite or negative channel, or
+  // for an invalid texel, is refused (returns false): it must never reach a texel, and the caller counts it for the
+  // report. Different texels may be added to from different threads at once; one texel from one thread at a time.
+  bool add(size_t texel, const Rgb& estimate, int replica = -1);
   // What add() accepts: every channel finite and non-negative.
   static bool acceptable(const Rgb& estimate);
-  // Adds `count` estimates at once, already checked with acceptable(), given by their sum and the sum of the squares
-  // of their luminances (what a worker accumulates on its own before merging). Ignored for an invalid texel.
-  void merge(size_t texel, const Rgb& sum, double sum_y2, uint32_t count);
+  // Adds estimates at once, already checked with acceptable(), given by their sum and their replica sums (what a
+  // worker accumulates on its own before merging). Ignored for an invalid texel.
+  void merge(size_t texel, const Rgb& sum, const ReplicaSums& replicas);
 
   uint32_t count(size_t texel) const { return count_[texel]; }
   // The mean of the estimates; black without any.
   Rgb mean(size_t texel) const;
-  // See the header comment; 0 for invalid texels.
-  double relative_error(size_t texel, double floor = 0) const;
+  // The standard error of the texel's mean luminance (W·m⁻²): 0 for invalid texels, +∞ without an estimate.
+  double standard_error(size_t texel) const;
+  // The mean luminance of the valid texels that have estimates (0 if none): the lightmap metric's denominator.
+  double brightness() const;
+  // The texel's error under `metric` (see the header comment), given the lightmap's brightness; 0 for invalid
+  // texels.
+  double error(size_t texel, ErrorMetric metric, double brightness, double floor = 0) const;
+  // The texel metric's error, s / max(Ȳ, floor).
+  double relative_error(size_t texel, double floor = 0) const { return error(texel, ErrorMetric::texel, 0, floor); }
 
   struct ErrorSummary {
     size_t valid = 0;         // valid texels
-    size_t estimated = 0;     // valid texels with ≥ 2 estimates (the others have no error estimate)
-    double rms = 0;           // root mean square of their relative errors
+    size_t estimated = 0;     // valid texels with an error estimate
+    double rms = 0;           // root mean square of their errors
     double max = 0;           // the largest
     size_t above_target = 0;  // how many are above `target` (plus the valid ones without an estimate)
     uint64_t estimates = 0;   // estimates added over all texels
+    double brightness = 0;    // the lightmap's (brightness())
   };
-  ErrorSummary error_summary(double target, double floor = 0) const;
+  ErrorSummary error_summary(double target, double floor = 0, ErrorMetric metric = ErrorMetric::texel) const;
 
   // The resolved images. Irradiance: the means (invalid texels 0), then dilated by `padding` texels (dilate.h).
   // Validity: 1/0, before dilation. Error: relative_error (invalid 0, unestimated 1). One channel except irradiance.
   // Every value is finite (means beyond the float range are clamped to its largest value).
   image::FloatImage irradiance_image(int padding) const;
   image::FloatImage validity_image() const;
-  image::FloatImage error_image(double floor = 0) const;
+  image::FloatImage error_image(double floor = 0, ErrorMetric metric = ErrorMetric::texel) const;
 
-  // Memory held per texel: sum (3 doubles), luminance square sum (double), count (uint32), validity (byte).
-  static constexpr size_t kBytesPerTexel = 3 * sizeof(double) + sizeof(double) + sizeof(uint32_t) + sizeof(uint8_t);
+  // Memory held per texel: sum (3 doubles), replica sums, count (uint32), validity (byte).
+  static constexpr size_t kBytesPerTexel =
+      3 * sizeof(double) + sizeof(ReplicaSums) + sizeof(uint32_t) + sizeof(uint8_t);
 
  private:
   std::string name_;
   int width_ = 0, height_ = 0;
   std::vector<uint8_t> validity_;
   std::vector<Rgb> sum_;
-  std::vector<double> sum_y2_;
+  std::vector<ReplicaSums> replicas_;
   std::vector<uint32_t> count_;
 };
 
 struct LightmapOutputOptions {
-  int padding = 2;                         // texels of dilation in NAME_irradiance.exr, [0, 64]
-  double error_floor = 0;                  // see LightmapImage; W·m⁻²
-  std::string color_space = "lin_rec709";  // the working space the irradiance is in (recorded in the metadata)
+  int padding = 2;                          // texels of dilation in NAME_irradiance.exr, [0, 64]
+  double error_floor = 0;                   // see LightmapImage; W·m⁻²
+  ErrorMetric metric = ErrorMetric::texel;  // of the error image
+  std::string color_space = "lin_rec709";   // the working space the irradiance is in (recorded in the metadata)
 };
 
 // The three files, named NAME_irradiance.exr, NAME_validity.exr, NAME_error.exr, as 32-bit float EXR (ZIP) with
 // metadata: kiln:content, kiln:units, kiln:colorspace, kiln:lightmap, kiln:resolution ("WxH"), kiln:uv_convention,
-// and kiln:padding / kiln:error_floor where they apply. Throws std::invalid_argument for a padding out of range or a
-// negative or non-finite floor.
+// and kiln:padding / kiln:error_floor / kiln:error_metric / kiln:brightness where they apply. Throws
+// std::invalid_argument for a padding out of range or a negative or non-finite floor.
 std::vector<bake::BakeOutput> encode_lightmap(const LightmapImage& image, const LightmapOutputOptions& options);
 
 }  // namespace kiln::lightmap

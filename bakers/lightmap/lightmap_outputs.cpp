@@ -70,7 +70,8 @@ image::FloatImage texel_image(const LightmapImage& img, int channels, const std:
   return out;
 }
 
-// The estimated relative error of a texel's SH from the spread of its n estimates (luminance throughout): the
+// The estimated relative error of a texel's SH from the spread of its n estimates as if they were independent (an
+// overestimate where the stratified first vertices make them anti-correlated; luminance throughout): the
 // standard error of L00 relative to L00, and that of the L1 vector relative to √3·L00 (the largest |L1| a
 // non-negative radiance has: all of it arriving from one direction), whichever is larger. +∞ below two estimates;
 // 0 for a black texel (all estimates 0).
@@ -115,7 +116,7 @@ bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& sce
   for (size_t t = 0; t < img.texel_count(); ++t) {
     if (!img.valid(t)) continue;
     mean[t] = img.mean(t);
-    const double standard_error = img.relative_error(t) * luminance(mean[t]);  // NaN or ∞ below 2 estimates
+    const double standard_error = img.standard_error(t);  // ∞ while a replica has no estimate
     variance[t] = standard_error * standard_error;
   }
   const DenoiseResult d = denoise(mean, variance, texel_guides(m, scene), options);

@@ -31,6 +31,7 @@ Json lightmap_json(const LightmapReportEntry& m) {
   j["resolution"] = m.resolution;
   j["valid_texels"] = m.error.valid;
   j["samples_per_texel_point"] = m.memory.samples_per_valid_texel;
+  j["brightness"] = m.error.brightness;
   j["error_rms"] = m.error.rms;
   j["error_max"] = m.error.max;
   j["above_target"] = m.error.above_target;
@@ -78,6 +79,7 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["general_bsdf_vertices"] = result.general_vertices;
   j["mrays_per_second"] = result.rays / std::max(result.seconds, 1e-9) / 1e6;
   j["target_error"] = report.target_error;
+  j["error_metric"] = to_string(report.error_metric);
   j["error_estimate"] = result.error_estimate;
   j["dropped_samples"] = report.dropped_samples;
   j["color_space"] = report.color_space;

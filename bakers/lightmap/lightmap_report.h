@@ -32,13 +32,14 @@ struct LightmapReportEntry {
 // What the report says beside the bake's result.
 struct LightmapReport {
   double target_error = 0;
+  ErrorMetric error_metric = ErrorMetric::lightmap;
   uint64_t dropped_samples = 0;
   std::string color_space;
   const plan::LightmapPlan* plan = nullptr;
   std::vector<LightmapReportEntry> lightmaps;
   size_t tracer_triangles = 0;
   size_t tracer_bytes = 0;
-  int64_t scene_problems = 0;  // all of them; result.skipped lists the ones that are listed
+  int64_t scene_problems = 0;               // all of them; result.skipped lists the ones that are listed
   const DenoiseOptions* denoise = nullptr;  // the denoiser's settings when NAME_irradiance_denoised.exr was asked for
   double denoise_seconds = 0;               // its guides and filter, over every lightmap
 };

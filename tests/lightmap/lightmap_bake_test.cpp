@@ -87,7 +87,7 @@ TEST(LightmapBake, ClosedSphereFurnaceGivesLeOverOneMinusRho) {
       for (int x = 0; x < 16; ++x) {
         if (valid.at(x, y, 0) != 1.0f) continue;
         ++checked;
-        const double tolerance = 6 * err.at(x, y, 0) + target / 4 + 1e-6;
+        const double tolerance = test::kEstimatedSigmas * err.at(x, y, 0) + target / 4 + 1e-6;
         EXPECT_NEAR(luminance(E, x, y) / expected, 1.0, tolerance) << "rho " << rho << " texel " << x << "," << y;
       }
     }
@@ -119,7 +119,7 @@ double rect_irradiance(const scene::Light& l, const Vec3& p) {
 // 2a. A plane under a one-sided rectangular light: Lambert's polygon formula at every texel. The baker's texel is the
 // mean over its stratified sample points, the reference a 4 × 4 midpoint average over the texel: they differ by the
 // quadrature error of a smooth field over a texel of 1/8 of the light's height, ≤ 1e-3 relative here. Tolerance:
-// 6 estimated standard errors + that.
+// kEstimatedSigmas estimated standard errors + that.
 TEST(LightmapBake, RectangleLightMatchesLambertsFormula) {
   const scene::Scene s = rect_light_scene(0.0);
   const Baked b = bake(lightmap_input(s, 16, 0.01));
@@ -128,7 +128,8 @@ TEST(LightmapBake, RectangleLightMatchesLambertsFormula) {
     for (int x = 0; x < 16; ++x) {
       const double expected =
           texel_average(16, x, y, 2.0, [&](const Vec3& p) { return rect_irradiance(s.lights[0], p); });
-      EXPECT_NEAR(E.at(x, y, 0), expected, expected * (6 * err.at(x, y, 0) + 1e-3) + 1e-9) << x << "," << y;
+      EXPECT_NEAR(E.at(x, y, 0), expected, expected * (test::kEstimatedSigmas * err.at(x, y, 0) + 1e-3) + 1e-9)
+          << x << "," << y;
     }
   }
 }
@@ -252,7 +253,7 @@ TEST(LightmapBake, TheEstimatedErrorIsHonest) {
 }
 
 // 4. Scale: the same scene at scale 1e-3 and 1e4 (and far from the origin) bakes the same lightmap within noise
-// (6 combined standard errors per texel): ray offsets scale with the scene.
+// (kEstimatedSigmas combined standard errors per texel): ray offsets scale with the scene.
 TEST(LightmapBake, TheSameSceneAtAnyScaleBakesTheSame) {
   const scene::Scene base = rect_light_scene(0.5);
   const Baked reference = bake(lightmap_input(base, 16, 0.02));
@@ -266,7 +267,7 @@ TEST(LightmapBake, TheSameSceneAtAnyScaleBakesTheSame) {
       for (int x = 0; x < 16; ++x) {
         const double a = E0.at(x, y, 0), c = E.at(x, y, 0);
         const double sigma = std::hypot(a * err0.at(x, y, 0), c * err.at(x, y, 0));
-        EXPECT_NEAR(c, a, 6 * sigma + 1e-6 * a) << "scale " << scale << " texel " << x << "," << y;
+        EXPECT_NEAR(c, a, test::kEstimatedSigmas * sigma + 1e-6 * a) << "scale " << scale << " texel " << x << "," << y;
       }
     }
   }
@@ -300,8 +301,8 @@ TEST(LightmapBake, BadGeometryIsSkippedAndNothingIsNaN) {
 }
 
 // 6. The planner: on scenes built for it, the planned bake equals the full simulation within the estimated noise
-// (6 combined standard errors per texel, plus the planner's bias budget of target/4 per pruning) and does less work
-// (measured in rays or shaded vertices, not seconds, so the test does not depend on the machine's load).
+// (kEstimatedSigmas combined standard errors per texel, plus the planner's bias budget of target/4 per pruning) and
+// does less work (measured in rays or shaded vertices, not seconds, so the test does not depend on the machine's load).
 void expect_planned_equals_full(const scene::Scene& s, const std::string& map, double target,
                                 const char* pruned_effect = nullptr) {
   LightmapBakeInput planned_in = lightmap_input(s, 12, target);
@@ -314,7 +315,7 @@ void expect_planned_equals_full(const scene::Scene& s, const std::string& map, d
     for (int x = 0; x < 12; ++x) {
       const double a = luminance(Ef, x, y), c = luminance(Ep, x, y);
       const double sigma = std::hypot(a * ef.at(x, y, 0), c * ep.at(x, y, 0));
-      EXPECT_NEAR(c, a, 6 * sigma + 0.5 * target * a + 1e-9) << map << " texel " << x << "," << y;
+      EXPECT_NEAR(c, a, test::kEstimatedSigmas * sigma + 0.5 * target * a + 1e-9) << map << " texel " << x << "," << y;
     }
   }
   // The work saved: fewer rays for fewer bounces; for a pruned glossy lobe, the same paths (the albedo is kept) with

@@ -43,8 +43,8 @@ int add_facing_quad(scene::Scene& s, const std::string& name, Vec3 c, Vec3 norma
                         4);
 }
 
-// Compares lightmap `map` of a bake with `expected` per valid texel: |E − expected| ≤ 6 σ̂ + rel·expected + abs.
-// Returns the number of texels compared.
+// Compares lightmap `map` of a bake with `expected` per valid texel: |E − expected| ≤ kEstimatedSigmas σ̂ + rel·expected
+// + abs. Returns the number of texels compared.
 int expect_matches(const LightmapBakeResult& r, const std::string& map, const std::vector<double>& expected, double rel,
                    double abs, const std::string& what) {
   const image::FloatImage E = exr_output(r, map + "_irradiance.exr"), err = exr_output(r, map + "_error.exr");
@@ -57,7 +57,7 @@ int expect_matches(const LightmapBakeResult& r, const std::string& map, const st
       for (int c = 0; c < 3; ++c) {
         const double got = E.at(x, y, c);
         EXPECT_TRUE(std::isfinite(got)) << what << " texel " << x << "," << y;
-        EXPECT_NEAR(got, want, 6 * err.at(x, y, 0) * want + rel * want + abs)
+        EXPECT_NEAR(got, want, test::kEstimatedSigmas * err.at(x, y, 0) * want + rel * want + abs)
             << what << " texel " << x << "," << y << " channel " << c;
       }
     }

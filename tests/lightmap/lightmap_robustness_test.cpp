@@ -140,7 +140,7 @@ TEST(LightmapRobustness, MeshesTouchingThemselvesStayFinite) {
         const size_t t = static_cast<size_t>(y) * W + x;
         if (checked[t] != 1.0 || valid.at(x, y, 0) != 1.0f) continue;
         ++n;
-        const double e = E.at(x, y, 0), noise = 6 * err.at(x, y, 0) * e;
+        const double e = E.at(x, y, 0), noise = test::kEstimatedSigmas * err.at(x, y, 0) * e;
         EXPECT_GE(e, lower[t] - noise) << map << " texel " << x << "," << y;
         EXPECT_LE(e, kPi / (1 - 0.5) + noise) << map << " texel " << x << "," << y;
       }
@@ -169,8 +169,8 @@ TEST(LightmapRobustness, MeshesTouchingThemselvesStayFinite) {
 // collinear points) mixed into a valid mesh whose UVs give it texels, under a sky of radiance 1, everything black (no
 // bounce): the degenerate one is reported and left out (its texels invalid, then filled by dilation: finite), the
 // sliver bakes exactly π on its upper side (a zero-variance estimate: 1e-6), and the floor gets π less the
-// projected solid angles of the strip's triangle and the sliver (Lambert's formula). Tolerance: 6 of the texels' own
-// estimated errors and 1e-5 relative.
+// projected solid angles of the strip's triangle and the sliver (Lambert's formula). Tolerance: kEstimatedSigmas of the
+// texels' own estimated errors and 1e-5 relative.
 TEST(LightmapRobustness, SliverAndDegenerateTrianglesBakeWithoutNaN) {
   scene::Scene s;
   s.materials.push_back(lambert_material("black", 0.0));
@@ -234,7 +234,8 @@ TEST(LightmapRobustness, SliverAndDegenerateTrianglesBakeWithoutNaN) {
       const double want = expected[static_cast<size_t>(y) * W + x];
       // The target error (0.02) on top of the estimate's own: a texel that sees the strip in only ~1e-3 of its
       // directions may still meet it in none of its samples, estimate zero variance and stop, off by < 1e-3.
-      EXPECT_NEAR(Ef.at(x, y, 0), want, want * (6 * ef.at(x, y, 0) + 0.02)) << "floor texel " << x << "," << y;
+      EXPECT_NEAR(Ef.at(x, y, 0), want, want * (test::kEstimatedSigmas * ef.at(x, y, 0) + 0.02))
+          << "floor texel " << x << "," << y;
     }
   }
 }
@@ -348,7 +349,8 @@ TEST(LightmapRobustness, BadEnvironmentTexelsAreCountedAndNeverReachAnOutput) {
   EXPECT_NE(test::find_output(r, "report.json").bytes.find(counted), std::string::npos);
   const image::FloatImage E = exr_output(r, "floor_irradiance.exr"), err = exr_output(r, "floor_error.exr");
   for (int y = 0; y < 16; ++y) {
-    for (int x = 0; x < 16; ++x) EXPECT_NEAR(E.at(x, y, 0), kPi, kPi * (6 * err.at(x, y, 0) + 1e-3)) << x << "," << y;
+    for (int x = 0; x < 16; ++x)
+      EXPECT_NEAR(E.at(x, y, 0), kPi, kPi * (test::kEstimatedSigmas * err.at(x, y, 0) + 1e-3)) << x << "," << y;
   }
 }
 
@@ -359,7 +361,7 @@ TEST(LightmapRobustness, BadEnvironmentTexelsAreCountedAndNeverReachAnOutput) {
 // lights.h's rule for light colours ("a colour with a non-finite channel emits nothing, negative channels are 0"):
 // a NaN point light, an infinite spot light, a rect light with a NaN channel and a NaN sun add nothing, so the floor
 // gets exactly what the one good rect light gives (Lambert's formula), no sample is dropped and no output is NaN.
-// Tolerance: 6 of the texels' estimated errors (rect light sampling) and 1e-6 relative.
+// Tolerance: kEstimatedSigmas of the texels' estimated errors (rect light sampling) and 1e-6 relative.
 TEST(LightmapRobustness, NonFiniteLightColoursEmitNothing) {
   scene::Scene s;
   s.materials.push_back(lambert_material("black", 0.0));
@@ -400,7 +402,8 @@ TEST(LightmapRobustness, NonFiniteLightColoursEmitNothing) {
     for (int x = 0; x < 16; ++x) {
       const double want = expected[static_cast<size_t>(y) * 16 + x];
       for (int c = 0; c < 3; ++c) {
-        EXPECT_NEAR(E.at(x, y, c), want, want * (6 * err.at(x, y, 0) + 1e-6) + 1e-9) << x << "," << y << " ch " << c;
+        EXPECT_NEAR(E.at(x, y, c), want, want * (test::kEstimatedSigmas * err.at(x, y, 0) + 1e-6) + 1e-9)
+            << x << "," << y << " ch " << c;
       }
     }
   }
@@ -445,7 +448,8 @@ TEST(LightmapRobustness, NaNEmissionEmitsNothing) {
     for (int x = 0; x < 16; ++x) {
       const double want = expected[static_cast<size_t>(y) * 16 + x];
       if (std::isnan(want)) continue;
-      EXPECT_NEAR(E.at(x, y, 0), want, want * (6 * err.at(x, y, 0) + 1e-6) + 1e-9) << x << "," << y;
+      EXPECT_NEAR(E.at(x, y, 0), want, want * (test::kEstimatedSigmas * err.at(x, y, 0) + 1e-6) + 1e-9)
+          << x << "," << y;
     }
   }
 }

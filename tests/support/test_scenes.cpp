@@ -209,6 +209,7 @@ lightmap::LightmapBakeInput lightmap_input(scene::Scene s, int resolution, doubl
   in.target_error = target_error;
   in.padding = 0;
   in.preview = false;
+  in.error_metric = lightmap::ErrorMetric::texel;
   return in;
 }
 

@@ -55,8 +55,16 @@ std::vector<double> texel_means(const scene::Scene& s, const std::string& name, 
 // conventions: row 0 the zenith, u = ½ looking along −Z).
 std::string equirect_exr(int width, int height, const std::function<Rgb(const Vec3& dir)>& radiance);
 
-// A bake input for tests: no padding (texels are compared as baked), no preview.
+// A bake input for tests: no padding (texels are compared as baked), no preview, and the texel error metric, so that
+// NAME_error.exr holds each texel's standard error relative to its own mean (the tests that compare texels with
+// exact values multiply it back by the texel's value).
 lightmap::LightmapBakeInput lightmap_input(scene::Scene s, int resolution, double target_error);
+
+// How many estimated standard errors a texel may be off in those comparisons. A texel's standard error comes from the
+// spread of its kReplicas = 8 replica means (bakers/lightmap/replica_sums.h): 7 degrees of freedom, so the ratio of
+// its error to the estimate follows Student's t with 7 degrees of freedom, which exceeds 8 in magnitude with
+// probability 9·10⁻⁵ (6 would be exceeded at 5·10⁻⁴ per texel: about one texel in a few hundred-texel test).
+inline constexpr double kEstimatedSigmas = 8;
 
 // The output named `name` (throws std::runtime_error naming it when absent), and the same decoded as an EXR.
 const bake::BakeOutput& find_output(const lightmap::LightmapBakeResult& result, const std::string& name);
