@@ -414,7 +414,20 @@ void check_texels(const std::set<std::string>& lightmap_names, const lightmap::L
   }
 }
 
-// Padding, bounces and which outputs to write.
+lightmap::ErrorMetric error_metric(kiln::v1::LightmapErrorMetric m) {
+  switch (m) {
+    case kiln::v1::LIGHTMAP_ERROR_METRIC_DEFAULT:
+    case kiln::v1::LIGHTMAP_ERROR_METRIC_LIGHTMAP:
+      return lightmap::ErrorMetric::lightmap;
+    case kiln::v1::LIGHTMAP_ERROR_METRIC_TEXEL:
+      return lightmap::ErrorMetric::texel;
+    default:
+      throw InvalidField(kPath + ".error_metric", "unknown error metric " + std::to_string(static_cast<int>(m)) +
+                                                      ": LIGHTMAP_ERROR_METRIC_LIGHTMAP (1) or _TEXEL (2)");
+  }
+}
+
+// Padding, bounces, which outputs to write and what the target error measures.
 void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& in) {
   set_count(j.has_padding(), j.padding(), kPath + ".padding", bounds::kLightmapPadding, in.padding);
   set_count(j.has_max_bounces(), j.max_bounces(), kPath + ".max_bounces", bounds::kMaxBounces, in.max_bounces);
@@ -423,6 +436,7 @@ void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& 
   in.directional = j.directional();
   in.preview = !j.has_preview() || j.preview();
   in.denoise = j.denoise();
+  in.error_metric = error_metric(j.error_metric());
 }
 
 void lightmap_quality(const kiln::v1::Quality& q, lightmap::LightmapBakeInput& in) {
@@ -477,6 +491,7 @@ std::string scene_hash(const kiln::v1::LightmapJob& j) {
   scene_part.clear_directional();
   scene_part.clear_preview();
   scene_part.clear_denoise();
+  scene_part.clear_error_metric();
   std::string bytes;
   {
     google::protobuf::io::StringOutputStream stream(&bytes);
@@ -541,7 +556,8 @@ std::string lightmap_canonical_text(const BakeRequest& r) {
     << "\nmax_bounces=" << in.max_bounces << "\nforce_effects=";
   for (const auto& [effect, on] : in.force_effects) o << effect << (on ? "+" : "-") << ";";
   o << "\nradiance=" << in.radiance << "\nao=" << in.ao << "\ndirectional=" << in.directional
-    << "\npreview=" << in.preview << "\ndenoise=" << in.denoise << "\n";
+    << "\npreview=" << in.preview << "\ndenoise=" << in.denoise
+    << "\nerror_metric=" << lightmap::to_string(in.error_metric) << "\n";
   return o.str();
 }
 

@@ -29,7 +29,10 @@ the environment (at most one; none: black):
   --env-intensity X            multiply the environment's radiance, (0, 1e6]; default 1
 the bake:
   --resolution N               texels on a side of every lightmap, [4, 8192]; default 256
-  --target-error E             relative standard error per texel the adaptive sampling aims at, (0, 1]; default 0.01
+  --target-error E             the error per texel the adaptive sampling aims at, (0, 1]; default 0.01
+  --error-metric M             what the error is relative to: lightmap (default: the lightmap's brightness, what an
+                               RMSE over the map measures; dark texels take fewer samples) or texel (each texel's own
+                               value: the same relative precision everywhere)
   --max-samples N              most samples per texel, [1, 1048576]; default 4096
   --time-limit S               stop after S seconds (the current pass completes), (0, 604800]; default none
   --seed N                     random seed; the same scene, settings and seed give the same bytes
@@ -58,7 +61,7 @@ namespace {
 
 const char* const kJobFlags[] = {"--env-constant", "--env-rotation", "--env-intensity", "--resolution",
                                  "--target-error", "--max-samples",  "--time-limit",    "--seed",
-                                 "--padding",      "--max-bounces"};
+                                 "--padding",      "--max-bounces",  "--error-metric"};
 
 std::string default_name(const Flags& f, const std::string& scene) {
   std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
@@ -173,6 +176,15 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
   if (f.has("--ao")) job->set_ao(true);
   if (f.has("--directional")) job->set_directional(true);
   if (f.has("--denoise")) job->set_denoise(true);
+  if (auto v = f.get("--error-metric")) {
+    if (*v == "lightmap") {
+      job->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_LIGHTMAP);
+    } else if (*v == "texel") {
+      job->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_TEXEL);
+    } else {
+      throw UsageError("--error-metric: '" + *v + "' is not a metric: lightmap or texel");
+    }
+  }
   if (f.has("--no-preview")) job->set_preview(false);
 
   v1::Quality* q = bake.spec.mutable_quality();
@@ -204,6 +216,7 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
   if (flags.ao()) merged.set_ao(true);
   if (flags.directional()) merged.set_directional(true);
   if (flags.denoise()) merged.set_denoise(true);
+  if (flags.error_metric() != v1::LIGHTMAP_ERROR_METRIC_DEFAULT) merged.set_error_metric(flags.error_metric());
   if (flags.has_preview()) merged.set_preview(flags.preview());
   *bake.spec.mutable_lightmap() = std::move(merged);
 }
@@ -220,6 +233,7 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
       {"ao", "--ao"},
       {"directional", "--directional"},
       {"denoise", "--denoise"},
+      {"error_metric", "--error-metric"},
       {"preview", "--no-preview"},
       {"environment.constant", "--env-constant"},
       {"environment.rotation_degrees", "--env-rotation"},

@@ -1359,6 +1359,8 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
                                                                         "20",
                                                                         "--ao",
                                                                         "--denoise",
+                                                                        "--error-metric",
+                                                                        "texel",
                                                                         "--no-preview",
                                                                         "--force",
                                                                         "environment_sampling=on"});
@@ -1379,6 +1381,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   EXPECT_EQ(j.padding(), 2u);      // the job file where no flag is given
   EXPECT_TRUE(j.ao());
   EXPECT_TRUE(j.denoise());
+  EXPECT_EQ(j.error_metric(), v1::LIGHTMAP_ERROR_METRIC_TEXEL);
   EXPECT_FALSE(j.preview());
   EXPECT_EQ(j.environment().constant().g(), 0.5);
   EXPECT_EQ(j.environment().intensity(), 2);
@@ -1393,6 +1396,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
 
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.resolution"), "--resolution");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.denoise"), "--denoise");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.error_metric"), "--error-metric");
   EXPECT_EQ(lightmap_field_origin(bake, "job.quality.target_error"), "--target-error");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.environment.intensity"), "--env-intensity");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.meshes[0].geometry"), "scene.gltf");

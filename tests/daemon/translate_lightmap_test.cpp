@@ -112,6 +112,7 @@ v1::JobSpec full_job() {
   j->set_directional(true);
   j->set_preview(false);
   j->set_denoise(true);
+  j->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_TEXEL);
   spec.mutable_quality()->set_samples(256);
   spec.mutable_quality()->set_target_error(0.05);
   spec.mutable_quality()->set_time_limit_seconds(30);
@@ -177,6 +178,7 @@ TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   EXPECT_EQ(in.padding, 2);
   EXPECT_EQ(in.max_bounces, 5);
   EXPECT_TRUE(in.radiance && in.ao && in.directional && in.denoise);
+  EXPECT_EQ(in.error_metric, lightmap::ErrorMetric::texel);
   EXPECT_FALSE(in.preview);
   EXPECT_EQ(in.max_samples, 256u);
   EXPECT_EQ(in.min_samples, 16u);
@@ -225,6 +227,7 @@ TEST(TranslateLightmap, DefaultsAreTheDocumentedOnes) {
   EXPECT_EQ(in.max_bounces, 64);
   EXPECT_EQ(in.max_samples, 4096u);
   EXPECT_EQ(in.target_error, 0.01);
+  EXPECT_EQ(in.error_metric, lightmap::ErrorMetric::lightmap);
   EXPECT_TRUE(in.preview);
 }
 
@@ -328,6 +331,8 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
       {"job.quality.target_error", [&](v1::JobSpec& s) { s.mutable_quality()->set_target_error(0); }},
       {"job.quality.time_limit_seconds", [&](v1::JobSpec& s) { s.mutable_quality()->set_time_limit_seconds(-1); }},
       {"job.force_effects[warp_drive]", [&](v1::JobSpec& s) { (*s.mutable_force_effects())["warp_drive"] = true; }},
+      {"job.lightmap.error_metric",
+       [&](v1::JobSpec& s) { lm(s)->set_error_metric(static_cast<v1::LightmapErrorMetric>(7)); }},
       {"job.lightmap",
        [&](v1::JobSpec& s) {  // 10 blobs of 500 MiB: beyond the 4 GiB a job may read
          for (int i = 0; i < 10; ++i) {
@@ -451,6 +456,7 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
   explicit_defaults.mutable_lightmap()->set_resolution(256);
   explicit_defaults.mutable_lightmap()->set_padding(4);
   explicit_defaults.mutable_lightmap()->set_preview(true);
+  explicit_defaults.mutable_lightmap()->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_LIGHTMAP);
   explicit_defaults.mutable_quality()->set_samples(4096);
   EXPECT_EQ(cache_key(translate(plain), "v"), cache_key(translate(explicit_defaults), "v"));
   // Different: any setting, any blob, any scene field, the baker version.
@@ -461,6 +467,7 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
       [](v1::JobSpec& s) { s.mutable_quality()->set_target_error(0.04); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_ao(false); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_denoise(false); },  // a raw job shares no entry with it
+      [](v1::JobSpec& s) { s.mutable_lightmap()->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_LIGHTMAP); },
       [](v1::JobSpec& s) { *s.mutable_lightmap()->mutable_meshes(1)->mutable_geometry() = digest('f'); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_lights(0)->mutable_color()->set_r(11); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_materials(1)->mutable_emission()->set_g(13); },
