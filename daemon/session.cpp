@@ -94,17 +94,20 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
       }
       return shutdown();
     }
-    if (!decoder_.feed(std::string_view(buffer_.data(), n))) return drop(decoder_.error_message());
+    if (!decoder_.feed(std::string_view(buffer_.data(), n))) return drop_for_decoder_error();
     std::string_view payload;
     proto::FrameDecoder::Status status;
     while (!closing_ && (status = decoder_.next(payload)) == proto::FrameDecoder::Status::frame) {
       v1::Request request;
       if (!proto::parse_frame(payload, request)) {
-        return drop("a frame is not a valid kiln.v1.Request");
+        return drop("a frame is not a valid kiln.v1.Request", v1::Error::INVALID_ARGUMENT);
       }
+      // Id 0 is reserved for connection-level errors, so a request that uses it cannot be answered by id: it is a
+      // broken client, treated like a bad frame.
+      if (request.id() == 0) return drop("a request has id 0; request ids must be nonzero", v1::Error::INVALID_ARGUMENT);
       dispatch(request);
     }
-    if (decoder_.error() != proto::FrameDecoder::Error::none) return drop(decoder_.error_message());
+    if (decoder_.error() != proto::FrameDecoder::Error::none) return drop_for_decoder_error();
     arm_deadline();
     read();
   }
@@ -227,7 +230,15 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
     });
   }
 
-  void drop(const std::string& why, int code = v1::Error::RESOURCE_EXHAUSTED) {
+  // A frame too large is a limit of the server; a malformed length is the client's error.
+  void drop_for_decoder_error() {
+    drop(decoder_.error_message(), decoder_.error() == proto::FrameDecoder::Error::frame_too_large
+                                       ? v1::Error::RESOURCE_EXHAUSTED
+                                       : v1::Error::INVALID_ARGUMENT);
+  }
+
+  // Sends one id-0 error with `code`, then closes: every id-0 response is followed by the end of the connection.
+  void drop(const std::string& why, int code) {
     if (closing_ || closed_) return;
     log_line(subject(), "dropped: " + why);
     v1::Response r;
