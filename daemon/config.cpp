@@ -91,6 +91,8 @@ const std::vector<Flag>& flags() {
        [](Config& c, const std::string& v) { c.frame_deadline_seconds = parse_seconds("--frame-deadline", v); }},
       {"--idle-timeout", "idle_timeout_seconds", "seconds before an idle connection is closed",
        [](Config& c, const std::string& v) { c.idle_timeout_seconds = parse_seconds("--idle-timeout", v); }},
+      {"--heartbeat", "heartbeat_seconds", "seconds between a watch's events at most (repeats) [1, 3600]",
+       [](Config& c, const std::string& v) { c.heartbeat_seconds = parse_unsigned("--heartbeat", v, 1, 3600); }},
       {"--max-queued-jobs", "max_queued_jobs", "jobs waiting at once [1, 1000000]",
        [](Config& c, const std::string& v) { c.max_queued_jobs = parse_unsigned("--max-queued-jobs", v, 1, 1000000); }},
       {"--shutdown-grace", "shutdown_grace_seconds", "seconds running jobs get to finish on SIGTERM/SIGINT",
@@ -123,6 +125,7 @@ void load_config_file(const std::string& path, Config& config) {
   if (file.has_max_connections()) config.max_connections = file.max_connections();
   if (file.has_frame_deadline_seconds()) config.frame_deadline_seconds = file.frame_deadline_seconds();
   if (file.has_idle_timeout_seconds()) config.idle_timeout_seconds = file.idle_timeout_seconds();
+  if (file.has_heartbeat_seconds()) config.heartbeat_seconds = file.heartbeat_seconds();
   if (file.has_max_frame_bytes()) config.max_frame_bytes = file.max_frame_bytes();
   if (file.has_max_chunk_bytes()) config.max_chunk_bytes = file.max_chunk_bytes();
   if (file.has_max_blob_bytes()) config.max_blob_bytes = file.max_blob_bytes();
@@ -170,6 +173,9 @@ void validate(const Config& c) {
   }
   if (c.store.empty()) throw std::invalid_argument("--store: a folder is required");
   if (c.workers < 1 || c.workers > 256) throw std::invalid_argument("workers: must be in [1, 256]");
+  if (c.heartbeat_seconds < 1 || c.heartbeat_seconds > 3600) {
+    throw std::invalid_argument("heartbeat_seconds: must be in [1, 3600]");
+  }
   if (c.max_frame_bytes < 1024 || c.max_frame_bytes > (uint64_t{64} << 20)) {
     throw std::invalid_argument("max_frame_bytes: must be in [1 KiB, 64 MiB]");
   }

@@ -18,6 +18,8 @@ struct Config {
   uint32_t max_connections = 64;
   double frame_deadline_seconds = 30;
   double idle_timeout_seconds = 600;
+  // A watch repeats its latest event when nothing was sent for it this long (HelloReply.limits.heartbeat_seconds).
+  uint32_t heartbeat_seconds = 10;
   uint64_t max_frame_bytes = uint64_t{4} << 20;
   uint64_t max_chunk_bytes = uint64_t{1} << 20;
   uint64_t max_blob_bytes = uint64_t{1} << 30;

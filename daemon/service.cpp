@@ -26,7 +26,6 @@ constexpr std::size_t kMaxClientNameBytes = 256;
 constexpr std::size_t kMaxIdempotencyKeyBytes = 128;
 constexpr std::size_t kMaxJobIdBytes = 64;
 constexpr uint32_t kMaxQueryDigests = 1024;
-constexpr uint32_t kHeartbeatSeconds = 10;
 
 // A request failed: the error goes into the response with its code, message and field.
 struct Failure {
@@ -258,7 +257,7 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
   l->set_max_blob_bytes(config_.max_blob_bytes);
   l->set_max_queued_jobs(config_.max_queued_jobs);
   l->set_max_query_digests(kMaxQueryDigests);
-  l->set_heartbeat_seconds(kHeartbeatSeconds);
+  l->set_heartbeat_seconds(config_.heartbeat_seconds);
   r->add_job_types("material");
   r->add_job_types("environment");
   r->add_job_types("lightmap");

@@ -23,7 +23,6 @@ namespace {
 constexpr std::size_t kReadChunk = 64 * 1024;
 // Past this many bytes of answers not yet written, the session stops reading requests until the client catches up.
 constexpr std::size_t kMaxPendingWrite = 8 * 1024 * 1024;
-constexpr auto kHeartbeat = std::chrono::seconds(10);
 
 std::atomic<uint64_t> next_session_id{1};
 
@@ -185,6 +184,7 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
       if (it != watches_.end() && it->second.awaiting_ready && it->second.subscription) {
         it->second.awaiting_ready = false;
         it->second.subscription.ready();  // may deliver the latest progress at once (posted to this strand)
+        schedule_heartbeat();             // the watch may be due already if its write was slow
       }
     }
     if (!writes_.empty()) return write_next();
@@ -214,14 +214,22 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
     });
   }
 
-  // Repeats each watch's latest event when nothing was sent for it within the heartbeat period.
+  // Repeats each watch's latest event when nothing was sent for it within the heartbeat period. The timer wakes
+  // when the first watch falls due, not on a fixed grid: a grid tick just short of a watch's due time would skip it
+  // and leave a gap of nearly two periods, breaking HelloReply's promise. A watch whose last event is still being
+  // written (awaiting_ready) needs no repeat: the client is not reading.
   void schedule_heartbeat() {
-    heartbeat_.expires_after(kHeartbeat);
-    heartbeat_.async_wait([self = this->shared_from_this()](const boost::system::error_code& ec) {
+    const auto period = std::chrono::seconds(service_.config().heartbeat_seconds);
+    auto wake = std::chrono::steady_clock::now() + period;
+    for (const auto& [id, w] : watches_) {
+      if (!w.awaiting_ready) wake = std::min(wake, w.last_sent + period);
+    }
+    heartbeat_.expires_at(wake);
+    heartbeat_.async_wait([self = this->shared_from_this(), period](const boost::system::error_code& ec) {
       if (ec || self->closed_) return;
       const auto now = std::chrono::steady_clock::now();
       for (auto& [id, w] : self->watches_) {
-        if (now - w.last_sent >= kHeartbeat && !w.awaiting_ready) {
+        if (now - w.last_sent >= period && !w.awaiting_ready) {
           w.last_sent = now;
           self->send(w.last);
         }

@@ -2,8 +2,10 @@
 // Each test starts the real daemon and speaks the protocol by hand over plain sockets.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <string>
+#include <vector>
 
 #include "client/lib/client.h"
 #include "proto/framing.h"
@@ -53,6 +55,58 @@ TEST(Connection, RequestWithIdZeroClosesTheConnection) {
   RawConnection raw(test::port_of(d.tcp()));
   ASSERT_TRUE(raw.send(test::hello_request(0, d.token())));
   expect_connection_error(raw, v1::Error::INVALID_ARGUMENT, "a request with id 0");
+}
+
+v1::JobSpec long_material_job() {
+  v1::JobSpec spec;
+  spec.set_name("bakes for minutes");  // 64 x 64 tables at 2^20 samples per entry
+  spec.mutable_material()->mutable_ggx()->set_alpha(0.3);
+  spec.mutable_material()->set_table_mu(64);
+  spec.mutable_material()->set_table_roughness(64);
+  spec.mutable_quality()->set_samples(1 << 20);
+  return spec;
+}
+
+// HelloReply promises heartbeat_seconds; a watch with nothing new must hear from the server at least that often.
+// The period is set to 1 s so the test is short. A job queued behind a long one has no progress, so every event
+// after the first is a heartbeat. Before the fix the session checked on a fixed 1-period grid and skipped a watch
+// just short of due, so the first gap was nearly 2 periods (~2.0 s here). Tolerance: 0.5 s for scheduling on a busy
+// 2-core machine running a bake.
+TEST(Connection, WatchHeartbeatsKeepThePromisedPeriod) {
+  Daemon d({"--heartbeat", "1", "--workers", "1", "--shutdown-grace", "0.5"});
+  client::Client c(d.tcp());
+  c.hello(d.token());
+  const std::string blocker = c.submit(long_material_job()).job_id();
+  v1::JobSpec waiting = long_material_job();
+  waiting.mutable_material()->mutable_ggx()->set_alpha(0.4);
+  const std::string queued = c.submit(waiting).job_id();
+
+  RawConnection raw(test::port_of(d.tcp()));
+  const v1::Response hello = raw.call(test::hello_request(1, d.token()));
+  ASSERT_EQ(hello.hello().limits().heartbeat_seconds(), 1u);
+  v1::Request watch;
+  watch.set_id(2);
+  watch.mutable_watch()->set_job_id(queued);
+  ASSERT_TRUE(raw.send(watch));
+  std::vector<std::chrono::steady_clock::time_point> arrivals;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(4500);
+  while (std::chrono::steady_clock::now() < end) {
+    const auto r = raw.read(std::chrono::seconds(3));
+    ASSERT_TRUE(r.has_value()) << "no event for 3 s";
+    ASSERT_EQ(r->id(), 2u);
+    ASSERT_TRUE(r->has_event()) << r->error().message();
+    EXPECT_EQ(r->event().state(), v1::JOB_STATE_QUEUED);
+    arrivals.push_back(std::chrono::steady_clock::now());
+  }
+  ASSERT_GE(arrivals.size(), 4u);
+  double widest = 0;
+  for (size_t i = 1; i < arrivals.size(); ++i) {
+    widest = std::max(widest, std::chrono::duration<double>(arrivals[i] - arrivals[i - 1]).count());
+  }
+  std::cout << "[ measured ] " << arrivals.size() << " events, widest gap " << widest << " s (promised 1 s)\n";
+  EXPECT_LE(widest, 1.5);
+  c.cancel(queued);
+  c.cancel(blocker);
 }
 
 }  // namespace
