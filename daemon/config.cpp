@@ -97,6 +97,11 @@ const std::vector<Flag>& flags() {
        [](Config& c, const std::string& v) { c.max_queued_jobs = parse_unsigned("--max-queued-jobs", v, 1, 1000000); }},
       {"--shutdown-grace", "shutdown_grace_seconds", "seconds running jobs get to finish on SIGTERM/SIGINT",
        [](Config& c, const std::string& v) { c.shutdown_grace_seconds = parse_seconds("--shutdown-grace", v); }},
+      {"--max-crash-restarts", "max_crash_restarts",
+       "fail a job that was running at this many kilnd crashes in a row, 0 = never [0, 1000]",
+       [](Config& c, const std::string& v) {
+         c.max_crash_restarts = parse_unsigned("--max-crash-restarts", v, 0, 1000);
+       }},
   };
   return all;
 }
@@ -131,6 +136,7 @@ void load_config_file(const std::string& path, Config& config) {
   if (file.has_max_blob_bytes()) config.max_blob_bytes = file.max_blob_bytes();
   if (file.has_max_queued_jobs()) config.max_queued_jobs = file.max_queued_jobs();
   if (file.has_shutdown_grace_seconds()) config.shutdown_grace_seconds = file.shutdown_grace_seconds();
+  if (file.has_max_crash_restarts()) config.max_crash_restarts = file.max_crash_restarts();
 }
 
 CommandLine parse_command_line(const std::vector<std::string>& args) {
@@ -173,6 +179,7 @@ void validate(const Config& c) {
   }
   if (c.store.empty()) throw std::invalid_argument("--store: a folder is required");
   if (c.workers < 1 || c.workers > 256) throw std::invalid_argument("workers: must be in [1, 256]");
+  if (c.max_crash_restarts > 1000) throw std::invalid_argument("max_crash_restarts: must be in [0, 1000]");
   if (c.heartbeat_seconds < 1 || c.heartbeat_seconds > 3600) {
     throw std::invalid_argument("heartbeat_seconds: must be in [1, 3600]");
   }

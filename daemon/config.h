@@ -25,6 +25,9 @@ struct Config {
   uint64_t max_blob_bytes = uint64_t{1} << 30;
   uint32_t max_queued_jobs = 1000;
   double shutdown_grace_seconds = 30;
+  // The crash-loop guard: a job that was running when kilnd died this many times in a row is failed, not run
+  // again. 0: no limit.
+  uint32_t max_crash_restarts = 3;
 };
 
 // What the command line asked for besides the configuration.

@@ -131,7 +131,9 @@ v1::JobEvent event_of(const store::JobRecord& r) {
 Service::Service(const Config& config, TokenSet tokens) : config_(config), tokens_(std::move(tokens)) {
   std::filesystem::create_directories(config_.store);
   // The database first: its lock keeps a second kilnd out of the store before the blob store cleans its tmp/.
-  db_ = std::make_unique<store::JobDb>(std::filesystem::path(config_.store) / "jobs.sqlite");
+  store::JobDbOptions db_options;
+  db_options.max_crash_restarts = static_cast<int>(config_.max_crash_restarts);
+  db_ = std::make_unique<store::JobDb>(std::filesystem::path(config_.store) / "jobs.sqlite", db_options);
   store::BlobStoreOptions blob_options;
   blob_options.max_blob_size = config_.max_blob_bytes;
   blobs_ = std::make_unique<store::BlobStore>(std::filesystem::path(config_.store), blob_options);

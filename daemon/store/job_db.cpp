@@ -490,8 +490,10 @@ Recovery JobDb::recover_unfinished() {
   for (const auto& r : running) {
     if (options_.max_crash_restarts > 0 && r.attempts >= options_.max_crash_restarts) {
       std::string why = "kilnd stopped while this job was running, " + std::to_string(r.attempts) +
-                        " times in a row; it was not started again, in case it is what stops the daemon. "
-                        "Check kilnd's log for the cause, then resubmit it";
+                        " times in a row, reaching the crash-loop limit (max_crash_restarts = " +
+                        std::to_string(options_.max_crash_restarts) +
+                        ", set in kilnd.conf or with --max-crash-restarts; 0 means no limit); it was not started "
+                        "again, in case it is what stops the daemon. Check kilnd's log for the cause, then resubmit it";
       Stmt s(db, file_, "UPDATE jobs SET state = 'failed', finished = ?2, error = ?3 WHERE id = ?1");
       s.bind(1, r.id).bind(2, now).bind(3, why).run();
     } else {

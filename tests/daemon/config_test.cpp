@@ -101,12 +101,20 @@ TEST(Config, ShippedConfigStatesTheDefaults) {
   EXPECT_EQ(shipped.max_connections, defaults.max_connections);
   EXPECT_EQ(shipped.idle_timeout_seconds, defaults.idle_timeout_seconds);
   EXPECT_EQ(shipped.frame_deadline_seconds, defaults.frame_deadline_seconds);
+  EXPECT_EQ(shipped.max_crash_restarts, defaults.max_crash_restarts);
 }
 
 TEST(Config, HeartbeatFromFileAndFlag) {
   const std::string f = write_file("hb.conf", "heartbeat_seconds: 4\n");
   EXPECT_EQ(parse_command_line({"--config", f}).config.heartbeat_seconds, 4u);
   EXPECT_EQ(parse_command_line({"--config", f, "--heartbeat", "2"}).config.heartbeat_seconds, 2u);
+}
+
+TEST(Config, CrashLoopGuardFromFileAndFlag) {
+  const std::string f = write_file("crash.conf", "max_crash_restarts: 5\n");
+  EXPECT_EQ(parse_command_line({"--config", f}).config.max_crash_restarts, 5u);
+  EXPECT_EQ(parse_command_line({"--config", f, "--max-crash-restarts", "0"}).config.max_crash_restarts, 0u);
+  EXPECT_THROW(parse_command_line({"--max-crash-restarts", "-1"}), std::invalid_argument);
 }
 
 TEST(Config, HelpListsEveryFlag) {

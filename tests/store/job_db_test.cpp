@@ -272,6 +272,9 @@ TEST(JobDb, AJobThatKeepsCrashingTheDaemonIsEventuallyFailed) {
   ASSERT_EQ(rec.gave_up.size(), 1u);
   EXPECT_EQ(rec.gave_up[0].state, JobState::failed);
   EXPECT_TRUE(contains(rec.gave_up[0].error, "2 times")) << rec.gave_up[0].error;
+  // The reason names the guard and how to change it.
+  EXPECT_TRUE(contains(rec.gave_up[0].error, "max_crash_restarts = 2")) << rec.gave_up[0].error;
+  EXPECT_TRUE(contains(rec.gave_up[0].error, "--max-crash-restarts")) << rec.gave_up[0].error;
 }
 
 TEST(JobDb, AGracefulRequeueIsNotACrash) {
