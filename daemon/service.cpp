@@ -265,6 +265,11 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
   r->add_job_types("lightmap");
 }
 
+std::chrono::milliseconds Service::hello_failed(const SessionInfo& s) {
+  if (s.unix_socket || s.address.empty()) return std::chrono::milliseconds(0);  // the socket's permissions decide
+  return hello_throttle_.failed(s.address);
+}
+
 void Service::blob_query(const v1::Request& req, v1::Response& resp) {
   const auto& q = req.blob_query();
   if (q.digests_size() > static_cast<int>(kMaxQueryDigests)) {

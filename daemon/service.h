@@ -12,6 +12,7 @@
 
 #include "daemon/auth.h"
 #include "daemon/config.h"
+#include "daemon/hello_throttle.h"
 #include "daemon/store/job_queue.h"
 
 namespace kiln::v1 {
@@ -35,6 +36,7 @@ struct SessionInfo {
   bool unix_socket = false;    // the socket's permissions already decided who may connect
   bool authenticated = false;  // a Hello was accepted
   std::string peer;            // for logs
+  std::string address;         // the peer's IP address on TCP (without the port); empty on the Unix socket
   uint64_t id = 0;             // for logs
 };
 
@@ -59,6 +61,10 @@ class Service {
   // again at the next start), and stops the workers.
   void shutdown(std::chrono::duration<double> grace);
   bool shutting_down() const { return shutting_down_; }
+
+  // A Hello failed on this connection, which the session closes after answering. Returns how long to wait before
+  // the answer: growing with the recent failures from the same address, so tokens cannot be guessed at speed.
+  std::chrono::milliseconds hello_failed(const SessionInfo& session);
 
   void connection_opened() { ++connections_; }
   void connection_closed() { --connections_; }
@@ -89,6 +95,7 @@ class Service {
   std::mutex submit_mutex_;  // submits and retention do not interleave (see store::enforce_retention)
   std::atomic<bool> shutting_down_{false};
   std::atomic<int> connections_{0};
+  HelloThrottle hello_throttle_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };
 

@@ -30,15 +30,18 @@ std::atomic<uint64_t> next_session_id{1};
 template <class Socket>
 class SocketSession : public Session, public std::enable_shared_from_this<SocketSession<Socket>> {
  public:
-  SocketSession(asio::io_context& io, Service& service, Socket socket, bool is_unix, std::string peer)
+  SocketSession(asio::io_context& io, Service& service, Socket socket, bool is_unix, std::string peer,
+                std::string address)
       : service_(service),
         socket_(std::move(socket)),
         strand_(asio::make_strand(io)),
         deadline_(strand_),
         heartbeat_(strand_),
+        answer_delay_(strand_),
         decoder_(service.config().max_frame_bytes) {
     info_.unix_socket = is_unix;
     info_.peer = std::move(peer);
+    info_.address = std::move(address);
     info_.id = next_session_id++;
   }
 
@@ -121,6 +124,7 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
       });
     };
     service_.handle(info_, request, response, on_event, &subscription);
+    if (request.body_case() == v1::Request::kHello && response.has_error()) return refuse_hello(response);
     if (response.has_event()) {
       Watch& w = watches_[request.id()];
       response.mutable_event()->set_sequence(++w.sequence);
@@ -238,6 +242,19 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
     });
   }
 
+  // A failed Hello: nothing more is read, the answer waits as long as the service says (a peer guessing tokens gets
+  // slower and slower answers), then the connection closes.
+  void refuse_hello(const v1::Response& response) {
+    closing_ = true;
+    const auto delay = service_.hello_failed(info_);
+    if (delay.count() == 0) return send(response);
+    answer_delay_.expires_after(delay);
+    answer_delay_.async_wait([self = this->shared_from_this(), response](const boost::system::error_code& ec) {
+      if (ec || self->closed_) return;
+      self->send(response);
+    });
+  }
+
   // A frame too large is a limit of the server; a malformed length is the client's error.
   void drop_for_decoder_error() {
     drop(decoder_.error_message(), decoder_.error() == proto::FrameDecoder::Error::frame_too_large
@@ -264,6 +281,7 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
     socket_.close(ignored);
     deadline_.cancel();
     heartbeat_.cancel();
+    answer_delay_.cancel();
   }
 
   struct Watch {
@@ -281,7 +299,7 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   Service& service_;
   Socket socket_;
   asio::strand<asio::io_context::executor_type> strand_;
-  asio::steady_timer deadline_, heartbeat_;
+  asio::steady_timer deadline_, heartbeat_, answer_delay_;
   proto::FrameDecoder decoder_;
   SessionInfo info_;
   std::array<char, kReadChunk> buffer_{};
@@ -292,23 +310,20 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   bool reading_ = false, closing_ = false, closed_ = false, counted_ = false;
 };
 
-std::string peer_of(const tcp::socket& s) {
-  boost::system::error_code ec;
-  const auto ep = s.remote_endpoint(ec);
-  return ec ? "tcp" : ep.address().to_string() + ":" + std::to_string(ep.port());
-}
-std::string peer_of(const unix_socket::socket&) { return "unix socket"; }
-
 }  // namespace
 
 std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, tcp::socket socket) {
-  std::string peer = peer_of(socket);
-  return std::make_shared<SocketSession<tcp::socket>>(io, service, std::move(socket), false, std::move(peer));
+  boost::system::error_code ec;
+  const auto ep = socket.remote_endpoint(ec);
+  std::string address = ec ? std::string() : ep.address().to_string();
+  std::string peer = ec ? "tcp" : address + ":" + std::to_string(ep.port());
+  return std::make_shared<SocketSession<tcp::socket>>(io, service, std::move(socket), false, std::move(peer),
+                                                      std::move(address));
 }
 
 std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, unix_socket::socket socket) {
-  std::string peer = peer_of(socket);
-  return std::make_shared<SocketSession<unix_socket::socket>>(io, service, std::move(socket), true, std::move(peer));
+  return std::make_shared<SocketSession<unix_socket::socket>>(io, service, std::move(socket), true, "unix socket",
+                                                              std::string());
 }
 
 }  // namespace kiln::daemon

@@ -109,5 +109,36 @@ TEST(Connection, WatchHeartbeatsKeepThePromisedPeriod) {
   c.cancel(blocker);
 }
 
+// A failed Hello closes the connection, and failures from one address are answered ever more slowly: the answer
+// to the n-th wrong token in a row waits 50 ms * 2^(n-1) (at most 5 s), so guessing runs at a few per second at
+// best instead of ~10,000. Before the fix the connection stayed open and every answer was immediate. Bounds: the
+// waits are lower bounds (timers do not fire early); the upper bound only checks the answer still comes.
+TEST(Connection, FailedHelloClosesAndRepeatedFailuresSlowDown) {
+  Daemon d;
+  const unsigned port = test::port_of(d.tcp());
+  std::vector<double> seconds_per_answer;
+  for (int i = 0; i < 6; ++i) {
+    RawConnection raw(port);
+    const auto start = std::chrono::steady_clock::now();
+    const v1::Response r = raw.call(test::hello_request(1, "wrong-token-0123456789"));
+    seconds_per_answer.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    EXPECT_EQ(r.id(), 1u);
+    EXPECT_EQ(r.error().code(), v1::Error::UNAUTHENTICATED);
+    EXPECT_EQ(r.error().field(), "hello.token");
+    EXPECT_TRUE(raw.closed_by_server(std::chrono::seconds(3))) << "a failed hello left the connection open";
+  }
+  for (size_t i = 0; i < seconds_per_answer.size(); ++i) {
+    std::cout << "[ measured ] wrong token " << i + 1 << " answered after " << seconds_per_answer[i] << " s\n";
+  }
+  EXPECT_GE(seconds_per_answer[5], 1.6);  // the 6th failure in a row: 50 ms * 2^5
+  EXPECT_LT(seconds_per_answer[5], 10.0);
+  // A right token from the same address is answered at once.
+  RawConnection good(port);
+  const auto start = std::chrono::steady_clock::now();
+  const v1::Response ok = good.call(test::hello_request(1, d.token()));
+  EXPECT_FALSE(ok.has_error()) << ok.error().message();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1.0);
+}
+
 }  // namespace
 }  // namespace kiln

@@ -234,14 +234,19 @@ class Client:
     def hello(self):
         """Says hello with the token (reconnecting if the connection broke); returns the server's HelloReply and
         remembers its limits, which size the chunks of uploads and fetches. ServerError UNAUTHENTICATED if the
-        token is wrong or missing on TCP."""
+        token is wrong or missing on TCP; the server then closes the connection (answering repeated failures ever
+        more slowly), and the next call reconnects."""
         if self._sock is None:
             self._connect()
         request = pb.Request()
         request.hello.protocol_version = PROTOCOL_VERSION
         request.hello.token = self.token
         request.hello.client = self.client_name
-        reply = self._await({self._start(request)}, "hello").hello
+        try:
+            reply = self._await({self._start(request)}, "hello").hello
+        except ServerError:
+            self.close()  # the server closes the connection after a failed hello; the next call reconnects
+            raise
         if reply.protocol_version != PROTOCOL_VERSION:
             self._fail("the server speaks protocol version %d, this client %d"
                        % (reply.protocol_version, PROTOCOL_VERSION))
