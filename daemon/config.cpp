@@ -85,8 +85,15 @@ const std::vector<Flag>& flags() {
        [](Config& c, const std::string& v) {
          c.store_limit_bytes = parse_unsigned("--store-limit-bytes", v, 0, uint64_t{1} << 50);
        }},
-      {"--max-connections", "max_connections", "connections at once [1, 10000]",
+      {"--max-connections", "max_connections", "connections that said hello, at once [1, 10000]",
        [](Config& c, const std::string& v) { c.max_connections = parse_unsigned("--max-connections", v, 1, 10000); }},
+      {"--max-pre-hello-connections", "max_pre_hello_connections",
+       "connections not yet past hello [1, 100000]; when full the oldest is dropped",
+       [](Config& c, const std::string& v) {
+         c.max_pre_hello_connections = parse_unsigned("--max-pre-hello-connections", v, 1, 100000);
+       }},
+      {"--hello-deadline", "hello_deadline_seconds", "seconds from connecting to a successful hello",
+       [](Config& c, const std::string& v) { c.hello_deadline_seconds = parse_seconds("--hello-deadline", v); }},
       {"--frame-deadline", "frame_deadline_seconds", "seconds a client may take to finish a frame it started",
        [](Config& c, const std::string& v) { c.frame_deadline_seconds = parse_seconds("--frame-deadline", v); }},
       {"--idle-timeout", "idle_timeout_seconds", "seconds before an idle connection is closed",
@@ -128,6 +135,8 @@ void load_config_file(const std::string& path, Config& config) {
   if (file.has_threads()) config.threads = file.threads();
   if (file.has_store_limit_bytes()) config.store_limit_bytes = file.store_limit_bytes();
   if (file.has_max_connections()) config.max_connections = file.max_connections();
+  if (file.has_max_pre_hello_connections()) config.max_pre_hello_connections = file.max_pre_hello_connections();
+  if (file.has_hello_deadline_seconds()) config.hello_deadline_seconds = file.hello_deadline_seconds();
   if (file.has_frame_deadline_seconds()) config.frame_deadline_seconds = file.frame_deadline_seconds();
   if (file.has_idle_timeout_seconds()) config.idle_timeout_seconds = file.idle_timeout_seconds();
   if (file.has_heartbeat_seconds()) config.heartbeat_seconds = file.heartbeat_seconds();
@@ -179,6 +188,19 @@ void validate(const Config& c) {
   }
   if (c.store.empty()) throw std::invalid_argument("--store: a folder is required");
   if (c.workers < 1 || c.workers > 256) throw std::invalid_argument("workers: must be in [1, 256]");
+  if (c.max_connections < 1 || c.max_connections > 10000) {
+    throw std::invalid_argument("max_connections: must be in [1, 10000]");
+  }
+  if (c.max_pre_hello_connections < 1 || c.max_pre_hello_connections > 100000) {
+    throw std::invalid_argument("max_pre_hello_connections: must be in [1, 100000]");
+  }
+  for (const auto& [name, value] : {std::pair{"hello_deadline_seconds", c.hello_deadline_seconds},
+                                    std::pair{"frame_deadline_seconds", c.frame_deadline_seconds},
+                                    std::pair{"idle_timeout_seconds", c.idle_timeout_seconds}}) {
+    if (!(value > 0) || !std::isfinite(value)) {
+      throw std::invalid_argument(std::string(name) + ": must be a positive number of seconds");
+    }
+  }
   if (c.max_crash_restarts > 1000) throw std::invalid_argument("max_crash_restarts: must be in [0, 1000]");
   if (c.heartbeat_seconds < 1 || c.heartbeat_seconds > 3600) {
     throw std::invalid_argument("heartbeat_seconds: must be in [1, 3600]");
@@ -199,7 +221,7 @@ std::string usage() {
       "given with --config (annotated example: deploy/kilnd.conf), then these flags:\n\n";
   for (const Flag& f : flags()) {
     char line[256];
-    std::snprintf(line, sizeof line, "  %-22s %-24s %s\n", f.name, f.field, f.help);
+    std::snprintf(line, sizeof line, "  %-28s %-26s %s\n", f.name, f.field, f.help);
     u += line;
   }
   u += "\nThe second column is the config file's field. Logs go to stderr. SIGTERM or SIGINT stops accepting,\n"

@@ -3,6 +3,7 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <deque>
 #include <map>
 #include <optional>
@@ -30,9 +31,10 @@ std::atomic<uint64_t> next_session_id{1};
 template <class Socket>
 class SocketSession : public Session, public std::enable_shared_from_this<SocketSession<Socket>> {
  public:
-  SocketSession(asio::io_context& io, Service& service, Socket socket, bool is_unix, std::string peer,
-                std::string address)
+  SocketSession(asio::io_context& io, Service& service, ConnectionRegistry& registry, Socket socket, bool is_unix,
+                std::string peer, std::string address)
       : service_(service),
+        registry_(registry),
         socket_(std::move(socket)),
         strand_(asio::make_strand(io)),
         deadline_(strand_),
@@ -70,9 +72,11 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
 
   ~SocketSession() override {
     if (counted_) service_.connection_closed();
+    registry_.closed(info_.id, promoted_);
   }
 
   void mark_counted() override { counted_ = true; }
+  uint64_t id() const override { return info_.id; }
 
  private:
   std::string subject() const { return "connection " + std::to_string(info_.id) + " (" + info_.peer + ")"; }
@@ -124,7 +128,21 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
       });
     };
     service_.handle(info_, request, response, on_event, &subscription);
-    if (request.body_case() == v1::Request::kHello && response.has_error()) return refuse_hello(response);
+    if (request.body_case() == v1::Request::kHello) {
+      if (response.has_error()) return refuse_hello(response);
+      if (!promoted_ && !registry_.promote(info_.id)) {
+        // Past max_connections: the hello is answered with the limit, and the connection closes.
+        info_.authenticated = false;
+        response.clear_body();
+        response.mutable_error()->set_code(v1::Error::RESOURCE_EXHAUSTED);
+        response.mutable_error()->set_message("the server has " + std::to_string(service_.config().max_connections) +
+                                              " connections that said hello, its limit (max_connections); try "
+                                              "again later");
+        closing_ = true;
+        return send(response);
+      }
+      promoted_ = true;
+    }
     if (response.has_event()) {
       Watch& w = watches_[request.id()];
       response.mutable_event()->set_sequence(++w.sequence);
@@ -197,20 +215,32 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   }
 
   // Deadlines: a frame that has started must be finished within frame_deadline_seconds; otherwise the connection
-  // may stay idle for idle_timeout_seconds (watches count as activity).
+  // may stay idle for idle_timeout_seconds (watches count as activity). Before its Hello succeeds, a connection
+  // has hello_deadline_seconds from its start in all, whatever it sends: idle sockets that never authenticate
+  // cannot hold the server's connections for long.
   void arm_deadline() {
     const Config& c = service_.config();
+    const auto seconds = [](double s) {
+      return std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(s));
+    };
     const bool mid = decoder_.mid_frame();
     if (mid && !frame_started_) frame_started_ = std::chrono::steady_clock::now();
     if (!mid) frame_started_.reset();
     const auto now = std::chrono::steady_clock::now();
-    const auto expiry = mid ? *frame_started_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                    std::chrono::duration<double>(c.frame_deadline_seconds))
-                            : now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                        std::chrono::duration<double>(c.idle_timeout_seconds));
+    auto expiry = mid ? *frame_started_ + seconds(c.frame_deadline_seconds) : now + seconds(c.idle_timeout_seconds);
+    const bool before_hello = !info_.authenticated;
+    if (before_hello) expiry = std::min(expiry, started_ + seconds(c.hello_deadline_seconds));
     deadline_.expires_at(expiry);
-    deadline_.async_wait([self = this->shared_from_this(), mid](const boost::system::error_code& ec) {
+    deadline_.async_wait([self = this->shared_from_this(), mid, before_hello](const boost::system::error_code& ec) {
       if (ec || self->closed_) return;
+      if (before_hello) {
+        if (self->info_.authenticated) return self->arm_deadline();  // said hello meanwhile: the usual deadlines
+        char limit[32];
+        std::snprintf(limit, sizeof limit, "%g", self->service_.config().hello_deadline_seconds);
+        return self->drop(std::string("no successful hello within the hello deadline (") + limit +
+                              " s after connecting); connect again and say hello first",
+                          v1::Error::DEADLINE_EXCEEDED);
+      }
       if (!self->watches_.empty() && !mid) return self->arm_deadline();  // an open watch is not idleness
       self->drop(mid ? "a frame did not arrive whole within the frame deadline"
                      : "the connection was idle longer than the idle timeout",
@@ -297,6 +327,7 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   };
 
   Service& service_;
+  ConnectionRegistry& registry_;
   Socket socket_;
   asio::strand<asio::io_context::executor_type> strand_;
   asio::steady_timer deadline_, heartbeat_, answer_delay_;
@@ -307,23 +338,26 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   std::size_t pending_bytes_ = 0;
   std::map<uint64_t, Watch> watches_;
   std::optional<std::chrono::steady_clock::time_point> frame_started_;
-  bool reading_ = false, closing_ = false, closed_ = false, counted_ = false;
+  const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+  bool reading_ = false, closing_ = false, closed_ = false, counted_ = false, promoted_ = false;
 };
 
 }  // namespace
 
-std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, tcp::socket socket) {
+std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, ConnectionRegistry& registry,
+                                      tcp::socket socket) {
   boost::system::error_code ec;
   const auto ep = socket.remote_endpoint(ec);
   std::string address = ec ? std::string() : ep.address().to_string();
   std::string peer = ec ? "tcp" : address + ":" + std::to_string(ep.port());
-  return std::make_shared<SocketSession<tcp::socket>>(io, service, std::move(socket), false, std::move(peer),
-                                                      std::move(address));
+  return std::make_shared<SocketSession<tcp::socket>>(io, service, registry, std::move(socket), false,
+                                                      std::move(peer), std::move(address));
 }
 
-std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, unix_socket::socket socket) {
-  return std::make_shared<SocketSession<unix_socket::socket>>(io, service, std::move(socket), true, "unix socket",
-                                                              std::string());
+std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, ConnectionRegistry& registry,
+                                      unix_socket::socket socket) {
+  return std::make_shared<SocketSession<unix_socket::socket>>(io, service, registry, std::move(socket), true,
+                                                              "unix socket", std::string());
 }
 
 }  // namespace kiln::daemon

@@ -99,6 +99,8 @@ TEST(Config, ShippedConfigStatesTheDefaults) {
   const Config defaults;
   EXPECT_EQ(shipped.heartbeat_seconds, defaults.heartbeat_seconds);
   EXPECT_EQ(shipped.max_connections, defaults.max_connections);
+  EXPECT_EQ(shipped.max_pre_hello_connections, defaults.max_pre_hello_connections);
+  EXPECT_EQ(shipped.hello_deadline_seconds, defaults.hello_deadline_seconds);
   EXPECT_EQ(shipped.idle_timeout_seconds, defaults.idle_timeout_seconds);
   EXPECT_EQ(shipped.frame_deadline_seconds, defaults.frame_deadline_seconds);
   EXPECT_EQ(shipped.max_crash_restarts, defaults.max_crash_restarts);
@@ -115,6 +117,16 @@ TEST(Config, CrashLoopGuardFromFileAndFlag) {
   EXPECT_EQ(parse_command_line({"--config", f}).config.max_crash_restarts, 5u);
   EXPECT_EQ(parse_command_line({"--config", f, "--max-crash-restarts", "0"}).config.max_crash_restarts, 0u);
   EXPECT_THROW(parse_command_line({"--max-crash-restarts", "-1"}), std::invalid_argument);
+}
+
+TEST(Config, ConnectionBoundsFromFileAndFlag) {
+  const std::string f = write_file("conn.conf", "max_pre_hello_connections: 300\nhello_deadline_seconds: 2.5\n");
+  const Config c = parse_command_line({"--config", f, "--max-connections", "8"}).config;
+  EXPECT_EQ(c.max_pre_hello_connections, 300u);
+  EXPECT_EQ(c.hello_deadline_seconds, 2.5);
+  EXPECT_EQ(c.max_connections, 8u);
+  EXPECT_THROW(parse_command_line({"--hello-deadline", "0"}), std::invalid_argument);
+  EXPECT_THROW(parse_command_line({"--max-pre-hello-connections", "0"}), std::invalid_argument);
 }
 
 TEST(Config, HelpListsEveryFlag) {
