@@ -5,10 +5,12 @@
 
 #include <boost/asio.hpp>
 
+#include <sys/socket.h>
 #include <sys/stat.h>
 
 #include <atomic>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <set>
@@ -118,6 +120,40 @@ void Server::Impl::accept_later(Acceptor& acceptor) {
   });
 }
 
+namespace {
+
+// A socket file left by a previous run that died would make bind fail, so it is removed, but only once it is known
+// to be dead: a socket some process still listens on is never unlinked (that would cut a running kilnd off from
+// its clients). Throws std::runtime_error naming the process that listens, when the kernel says which.
+void remove_stale_socket(asio::io_context& io, const std::string& path) {
+  std::error_code fs_ec;
+  if (!std::filesystem::is_socket(path, fs_ec)) return;  // absent, or not a socket: bind reports it
+  unix_socket::socket probe(io);
+  boost::system::error_code ec;
+  probe.connect(unix_socket::endpoint(path), ec);
+  if (!ec) {
+    std::string holder = "a live process";
+    ucred cred{};
+    socklen_t len = sizeof cred;
+    if (::getsockopt(probe.native_handle(), SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0 && cred.pid > 0) {
+      holder = "process " + std::to_string(cred.pid);
+      std::ifstream comm("/proc/" + std::to_string(cred.pid) + "/comm");
+      std::string name;
+      if (std::getline(comm, name) && !name.empty()) holder += " (" + name + ")";
+    }
+    throw std::runtime_error("--socket " + path + ": " + holder +
+                             " is listening on it; another kilnd is probably running. Stop it, or give this one "
+                             "another --socket path");
+  }
+  if (ec != asio::error::connection_refused) {
+    throw std::runtime_error("--socket " + path + ": cannot tell whether a process listens on it (" + ec.message() +
+                             "); remove the file if no daemon uses it, or give another --socket path");
+  }
+  std::filesystem::remove(path, fs_ec);
+}
+
+}  // namespace
+
 Server::Server(Service& service) : impl_(std::make_unique<Impl>(service)) {
   const Config& c = service.config();
   if (!c.listen.empty()) {
@@ -141,9 +177,7 @@ Server::Server(Service& service) : impl_(std::make_unique<Impl>(service)) {
     impl_->accept(*impl_->tcp_acceptor);
   }
   if (!c.socket.empty()) {
-    // A socket file left by a previous run that died would make bind fail; nobody listens on it any more.
-    std::error_code fs_ec;
-    if (std::filesystem::is_socket(c.socket, fs_ec)) std::filesystem::remove(c.socket, fs_ec);
+    remove_stale_socket(impl_->io, c.socket);
     boost::system::error_code ec;
     unix_socket::acceptor a(impl_->io);
     a.open(unix_socket(), ec);
