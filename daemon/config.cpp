@@ -104,6 +104,11 @@ const std::vector<Flag>& flags() {
        [](Config& c, const std::string& v) { c.max_queued_jobs = parse_unsigned("--max-queued-jobs", v, 1, 1000000); }},
       {"--shutdown-grace", "shutdown_grace_seconds", "seconds running jobs get to finish on SIGTERM/SIGINT",
        [](Config& c, const std::string& v) { c.shutdown_grace_seconds = parse_seconds("--shutdown-grace", v); }},
+      {"--partial-upload-max-age", "partial_upload_max_age_seconds",
+       "seconds before an untouched partial upload is deleted (at start and while running)",
+       [](Config& c, const std::string& v) {
+         c.partial_upload_max_age_seconds = parse_seconds("--partial-upload-max-age", v);
+       }},
       {"--max-crash-restarts", "max_crash_restarts",
        "fail a job that was running at this many kilnd crashes in a row, 0 = never [0, 1000]",
        [](Config& c, const std::string& v) {
@@ -145,6 +150,9 @@ void load_config_file(const std::string& path, Config& config) {
   if (file.has_max_blob_bytes()) config.max_blob_bytes = file.max_blob_bytes();
   if (file.has_max_queued_jobs()) config.max_queued_jobs = file.max_queued_jobs();
   if (file.has_shutdown_grace_seconds()) config.shutdown_grace_seconds = file.shutdown_grace_seconds();
+  if (file.has_partial_upload_max_age_seconds()) {
+    config.partial_upload_max_age_seconds = file.partial_upload_max_age_seconds();
+  }
   if (file.has_max_crash_restarts()) config.max_crash_restarts = file.max_crash_restarts();
 }
 
@@ -196,7 +204,8 @@ void validate(const Config& c) {
   }
   for (const auto& [name, value] : {std::pair{"hello_deadline_seconds", c.hello_deadline_seconds},
                                     std::pair{"frame_deadline_seconds", c.frame_deadline_seconds},
-                                    std::pair{"idle_timeout_seconds", c.idle_timeout_seconds}}) {
+                                    std::pair{"idle_timeout_seconds", c.idle_timeout_seconds},
+                                    std::pair{"partial_upload_max_age_seconds", c.partial_upload_max_age_seconds}}) {
     if (!(value > 0) || !std::isfinite(value)) {
       throw std::invalid_argument(std::string(name) + ": must be a positive number of seconds");
     }

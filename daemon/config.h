@@ -30,6 +30,8 @@ struct Config {
   // The crash-loop guard: a job that was running when kilnd died this many times in a row is failed, not run
   // again. 0: no limit.
   uint32_t max_crash_restarts = 3;
+  // A partial upload untouched this long is deleted (its client gave up), at start and while running.
+  double partial_upload_max_age_seconds = 86400;
 };
 
 // What the command line asked for besides the configuration.

@@ -137,6 +137,7 @@ Service::Service(const Config& config, TokenSet tokens) : config_(config), token
   store::BlobStoreOptions blob_options;
   blob_options.max_blob_size = config_.max_blob_bytes;
   blobs_ = std::make_unique<store::BlobStore>(std::filesystem::path(config_.store), blob_options);
+  remove_abandoned_uploads("at start");
   queue_ = std::make_unique<store::JobQueue>();
   const store::Recovery recovery = db_->recover_unfinished();
   for (const store::JobRecord& r : recovery.queued) queue_->push(r.id, r.priority, r.seq);
@@ -147,6 +148,32 @@ Service::Service(const Config& config, TokenSet tokens) : config_(config), token
   }
   workers_ = std::make_unique<Workers>(config_, *db_, *blobs_, *queue_);
   workers_->start();
+  sweeper_ = std::thread([this] { sweep_uploads(); });
+}
+
+void Service::remove_abandoned_uploads(const char* when) {
+  const auto max_age = std::chrono::seconds(std::llround(config_.partial_upload_max_age_seconds));
+  try {
+    const size_t removed = blobs_->remove_partials_older_than(max_age);
+    if (removed > 0) {
+      log_line("store " + config_.store, std::string(when) + ": deleted " + std::to_string(removed) +
+                                             " partial upload(s) untouched for over " +
+                                             std::to_string(max_age.count()) + " s (partial_upload_max_age_seconds)");
+    }
+  } catch (const std::exception& e) {
+    log_line("store " + config_.store, std::string("cannot delete abandoned partial uploads: ") + e.what());
+  }
+}
+
+void Service::sweep_uploads() {
+  const double quarter = std::clamp(config_.partial_upload_max_age_seconds / 4, 1.0, 3600.0);
+  const auto period = std::chrono::duration<double>(quarter);
+  std::unique_lock lock(sweep_mutex_);
+  while (!sweep_wake_.wait_for(lock, period, [this] { return sweep_stop_; })) {
+    lock.unlock();
+    remove_abandoned_uploads("sweep");
+    lock.lock();
+  }
 }
 
 Service::~Service() { shutdown(std::chrono::seconds(0)); }
@@ -169,6 +196,12 @@ void Service::shutdown(std::chrono::duration<double> grace) {
     }
   }
   workers_->join();
+  {
+    std::lock_guard lock(sweep_mutex_);
+    sweep_stop_ = true;
+  }
+  sweep_wake_.notify_all();
+  if (sweeper_.joinable()) sweeper_.join();
 }
 
 void Service::connection_error(v1::Response& response, int code, const std::string& message) {

@@ -5,10 +5,12 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 
 #include "daemon/auth.h"
 #include "daemon/config.h"
@@ -85,6 +87,10 @@ class Service {
   void list_jobs(const v1::Request& req, v1::Response& resp);
   // Evicts least recently used results past the store limit (under the submit lock).
   void enforce_retention();
+  // Deletes partial uploads older than partial_upload_max_age_seconds, logging what it removed.
+  void remove_abandoned_uploads(const char* when);
+  // The sweeper thread: remove_abandoned_uploads every quarter of the age (1 s to 1 h) until shutdown.
+  void sweep_uploads();
 
   Config config_;
   TokenSet tokens_;
@@ -96,6 +102,10 @@ class Service {
   std::atomic<bool> shutting_down_{false};
   std::atomic<int> connections_{0};
   HelloThrottle hello_throttle_;
+  std::mutex sweep_mutex_;
+  std::condition_variable sweep_wake_;
+  bool sweep_stop_ = false;
+  std::thread sweeper_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };
 

@@ -104,6 +104,7 @@ TEST(Config, ShippedConfigStatesTheDefaults) {
   EXPECT_EQ(shipped.idle_timeout_seconds, defaults.idle_timeout_seconds);
   EXPECT_EQ(shipped.frame_deadline_seconds, defaults.frame_deadline_seconds);
   EXPECT_EQ(shipped.max_crash_restarts, defaults.max_crash_restarts);
+  EXPECT_EQ(shipped.partial_upload_max_age_seconds, defaults.partial_upload_max_age_seconds);
 }
 
 TEST(Config, HeartbeatFromFileAndFlag) {
