@@ -376,9 +376,11 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   // Pinned against the retention limit while the job waits or runs.
   for (const BlobRef& input : bake.inputs) job.input_digests.push_back(input.sha256);
   if (auto cached = db_->find_succeeded_by_spec_key(key)) {
-    // The result cache: the new job is recorded as succeeded at once, reporting the stored outputs.
+    // The result cache: the new job is recorded as succeeded at once, reporting the stored outputs, provided they
+    // are all still in the store (one found damaged was moved aside); otherwise the result leaves the cache and
+    // the job bakes again.
     v1::JobResult result;
-    if (result.ParseFromString(cached->result)) {
+    if (result.ParseFromString(cached->result) && outputs_stored(result, cached->id)) {
       result.mutable_report()->set_cache_hit(true);
       store::CachedResult c;
       c.source_job_id = cached->id;
@@ -410,6 +412,19 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   reply->set_cache_hit(out.job.cache_source.has_value());
   reply->set_state(to_proto(out.job.state));
   if (config_.store_limit_bytes > 0) enforce_retention();
+}
+
+bool Service::outputs_stored(const v1::JobResult& result, const std::string& job_id) {
+  for (const v1::Output& o : result.outputs()) {
+    const store::BlobId id{o.digest().sha256(), o.digest().size()};
+    if (!blobs_->contains(id)) {
+      db_->mark_results_evicted({id.digest});
+      log_line("job " + job_id, "its result leaves the cache: output " + o.name() + " (" + id.digest +
+                                    ") is no longer in the store");
+      return false;
+    }
+  }
+  return true;
 }
 
 void Service::enforce_retention() {
@@ -491,8 +506,8 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
     if (record->evicted) {
       fail(v1::Error::NOT_FOUND,
            "the outputs of job " + id +
-               " were evicted by the store's retention limit; "
-               "submit the job again",
+               " are gone from the store (evicted by its retention limit, or found damaged); "
+               "submit the job again to bake them anew",
            "get_result.job_id");
     }
     if (!r->ParseFromString(stored)) fail(v1::Error::DATA_LOSS, "the stored result of job " + id + " is unreadable");
@@ -527,7 +542,18 @@ void Service::fetch(const v1::Request& req, v1::Response& resp) {
   const uint64_t length = f.length() == 0 ? config_.max_chunk_bytes : f.length();
   auto* reply = resp.mutable_fetch();
   reply->set_offset(f.offset());
-  reply->set_data(blobs_->read_range(id, f.offset(), length));
+  try {
+    reply->set_data(blobs_->read_range(id, f.offset(), length));
+  } catch (const store::StoreError& e) {
+    // A damaged blob was moved aside: every result that refers to it leaves the cache, so that submitting the job
+    // again bakes it instead of answering with outputs that cannot be fetched.
+    if (e.code() == store::StoreErrc::data_loss) {
+      const size_t n = db_->mark_results_evicted({id.digest});
+      log_line("store " + config_.store, std::string(e.what()) + "; " + std::to_string(n) +
+                                             " result(s) referring to it left the result cache");
+    }
+    throw;
+  }
   reply->set_eof(f.offset() + reply->data().size() >= id.size);
 }
 

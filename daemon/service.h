@@ -18,6 +18,7 @@
 #include "daemon/store/job_queue.h"
 
 namespace kiln::v1 {
+class JobResult;
 class Request;
 class Response;
 }  // namespace kiln::v1
@@ -85,6 +86,9 @@ class Service {
   void fetch(const v1::Request& req, v1::Response& resp);
   void status(v1::Response& resp);
   void list_jobs(const v1::Request& req, v1::Response& resp);
+  // True if every output of a cached result is still in the store; otherwise marks the results that refer to the
+  // missing one as evicted (they leave the cache) and returns false.
+  bool outputs_stored(const v1::JobResult& result, const std::string& job_id);
   // Evicts least recently used results past the store limit (under the submit lock).
   void enforce_retention();
   // Deletes partial uploads older than partial_upload_max_age_seconds, logging what it removed.
