@@ -82,5 +82,19 @@ TEST(StoreDamage, ADamagedResultLeavesTheCache) {
   EXPECT_TRUE(c.submit(small_job()).cache_hit());
 }
 
+// kilnd used to verify only files written before it started: an output it baked itself and then found damaged on
+// disk was served as it was until a restart. Every fetch now hashes the blob when it starts.
+TEST(StoreDamage, ADamagedOutputKilndWroteIsRefusedWithoutARestart) {
+  Daemon d;
+  Client c = connect(d);
+  const std::string id = c.submit(small_job()).job_id();
+  ASSERT_EQ(c.watch(id).state(), v1::JOB_STATE_SUCCEEDED);
+  const v1::Output output = c.result(id).outputs(0);
+  EXPECT_EQ(proto::sha256_hex(c.fetch(output.digest())), output.digest().sha256());  // served whole first
+  damage(d, output.digest());
+  EXPECT_EQ(fetch_error(c, output.digest()), v1::Error::DATA_LOSS);
+  EXPECT_NE(d.log().find("damaged"), std::string::npos) << d.log();
+}
+
 }  // namespace
 }  // namespace kiln
