@@ -15,9 +15,9 @@ struct Config {
   uint32_t workers = 1;
   uint32_t threads = 0;
   uint64_t store_limit_bytes = 0;
-  uint32_t max_connections = 64;            // connections that said hello
+  uint32_t max_connections = 64;              // connections that said hello
   uint32_t max_pre_hello_connections = 1024;  // connections that have not yet; the oldest dropped when full
-  double hello_deadline_seconds = 5;        // from connecting to a successful hello
+  double hello_deadline_seconds = 5;          // from connecting to a successful hello
   double frame_deadline_seconds = 30;
   double idle_timeout_seconds = 600;
   // A watch repeats its latest event when nothing was sent for it this long (HelloReply.limits.heartbeat_seconds).

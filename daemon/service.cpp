@@ -419,8 +419,8 @@ bool Service::outputs_stored(const v1::JobResult& result, const std::string& job
     const store::BlobId id{o.digest().sha256(), o.digest().size()};
     if (!blobs_->contains(id)) {
       db_->mark_results_evicted({id.digest});
-      log_line("job " + job_id, "its result leaves the cache: output " + o.name() + " (" + id.digest +
-                                    ") is no longer in the store");
+      log_line("job " + job_id,
+               "its result leaves the cache: output " + o.name() + " (" + id.digest + ") is no longer in the store");
       return false;
     }
   }
@@ -549,8 +549,8 @@ void Service::fetch(const v1::Request& req, v1::Response& resp) {
     // again bakes it instead of answering with outputs that cannot be fetched.
     if (e.code() == store::StoreErrc::data_loss) {
       const size_t n = db_->mark_results_evicted({id.digest});
-      log_line("store " + config_.store, std::string(e.what()) + "; " + std::to_string(n) +
-                                             " result(s) referring to it left the result cache");
+      log_line("store " + config_.store,
+               std::string(e.what()) + "; " + std::to_string(n) + " result(s) referring to it left the result cache");
     }
     throw;
   }

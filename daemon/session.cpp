@@ -110,7 +110,8 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
       }
       // Id 0 is reserved for connection-level errors, so a request that uses it cannot be answered by id: it is a
       // broken client, treated like a bad frame.
-      if (request.id() == 0) return drop("a request has id 0; request ids must be nonzero", v1::Error::INVALID_ARGUMENT);
+      if (request.id() == 0)
+        return drop("a request has id 0; request ids must be nonzero", v1::Error::INVALID_ARGUMENT);
       dispatch(request);
     }
     if (decoder_.error() != proto::FrameDecoder::Error::none) return drop_for_decoder_error();
@@ -350,8 +351,8 @@ std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, Co
   const auto ep = socket.remote_endpoint(ec);
   std::string address = ec ? std::string() : ep.address().to_string();
   std::string peer = ec ? "tcp" : address + ":" + std::to_string(ep.port());
-  return std::make_shared<SocketSession<tcp::socket>>(io, service, registry, std::move(socket), false,
-                                                      std::move(peer), std::move(address));
+  return std::make_shared<SocketSession<tcp::socket>>(io, service, registry, std::move(socket), false, std::move(peer),
+                                                      std::move(address));
 }
 
 std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, ConnectionRegistry& registry,

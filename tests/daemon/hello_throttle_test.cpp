@@ -23,9 +23,9 @@ TEST(HelloThrottle, AddressesAreCountedApartAndForgottenAfterTheWindow) {
   HelloThrottle t({milliseconds(50), milliseconds(5000), seconds(60), 16});
   const auto now = HelloThrottle::Clock::now();
   for (int i = 0; i < 5; ++i) t.failed("10.0.0.1", now);
-  EXPECT_EQ(t.failed("10.0.0.2", now).count(), 50);                        // another address starts afresh
-  EXPECT_EQ(t.failed("10.0.0.1", now + seconds(59)).count(), 1600);        // still within the window
-  EXPECT_EQ(t.failed("10.0.0.1", now + seconds(59 + 61)).count(), 50);     // a quiet minute: forgotten
+  EXPECT_EQ(t.failed("10.0.0.2", now).count(), 50);                     // another address starts afresh
+  EXPECT_EQ(t.failed("10.0.0.1", now + seconds(59)).count(), 1600);     // still within the window
+  EXPECT_EQ(t.failed("10.0.0.1", now + seconds(59 + 61)).count(), 50);  // a quiet minute: forgotten
 }
 
 TEST(HelloThrottle, RemembersABoundedNumberOfAddresses) {

@@ -214,7 +214,8 @@ TEST(Connection, PreHelloBoundDropsTheOldestFirst) {
   }
   RawConnection newest(port);
   expect_connection_error(*raws[0], v1::Error::RESOURCE_EXHAUSTED, "the oldest pre-hello connection");
-  for (int i = 1; i < 4; ++i) EXPECT_EQ(raws[i]->call(test::status_request(2)).error().code(), v1::Error::UNAUTHENTICATED);
+  for (int i = 1; i < 4; ++i)
+    EXPECT_EQ(raws[i]->call(test::status_request(2)).error().code(), v1::Error::UNAUTHENTICATED);
   // A client still gets in (dropping the next oldest), and says hello.
   client::Client c(d.tcp());
   EXPECT_NO_THROW(c.hello(d.token()));

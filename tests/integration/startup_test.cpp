@@ -12,8 +12,8 @@
 #include <utility>
 
 #include "client/lib/client.h"
-#include "proto/kiln.pb.h"
 #include "proto/digest.h"
+#include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/raw_connection.h"
 
@@ -82,8 +82,8 @@ std::pair<int, std::string> run_kilnd(const std::string& args) {
 TEST(Startup, ASecondKilndDoesNotStealALiveUnixSocket) {
   Daemon d;
   const auto other_store = d.dir() / "other-store";
-  const auto [status, out] = run_kilnd("--listen '' --socket " + (d.dir() / "kilnd.sock").string() + " --store " +
-                                       other_store.string());
+  const auto [status, out] =
+      run_kilnd("--listen '' --socket " + (d.dir() / "kilnd.sock").string() + " --store " + other_store.string());
   EXPECT_EQ(status, 1) << out;
   EXPECT_NE(out.find("is listening on it"), std::string::npos) << out;
   EXPECT_NE(out.find("process " + std::to_string(d.pid())), std::string::npos) << out;

@@ -11,9 +11,9 @@
 #include <unistd.h>
 
 #include <atomic>
-#include <functional>
 #include <cctype>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <set>
 #include <sstream>
