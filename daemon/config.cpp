@@ -85,16 +85,35 @@ const std::vector<Flag>& flags() {
        [](Config& c, const std::string& v) {
          c.store_limit_bytes = parse_unsigned("--store-limit-bytes", v, 0, uint64_t{1} << 50);
        }},
-      {"--max-connections", "max_connections", "connections at once [1, 10000]",
+      {"--max-connections", "max_connections", "connections that said hello, at once [1, 10000]",
        [](Config& c, const std::string& v) { c.max_connections = parse_unsigned("--max-connections", v, 1, 10000); }},
+      {"--max-pre-hello-connections", "max_pre_hello_connections",
+       "connections not yet past hello [1, 100000]; when full the oldest is dropped",
+       [](Config& c, const std::string& v) {
+         c.max_pre_hello_connections = parse_unsigned("--max-pre-hello-connections", v, 1, 100000);
+       }},
+      {"--hello-deadline", "hello_deadline_seconds", "seconds from connecting to a successful hello",
+       [](Config& c, const std::string& v) { c.hello_deadline_seconds = parse_seconds("--hello-deadline", v); }},
       {"--frame-deadline", "frame_deadline_seconds", "seconds a client may take to finish a frame it started",
        [](Config& c, const std::string& v) { c.frame_deadline_seconds = parse_seconds("--frame-deadline", v); }},
       {"--idle-timeout", "idle_timeout_seconds", "seconds before an idle connection is closed",
        [](Config& c, const std::string& v) { c.idle_timeout_seconds = parse_seconds("--idle-timeout", v); }},
+      {"--heartbeat", "heartbeat_seconds", "seconds between a watch's events at most (repeats) [1, 3600]",
+       [](Config& c, const std::string& v) { c.heartbeat_seconds = parse_unsigned("--heartbeat", v, 1, 3600); }},
       {"--max-queued-jobs", "max_queued_jobs", "jobs waiting at once [1, 1000000]",
        [](Config& c, const std::string& v) { c.max_queued_jobs = parse_unsigned("--max-queued-jobs", v, 1, 1000000); }},
       {"--shutdown-grace", "shutdown_grace_seconds", "seconds running jobs get to finish on SIGTERM/SIGINT",
        [](Config& c, const std::string& v) { c.shutdown_grace_seconds = parse_seconds("--shutdown-grace", v); }},
+      {"--partial-upload-max-age", "partial_upload_max_age_seconds",
+       "seconds before an untouched partial upload is deleted (at start and while running)",
+       [](Config& c, const std::string& v) {
+         c.partial_upload_max_age_seconds = parse_seconds("--partial-upload-max-age", v);
+       }},
+      {"--max-crash-restarts", "max_crash_restarts",
+       "fail a job that was running at this many kilnd crashes in a row, 0 = never [0, 1000]",
+       [](Config& c, const std::string& v) {
+         c.max_crash_restarts = parse_unsigned("--max-crash-restarts", v, 0, 1000);
+       }},
   };
   return all;
 }
@@ -121,13 +140,20 @@ void load_config_file(const std::string& path, Config& config) {
   if (file.has_threads()) config.threads = file.threads();
   if (file.has_store_limit_bytes()) config.store_limit_bytes = file.store_limit_bytes();
   if (file.has_max_connections()) config.max_connections = file.max_connections();
+  if (file.has_max_pre_hello_connections()) config.max_pre_hello_connections = file.max_pre_hello_connections();
+  if (file.has_hello_deadline_seconds()) config.hello_deadline_seconds = file.hello_deadline_seconds();
   if (file.has_frame_deadline_seconds()) config.frame_deadline_seconds = file.frame_deadline_seconds();
   if (file.has_idle_timeout_seconds()) config.idle_timeout_seconds = file.idle_timeout_seconds();
+  if (file.has_heartbeat_seconds()) config.heartbeat_seconds = file.heartbeat_seconds();
   if (file.has_max_frame_bytes()) config.max_frame_bytes = file.max_frame_bytes();
   if (file.has_max_chunk_bytes()) config.max_chunk_bytes = file.max_chunk_bytes();
   if (file.has_max_blob_bytes()) config.max_blob_bytes = file.max_blob_bytes();
   if (file.has_max_queued_jobs()) config.max_queued_jobs = file.max_queued_jobs();
   if (file.has_shutdown_grace_seconds()) config.shutdown_grace_seconds = file.shutdown_grace_seconds();
+  if (file.has_partial_upload_max_age_seconds()) {
+    config.partial_upload_max_age_seconds = file.partial_upload_max_age_seconds();
+  }
+  if (file.has_max_crash_restarts()) config.max_crash_restarts = file.max_crash_restarts();
 }
 
 CommandLine parse_command_line(const std::vector<std::string>& args) {
@@ -170,6 +196,24 @@ void validate(const Config& c) {
   }
   if (c.store.empty()) throw std::invalid_argument("--store: a folder is required");
   if (c.workers < 1 || c.workers > 256) throw std::invalid_argument("workers: must be in [1, 256]");
+  if (c.max_connections < 1 || c.max_connections > 10000) {
+    throw std::invalid_argument("max_connections: must be in [1, 10000]");
+  }
+  if (c.max_pre_hello_connections < 1 || c.max_pre_hello_connections > 100000) {
+    throw std::invalid_argument("max_pre_hello_connections: must be in [1, 100000]");
+  }
+  for (const auto& [name, value] : {std::pair{"hello_deadline_seconds", c.hello_deadline_seconds},
+                                    std::pair{"frame_deadline_seconds", c.frame_deadline_seconds},
+                                    std::pair{"idle_timeout_seconds", c.idle_timeout_seconds},
+                                    std::pair{"partial_upload_max_age_seconds", c.partial_upload_max_age_seconds}}) {
+    if (!(value > 0) || !std::isfinite(value)) {
+      throw std::invalid_argument(std::string(name) + ": must be a positive number of seconds");
+    }
+  }
+  if (c.max_crash_restarts > 1000) throw std::invalid_argument("max_crash_restarts: must be in [0, 1000]");
+  if (c.heartbeat_seconds < 1 || c.heartbeat_seconds > 3600) {
+    throw std::invalid_argument("heartbeat_seconds: must be in [1, 3600]");
+  }
   if (c.max_frame_bytes < 1024 || c.max_frame_bytes > (uint64_t{64} << 20)) {
     throw std::invalid_argument("max_frame_bytes: must be in [1 KiB, 64 MiB]");
   }
@@ -186,7 +230,7 @@ std::string usage() {
       "given with --config (annotated example: deploy/kilnd.conf), then these flags:\n\n";
   for (const Flag& f : flags()) {
     char line[256];
-    std::snprintf(line, sizeof line, "  %-22s %-24s %s\n", f.name, f.field, f.help);
+    std::snprintf(line, sizeof line, "  %-28s %-26s %s\n", f.name, f.field, f.help);
     u += line;
   }
   u += "\nThe second column is the config file's field. Logs go to stderr. SIGTERM or SIGINT stops accepting,\n"

@@ -15,14 +15,23 @@ struct Config {
   uint32_t workers = 1;
   uint32_t threads = 0;
   uint64_t store_limit_bytes = 0;
-  uint32_t max_connections = 64;
+  uint32_t max_connections = 64;              // connections that said hello
+  uint32_t max_pre_hello_connections = 1024;  // connections that have not yet; the oldest dropped when full
+  double hello_deadline_seconds = 5;          // from connecting to a successful hello
   double frame_deadline_seconds = 30;
   double idle_timeout_seconds = 600;
+  // A watch repeats its latest event when nothing was sent for it this long (HelloReply.limits.heartbeat_seconds).
+  uint32_t heartbeat_seconds = 10;
   uint64_t max_frame_bytes = uint64_t{4} << 20;
   uint64_t max_chunk_bytes = uint64_t{1} << 20;
   uint64_t max_blob_bytes = uint64_t{1} << 30;
   uint32_t max_queued_jobs = 1000;
   double shutdown_grace_seconds = 30;
+  // The crash-loop guard: a job that was running when kilnd died this many times in a row is failed, not run
+  // again. 0: no limit.
+  uint32_t max_crash_restarts = 3;
+  // A partial upload untouched this long is deleted (its client gave up), at start and while running.
+  double partial_upload_max_age_seconds = 86400;
 };
 
 // What the command line asked for besides the configuration.

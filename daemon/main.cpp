@@ -9,6 +9,7 @@
 #include "daemon/auth.h"
 #include "daemon/config.h"
 #include "daemon/log.h"
+#include "daemon/open_files.h"
 #include "daemon/server.h"
 #include "daemon/service.h"
 
@@ -40,6 +41,8 @@ int main(int argc, char** argv) {
   ::signal(SIGPIPE, SIG_IGN);
 
   try {
+    const std::string limit_note = fit_open_file_limit(open_files_needed(config));
+    if (!limit_note.empty()) log_line("start", limit_note);
     TokenSet tokens = config.token_file.empty() ? TokenSet{} : TokenSet::load(config.token_file);
     Service service(config, std::move(tokens));
     Server server(service);

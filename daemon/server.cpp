@@ -5,10 +5,13 @@
 
 #include <boost/asio.hpp>
 
+#include <sys/socket.h>
 #include <sys/stat.h>
 
 #include <atomic>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -23,20 +26,74 @@ namespace asio = boost::asio;
 using asio::ip::tcp;
 using unix_socket = asio::local::stream_protocol;
 
-struct Server::Impl {
+// Two bounds on connections. Those that said Hello count against max_connections; a Hello past it is refused.
+// Those that have not (yet) count against max_pre_hello_connections, a larger bound: when it is full, the oldest
+// pre-hello connection is dropped to make room for the new one, so idle sockets that never say Hello (each of
+// which the hello deadline closes anyway) can never lock clients out.
+struct Server::Impl : ConnectionRegistry {
   Service& service;
+  // Declared before the io_context: sessions destroyed with its pending handlers still report to the registry.
+  std::mutex registry_mutex;
+  std::map<uint64_t, std::weak_ptr<Session>> pre_hello;  // by session id, which grows with accept order
+  std::size_t authenticated = 0;
+  std::mutex sessions_mutex;
+  std::set<std::weak_ptr<Session>, std::owner_less<std::weak_ptr<Session>>> sessions;  // so stop() can close them
+
   asio::io_context io;
   std::optional<tcp::acceptor> tcp_acceptor;
   std::optional<unix_socket::acceptor> unix_acceptor;
   std::string unix_path;
-  std::mutex sessions_mutex;
-  std::set<std::weak_ptr<Session>, std::owner_less<std::weak_ptr<Session>>> sessions;  // so stop() can close them
   std::atomic<bool> stopping{false};
 
   explicit Impl(Service& s) : service(s) {}
   template <class Acceptor>
   void accept(Acceptor& acceptor);
+  template <class Acceptor>
+  void accept_later(Acceptor& acceptor);
+  void admit(const std::shared_ptr<Session>& session);
+
+  bool promote(uint64_t session_id) override {
+    std::lock_guard lock(registry_mutex);
+    pre_hello.erase(session_id);
+    if (authenticated >= service.config().max_connections) return false;
+    ++authenticated;
+    return true;
+  }
+  void closed(uint64_t session_id, bool promoted) override {
+    std::lock_guard lock(registry_mutex);
+    if (promoted) {
+      --authenticated;
+    } else {
+      pre_hello.erase(session_id);
+    }
+  }
 };
+
+void Server::Impl::admit(const std::shared_ptr<Session>& session) {
+  std::shared_ptr<Session> dropped;
+  std::size_t waiting;
+  {
+    std::lock_guard lock(registry_mutex);
+    pre_hello.emplace(session->id(), session);
+    waiting = pre_hello.size();
+    if (waiting > service.config().max_pre_hello_connections) {
+      dropped = pre_hello.begin()->second.lock();
+      pre_hello.erase(pre_hello.begin());
+    }
+  }
+  {
+    std::lock_guard lock(sessions_mutex);
+    for (auto it = sessions.begin(); it != sessions.end();) it = it->expired() ? sessions.erase(it) : ++it;
+    sessions.insert(session);
+  }
+  session->mark_counted();
+  session->start();
+  if (dropped) {
+    dropped->refuse("dropped to make room: the server holds " + std::to_string(waiting - 1) +
+                    " connections that have not said hello, its limit (max_pre_hello_connections), and the oldest "
+                    "go first; say hello as soon as you connect");
+  }
+}
 
 template <class Acceptor>
 void Server::Impl::accept(Acceptor& acceptor) {
@@ -44,25 +101,58 @@ void Server::Impl::accept(Acceptor& acceptor) {
                                                                  typename Acceptor::protocol_type::socket s) {
     if (stopping) return;
     if (!ec) {
-      std::shared_ptr<Session> session = make_session(io, service, std::move(s));
-      std::size_t open;
-      {
-        std::lock_guard lock(sessions_mutex);
-        for (auto it = sessions.begin(); it != sessions.end();) it = it->expired() ? sessions.erase(it) : ++it;
-        open = sessions.size();
-        sessions.insert(session);
-      }
-      session->mark_counted();
-      session->start();
-      if (open >= service.config().max_connections) {
-        session->refuse("the server has " + std::to_string(open) + " connections, its limit; try again later");
-      }
+      admit(make_session(io, service, *this, std::move(s)));
     } else if (ec != asio::error::operation_aborted) {
-      log_line("listener", "accept failed: " + ec.message());
+      // Out of file descriptors (or another transient failure): the pending connection stays in the backlog, so
+      // accepting again at once would spin. Pause briefly; closing connections frees descriptors meanwhile.
+      log_line("listener", "accept failed: " + ec.message() + "; pausing accepts for 100 ms");
+      return accept_later(acceptor);
     }
     accept(acceptor);
   });
 }
+
+template <class Acceptor>
+void Server::Impl::accept_later(Acceptor& acceptor) {
+  auto timer = std::make_shared<asio::steady_timer>(io, std::chrono::milliseconds(100));
+  timer->async_wait([this, &acceptor, timer](const boost::system::error_code& ec) {
+    if (!ec && !stopping) accept(acceptor);
+  });
+}
+
+namespace {
+
+// A socket file left by a previous run that died would make bind fail, so it is removed, but only once it is known
+// to be dead: a socket some process still listens on is never unlinked (that would cut a running kilnd off from
+// its clients). Throws std::runtime_error naming the process that listens, when the kernel says which.
+void remove_stale_socket(asio::io_context& io, const std::string& path) {
+  std::error_code fs_ec;
+  if (!std::filesystem::is_socket(path, fs_ec)) return;  // absent, or not a socket: bind reports it
+  unix_socket::socket probe(io);
+  boost::system::error_code ec;
+  probe.connect(unix_socket::endpoint(path), ec);
+  if (!ec) {
+    std::string holder = "a live process";
+    ucred cred{};
+    socklen_t len = sizeof cred;
+    if (::getsockopt(probe.native_handle(), SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0 && cred.pid > 0) {
+      holder = "process " + std::to_string(cred.pid);
+      std::ifstream comm("/proc/" + std::to_string(cred.pid) + "/comm");
+      std::string name;
+      if (std::getline(comm, name) && !name.empty()) holder += " (" + name + ")";
+    }
+    throw std::runtime_error("--socket " + path + ": " + holder +
+                             " is listening on it; another kilnd is probably running. Stop it, or give this one "
+                             "another --socket path");
+  }
+  if (ec != asio::error::connection_refused) {
+    throw std::runtime_error("--socket " + path + ": cannot tell whether a process listens on it (" + ec.message() +
+                             "); remove the file if no daemon uses it, or give another --socket path");
+  }
+  std::filesystem::remove(path, fs_ec);
+}
+
+}  // namespace
 
 Server::Server(Service& service) : impl_(std::make_unique<Impl>(service)) {
   const Config& c = service.config();
@@ -87,9 +177,7 @@ Server::Server(Service& service) : impl_(std::make_unique<Impl>(service)) {
     impl_->accept(*impl_->tcp_acceptor);
   }
   if (!c.socket.empty()) {
-    // A socket file left by a previous run that died would make bind fail; nobody listens on it any more.
-    std::error_code fs_ec;
-    if (std::filesystem::is_socket(c.socket, fs_ec)) std::filesystem::remove(c.socket, fs_ec);
+    remove_stale_socket(impl_->io, c.socket);
     boost::system::error_code ec;
     unix_socket::acceptor a(impl_->io);
     a.open(unix_socket(), ec);

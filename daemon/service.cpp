@@ -26,7 +26,6 @@ constexpr std::size_t kMaxClientNameBytes = 256;
 constexpr std::size_t kMaxIdempotencyKeyBytes = 128;
 constexpr std::size_t kMaxJobIdBytes = 64;
 constexpr uint32_t kMaxQueryDigests = 1024;
-constexpr uint32_t kHeartbeatSeconds = 10;
 
 // A request failed: the error goes into the response with its code, message and field.
 struct Failure {
@@ -132,10 +131,13 @@ v1::JobEvent event_of(const store::JobRecord& r) {
 Service::Service(const Config& config, TokenSet tokens) : config_(config), tokens_(std::move(tokens)) {
   std::filesystem::create_directories(config_.store);
   // The database first: its lock keeps a second kilnd out of the store before the blob store cleans its tmp/.
-  db_ = std::make_unique<store::JobDb>(std::filesystem::path(config_.store) / "jobs.sqlite");
+  store::JobDbOptions db_options;
+  db_options.max_crash_restarts = static_cast<int>(config_.max_crash_restarts);
+  db_ = std::make_unique<store::JobDb>(std::filesystem::path(config_.store) / "jobs.sqlite", db_options);
   store::BlobStoreOptions blob_options;
   blob_options.max_blob_size = config_.max_blob_bytes;
   blobs_ = std::make_unique<store::BlobStore>(std::filesystem::path(config_.store), blob_options);
+  remove_abandoned_uploads("at start");
   queue_ = std::make_unique<store::JobQueue>();
   const store::Recovery recovery = db_->recover_unfinished();
   for (const store::JobRecord& r : recovery.queued) queue_->push(r.id, r.priority, r.seq);
@@ -146,6 +148,32 @@ Service::Service(const Config& config, TokenSet tokens) : config_(config), token
   }
   workers_ = std::make_unique<Workers>(config_, *db_, *blobs_, *queue_);
   workers_->start();
+  sweeper_ = std::thread([this] { sweep_uploads(); });
+}
+
+void Service::remove_abandoned_uploads(const char* when) {
+  const auto max_age = std::chrono::seconds(std::llround(config_.partial_upload_max_age_seconds));
+  try {
+    const size_t removed = blobs_->remove_partials_older_than(max_age);
+    if (removed > 0) {
+      log_line("store " + config_.store, std::string(when) + ": deleted " + std::to_string(removed) +
+                                             " partial upload(s) untouched for over " +
+                                             std::to_string(max_age.count()) + " s (partial_upload_max_age_seconds)");
+    }
+  } catch (const std::exception& e) {
+    log_line("store " + config_.store, std::string("cannot delete abandoned partial uploads: ") + e.what());
+  }
+}
+
+void Service::sweep_uploads() {
+  const double quarter = std::clamp(config_.partial_upload_max_age_seconds / 4, 1.0, 3600.0);
+  const auto period = std::chrono::duration<double>(quarter);
+  std::unique_lock lock(sweep_mutex_);
+  while (!sweep_wake_.wait_for(lock, period, [this] { return sweep_stop_; })) {
+    lock.unlock();
+    remove_abandoned_uploads("sweep");
+    lock.lock();
+  }
 }
 
 Service::~Service() { shutdown(std::chrono::seconds(0)); }
@@ -168,6 +196,12 @@ void Service::shutdown(std::chrono::duration<double> grace) {
     }
   }
   workers_->join();
+  {
+    std::lock_guard lock(sweep_mutex_);
+    sweep_stop_ = true;
+  }
+  sweep_wake_.notify_all();
+  if (sweeper_.joinable()) sweeper_.join();
 }
 
 void Service::connection_error(v1::Response& response, int code, const std::string& message) {
@@ -258,10 +292,15 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
   l->set_max_blob_bytes(config_.max_blob_bytes);
   l->set_max_queued_jobs(config_.max_queued_jobs);
   l->set_max_query_digests(kMaxQueryDigests);
-  l->set_heartbeat_seconds(kHeartbeatSeconds);
+  l->set_heartbeat_seconds(config_.heartbeat_seconds);
   r->add_job_types("material");
   r->add_job_types("environment");
   r->add_job_types("lightmap");
+}
+
+std::chrono::milliseconds Service::hello_failed(const SessionInfo& s) {
+  if (s.unix_socket || s.address.empty()) return std::chrono::milliseconds(0);  // the socket's permissions decide
+  return hello_throttle_.failed(s.address);
 }
 
 void Service::blob_query(const v1::Request& req, v1::Response& resp) {
@@ -337,9 +376,11 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   // Pinned against the retention limit while the job waits or runs.
   for (const BlobRef& input : bake.inputs) job.input_digests.push_back(input.sha256);
   if (auto cached = db_->find_succeeded_by_spec_key(key)) {
-    // The result cache: the new job is recorded as succeeded at once, reporting the stored outputs.
+    // The result cache: the new job is recorded as succeeded at once, reporting the stored outputs, provided they
+    // are all still in the store (one found damaged was moved aside); otherwise the result leaves the cache and
+    // the job bakes again.
     v1::JobResult result;
-    if (result.ParseFromString(cached->result)) {
+    if (result.ParseFromString(cached->result) && outputs_stored(result, cached->id)) {
       result.mutable_report()->set_cache_hit(true);
       store::CachedResult c;
       c.source_job_id = cached->id;
@@ -371,6 +412,19 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   reply->set_cache_hit(out.job.cache_source.has_value());
   reply->set_state(to_proto(out.job.state));
   if (config_.store_limit_bytes > 0) enforce_retention();
+}
+
+bool Service::outputs_stored(const v1::JobResult& result, const std::string& job_id) {
+  for (const v1::Output& o : result.outputs()) {
+    const store::BlobId id{o.digest().sha256(), o.digest().size()};
+    if (!blobs_->contains(id)) {
+      db_->mark_results_evicted({id.digest});
+      log_line("job " + job_id,
+               "its result leaves the cache: output " + o.name() + " (" + id.digest + ") is no longer in the store");
+      return false;
+    }
+  }
+  return true;
 }
 
 void Service::enforce_retention() {
@@ -452,8 +506,8 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
     if (record->evicted) {
       fail(v1::Error::NOT_FOUND,
            "the outputs of job " + id +
-               " were evicted by the store's retention limit; "
-               "submit the job again",
+               " are gone from the store (evicted by its retention limit, or found damaged); "
+               "submit the job again to bake them anew",
            "get_result.job_id");
     }
     if (!r->ParseFromString(stored)) fail(v1::Error::DATA_LOSS, "the stored result of job " + id + " is unreadable");
@@ -488,7 +542,18 @@ void Service::fetch(const v1::Request& req, v1::Response& resp) {
   const uint64_t length = f.length() == 0 ? config_.max_chunk_bytes : f.length();
   auto* reply = resp.mutable_fetch();
   reply->set_offset(f.offset());
-  reply->set_data(blobs_->read_range(id, f.offset(), length));
+  try {
+    reply->set_data(blobs_->read_range(id, f.offset(), length));
+  } catch (const store::StoreError& e) {
+    // A damaged blob was moved aside: every result that refers to it leaves the cache, so that submitting the job
+    // again bakes it instead of answering with outputs that cannot be fetched.
+    if (e.code() == store::StoreErrc::data_loss) {
+      const size_t n = db_->mark_results_evicted({id.digest});
+      log_line("store " + config_.store,
+               std::string(e.what()) + "; " + std::to_string(n) + " result(s) referring to it left the result cache");
+    }
+    throw;
+  }
   reply->set_eof(f.offset() + reply->data().size() >= id.size);
 }
 

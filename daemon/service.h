@@ -5,16 +5,20 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 
 #include "daemon/auth.h"
 #include "daemon/config.h"
+#include "daemon/hello_throttle.h"
 #include "daemon/store/job_queue.h"
 
 namespace kiln::v1 {
+class JobResult;
 class Request;
 class Response;
 }  // namespace kiln::v1
@@ -35,6 +39,7 @@ struct SessionInfo {
   bool unix_socket = false;    // the socket's permissions already decided who may connect
   bool authenticated = false;  // a Hello was accepted
   std::string peer;            // for logs
+  std::string address;         // the peer's IP address on TCP (without the port); empty on the Unix socket
   uint64_t id = 0;             // for logs
 };
 
@@ -60,6 +65,10 @@ class Service {
   void shutdown(std::chrono::duration<double> grace);
   bool shutting_down() const { return shutting_down_; }
 
+  // A Hello failed on this connection, which the session closes after answering. Returns how long to wait before
+  // the answer: growing with the recent failures from the same address, so tokens cannot be guessed at speed.
+  std::chrono::milliseconds hello_failed(const SessionInfo& session);
+
   void connection_opened() { ++connections_; }
   void connection_closed() { --connections_; }
 
@@ -77,8 +86,15 @@ class Service {
   void fetch(const v1::Request& req, v1::Response& resp);
   void status(v1::Response& resp);
   void list_jobs(const v1::Request& req, v1::Response& resp);
+  // True if every output of a cached result is still in the store; otherwise marks the results that refer to the
+  // missing one as evicted (they leave the cache) and returns false.
+  bool outputs_stored(const v1::JobResult& result, const std::string& job_id);
   // Evicts least recently used results past the store limit (under the submit lock).
   void enforce_retention();
+  // Deletes partial uploads older than partial_upload_max_age_seconds, logging what it removed.
+  void remove_abandoned_uploads(const char* when);
+  // The sweeper thread: remove_abandoned_uploads every quarter of the age (1 s to 1 h) until shutdown.
+  void sweep_uploads();
 
   Config config_;
   TokenSet tokens_;
@@ -89,6 +105,11 @@ class Service {
   std::mutex submit_mutex_;  // submits and retention do not interleave (see store::enforce_retention)
   std::atomic<bool> shutting_down_{false};
   std::atomic<int> connections_{0};
+  HelloThrottle hello_throttle_;
+  std::mutex sweep_mutex_;
+  std::condition_variable sweep_wake_;
+  bool sweep_stop_ = false;
+  std::thread sweeper_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };
 

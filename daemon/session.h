@@ -14,6 +14,18 @@ namespace kiln::daemon {
 
 class Service;
 
+// The server's two bounds on connections, as a session sees them: a connection counts as "pre-hello" until its
+// Hello succeeds, then as authenticated. Implemented by the server; called from the sessions' strands.
+class ConnectionRegistry {
+ public:
+  virtual ~ConnectionRegistry() = default;
+  // The session's Hello succeeded: true if it may stay (the authenticated connections are within
+  // max_connections, counting it), false if it must be refused.
+  virtual bool promote(uint64_t session_id) = 0;
+  // The session ended (called from its destructor); `promoted` says which bound it counted against.
+  virtual void closed(uint64_t session_id, bool promoted) = 0;
+};
+
 class Session {
  public:
   virtual ~Session() = default;
@@ -26,12 +38,15 @@ class Session {
   virtual void refuse(const std::string& message) = 0;
   // Makes the session's end tell the service the connection closed (the server calls it before start()).
   virtual void mark_counted() = 0;
+  // Unique for the daemon's life; the key of the session in the server's registry.
+  virtual uint64_t id() const = 0;
 };
 
-// A session over an accepted TCP or Unix socket connection, run on its own strand of `io`.
-std::shared_ptr<Session> make_session(boost::asio::io_context& io, Service& service,
+// A session over an accepted TCP or Unix socket connection, run on its own strand of `io`. `registry` must outlive
+// the session (it is told when the session ends).
+std::shared_ptr<Session> make_session(boost::asio::io_context& io, Service& service, ConnectionRegistry& registry,
                                       boost::asio::ip::tcp::socket socket);
-std::shared_ptr<Session> make_session(boost::asio::io_context& io, Service& service,
+std::shared_ptr<Session> make_session(boost::asio::io_context& io, Service& service, ConnectionRegistry& registry,
                                       boost::asio::local::stream_protocol::socket socket);
 
 }  // namespace kiln::daemon

@@ -270,7 +270,13 @@ v1::HelloReply Client::hello(const std::string& token) {
   hello->set_protocol_version(proto::kProtocolVersion);
   hello->set_token(token);
   hello->set_client(impl.options.client_name);
-  v1::HelloReply reply = impl.call(request, v1::Response::kHello).hello();
+  v1::HelloReply reply;
+  try {
+    reply = impl.call(request, v1::Response::kHello).hello();
+  } catch (const ServerError&) {
+    impl.close();  // the server closes the connection after a failed hello
+    throw;
+  }
   if (reply.protocol_version() != proto::kProtocolVersion) {
     impl.fail("the server speaks protocol version " + std::to_string(reply.protocol_version()) + ", this client " +
               std::to_string(proto::kProtocolVersion));

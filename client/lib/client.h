@@ -74,7 +74,9 @@ class Client {
   Client(Client&&) noexcept;
   Client& operator=(Client&&) noexcept;
 
-  // Must come first. Remembers the server's limits, which size the chunks of uploads and fetches.
+  // Must come first, and soon after connecting: kilnd closes a connection that has not said hello within its hello
+  // deadline (5 s by default). Remembers the server's limits, which size the chunks of uploads and fetches. A refused
+  // hello (ServerError, e.g. UNAUTHENTICATED) leaves the Client closed, as the server closes the connection.
   v1::HelloReply hello(const std::string& token);
   // The server's limits after hello(); the protocol's defaults before.
   const v1::Limits& limits() const;

@@ -117,8 +117,9 @@ class BlobStore {
   // moved to DIR/corrupt/ so a fresh upload can replace it).
   std::string read(const BlobId& id);
   // Up to `length` bytes from `offset` (fewer at the end of the blob; none when offset == size; out_of_range beyond
-  // it). The file's size is checked on every call and its content hashed the first time this process reads it
-  // (then remembered), so a chunked fetch hashes a blob once, not once per chunk.
+  // it). The file's size is checked on every call and its content hashed at every read from offset 0 (the start of
+  // a fetch) and at a first read elsewhere, so a chunked fetch hashes a blob once, not once per chunk, and damage
+  // is found at the next fetch whoever wrote the file.
   std::string read_range(const BlobId& id, uint64_t offset, uint64_t length);
   // Marks a blob as used now (its modification time), for eviction when no last-used time is given for it.
   // Returns false if the blob is not stored.
@@ -142,8 +143,9 @@ class BlobStore {
   std::mutex& stripe(const std::string& digest);
   // Renames `from` (a verified, fsynced file) to the blob's place and makes the rename durable.
   void install(const std::filesystem::path& from, const BlobId& id);
-  // Hashes the stored file unless this process already did; on damage, quarantines it and throws data_loss.
-  void verify_once(const BlobId& id, const std::filesystem::path& file);
+  // Hashes the stored file (unless `again` is false and this process already verified it since it was last read
+  // from the start); on damage, quarantines it and throws data_loss.
+  void verify(const BlobId& id, const std::filesystem::path& file, bool again);
   [[noreturn]] void quarantine_and_throw(const BlobId& id, const std::string& why);
   // A stored file whose size is not id.size: either the caller has the size wrong (not_found, naming the real size)
   // or the file is damaged (quarantined, data_loss); the hash decides which.

@@ -227,6 +227,25 @@ void set_durability(sqlite3* db, const fs::path& file) {
   exec(db, file, "PRAGMA synchronous = FULL", "setting synchronous mode");
 }
 
+// SQLite opens a file it may not write read-only without a word, and writes then fail one by one (every submit
+// INTERNAL). The database is checked at open instead: the file must be writable, and taking the write lock must
+// work (it needs the directory's -wal and -shm files too).
+void check_writable(sqlite3* db, const fs::path& file) {
+  const std::string advice =
+      "; kilnd must write its job records there: make the file and its directory writable by the user kilnd runs "
+      "as (and the file system read-write), or point --store at another directory";
+  if (sqlite::read_only(db)) {
+    throw StoreError(StoreErrc::failed_precondition, "job database " + file.string() + " is read-only" + advice);
+  }
+  try {
+    exec(db, file, "BEGIN IMMEDIATE", "taking the write lock");
+  } catch (const StoreError& e) {
+    throw StoreError(StoreErrc::failed_precondition,
+                     std::string(e.what()) + " (the database is read-only to kilnd)" + advice);
+  }
+  exec(db, file, "ROLLBACK", "releasing the write lock");
+}
+
 // A new file gets the schema; an SQLite file with tables but no version is someone else's and is left alone.
 void create_schema(sqlite3* db, const fs::path& file) {
   bool has_tables;
@@ -262,6 +281,7 @@ JobDb::JobDb(const fs::path& file, JobDbOptions options)
   impl_->db = sqlite::open(file_);
   const int version = schema_version_of(impl_->db, file_);
   set_durability(impl_->db, file_);
+  check_writable(impl_->db, file_);
   if (version == 0) create_schema(impl_->db, file_);
   // Future migrations: `if (version < 2) { … PRAGMA user_version = 2; }`, each in its own transaction.
 }
@@ -490,8 +510,10 @@ Recovery JobDb::recover_unfinished() {
   for (const auto& r : running) {
     if (options_.max_crash_restarts > 0 && r.attempts >= options_.max_crash_restarts) {
       std::string why = "kilnd stopped while this job was running, " + std::to_string(r.attempts) +
-                        " times in a row; it was not started again, in case it is what stops the daemon. "
-                        "Check kilnd's log for the cause, then resubmit it";
+                        " times in a row, reaching the crash-loop limit (max_crash_restarts = " +
+                        std::to_string(options_.max_crash_restarts) +
+                        ", set in kilnd.conf or with --max-crash-restarts; 0 means no limit); it was not started "
+                        "again, in case it is what stops the daemon. Check kilnd's log for the cause, then resubmit it";
       Stmt s(db, file_, "UPDATE jobs SET state = 'failed', finished = ?2, error = ?3 WHERE id = ?1");
       s.bind(1, r.id).bind(2, now).bind(3, why).run();
     } else {

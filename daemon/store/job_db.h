@@ -81,7 +81,7 @@ struct Recovery {
 
 struct JobDbOptions {
   // A job that was running when the daemon died this many times is failed rather than run again, so that a job
-  // which crashes the daemon cannot crash it forever. 0 retries without limit.
+  // which crashes the daemon cannot crash it forever. 0 retries without limit. kilnd's max_crash_restarts setting.
   int max_crash_restarts = 3;
 };
 

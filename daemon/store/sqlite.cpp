@@ -69,6 +69,8 @@ void close(sqlite3* db) { sqlite3_close_v2(db); }
 
 int changes(sqlite3* db) { return sqlite3_changes(db); }
 
+bool read_only(sqlite3* db) { return sqlite3_db_readonly(db, "main") != 0; }
+
 void exec(sqlite3* db, const fs::path& file, const char* sql, const char* doing) {
   char* err = nullptr;
   int rc = sqlite3_exec(db, sql, nullptr, nullptr, &err);

@@ -21,6 +21,8 @@ sqlite3* open(const std::filesystem::path& file);
 void close(sqlite3* db);
 // Rows changed by the last statement.
 int changes(sqlite3* db);
+// True if the connection cannot write the main database (SQLite opens a file it may not write read-only, silently).
+bool read_only(sqlite3* db);
 
 // Throws the StoreError for SQLite result code `rc` (extended codes included) of `doing` on `file`.
 [[noreturn]] void throw_error(sqlite3* db, int rc, const std::filesystem::path& file, const std::string& doing);

@@ -61,6 +61,8 @@ TEST(Config, BadFlagsAreRefusedWithTheFlagNamed) {
       {{"--workers", "-1"}, "--workers"},
       {{"--threads", "99999"}, "--threads"},
       {{"--idle-timeout", "0"}, "--idle-timeout"},
+      {{"--heartbeat", "0"}, "--heartbeat"},
+      {{"--heartbeat", "1.5"}, "--heartbeat"},
       {{"--frame-deadline", "nan"}, "--frame-deadline"},
       {{"--bogus", "1"}, "unknown argument '--bogus'"},
       {{"--listen"}, "--listen: missing value"},
@@ -87,6 +89,45 @@ TEST(Config, ValidationRequiresATokenForTcpAndSomeListener) {
   c.listen = "localhost";
   c.token_file = "/x";
   EXPECT_THROW(validate(c), std::invalid_argument);  // no port
+}
+
+// deploy/kilnd.conf documents the defaults: loading it changes none of the settings it shows, except where the
+// deployment differs on purpose (paths).
+TEST(Config, ShippedConfigStatesTheDefaults) {
+  Config shipped;
+  load_config_file(std::string(KILN_SOURCE_DIR) + "/deploy/kilnd.conf", shipped);
+  const Config defaults;
+  EXPECT_EQ(shipped.heartbeat_seconds, defaults.heartbeat_seconds);
+  EXPECT_EQ(shipped.max_connections, defaults.max_connections);
+  EXPECT_EQ(shipped.max_pre_hello_connections, defaults.max_pre_hello_connections);
+  EXPECT_EQ(shipped.hello_deadline_seconds, defaults.hello_deadline_seconds);
+  EXPECT_EQ(shipped.idle_timeout_seconds, defaults.idle_timeout_seconds);
+  EXPECT_EQ(shipped.frame_deadline_seconds, defaults.frame_deadline_seconds);
+  EXPECT_EQ(shipped.max_crash_restarts, defaults.max_crash_restarts);
+  EXPECT_EQ(shipped.partial_upload_max_age_seconds, defaults.partial_upload_max_age_seconds);
+}
+
+TEST(Config, HeartbeatFromFileAndFlag) {
+  const std::string f = write_file("hb.conf", "heartbeat_seconds: 4\n");
+  EXPECT_EQ(parse_command_line({"--config", f}).config.heartbeat_seconds, 4u);
+  EXPECT_EQ(parse_command_line({"--config", f, "--heartbeat", "2"}).config.heartbeat_seconds, 2u);
+}
+
+TEST(Config, CrashLoopGuardFromFileAndFlag) {
+  const std::string f = write_file("crash.conf", "max_crash_restarts: 5\n");
+  EXPECT_EQ(parse_command_line({"--config", f}).config.max_crash_restarts, 5u);
+  EXPECT_EQ(parse_command_line({"--config", f, "--max-crash-restarts", "0"}).config.max_crash_restarts, 0u);
+  EXPECT_THROW(parse_command_line({"--max-crash-restarts", "-1"}), std::invalid_argument);
+}
+
+TEST(Config, ConnectionBoundsFromFileAndFlag) {
+  const std::string f = write_file("conn.conf", "max_pre_hello_connections: 300\nhello_deadline_seconds: 2.5\n");
+  const Config c = parse_command_line({"--config", f, "--max-connections", "8"}).config;
+  EXPECT_EQ(c.max_pre_hello_connections, 300u);
+  EXPECT_EQ(c.hello_deadline_seconds, 2.5);
+  EXPECT_EQ(c.max_connections, 8u);
+  EXPECT_THROW(parse_command_line({"--hello-deadline", "0"}), std::invalid_argument);
+  EXPECT_THROW(parse_command_line({"--max-pre-hello-connections", "0"}), std::invalid_argument);
 }
 
 TEST(Config, HelpListsEveryFlag) {

@@ -13,6 +13,7 @@
 #include "proto/framing.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
+#include "tests/integration/raw_connection.h"
 
 namespace kiln {
 namespace {
@@ -158,30 +159,7 @@ TEST(Daemon, BadStreamsAreDroppedAndOthersStillServed) {
   EXPECT_NE(d.log().find("dropped"), std::string::npos);
 }
 
-// The protocol spoken by hand over a plain socket: for requests the client library would never send.
-class RawConnection {
- public:
-  explicit RawConnection(unsigned port) : fd_(test::connect_tcp(port)) {}
-  ~RawConnection() { ::close(fd_); }
-  v1::Response call(const v1::Request& request) {
-    const std::string frame = proto::encode_frame(request);
-    EXPECT_EQ(::send(fd_, frame.data(), frame.size(), MSG_NOSIGNAL), static_cast<ssize_t>(frame.size()));
-    char buf[65536];
-    std::string_view payload;
-    while (decoder_.next(payload) != proto::FrameDecoder::Status::frame) {
-      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
-      if (n <= 0) throw std::runtime_error("connection closed");
-      decoder_.feed(std::string_view(buf, static_cast<size_t>(n)));
-    }
-    v1::Response r;
-    EXPECT_TRUE(proto::parse_frame(payload, r));
-    return r;
-  }
-
- private:
-  int fd_;
-  proto::FrameDecoder decoder_;
-};
+using test::RawConnection;
 
 v1::Request put(uint64_t id, const std::string& sha, uint64_t size, uint64_t offset, std::string data) {
   v1::Request r;

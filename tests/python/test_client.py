@@ -51,7 +51,8 @@ class Daemon:
         with open(self.out, "w") as out, open(self.log_path, "w") as err:
             self.proc = subprocess.Popen(
                 [binary, "--listen", "127.0.0.1:0", "--socket", self.socket, "--store",
-                 os.path.join(self.dir, "store"), "--token-file", tokens, "--workers", "2"],
+                 os.path.join(self.dir, "store"), "--token-file", tokens, "--workers", "2",
+                 "--hello-deadline", "2"],
                 stdout=out, stderr=err, stdin=subprocess.DEVNULL)
         self.port = None
         prefix = "kilnd: listening on 127.0.0.1:"
@@ -260,6 +261,13 @@ class AgainstKilnd(unittest.TestCase):
             f.write("# the token\n\n  %s  \n" % TOKEN)
         with kiln.Client(DAEMON.tcp, token_file=token_file) as c:
             self.assertIn("material", c.hello().job_types)
+
+    def test_a_client_made_long_before_its_first_request_is_served(self):
+        # kilnd closes a connection that has not said hello within its hello deadline (2 s for this daemon); the
+        # client says hello on a fresh connection instead of the constructor's stale one.
+        with DAEMON.client() as c:
+            time.sleep(2.5)
+            self.assertEqual(c.status().server_version.split()[0], "kilnd")
 
     def test_watch_all_list_status_cancel(self):
         ids = [self.c.submit(ggx_job(a, samples=256, table=4)).job_id for a in (0.61, 0.62, 0.63)]

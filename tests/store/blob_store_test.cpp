@@ -273,6 +273,31 @@ TEST(BlobStore, DamagedBlobIsRefusedQuarantinedAndReplaceable) {
   EXPECT_EQ(store.read(id), bytes);
 }
 
+// Damage to a blob this same process wrote (or verified) used to go unseen until a restart: the first verification
+// was remembered. Every read from offset 0 (the start of a fetch) hashes the file again; the whole read always does.
+TEST(BlobStore, DamageToABlobThisProcessWroteIsFoundWhenServed) {
+  TempDir tmp;
+  BlobStore store(tmp.path());
+  const std::string bytes = pattern(5000, 14);
+  const BlobId written = store.put(bytes);
+  EXPECT_EQ(store.read_range(written, 0, 100), bytes.substr(0, 100));  // verified once, and fine
+  std::string damaged = bytes;
+  damaged[4000] ^= 0x01;
+  write_file(blob_file(tmp.path(), written), damaged);
+  expect_store_error([&] { store.read_range(written, 0, 100); }, StoreErrc::data_loss);
+  EXPECT_FALSE(store.contains(written));
+
+  // The same for an uploaded blob, and for a read in the middle that is the first since the write.
+  const std::string more = pattern(5000, 15);
+  const BlobId uploaded = id_of(more);
+  store.append(uploaded, 0, more);
+  store.complete(uploaded);
+  std::string bad = more;
+  bad[10] ^= 0x01;
+  write_file(blob_file(tmp.path(), uploaded), bad);
+  expect_store_error([&] { store.read_range(uploaded, 4096, 100); }, StoreErrc::data_loss);
+}
+
 TEST(BlobStore, TruncatedBlobIsRefusedByRangeReads) {
   TempDir tmp;
   std::string bytes = pattern(5000, 12);

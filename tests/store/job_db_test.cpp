@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cctype>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <set>
 #include <sstream>
@@ -272,6 +273,9 @@ TEST(JobDb, AJobThatKeepsCrashingTheDaemonIsEventuallyFailed) {
   ASSERT_EQ(rec.gave_up.size(), 1u);
   EXPECT_EQ(rec.gave_up[0].state, JobState::failed);
   EXPECT_TRUE(contains(rec.gave_up[0].error, "2 times")) << rec.gave_up[0].error;
+  // The reason names the guard and how to change it.
+  EXPECT_TRUE(contains(rec.gave_up[0].error, "max_crash_restarts = 2")) << rec.gave_up[0].error;
+  EXPECT_TRUE(contains(rec.gave_up[0].error, "--max-crash-restarts")) << rec.gave_up[0].error;
 }
 
 TEST(JobDb, AGracefulRequeueIsNotACrash) {
@@ -421,6 +425,45 @@ TEST(JobDb, ADatabaseFromANewerVersionIsRefused) {
   sqlite3_close(raw);
   StoreError e = expect_store_error([&] { JobDb db(tmp.db()); }, StoreErrc::failed_precondition);
   EXPECT_TRUE(contains(e.what(), "newer kilnd")) << e.what();
+}
+
+// Runs `check` in a child process as an unprivileged user when the test runs as root (CI does), since root writes
+// through file permissions; `dir` is handed to that user. Returns the child's exit status: 0 when check() is true.
+int run_unprivileged(const fs::path& dir, const std::function<bool()>& check) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    if (::geteuid() == 0) {
+      constexpr uid_t kNobody = 65534;
+      for (const auto& e : fs::recursive_directory_iterator(dir)) {
+        if (::chown(e.path().c_str(), kNobody, kNobody) != 0) _exit(3);
+      }
+      if (::chown(dir.c_str(), kNobody, kNobody) != 0 || ::setgid(kNobody) != 0 || ::setuid(kNobody) != 0) _exit(3);
+    }
+    _exit(check() ? 0 : 1);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+// A job database kilnd cannot write to (a read-only file, as after a restore with the wrong permissions) is refused
+// when it is opened, saying so, instead of every submit failing INTERNAL later.
+TEST(JobDb, AReadOnlyDatabaseIsRefusedWhenOpened) {
+  TempDir tmp;
+  { JobDb db(tmp.db()); }
+  const int status = run_unprivileged(tmp.path(), [&] {
+    fs::permissions(tmp.db(), fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+    try {
+      JobDb db(tmp.db());
+      std::fprintf(stderr, "a read-only job database was opened\n");
+      return false;
+    } catch (const StoreError& e) {
+      std::fprintf(stderr, "%s\n", e.what());
+      return e.code() == StoreErrc::failed_precondition && contains(e.what(), "read-only") &&
+             contains(e.what(), tmp.db().string());
+    }
+  });
+  EXPECT_EQ(status, 0);
 }
 
 TEST(JobDb, ForeignSqliteDatabaseIsRefused) {

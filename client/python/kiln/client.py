@@ -37,6 +37,9 @@ _FRAME_OVERHEAD_BYTES = 1024
 _MAX_UPLOAD_RESTARTS = 3
 _READ_BYTES = 256 << 10
 _CLIENT_NAME = "kiln-python 0.1.0"
+# A connection older than this is replaced before saying hello: well inside any server's hello deadline (5 s by
+# default), so a Client constructed long before its first request is not refused.
+_FRESH_CONNECTION_SECONDS = 1.0
 
 
 def _safe_output_name(name):
@@ -127,6 +130,7 @@ class Client:
         except OSError as e:
             raise ConnectionError("connecting to %s: %s" % (self.address, e.strerror or e)) from e
         self._sock = sock
+        self._connected_at = time.monotonic()
 
     def _fail(self, why, cls=ConnectionError, **kw):
         self.close()
@@ -234,14 +238,21 @@ class Client:
     def hello(self):
         """Says hello with the token (reconnecting if the connection broke); returns the server's HelloReply and
         remembers its limits, which size the chunks of uploads and fetches. ServerError UNAUTHENTICATED if the
-        token is wrong or missing on TCP."""
-        if self._sock is None:
+        token is wrong or missing on TCP; the server then closes the connection (answering repeated failures ever
+        more slowly), and the next call reconnects."""
+        # The server closes a connection that has not said hello within a few seconds (its hello deadline); the
+        # constructor's connection may have waited longer than that for the first request, so it is made afresh.
+        if self._sock is None or time.monotonic() - self._connected_at > _FRESH_CONNECTION_SECONDS:
             self._connect()
         request = pb.Request()
         request.hello.protocol_version = PROTOCOL_VERSION
         request.hello.token = self.token
         request.hello.client = self.client_name
-        reply = self._await({self._start(request)}, "hello").hello
+        try:
+            reply = self._await({self._start(request)}, "hello").hello
+        except ServerError:
+            self.close()  # the server closes the connection after a failed hello; the next call reconnects
+            raise
         if reply.protocol_version != PROTOCOL_VERSION:
             self._fail("the server speaks protocol version %d, this client %d"
                        % (reply.protocol_version, PROTOCOL_VERSION))
