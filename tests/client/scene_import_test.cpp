@@ -108,6 +108,45 @@ TEST(SceneImport, CornellBoxMeshesUvsInstancesAndEmission) {
   EXPECT_NO_THROW(translated(j));
 }
 
+// The lightmap names of the job's instances, each with how many instances bake into it.
+std::map<std::string, int> lightmaps_of(const v1::LightmapJob& j) {
+  std::map<std::string, int> out;
+  for (const v1::Instance& inst : j.instances()) ++out[inst.lightmap()];
+  return out;
+}
+
+TEST(SceneImport, PrimitivesOfOneGltfMeshShareItsLightmap) {
+  // cornell_box.py --atlas: one glTF mesh `cornell_box` with a primitive per material (white, red, green, light),
+  // whose TEXCOORD_1 charts tile one atlas. Assimp makes four meshes of it, cornell_box-0 to cornell_box-3.
+  test::TempDir dir("kiln-import");
+  const fs::path scene = dir.path() / "cornell_box_atlas.gltf";
+  const std::string command = "/usr/bin/python3 " + (source_dir() / "client/examples/scenes/cornell_box.py").string() +
+                              " --atlas " + scene.string() + " > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  const client::ImportedScene s = client::import_scene(scene.string());
+  EXPECT_EQ(s.job.meshes_size(), 4);
+  EXPECT_EQ(lightmaps_of(s.job), (std::map<std::string, int>{{"cornell_box", 4}}));
+  const daemon::BakeRequest r = translated(s.job);
+  EXPECT_EQ(r.lightmap().scene.instances.size(), 4u);
+}
+
+TEST(SceneImport, ObjObjectWithSeveralMaterialsIsOneLightmapNamedAfterTheObject) {
+  // Assimp names the second piece of `thing` after its material (b); both belong to the object. A mesh alone in its
+  // node keeps its name even when it looks like a piece's (wall-1).
+  test::TempDir dir("kiln-import");
+  {
+    std::ofstream mtl(dir.path() / "two.mtl");
+    mtl << "newmtl a\nKd 1 0 0\nnewmtl b\nKd 0 1 0\n";
+    std::ofstream obj(dir.path() / "two.obj");
+    obj << "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+           "o thing\nusemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 4/4\n"
+           "o wall-1\nusemtl a\nf 1/1 2/2 4/4\n";
+  }
+  const client::ImportedScene s = client::import_scene((dir.path() / "two.obj").string());
+  EXPECT_EQ(s.job.meshes_size(), 3);
+  EXPECT_EQ(lightmaps_of(s.job), (std::map<std::string, int>{{"thing", 2}, {"wall-1", 1}}));
+}
+
 TEST(SceneImport, ObjWithoutSecondUvSetUsesTheFirstAndInstancesMaterials) {
   test::TempDir dir("kiln-import");
   {
