@@ -1,0 +1,16 @@
+// Text in the protocol's string fields. protobuf requires them to be UTF-8 (a frame with other bytes in a string
+// field does not parse), and what they carry comes from people and files: names with bytes of another encoding, and
+// control characters that must not reach a log line or a terminal as they are. Plain C++, no protobuf.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+namespace kiln::proto {
+
+// `s` for a log line or a terminal: one line, nothing a terminal acts on, and nothing lost. A backslash becomes \\,
+// newline, carriage return and tab \n, \r and \t, other C0 controls, DEL and bytes that are not UTF-8 \xNN, C1
+// controls (U+0080 to U+009F) \u00NN; printable UTF-8 is kept as it is.
+std::string printable(std::string_view s);
+
+}  // namespace kiln::proto
