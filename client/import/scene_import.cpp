@@ -21,6 +21,7 @@
 
 #include "client/import/mesh_blob.h"
 #include "proto/digest.h"
+#include "proto/text.h"
 
 namespace kiln::client {
 namespace {
@@ -112,11 +113,20 @@ std::string percent_decoded(const std::string& uri) {
   return out;
 }
 
-// `name` (cut to the protocol's 256 bytes) if `used` does not hold it yet, else name#1, name#2, ...: kiln wants mesh,
-// material and light names unique, which files do not promise.
+// A name from the file as a protocol string: UTF-8 (protobuf refuses a frame with anything else in a string field,
+// and files carry names in other encodings: Latin-1 material names in OBJ files), each byte that is not replaced by
+// U+FFFD, cut to `max_bytes` without cutting a character. The original bytes stay where they matter: texture files
+// are looked for by them.
+std::string wire_name(const std::string& name, size_t max_bytes = 256) {
+  return proto::utf8_prefix(proto::to_utf8(name), max_bytes);
+}
+
+// `name` as a protocol string (wire_name) if `used` does not hold it yet, else name#1, name#2, ...: kiln wants mesh,
+// material and light names unique, which files do not promise (nor do names made UTF-8).
 std::string unique_name(std::set<std::string>& used, const std::string& name) {
-  std::string out = name.substr(0, 256);
-  for (int n = 1; !used.insert(out).second; ++n) out = name.substr(0, 240) + "#" + std::to_string(n);
+  const std::string valid = proto::to_utf8(name);
+  std::string out = proto::utf8_prefix(valid, 256);
+  for (int n = 1; !used.insert(out).second; ++n) out = proto::utf8_prefix(valid, 240) + "#" + std::to_string(n);
   return out;
 }
 
@@ -224,7 +234,7 @@ class Importer {
       }
     }
     v1::Texture* t = out_.job.add_textures();
-    t->set_name(name.substr(0, 256));
+    t->set_name(wire_name(name));
     t->set_color_space("srgb_texture");
     add_blob(std::move(bytes), t->mutable_image());
     const uint32_t index = static_cast<uint32_t>(out_.job.textures_size() - 1);
@@ -413,9 +423,9 @@ class Importer {
       const std::string lightmap = source_mesh_name(node, ai_mesh);
       if (uses_[ai_mesh] > 1) {
         // Shared geometry in several places: each placement needs its own texels.
-        inst->set_lightmap((std::string(node->mName.C_Str()) + "/" + lightmap).substr(0, 256));
+        inst->set_lightmap(wire_name(std::string(node->mName.C_Str()) + "/" + lightmap));
       } else {
-        inst->set_lightmap(lightmap.substr(0, 256));
+        inst->set_lightmap(wire_name(lightmap));
       }
       if (!has_lightmap_uv_[mesh]) inst->set_bake(false);
     }

@@ -1,4 +1,5 @@
-// The protocol's text helpers (proto/text.h): the printable form of strings from the wire for logs and terminals.
+// The protocol's text helpers (proto/text.h): UTF-8 checked and made valid for protobuf's string fields, cut without
+// cutting a character, and the printable form of strings from the wire for logs and terminals.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -9,6 +10,39 @@ namespace kiln {
 namespace {
 
 using namespace std::string_literals;
+
+TEST(Utf8, WellFormedUtf8IsRecognisedAndKept) {
+  for (const std::string s : {""s, "plain"s, "caf\xc3\xa9"s, "\xe6\x9c\xa8"s, "\xf0\x9f\x94\xa5"s, "nul\0in"s,
+                              "\xf4\x8f\xbf\xbf"s /* U+10FFFF */}) {
+    EXPECT_TRUE(proto::is_utf8(s)) << s;
+    EXPECT_EQ(proto::to_utf8(s), s);
+  }
+}
+
+TEST(Utf8, EveryByteThatIsNotUtf8BecomesTheReplacementCharacter) {
+  const std::string fffd = "\xef\xbf\xbd";
+  // Latin-1 (as the OBJ files of assimp-testmodels carry), a lone continuation byte, an overlong '/', a surrogate,
+  // beyond U+10FFFF, a sequence cut short at the end.
+  EXPECT_EQ(proto::to_utf8("Mat\xe9riau"), "Mat" + fffd + "riau");
+  EXPECT_EQ(proto::to_utf8("\x80"), fffd);
+  EXPECT_EQ(proto::to_utf8("\xc0\xaf"), fffd + fffd);
+  EXPECT_EQ(proto::to_utf8("\xed\xa0\x80"), fffd + fffd + fffd);
+  EXPECT_EQ(proto::to_utf8("\xf4\x90\x80\x80"), fffd + fffd + fffd + fffd);
+  EXPECT_EQ(proto::to_utf8("ok\xe6\x9c"), "ok" + fffd + fffd);
+  for (const std::string s : {"Mat\xe9riau"s, "\xc0\xaf"s, "\xff\xfe"s}) {
+    EXPECT_FALSE(proto::is_utf8(s));
+    EXPECT_TRUE(proto::is_utf8(proto::to_utf8(s)));
+  }
+}
+
+TEST(Utf8, PrefixesDoNotCutACharacter) {
+  const std::string s = "ab\xe6\x9c\xa8" "c";  // a, b, 木 (3 bytes), c
+  EXPECT_EQ(proto::utf8_prefix(s, 10), s);
+  EXPECT_EQ(proto::utf8_prefix(s, 5), "ab\xe6\x9c\xa8");
+  EXPECT_EQ(proto::utf8_prefix(s, 4), "ab");
+  EXPECT_EQ(proto::utf8_prefix(s, 3), "ab");
+  EXPECT_EQ(proto::utf8_prefix(s, 0), "");
+}
 
 TEST(Printable, PrintableUtf8IsKeptAsItIs) {
   EXPECT_EQ(proto::printable("ggx 0.3 (lightmap cornell_box.gltf)"), "ggx 0.3 (lightmap cornell_box.gltf)");
