@@ -4,6 +4,8 @@
 #include <ctime>
 #include <mutex>
 
+#include "proto/text.h"
+
 namespace kiln::daemon {
 
 void log_line(const std::string& subject, const std::string& message) {
@@ -13,7 +15,10 @@ void log_line(const std::string& subject, const std::string& message) {
   std::tm tm{};
   gmtime_r(&now, &tm);
   std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  const std::string line = std::string(stamp) + " kilnd: " + subject + ": " + message + "\n";
+  // Subjects and messages carry what clients sent (job names, field values): escaped, so that none can end the line
+  // and forge another, or send a terminal showing the log a control sequence.
+  const std::string line =
+      std::string(stamp) + " kilnd: " + proto::printable(subject) + ": " + proto::printable(message) + "\n";
   std::lock_guard lock(mu);
   std::fwrite(line.data(), 1, line.size(), stderr);
   std::fflush(stderr);

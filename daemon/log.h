@@ -5,7 +5,8 @@
 
 namespace kiln::daemon {
 
-// Writes "2026-11-22T01:02:03Z kilnd: SUBJECT: MESSAGE" as one line (lines from threads never interleave).
+// Writes "2026-11-22T01:02:03Z kilnd: SUBJECT: MESSAGE" as one line (lines from threads never interleave), with
+// control characters, backslashes and bytes that are not UTF-8 in SUBJECT and MESSAGE escaped (proto::printable).
 void log_line(const std::string& subject, const std::string& message);
 
 }  // namespace kiln::daemon

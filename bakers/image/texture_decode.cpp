@@ -1,7 +1,13 @@
 #include "bakers/image/texture_decode.h"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <optional>
 #include <stdexcept>
 
 #include "bakers/image/color.h"
@@ -11,10 +17,44 @@
 namespace kiln::image {
 namespace {
 
-// The reader on the bytes, its header checked against the texture limits.
+// The bytes in a temporary file, removed when this goes, for the readers that read files only (ImageFormat::from_file).
+class TempImageFile {
+ public:
+  TempImageFile(const std::string& bytes, const std::string& virtual_name, const std::string& who) {
+    const std::string suffix = virtual_name.substr(virtual_name.find_last_of('.'));
+    std::string pattern = (std::filesystem::temp_directory_path() / ("kiln-texture-XXXXXX" + suffix)).string();
+    const int fd = ::mkstemps(pattern.data(), static_cast<int>(suffix.size()));
+    if (fd < 0) throw std::runtime_error(who + ": cannot make a temporary file to decode it: " + std::strerror(errno));
+    path_ = pattern;
+    size_t done = 0;
+    while (done < bytes.size()) {
+      const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        const std::string why = std::strerror(errno);
+        ::close(fd);
+        throw std::runtime_error(who + ": cannot write a temporary file to decode it (" + path_ + "): " + why);
+      }
+      done += static_cast<size_t>(n);
+    }
+    ::close(fd);
+  }
+  ~TempImageFile() { ::unlink(path_.c_str()); }
+  TempImageFile(const TempImageFile&) = delete;
+  TempImageFile& operator=(const TempImageFile&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// The reader on the bytes (from memory through `proxy`, or from `file` for the file-only readers), its header
+// checked against the texture limits.
 std::unique_ptr<OIIO::ImageInput> open_texture(const ImageFormat& format, OIIO::Filesystem::IOMemReader& proxy,
-                                               const std::string& who) {
-  std::unique_ptr<OIIO::ImageInput> in = detail::open_from_memory(format.virtual_name, proxy);
+                                               const TempImageFile* file, const std::string& who) {
+  std::unique_ptr<OIIO::ImageInput> in =
+      file ? OIIO::ImageInput::open(file->path()) : detail::open_from_memory(format.virtual_name, proxy);
+  if (in) in->threads(1);
   if (!in) {
     throw std::runtime_error(who + ": could not read the " + std::string(format.name) +
                              " header (truncated or corrupt?): " + OIIO::geterror());
@@ -80,18 +120,27 @@ void to_texels(std::vector<float>& rgb, const ColorConfig& config, const std::st
 
 DecodedTexture decode_texture(const std::string& bytes, const std::string& color_space, const std::string& name) {
   const std::string who = "texture " + name;
-  const ImageFormat* format = detect_image_format(bytes);
+  const ImageFormat* format = detect_texture_format(bytes);
   if (!format) {
     throw std::runtime_error(who + ": the " + std::to_string(bytes.size()) +
-                             " bytes are not an image kiln reads; upload an " + kAcceptedImageFormats + " file");
+                             " bytes are not an image kiln reads (they start with " + hex_prefix(bytes, 8) +
+                             "); upload a " + kAcceptedTextureFormats + " file");
   }
   const ColorConfig& config = ColorConfig::active();
-  const std::string space = !color_space.empty() ? color_space : (format->is_float ? "lin_rec709" : "srgb_texture");
+  if (!color_space.empty() && !config.has_space(color_space)) {
+    throw std::invalid_argument(who + ": colour space '" + color_space + "' is not in the active OpenColorIO config");
+  }
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  std::optional<TempImageFile> file;
+  if (format->from_file) file.emplace(bytes, format->virtual_name, who);
+  std::unique_ptr<OIIO::ImageInput> in = open_texture(*format, proxy, file ? &*file : nullptr, who);
+  // The default colour space follows the pixels: floats (EXR, HDR, and float TIFF, DDS, PFM, ...) are scene-linear,
+  // integers (8- and 16-bit) are sRGB-encoded, as texture tools write them.
+  const bool float_pixels = format->is_float || in->spec().format.is_floating_point();
+  const std::string space = !color_space.empty() ? color_space : (float_pixels ? "lin_rec709" : "srgb_texture");
   if (!config.has_space(space)) {
     throw std::invalid_argument(who + ": colour space '" + space + "' is not in the active OpenColorIO config");
   }
-  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  std::unique_ptr<OIIO::ImageInput> in = open_texture(*format, proxy, who);
   DecodedTexture out;
   out.width = in->spec().width;
   out.height = in->spec().height;

@@ -14,6 +14,7 @@
 #include "client/cli/subcommands.h"
 #include "client/cli/submission.h"
 #include "client/import/scene_import.h"
+#include "proto/text.h"
 
 namespace kiln::cli {
 namespace {
@@ -140,7 +141,11 @@ client::ImportedScene import_lightmap_scene(Context& ctx, const LightmapBake& ba
   } catch (const std::exception& e) {
     throw Failure(kExitUsage, e.what());
   }
-  for (const std::string& w : scene.warnings) ctx.err << "kiln: " << bake.scene_file << ": " << w << "\n";
+  // Warnings quote names from the file as they are: escaped, they show bytes of other encodings and cannot drive
+  // the terminal.
+  for (const std::string& w : scene.warnings) {
+    ctx.err << "kiln: " << bake.scene_file << ": " << proto::printable(w) << "\n";
+  }
   ctx.err << "kiln: " << bake.scene_file << ": " << scene.job.meshes_size() << " meshes, " << scene.job.instances_size()
           << " instances, " << scene.job.materials_size() << " materials, " << scene.job.textures_size()
           << " textures, " << scene.job.lights_size() << " lights\n";

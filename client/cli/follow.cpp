@@ -9,6 +9,7 @@
 #include "client/cli/interrupt.h"
 #include "client/cli/outputs.h"
 #include "client/cli/progress.h"
+#include "proto/text.h"
 
 namespace kiln::cli {
 namespace {
@@ -33,7 +34,7 @@ std::string job_end_message(Context& ctx, const v1::JobEvent& final, const std::
       // The event already says it failed; the reason is a courtesy.
     }
   }
-  return "job " + id + " " + state_name(final.state()) + (why.empty() ? "" : ": " + why);
+  return "job " + id + " " + state_name(final.state()) + (why.empty() ? "" : ": " + proto::printable(why));
 }
 
 // After the `reconnects`th broken watch: says why on stderr and waits before the next, or gives up.

@@ -9,6 +9,7 @@
 #include "client/cli/report.h"
 #include "client/cli/subcommands.h"
 #include "client/cli/submission.h"
+#include "proto/text.h"
 
 namespace kiln::cli {
 namespace {
@@ -29,19 +30,21 @@ std::string job_id_argument(const Flags& f, const std::string& command) {
 
 // "job ID STATE: MESSAGE", for a job that did not succeed.
 std::string job_state_line(const std::string& id, const v1::JobResult& r) {
-  return "job " + id + " " + state_name(r.state()) + (r.error().message().empty() ? "" : ": " + r.error().message());
+  return "job " + id + " " + state_name(r.state()) + (r.error().message().empty() ? "" : ": " + proto::printable(r.error().message()));
 }
 
 void print_failed_result(std::ostream& out, const v1::JobResult& r) {
-  out << "job " << r.job_id() << " " << state_name(r.state()) << (r.name().empty() ? "" : ": " + r.name()) << "\n";
+  out << "job " << r.job_id() << " " << state_name(r.state())
+      << (r.name().empty() ? "" : ": " + proto::printable(r.name())) << "\n";
   if (r.has_error()) {
-    out << "  error: " << (r.error().field().empty() ? "" : r.error().field() + ": ") << r.error().message() << " ("
+    out << "  error: " << (r.error().field().empty() ? "" : proto::printable(r.error().field()) + ": ")
+        << proto::printable(r.error().message()) << " ("
         << v1::Error::Code_Name(r.error().code()) << ")\n";
   }
 }
 
 void print_succeeded_result(std::ostream& out, const v1::JobResult& r) {
-  out << "job " << r.job_id() << " succeeded" << (r.name().empty() ? "" : ": " + r.name()) << "\n";
+  out << "job " << r.job_id() << " succeeded" << (r.name().empty() ? "" : ": " + proto::printable(r.name())) << "\n";
   out << "  cost: " << cost_line(r, r.report().cache_hit()) << "\n";
   out << "  outputs (write them into a folder with `kiln fetch " << r.job_id() << " --out DIR`):\n";
   for (const auto& o : r.outputs()) {

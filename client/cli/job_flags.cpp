@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "proto/kiln.pb.h"
+#include "proto/text.h"
 
 namespace kiln::cli {
 namespace {
@@ -73,9 +74,11 @@ void set_name(const Flags& f, v1::JobSpec& spec, const std::string& fallback) {
     if (v->size() > kMaxNameBytes) {
       throw UsageError("--name: at most " + std::to_string(kMaxNameBytes) + " bytes, got " + std::to_string(v->size()));
     }
-    spec.set_name(*v);
+    spec.set_name(proto::to_utf8(*v));  // a protobuf string must be UTF-8; bytes of another encoding become U+FFFD
   } else {
-    spec.set_name(fallback.size() > kMaxNameBytes ? fallback.substr(0, kMaxNameBytes - 3) + "..." : fallback);
+    // The fallback names files, whose names need not be UTF-8, and is cut without cutting a character.
+    const std::string name = proto::to_utf8(fallback);
+    spec.set_name(name.size() > kMaxNameBytes ? proto::utf8_prefix(name, kMaxNameBytes - 3) + "..." : name);
   }
 }
 

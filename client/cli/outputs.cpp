@@ -10,6 +10,7 @@
 #include "client/cli/format.h"
 #include "client/cli/progress.h"
 #include "client/cli/report.h"
+#include "proto/text.h"
 
 namespace kiln::cli {
 namespace {
@@ -175,7 +176,8 @@ std::vector<SavedFile> save_outputs(Context& ctx, const v1::JobResult& r, const 
 void print_summary(Context& ctx, const v1::JobResult& r, bool cache_hit, const std::optional<fs::path>& dir,
                    const std::vector<SavedFile>& saved) {
   std::ostream& out = ctx.out;
-  out << "job " << r.job_id() << " " << state_name(r.state()) << (r.name().empty() ? "" : ": " + r.name()) << "\n";
+  out << "job " << r.job_id() << " " << state_name(r.state())
+      << (r.name().empty() ? "" : ": " + proto::printable(r.name())) << "\n";
   out << "  cost: " << cost_line(r, cache_hit || r.report().cache_hit()) << "\n";
   if (dir) {
     const std::string shown = dir->string();

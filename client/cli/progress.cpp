@@ -6,6 +6,7 @@
 
 #include "client/cli/format.h"
 #include "proto/kiln.pb.h"
+#include "proto/text.h"
 
 namespace kiln::cli {
 namespace {
@@ -20,15 +21,6 @@ std::string percent(double fraction) {
   const double f = std::clamp(std::isfinite(fraction) ? fraction : 0.0, 0.0, 1.0);
   // Floor, so that 100 % only shows when the job is done.
   return std::to_string(static_cast<int>(std::floor(f * 100))) + "%";
-}
-
-// Replaces control characters (a message from the server must not move the cursor or end the line).
-std::string printable(const std::string& s) {
-  std::string out = s;
-  for (char& c : out) {
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
-  }
-  return out;
 }
 
 // The 10 % mark a fraction has reached; the small slack keeps 0.6 from counting as 0.5999... .
@@ -80,7 +72,7 @@ std::string ProgressPrinter::describe(const v1::JobEvent& e) {
       break;
   }
   if (!e.message().empty())
-    s += (e.state() == v1::JOB_STATE_FAILED ? ": " : "  (") + printable(e.message()) +
+    s += (e.state() == v1::JOB_STATE_FAILED ? ": " : "  (") + proto::printable(e.message()) +
          (e.state() == v1::JOB_STATE_FAILED ? "" : ")");
   return s;
 }
@@ -128,7 +120,7 @@ void ProgressPrinter::transfer(const std::string& name, std::uint64_t done, std:
   if (done != total && now - last_draw_ < kMinRedrawInterval) return;
   const double f = total ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
   const int filled = static_cast<int>(std::clamp(f, 0.0, 1.0) * kBarWidth);
-  draw("fetching " + printable(name) + " [" + std::string(static_cast<std::size_t>(filled), '#') +
+  draw("fetching " + proto::printable(name) + " [" + std::string(static_cast<std::size_t>(filled), '#') +
        std::string(static_cast<std::size_t>(kBarWidth - filled), '.') + "] " + format_bytes(done) + " of " +
        format_bytes(total));
   last_draw_ = now;

@@ -7,6 +7,7 @@
 #include "client/cli/progress.h"
 #include "client/cli/subcommands.h"
 #include "proto/bounds.h"
+#include "proto/text.h"
 
 namespace kiln::cli {
 namespace {
@@ -57,7 +58,7 @@ void print_jobs_table(std::ostream& out, const v1::JobList& list) {
         << state_name(j.state()) << std::setw(13) << (j.type().empty() ? "-" : j.type()) << std::right << std::setw(4)
         << j.priority() << "  " << std::left << std::setw(20) << format_time(j.submitted_unix()) << std::right
         << std::setw(12) << format_duration(j.seconds()) << "  " << std::left << std::setw(6)
-        << (j.cache_hit() ? "hit" : "-") << j.name() << "\n";
+        << (j.cache_hit() ? "hit" : "-") << proto::printable(j.name()) << "\n";
   }
   out << std::flush;
 }

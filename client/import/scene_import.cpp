@@ -21,6 +21,7 @@
 
 #include "client/import/mesh_blob.h"
 #include "proto/digest.h"
+#include "proto/text.h"
 
 namespace kiln::client {
 namespace {
@@ -112,11 +113,20 @@ std::string percent_decoded(const std::string& uri) {
   return out;
 }
 
-// `name` (cut to the protocol's 256 bytes) if `used` does not hold it yet, else name#1, name#2, ...: kiln wants mesh,
-// material and light names unique, which files do not promise.
+// A name from the file as a protocol string: UTF-8 (protobuf refuses a frame with anything else in a string field,
+// and files carry names in other encodings: Latin-1 material names in OBJ files), each byte that is not replaced by
+// U+FFFD, cut to `max_bytes` without cutting a character. The original bytes stay where they matter: texture files
+// are looked for by them.
+std::string wire_name(const std::string& name, size_t max_bytes = 256) {
+  return proto::utf8_prefix(proto::to_utf8(name), max_bytes);
+}
+
+// `name` as a protocol string (wire_name) if `used` does not hold it yet, else name#1, name#2, ...: kiln wants mesh,
+// material and light names unique, which files do not promise (nor do names made UTF-8).
 std::string unique_name(std::set<std::string>& used, const std::string& name) {
-  std::string out = name.substr(0, 256);
-  for (int n = 1; !used.insert(out).second; ++n) out = name.substr(0, 240) + "#" + std::to_string(n);
+  const std::string valid = proto::to_utf8(name);
+  std::string out = proto::utf8_prefix(valid, 256);
+  for (int n = 1; !used.insert(out).second; ++n) out = proto::utf8_prefix(valid, 240) + "#" + std::to_string(n);
   return out;
 }
 
@@ -224,7 +234,7 @@ class Importer {
       }
     }
     v1::Texture* t = out_.job.add_textures();
-    t->set_name(name.substr(0, 256));
+    t->set_name(wire_name(name));
     t->set_color_space("srgb_texture");
     add_blob(std::move(bytes), t->mutable_image());
     const uint32_t index = static_cast<uint32_t>(out_.job.textures_size() - 1);
@@ -345,14 +355,48 @@ class Importer {
         a.indices.insert(a.indices.end(), {face.mIndices[0], face.mIndices[1], face.mIndices[2]});
       }
       a.materials.assign(a.indices.size() / 3, m->mMaterialIndex);
-      // Assimp splits a mesh by material into pieces of the same name: the pieces keep it as their lightmap.
       v1::Mesh* out = out_.job.add_meshes();
       out->set_name(unique_name(mesh_names, base_name));
       add_blob(encode_mesh_blob(a), out->mutable_geometry());
       mesh_index_.back() = out_.job.meshes_size() - 1;
-      lightmap_of_mesh_.push_back(base_name);
       has_lightmap_uv_.push_back(!a.lightmap_uv.empty());
     }
+  }
+
+  std::string ai_mesh_name(unsigned ai_mesh) const {
+    const aiMesh* m = scene_->mMeshes[ai_mesh];
+    return m->mName.length ? m->mName.C_Str() : "mesh_" + std::to_string(ai_mesh);
+  }
+
+  // The name of the file's mesh that aiMesh `ai_mesh`, placed by `node`, is a piece of: the lightmap its pieces
+  // share. Assimp splits a mesh with several materials into pieces that the mesh's node places together, named in a
+  // way of its own per format: glTF's importer appends "-0", "-1", ... (the primitive's index) to the mesh's name,
+  // OBJ's names each piece after the first by its material. So: a node with one mesh gives that mesh's name (nodes
+  // placing meshes of one name share a lightmap: that is how a file asks for a shared atlas); pieces of one name give
+  // it; pieces NAME-<n> give NAME; other pieces give the node's name (OBJ's object, FBX's model). Every piece
+  // counts, triangles or not: glTF's numbering covers the points and lines too.
+  std::string source_mesh_name(const aiNode* node, unsigned ai_mesh) const {
+    if (node->mNumMeshes < 2) return ai_mesh_name(ai_mesh);
+    std::vector<std::string> names;
+    for (unsigned i = 0; i < node->mNumMeshes; ++i) names.push_back(ai_mesh_name(node->mMeshes[i]));
+    if (std::all_of(names.begin(), names.end(), [&](const std::string& n) { return n == names[0]; })) {
+      return names[0];
+    }
+    const std::string stem = piece_stem(names[0]);
+    if (!stem.empty() &&
+        std::all_of(names.begin(), names.end(), [&](const std::string& n) { return piece_stem(n) == stem; })) {
+      return stem;
+    }
+    return node->mName.length ? node->mName.C_Str() : ai_mesh_name(ai_mesh);
+  }
+
+  // NAME of "NAME-<digits>" (how glTF's importer names a primitive of a mesh with several); "" for other names.
+  static std::string piece_stem(const std::string& name) {
+    const size_t dash = name.find_last_of('-');
+    if (dash == std::string::npos || dash == 0 || dash + 1 == name.size()) return "";
+    const bool digits = std::all_of(name.begin() + dash + 1, name.end(),
+                                    [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
+    return digits ? name.substr(0, dash) : "";
   }
 
   void count_node_uses(const aiNode* node) {
@@ -376,12 +420,12 @@ class Importer {
       if (!identity) {
         for (float v : rows) inst->add_transform(v);
       }
-      const std::string& lightmap = lightmap_of_mesh_[mesh];
+      const std::string lightmap = source_mesh_name(node, ai_mesh);
       if (uses_[ai_mesh] > 1) {
         // Shared geometry in several places: each placement needs its own texels.
-        inst->set_lightmap((std::string(node->mName.C_Str()) + "/" + lightmap).substr(0, 256));
+        inst->set_lightmap(wire_name(std::string(node->mName.C_Str()) + "/" + lightmap));
       } else {
-        inst->set_lightmap(lightmap.substr(0, 256));
+        inst->set_lightmap(wire_name(lightmap));
       }
       if (!has_lightmap_uv_[mesh]) inst->set_bake(false);
     }
@@ -475,7 +519,6 @@ class Importer {
   GltfExtras extras_;
   std::map<std::string, uint32_t> textures_;
   std::vector<int> mesh_index_;                            // aiMesh → job mesh, -1 if dropped
-  std::vector<std::string> lightmap_of_mesh_;              // job mesh → its lightmap name
   std::vector<bool> has_lightmap_uv_;                      // job mesh
   std::map<unsigned, int> uses_;                           // aiMesh → nodes referring to it
   std::multimap<std::string, aiMatrix4x4> world_of_node_;  // in the order the nodes are visited

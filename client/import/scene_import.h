@@ -4,8 +4,9 @@
 //
 // Mapping
 // - Meshes: triangles only (points and lines dropped, with a warning), TEXCOORD_0 as texture UVs, TEXCOORD_1 (else
-//   TEXCOORD_0) as lightmap UVs, normals if present. Assimp splits a mesh by material; the pieces keep their
-//   file's mesh name as their lightmap, so they share its UV atlas.
+//   TEXCOORD_0) as lightmap UVs, normals if present. Assimp splits a mesh by material into pieces that one node
+//   places (and renames: glTF's NAME-0, NAME-1, ..., OBJ's after their material); the pieces share one lightmap,
+//   so one UV atlas, named after the mesh of the file they come from.
 // - Instances: one per node that refers to a mesh, with the node's accumulated transform. A mesh used by several
 //   nodes gets one lightmap per node (named after the node), since its pieces would overlap in a shared atlas.
 // - Materials (glTF metallic-roughness): a GGX lobe of α = roughness² (roughness at least 0.03) with Schlick's

@@ -16,8 +16,12 @@
 #include <fstream>
 #include <utility>
 
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/message.h>
+
 #include "proto/digest.h"
 #include "proto/framing.h"
+#include "proto/text.h"
 
 namespace kiln::client {
 
@@ -75,6 +79,30 @@ Address parse_address(const std::string& address) {
 }
 
 std::string ms(std::chrono::milliseconds d) { return std::to_string(d.count()) + " ms"; }
+
+// The path of the first string field in `m` that is not UTF-8 ("job.lightmap.materials[2].name"), or "". protobuf
+// serialises such a field (logging an error) but no peer can parse the frame: kilnd would drop the request.
+std::string non_utf8_field(const google::protobuf::Message& m, const std::string& path) {
+  using google::protobuf::FieldDescriptor;
+  const google::protobuf::Reflection* r = m.GetReflection();
+  std::vector<const FieldDescriptor*> fields;
+  r->ListFields(m, &fields);
+  for (const FieldDescriptor* f : fields) {
+    const std::string at = path + "." + f->name();
+    const int n = f->is_repeated() ? r->FieldSize(m, f) : 1;
+    for (int i = 0; i < n; ++i) {
+      const std::string item = f->is_repeated() ? at + "[" + std::to_string(i) + "]" : at;
+      if (f->type() == FieldDescriptor::TYPE_STRING) {
+        if (!proto::is_utf8(f->is_repeated() ? r->GetRepeatedString(m, f, i) : r->GetString(m, f))) return item;
+      } else if (f->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE) {
+        const std::string inner =
+            non_utf8_field(f->is_repeated() ? r->GetRepeatedMessage(m, f, i) : r->GetMessage(m, f), item);
+        if (!inner.empty()) return inner;
+      }
+    }
+  }
+  return "";
+}
 
 }  // namespace
 
@@ -363,6 +391,12 @@ v1::Digest Client::upload_blob(std::string_view bytes, const ProgressFn& progres
 
 v1::SubmitReply Client::submit(const v1::JobSpec& job, std::int32_t priority, const std::string& idempotency_key) {
   Impl& impl = checked_impl();
+  std::string field = non_utf8_field(job, "job");
+  if (field.empty() && !proto::is_utf8(idempotency_key)) field = "idempotency_key";
+  if (!field.empty()) {
+    throw std::invalid_argument(field + ": not valid UTF-8, which protobuf's string fields must be (kilnd could not "
+                                "parse the request); nothing was sent");
+  }
   v1::Request request;
   auto* submit = request.mutable_submit();
   *submit->mutable_job() = job;

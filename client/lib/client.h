@@ -90,6 +90,7 @@ class Client {
   // file if it cannot be read or is larger than Limits.max_blob_bytes (checked before it is read).
   v1::Digest upload_file(const std::string& path, const ProgressFn& progress = {});
 
+  // Throws std::invalid_argument naming the field, before anything is sent, if a string in `job` is not UTF-8.
   v1::SubmitReply submit(const v1::JobSpec& job, std::int32_t priority = 0, const std::string& idempotency_key = {});
   // Follows a job until it ends, calling on_event for each event (the first is the job's current state), and
   // returns the final one. Watching again after a broken connection re-attaches.

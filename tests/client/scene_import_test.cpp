@@ -108,6 +108,45 @@ TEST(SceneImport, CornellBoxMeshesUvsInstancesAndEmission) {
   EXPECT_NO_THROW(translated(j));
 }
 
+// The lightmap names of the job's instances, each with how many instances bake into it.
+std::map<std::string, int> lightmaps_of(const v1::LightmapJob& j) {
+  std::map<std::string, int> out;
+  for (const v1::Instance& inst : j.instances()) ++out[inst.lightmap()];
+  return out;
+}
+
+TEST(SceneImport, PrimitivesOfOneGltfMeshShareItsLightmap) {
+  // cornell_box.py --atlas: one glTF mesh `cornell_box` with a primitive per material (white, red, green, light),
+  // whose TEXCOORD_1 charts tile one atlas. Assimp makes four meshes of it, cornell_box-0 to cornell_box-3.
+  test::TempDir dir("kiln-import");
+  const fs::path scene = dir.path() / "cornell_box_atlas.gltf";
+  const std::string command = "/usr/bin/python3 " + (source_dir() / "client/examples/scenes/cornell_box.py").string() +
+                              " --atlas " + scene.string() + " > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  const client::ImportedScene s = client::import_scene(scene.string());
+  EXPECT_EQ(s.job.meshes_size(), 4);
+  EXPECT_EQ(lightmaps_of(s.job), (std::map<std::string, int>{{"cornell_box", 4}}));
+  const daemon::BakeRequest r = translated(s.job);
+  EXPECT_EQ(r.lightmap().scene.instances.size(), 4u);
+}
+
+TEST(SceneImport, ObjObjectWithSeveralMaterialsIsOneLightmapNamedAfterTheObject) {
+  // Assimp names the second piece of `thing` after its material (b); both belong to the object. A mesh alone in its
+  // node keeps its name even when it looks like a piece's (wall-1).
+  test::TempDir dir("kiln-import");
+  {
+    std::ofstream mtl(dir.path() / "two.mtl");
+    mtl << "newmtl a\nKd 1 0 0\nnewmtl b\nKd 0 1 0\n";
+    std::ofstream obj(dir.path() / "two.obj");
+    obj << "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+           "o thing\nusemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 4/4\n"
+           "o wall-1\nusemtl a\nf 1/1 2/2 4/4\n";
+  }
+  const client::ImportedScene s = client::import_scene((dir.path() / "two.obj").string());
+  EXPECT_EQ(s.job.meshes_size(), 3);
+  EXPECT_EQ(lightmaps_of(s.job), (std::map<std::string, int>{{"thing", 2}, {"wall-1", 1}}));
+}
+
 TEST(SceneImport, ObjWithoutSecondUvSetUsesTheFirstAndInstancesMaterials) {
   test::TempDir dir("kiln-import");
   {
@@ -354,6 +393,57 @@ TEST(SceneImport, GltfBaseColourTexturesAreUploadedOnceWithTheirBytes) {
 
   // The daemon takes the whole of it (every texture index in range, every field within its bounds).
   EXPECT_NO_THROW(translated(j));
+}
+
+TEST(SceneImport, NamesThatAreNotUtf8BecomeValidAndFilesAreFoundByTheirBytes) {
+  // Latin-1 names, as in assimp-testmodels' OBJ/regr01.obj: a material "Mat\xe9riau" whose texture file is
+  // "bois\xe9.png" on disk, and an object "caf\xe9". protobuf cannot parse a frame with them in a string field.
+  test::TempDir dir("kiln-import");
+  const std::string latin1_file = "bois\xe9.png";
+  std::ofstream(dir.path() / latin1_file, std::ios::binary) << solid_png(2, 2, 200, 100, 50);
+  {
+    std::ofstream mtl(dir.path() / "latin1.mtl", std::ios::binary);
+    mtl << "newmtl Mat\xe9riau\nKd 1 1 1\nmap_Kd " << latin1_file << "\n";
+    std::ofstream obj(dir.path() / "latin1.obj", std::ios::binary);
+    obj << "mtllib latin1.mtl\no caf\xe9\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+           "usemtl Mat\xe9riau\nf 1/1 2/2 3/3\n";
+  }
+  const client::ImportedScene s = client::import_scene((dir.path() / "latin1.obj").string());
+  const std::string fffd = "\xef\xbf\xbd";
+  bool found = false;
+  for (const v1::SceneMaterial& m : s.job.materials()) {
+    if (m.name() == "Mat" + fffd + "riau") {
+      found = true;
+      ASSERT_TRUE(m.has_base_color_texture());  // the file was read by its own bytes
+      EXPECT_EQ(s.job.textures(static_cast<int>(m.base_color_texture())).name(), "bois" + fffd + ".png");
+    }
+  }
+  EXPECT_TRUE(found);
+  ASSERT_EQ(s.job.meshes_size(), 1);
+  EXPECT_EQ(s.job.meshes(0).name(), "caf" + fffd);
+  EXPECT_EQ(s.job.instances(0).lightmap(), "caf" + fffd);
+  // The job survives the wire: what the client serialises, the daemon parses (it failed to before).
+  v1::JobSpec spec;
+  *spec.mutable_lightmap() = s.job;
+  std::string bytes;
+  ASSERT_TRUE(spec.SerializeToString(&bytes));
+  v1::JobSpec parsed;
+  EXPECT_TRUE(parsed.ParseFromString(bytes));
+  EXPECT_NO_THROW(translated(s.job));
+}
+
+TEST(SceneImport, LongNamesAreCutWithoutCuttingACharacter) {
+  // 300 bytes of 'x' then 木 (3 bytes) from byte 255: the protocol's 256 bytes would end inside it.
+  test::TempDir dir("kiln-import");
+  const std::string name = std::string(255, 'x') + "\xe6\x9c\xa8" + std::string(42, 'y');
+  {
+    std::ofstream obj(dir.path() / "long.obj", std::ios::binary);
+    obj << "o " << name << "\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/2 3/3\n";
+  }
+  const client::ImportedScene s = client::import_scene((dir.path() / "long.obj").string());
+  ASSERT_EQ(s.job.meshes_size(), 1);
+  EXPECT_EQ(s.job.meshes(0).name(), std::string(255, 'x'));
+  EXPECT_EQ(s.job.instances(0).lightmap(), std::string(255, 'x'));
 }
 
 TEST(SceneImport, GltfMetallicRoughnessBecomesGgxOverLambert) {

@@ -8,10 +8,10 @@ Every mesh has TEXCOORD_0 (per-face 0..1, for textures) and TEXCOORD_1 (lightmap
 mesh's own atlas, charts separated by a margin so that dilation by a few texels at 64^2 and above cannot bleed one
 chart into another). Reflectances are those of the classic scene, rounded.
 
-With --atlas the same box is one lightmap atlas: a glTF mesh per material, all named `cornell_box`, whose
+With --atlas the same box is one lightmap atlas: one glTF mesh, `cornell_box`, with a primitive per material, whose
 TEXCOORD_1 together hold every planar face of the box as a chart, all at the same texel density, ATLAS_MARGIN apart
-(4 texels at 256^2). kiln names a lightmap after its mesh, so the whole box bakes into one lightmap, `cornell_box`, as
-it does in a baker with one atlas per object (Cycles, with the meshes joined).
+(4 texels at 256^2). kiln names a lightmap after its mesh (the primitives of one mesh share it), so the whole box bakes
+into one lightmap, `cornell_box`, as it does in a baker with one atlas per object (Cycles, with the meshes joined).
 
 Usage: cornell_box.py [--atlas] OUTPUT.gltf
 """
@@ -194,15 +194,13 @@ def build(one_atlas=False):
         return {"attributes": attributes, "indices": idx, "material": material_index[material]}
 
     if one_atlas:
-        # One glTF mesh per material, all named cornell_box: kiln names a lightmap after its mesh, and Assimp (kiln's
-        # importer) renames the primitives of a multi-primitive mesh NAME-0, NAME-1, ..., which would split the atlas.
-        placed = [("cornell_box", "cornell_box_" + material, primitive(material, faces, rects))
-                  for material, faces, rects in primitives_in_one_atlas(meshes)]
+        placed = [("cornell_box", [primitive(material, faces, rects)
+                                   for material, faces, rects in primitives_in_one_atlas(meshes)])]
     else:
-        placed = [(name, name, primitive(material, faces)) for name, (material, faces) in meshes.items()]
-    for mesh_name, node_name, p in placed:
-        gltf_meshes.append({"name": mesh_name, "primitives": [p]})
-        nodes.append({"name": node_name, "mesh": len(gltf_meshes) - 1})
+        placed = [(name, [primitive(material, faces)]) for name, (material, faces) in meshes.items()]
+    for name, primitives in placed:
+        gltf_meshes.append({"name": name, "primitives": primitives})
+        nodes.append({"name": name, "mesh": len(gltf_meshes) - 1})
 
     return {
         "asset": {"version": "2.0", "generator": "kiln client/examples/scenes/cornell_box.py"},

@@ -1,0 +1,153 @@
+// Texture decoding (bakers/image/texture_decode.h): the image formats OpenImageIO reads are read (from memory, or
+// from a temporary file where its reader cannot read memory), recognised by its bytes (TGA, which has no signature,
+// by its header), with the default colour space following the pixels
+// (float: lin_rec709, integer: srgb_texture); sizes are checked on the header; anything else is refused naming what
+// kiln reads. The images are written here by OpenImageIO (DDS, which it cannot write, by hand; PSD, which it cannot
+// write either, is recognised by its signature but not tested).
+#include <gtest/gtest.h>
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "bakers/image/texture_decode.h"
+#include "tests/support/temp_dir.h"
+
+namespace kiln {
+namespace {
+
+constexpr int kW = 4, kH = 2;
+// One colour on every pixel, 8-bit: (255, 128, 0).
+constexpr unsigned char kRgb[3] = {255, 128, 0};
+
+double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
+// A kW × kH image of kRgb (or of 0.5 as floats) in the format `extension` picks, through a temporary file (not every
+// OpenImageIO writer writes to memory).
+std::string encoded(const std::string& extension, OIIO::TypeDesc type = OIIO::TypeDesc::UINT8) {
+  test::TempDir dir("kiln-texture");
+  const std::string path = (dir.path() / ("t." + extension)).string();
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) {
+    ADD_FAILURE() << "OpenImageIO has no writer for ." << extension;
+    return "";
+  }
+  OIIO::ImageSpec spec(kW, kH, 3, type);
+  std::vector<unsigned char> bytes(kW * kH * 3);
+  std::vector<float> floats(kW * kH * 3, 0.5f);
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = kRgb[i % 3];
+  EXPECT_TRUE(out->open(path, spec)) << out->geterror();
+  if (type == OIIO::TypeDesc::FLOAT) {
+    EXPECT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, floats.data())) << out->geterror();
+  } else {
+    EXPECT_TRUE(out->write_image(OIIO::TypeDesc::UINT8, bytes.data())) << out->geterror();
+  }
+  EXPECT_TRUE(out->close());
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// An uncompressed 32-bit BGRA DDS of kRgb (Microsoft's DDS_HEADER with a DDS_PIXELFORMAT of RGB masks).
+std::string dds() {
+  std::vector<uint32_t> h(32, 0);  // "DDS " then the 124-byte header: 31 words
+  std::memcpy(&h[0], "DDS ", 4);
+  h[1] = 124;                                                // dwSize
+  h[2] = 0x1 | 0x2 | 0x4 | 0x1000;                           // CAPS, HEIGHT, WIDTH, PIXELFORMAT
+  h[3] = kH, h[4] = kW, h[5] = kW * 4;                       // height, width, pitch
+  h[19] = 32, h[20] = 0x40 | 0x1, h[22] = 32;                // pixel format: size, RGB | ALPHAPIXELS, 32 bits
+  h[23] = 0x00ff0000, h[24] = 0x0000ff00, h[25] = 0x000000ff, h[26] = 0xff000000;  // R, G, B, A masks
+  h[27] = 0x1000;                                            // caps: TEXTURE
+  std::string out(reinterpret_cast<const char*>(h.data()), 128);
+  for (int p = 0; p < kW * kH; ++p) out += {static_cast<char>(kRgb[2]), static_cast<char>(kRgb[1]),
+                                            static_cast<char>(kRgb[0]), static_cast<char>(255)};
+  return out;
+}
+
+// The message of what `fn` throws.
+template <class Fn>
+std::string error_of(Fn fn) {
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected an exception";
+  return "";
+}
+
+struct Case {
+  std::string extension, format;  // the file's, and OpenImageIO's name for it
+  double tolerance;               // on linear texels: 1e-4 for lossless formats; lossy ones move an 8-bit value
+};
+
+TEST(TextureDecode, TgaTiffBmpDdsAndTheOtherFormatsOpenImageIoReadsAreRead) {
+  const std::vector<Case> cases = {
+      {"tga", "targa", 1e-4}, {"tif", "tiff", 1e-4},     {"bmp", "bmp", 1e-4},   {"png", "png", 1e-4},
+      {"gif", "gif", 1e-4},   {"pnm", "pnm", 1e-4},      {"dpx", "dpx", 1e-4},   {"iff", "iff", 1e-4},
+      {"sgi", "sgi", 1e-4},
+      {"jpg", "jpeg", 0.03},  {"webp", "webp", 0.03},    {"heic", "heif", 0.03},
+  };
+  const double expected[3] = {srgb_to_linear(kRgb[0] / 255.0), srgb_to_linear(kRgb[1] / 255.0),
+                              srgb_to_linear(kRgb[2] / 255.0)};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.extension);
+    const std::string bytes = encoded(c.extension);
+    image::DecodedTexture t;
+    ASSERT_NO_THROW(t = image::decode_texture(bytes, "", "t." + c.extension));
+    EXPECT_EQ(t.format, c.format);
+    ASSERT_EQ(t.width, kW);
+    ASSERT_EQ(t.height, kH);
+    ASSERT_EQ(t.texels.size(), static_cast<size_t>(kW * kH));
+    // 8-bit pixels default to srgb_texture.
+    EXPECT_NEAR(t.texels[5].r, expected[0], c.tolerance);
+    EXPECT_NEAR(t.texels[5].g, expected[1], c.tolerance);
+    EXPECT_NEAR(t.texels[5].b, expected[2], c.tolerance);
+  }
+  const image::DecodedTexture d = image::decode_texture(dds(), "", "t.dds");
+  EXPECT_EQ(d.format, "dds");
+  ASSERT_EQ(d.texels.size(), static_cast<size_t>(kW * kH));
+  EXPECT_NEAR(d.texels[3].r, expected[0], 1e-4);
+  EXPECT_NEAR(d.texels[3].g, expected[1], 1e-4);
+  EXPECT_NEAR(d.texels[3].b, expected[2], 1e-4);
+}
+
+TEST(TextureDecode, FloatPixelsDefaultToLinearWhateverTheFormat) {
+  // A float TIFF of 0.5: scene-linear by default (as EXR), so the texel is 0.5, not sRGB-decoded (0.214).
+  const image::DecodedTexture t = image::decode_texture(encoded("tif", OIIO::TypeDesc::FLOAT), "", "t.tif");
+  EXPECT_NEAR(t.texels[0].g, 0.5, 1e-6);
+  // The colour space a job declares still wins.
+  const image::DecodedTexture s = image::decode_texture(encoded("tif", OIIO::TypeDesc::FLOAT), "srgb_texture", "t");
+  EXPECT_NEAR(s.texels[0].g, srgb_to_linear(0.5), 1e-4);
+}
+
+TEST(TextureDecode, SizesAreCheckedOnTheHeaderAndOtherBytesAreRefusedNamingWhatIsRead) {
+  // A TGA header that claims 9000 × 9000 pixels of 24 bits, and no pixels: refused before anything is allocated.
+  std::string tga(18, '\0');
+  tga[2] = 2;  // uncompressed true colour
+  tga[12] = static_cast<char>(9000 & 0xff), tga[13] = static_cast<char>(9000 >> 8);
+  tga[14] = static_cast<char>(9000 & 0xff), tga[15] = static_cast<char>(9000 >> 8);
+  tga[16] = 24;
+  const std::string big = error_of([&] { image::decode_texture(tga, "", "huge.tga"); });
+  EXPECT_NE(big.find("texture huge.tga: 9000x9000 pixels; textures may be at most 8192 on a side"), std::string::npos)
+      << big;
+  const std::string other = error_of([] { image::decode_texture("\x01\x02these bytes are no image", "", "x.bin"); });
+  EXPECT_NE(other.find("texture x.bin: the 26 bytes are not an image kiln reads (they start with 01 02 74"),
+            std::string::npos)
+      << other;
+  EXPECT_NE(other.find("TGA, TIFF, BMP, DDS"), std::string::npos) << other;
+  // A TIFF cut short: its reader says so.
+  const std::string tif = encoded("tif");
+  const std::string cut = error_of([&] { image::decode_texture(tif.substr(0, 12), "", "cut.tif"); });
+  EXPECT_NE(cut.find("texture cut.tif: could not read the tiff header"), std::string::npos) << cut;
+}
+
+}  // namespace
+}  // namespace kiln
