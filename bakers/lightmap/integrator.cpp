@@ -125,7 +125,8 @@ struct Walk {
   template <class F, class Pdf>
   Rgb next_event(int vertex, const scene::SurfacePoint& from, const Vec3& ns, F&& f_cos, Pdf&& pdf_other,
                  Rgb* radiance = nullptr, Vec3* direction = nullptr) {
-    const auto choice = ctx.lights->sample(sampler.light_choice(vertex));
+    // A single light is chosen whatever the number: none is drawn for it.
+    const auto choice = ctx.lights->sample(ctx.lights->single() ? 0.0 : sampler.light_choice(vertex));
     if (!choice) return Rgb{};
     const Point2 u = sampler.light_point(vertex);
     // The emissive triangles directly, inlined, so that their sample stays in registers; the other lights through

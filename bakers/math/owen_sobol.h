@@ -45,14 +45,15 @@ inline uint32_t hash32(uint32_t x) {
 }
 
 // A seeded bijection of 32-bit words in which output bit k is input bit k XOR a function of bits 0..k−1 and the
-// seed: on bit-reversed values, one draw of a nested uniform (Owen) scramble. The steps: an add (carries rise),
-// multiplications by even constants XORed in, and a multiplication by a seed-dependent odd number.
+// seed: on bit-reversed values, one draw of a nested uniform (Owen) scramble. The steps: adds (carries rise),
+// multiplications by even constants XORed in, and a multiplication by a seed-dependent odd number. `seed` must be
+// well mixed (a hash32 output): its bits are used directly.
 inline uint32_t permute_reversed(uint32_t x, uint32_t seed) {
   x += seed;
   x ^= x * 0x2c1b3c6cu;
   x *= (seed >> 12) | 1u;
   x ^= x * 0x8e5d4b7au;
-  x += hash32(seed);
+  x += (seed * 0x9e3779b9u) ^ (seed >> 16);
   x ^= x * 0x61c88646u;
   return x;
 }
@@ -63,13 +64,31 @@ inline uint32_t nested_scramble(uint32_t v, uint32_t seed) {
 }
 
 // Sobol's second dimension: generator matrix with direction numbers v_k = v_{k−1} XOR (v_{k−1} >> 1), v_0 = 2^31.
-// (The first is the van der Corput sequence, reverse_bits(index).)
-inline uint32_t sobol_dimension1(uint32_t index) {
-  uint32_t v = 1u << 31, result = 0;
-  for (; index != 0; index >>= 1, v ^= v >> 1) {
-    if (index & 1u) result ^= v;
+// (The first is the van der Corput sequence, reverse_bits(index).) The product with an index is the XOR of the
+// direction numbers of its set bits; the shuffled indices use all 32 bits, so it is tabulated a byte at a time: entry
+// [b][v] is the XOR of the direction numbers of the bits set in v, placed at bits 8b..8b+7 of the index.
+struct SobolDimension1Table {
+  uint32_t entry[4][256];
+  constexpr SobolDimension1Table() : entry{} {
+    uint32_t v[32] = {};
+    v[0] = 1u << 31;
+    for (int k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+    for (int b = 0; b < 4; ++b) {
+      for (int value = 0; value < 256; ++value) {
+        uint32_t x = 0;
+        for (int bit = 0; bit < 8; ++bit) {
+          if (value & (1 << bit)) x ^= v[8 * b + bit];
+        }
+        entry[b][value] = x;
+      }
+    }
   }
-  return result;
+};
+inline constexpr SobolDimension1Table kSobolDimension1{};
+
+inline uint32_t sobol_dimension1(uint32_t index) {
+  const auto& t = kSobolDimension1.entry;
+  return t[0][index & 0xFFu] ^ t[1][(index >> 8) & 0xFFu] ^ t[2][(index >> 16) & 0xFFu] ^ t[3][index >> 24];
 }
 
 inline double to_unit(uint32_t v) { return v * 0x1.0p-32; }  // [0, 1), never 1
@@ -80,7 +99,8 @@ inline double to_unit(uint32_t v) { return v * 0x1.0p-32; }  // [0, 1), never 1
 inline Point2 owen_sobol_2d(uint32_t index, uint32_t seed) {
   using namespace owen_sobol_detail;
   const uint32_t i = nested_scramble(index, hash32(seed ^ 0x5bd1e995u));
-  const uint32_t x = nested_scramble(reverse_bits(i), hash32(seed ^ 0x27d4eb2fu));
+  // nested_scramble(reverse_bits(i), s) with the two reversals of i cancelled.
+  const uint32_t x = reverse_bits(permute_reversed(i, hash32(seed ^ 0x27d4eb2fu)));
   const uint32_t y = nested_scramble(sobol_dimension1(i), hash32(seed ^ 0x165667b1u));
   return {to_unit(x), to_unit(y)};
 }
@@ -90,7 +110,7 @@ inline Point2 owen_sobol_2d(uint32_t index, uint32_t seed) {
 inline double owen_sobol_1d(uint32_t index, uint32_t seed) {
   using namespace owen_sobol_detail;
   const uint32_t i = nested_scramble(index, hash32(seed ^ 0x5bd1e995u));
-  return to_unit(nested_scramble(reverse_bits(i), hash32(seed ^ 0x9e3779b9u)));
+  return to_unit(reverse_bits(permute_reversed(i, hash32(seed ^ 0x9e3779b9u))));
 }
 
 }  // namespace kiln
