@@ -21,6 +21,7 @@
 #include "client/lib/client.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
+#include "tests/integration/service_client.h"
 
 namespace kiln {
 namespace {
@@ -75,8 +76,7 @@ TEST(AssimpModels, EveryModelImportsAndBakesOrIsRefusedSayingWhy) {
   ASSERT_GE(files.size(), 90u) << "fewer models than the package's 97 under " << kModels;
 
   Daemon d;
-  client::Client c(d.tcp());
-  c.hello(d.token());
+  client::Client c = test::connect(d);
   std::map<std::string, std::vector<std::string>> outcomes;  // outcome → "model: detail"
   for (const fs::path& file : files) {
     const std::string model = fs::relative(file, kModels).string();
@@ -114,7 +114,8 @@ TEST(AssimpModels, EveryModelImportsAndBakesOrIsRefusedSayingWhy) {
     const v1::JobResult r = c.result(id);
     EXPECT_FALSE(r.error().message().empty());
     // The first line of the reason (a scene check lists every problem after it).
-    outcomes["failed in the bake"].push_back(model + ": " + r.error().message().substr(0, r.error().message().find('\n')));
+    outcomes["failed in the bake"].push_back(model + ": " +
+                                             r.error().message().substr(0, r.error().message().find('\n')));
   }
   google::protobuf::SetLogHandler(nullptr);
   EXPECT_EQ(protobuf_errors.load(), 0) << "libprotobuf logged errors: a string field was not UTF-8";
@@ -146,8 +147,7 @@ TEST(AssimpModels, EveryModelImportsAndBakesOrIsRefusedSayingWhy) {
 // caller of it (an importer of its own, a pipeline) sends kilnd a frame it cannot parse.
 TEST(AssimpModels, TheClientRefusesToSendStringsThatAreNotUtf8) {
   Daemon d;
-  client::Client c(d.tcp());
-  c.hello(d.token());
+  client::Client c = test::connect(d);
   v1::JobSpec spec;
   spec.mutable_material()->mutable_ggx()->set_alpha(0.5);
   spec.set_name("Mat\xe9riau");

@@ -15,11 +15,13 @@
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/raw_connection.h"
+#include "tests/integration/service_client.h"
 
 namespace kiln {
 namespace {
 
 using test::Daemon;
+using test::ggx_job;
 using test::RawConnection;
 
 // The preamble of kiln.proto: an id-0 response is a connection-level error and the connection closes after it.
@@ -60,16 +62,6 @@ TEST(Connection, RequestWithIdZeroClosesTheConnection) {
   expect_connection_error(raw, v1::Error::INVALID_ARGUMENT, "a request with id 0");
 }
 
-v1::JobSpec long_material_job() {
-  v1::JobSpec spec;
-  spec.set_name("bakes for minutes");  // 64 x 64 tables at 2^20 samples per entry
-  spec.mutable_material()->mutable_ggx()->set_alpha(0.3);
-  spec.mutable_material()->set_table_mu(64);
-  spec.mutable_material()->set_table_roughness(64);
-  spec.mutable_quality()->set_samples(1 << 20);
-  return spec;
-}
-
 // HelloReply promises heartbeat_seconds; a watch with nothing new must hear from the server at least that often.
 // The period is set to 1 s so the test is short. A job queued behind a long one has no progress, so every event
 // after the first is a heartbeat. Before the fix the session checked on a fixed 1-period grid and skipped a watch
@@ -77,12 +69,9 @@ v1::JobSpec long_material_job() {
 // 2-core machine running a bake.
 TEST(Connection, WatchHeartbeatsKeepThePromisedPeriod) {
   Daemon d({"--heartbeat", "1", "--workers", "1", "--shutdown-grace", "0.5"});
-  client::Client c(d.tcp());
-  c.hello(d.token());
-  const std::string blocker = c.submit(long_material_job()).job_id();
-  v1::JobSpec waiting = long_material_job();
-  waiting.mutable_material()->mutable_ggx()->set_alpha(0.4);
-  const std::string queued = c.submit(waiting).job_id();
+  client::Client c = test::connect(d);
+  const std::string blocker = c.submit(ggx_job(0.3, 1 << 20, 64)).job_id();
+  const std::string queued = c.submit(ggx_job(0.4, 1 << 20, 64)).job_id();
 
   RawConnection raw(test::port_of(d.tcp()));
   const v1::Response hello = raw.call(test::hello_request(1, d.token()));
@@ -171,8 +160,7 @@ TEST(Connection, AThousandIdleSocketsDoNotLockOutAClient) {
   for (int i = 0; i < 1000; ++i) idle.push_back(std::make_unique<RawConnection>(port));
 
   const auto start = std::chrono::steady_clock::now();
-  client::Client c(d.tcp());
-  c.hello(d.token());
+  client::Client c = test::connect(d);
   v1::ServerStatus status = c.status();
   const double first = seconds_since(start);
   const auto again = std::chrono::steady_clock::now();
@@ -194,8 +182,7 @@ TEST(Connection, SilentSocketIsClosedAtTheHelloDeadline) {
   expect_connection_error(raw, v1::Error::DEADLINE_EXCEEDED, "no hello");
   EXPECT_GE(seconds_since(start), 0.9);  // not before the deadline (timers do not fire early; 0.1 s for the clock)
   // A client that says hello at once is not affected, and keeps its connection past the deadline.
-  client::Client c(d.tcp());
-  c.hello(d.token());
+  client::Client c = test::connect(d);
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   EXPECT_NO_THROW(c.status());
 }

@@ -14,28 +14,15 @@
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/raw_connection.h"
+#include "tests/integration/service_client.h"
 
 namespace kiln {
 namespace {
 
 using client::Client;
+using test::connect;
 using test::Daemon;
-
-v1::JobSpec ggx_job(double alpha, uint64_t samples = 1024, int table = 8) {
-  v1::JobSpec spec;
-  spec.set_name("ggx " + std::to_string(alpha));
-  spec.mutable_material()->mutable_ggx()->set_alpha(alpha);
-  spec.mutable_material()->set_table_mu(table);
-  spec.mutable_material()->set_table_roughness(table);
-  spec.mutable_quality()->set_samples(samples);
-  return spec;
-}
-
-Client connect(const Daemon& d, bool unix_socket = false) {
-  Client c(unix_socket ? d.unix_address() : d.tcp());
-  c.hello(d.token());
-  return c;
-}
+using test::ggx_job;
 
 // Reads what the daemon sends on a raw socket until it closes (or 10 s pass); returns true if it closed.
 bool closed_by_server(int fd, std::chrono::seconds limit = std::chrono::seconds(10)) {

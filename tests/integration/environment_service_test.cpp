@@ -20,18 +20,14 @@
 #include "proto/digest.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
+#include "tests/integration/service_client.h"
 
 namespace kiln {
 namespace {
 
 using client::Client;
+using test::connect;
 using test::Daemon;
-
-Client connect(const Daemon& d) {
-  Client c(d.tcp());
-  c.hello(d.token());
-  return c;
-}
 
 // A W x H equirectangular RGB image: a smooth sky over a darker ground, with a bright patch (a small sun).
 image::FloatImage sky_image(int width = 64, int height = 32) {

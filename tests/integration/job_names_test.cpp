@@ -10,6 +10,7 @@
 #include "client/lib/client.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
+#include "tests/integration/service_client.h"
 
 namespace kiln {
 namespace {
@@ -25,8 +26,8 @@ const std::string kEscaped = "lamp\\n" + kForgery + "\\r\\x1b[31mred\\x07";
 std::string kiln(const Daemon& d, const std::string& args) {
   const std::string token = (d.dir() / "cli-token").string();
   std::ofstream(token) << d.token() << "\n";
-  const std::string command = std::string(KILN_BIN) + " --server " + d.tcp() + " --token-file " + token + " " + args +
-                              " 2>&1";
+  const std::string command =
+      std::string(KILN_BIN) + " --server " + d.tcp() + " --token-file " + token + " " + args + " 2>&1";
   std::string said;
   FILE* p = ::popen(command.c_str(), "r");
   if (!p) return said;
@@ -38,8 +39,7 @@ std::string kiln(const Daemon& d, const std::string& args) {
 
 TEST(JobNames, ControlCharactersAreEscapedInTheLogAndTheCommandLine) {
   Daemon d;
-  client::Client c(d.tcp());
-  c.hello(d.token());
+  client::Client c = test::connect(d);
   v1::JobSpec spec;
   spec.set_name(kName);
   spec.mutable_material()->mutable_ggx()->set_alpha(0.5);

@@ -21,19 +21,15 @@
 #include "proto/digest.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
+#include "tests/integration/service_client.h"
 
 namespace kiln {
 namespace {
 
 namespace fs = std::filesystem;
 using client::Client;
+using test::connect;
 using test::Daemon;
-
-Client connect(const Daemon& d) {
-  Client c(d.tcp());
-  c.hello(d.token());
-  return c;
-}
 
 fs::path source_dir() { return fs::path(KILN_SOURCE_DIR); }
 

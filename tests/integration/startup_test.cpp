@@ -16,28 +16,15 @@
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/raw_connection.h"
+#include "tests/integration/service_client.h"
 
 namespace kiln {
 namespace {
 
 using client::Client;
+using test::connect;
 using test::Daemon;
-
-Client connect(const Daemon& d) {
-  Client c(d.tcp());
-  c.hello(d.token());
-  return c;
-}
-
-v1::JobSpec long_material_job() {
-  v1::JobSpec spec;
-  spec.set_name("bakes for minutes");  // 64 x 64 tables at 2^20 samples per entry
-  spec.mutable_material()->mutable_ggx()->set_alpha(0.3);
-  spec.mutable_material()->set_table_mu(64);
-  spec.mutable_material()->set_table_roughness(64);
-  spec.mutable_quality()->set_samples(1 << 20);
-  return spec;
-}
+using test::ggx_job;
 
 // The crash-loop guard is a setting: with --max-crash-restarts 1, one crash while the job runs fails it at the next
 // start, and the failure names the setting so that an operator knows what stopped it and how to change it.
@@ -49,7 +36,7 @@ TEST(Startup, CrashLoopGuardIsASettingNamedInTheFailure) {
     d.keep();
     dir = d.dir();
     Client c = connect(d);
-    id = c.submit(long_material_job()).job_id();
+    id = c.submit(ggx_job(0.3, 1 << 20, 64)).job_id();
     for (int i = 0; i < 500 && c.result(id).state() != v1::JOB_STATE_RUNNING; ++i) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }

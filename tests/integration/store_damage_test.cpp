@@ -9,28 +9,15 @@
 #include "proto/digest.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
+#include "tests/integration/service_client.h"
 
 namespace kiln {
 namespace {
 
 using client::Client;
+using test::connect;
 using test::Daemon;
-
-Client connect(const Daemon& d) {
-  Client c(d.tcp());
-  c.hello(d.token());
-  return c;
-}
-
-v1::JobSpec small_job() {
-  v1::JobSpec spec;
-  spec.set_name("small ggx");
-  spec.mutable_material()->mutable_ggx()->set_alpha(0.35);
-  spec.mutable_material()->set_table_mu(4);
-  spec.mutable_material()->set_table_roughness(4);
-  spec.mutable_quality()->set_samples(256);
-  return spec;
-}
+using test::ggx_job;
 
 // Flips one byte in the middle of a stored blob, keeping its size (as bit rot or a stray write would).
 void damage(const Daemon& d, const v1::Digest& digest) {
@@ -62,7 +49,7 @@ TEST(StoreDamage, ADamagedResultLeavesTheCache) {
     d.keep();
     dir = d.dir();
     Client c = connect(d);
-    const std::string id = c.submit(small_job()).job_id();
+    const std::string id = c.submit(ggx_job(0.35, 256, 4)).job_id();
     ASSERT_EQ(c.watch(id).state(), v1::JOB_STATE_SUCCEEDED);
     damaged = c.result(id).outputs(0);
     ASSERT_EQ(d.terminate(), 0);
@@ -71,7 +58,7 @@ TEST(StoreDamage, ADamagedResultLeavesTheCache) {
   damage(again, damaged.digest());
   Client c = connect(again);
   EXPECT_EQ(fetch_error(c, damaged.digest()), v1::Error::DATA_LOSS);
-  const v1::SubmitReply resubmitted = c.submit(small_job());
+  const v1::SubmitReply resubmitted = c.submit(ggx_job(0.35, 256, 4));
   EXPECT_FALSE(resubmitted.cache_hit()) << "a result with a damaged output was answered from the cache";
   ASSERT_EQ(c.watch(resubmitted.job_id()).state(), v1::JOB_STATE_SUCCEEDED) << again.log();
   const v1::JobResult baked = c.result(resubmitted.job_id());
@@ -79,7 +66,7 @@ TEST(StoreDamage, ADamagedResultLeavesTheCache) {
     EXPECT_EQ(proto::sha256_hex(c.fetch(o.digest())), o.digest().sha256()) << o.name();
   }
   // The fresh bake is cached again.
-  EXPECT_TRUE(c.submit(small_job()).cache_hit());
+  EXPECT_TRUE(c.submit(ggx_job(0.35, 256, 4)).cache_hit());
 }
 
 // kilnd used to verify only files written before it started: an output it baked itself and then found damaged on
@@ -87,7 +74,7 @@ TEST(StoreDamage, ADamagedResultLeavesTheCache) {
 TEST(StoreDamage, ADamagedOutputKilndWroteIsRefusedWithoutARestart) {
   Daemon d;
   Client c = connect(d);
-  const std::string id = c.submit(small_job()).job_id();
+  const std::string id = c.submit(ggx_job(0.35, 256, 4)).job_id();
   ASSERT_EQ(c.watch(id).state(), v1::JOB_STATE_SUCCEEDED);
   const v1::Output output = c.result(id).outputs(0);
   EXPECT_EQ(proto::sha256_hex(c.fetch(output.digest())), output.digest().sha256());  // served whole first
