@@ -18,7 +18,6 @@
 #include "bakers/lightmap/texels.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/rng.h"
-#include "bakers/scene/polygon_irradiance.h"
 #include "tests/support/test_scenes.h"
 
 namespace kiln::lightmap {
@@ -437,28 +436,6 @@ LightmapBakeInput denoised_input(scene::Scene s, int resolution, int samples) {
   return in;
 }
 
-// A 2 m black floor (albedo 0: all light is direct) under a one-sided 1 m square light 1 m above it.
-scene::Scene floor_under_square_light() {
-  scene::Scene s;
-  s.materials.push_back(test::lambert_material("black", 0.0));
-  test::add_floor(s, 2.0, 0);
-  scene::Light l;
-  l.type = scene::LightShape::rect;
-  l.position = {0.1, 1.0, -0.1};
-  l.u_axis = {1, 0, 0};
-  l.v_axis = {0, 0, 1};
-  l.direction = {0, -1, 0};
-  l.color = Rgb{10.0};
-  s.lights.push_back(l);
-  return s;
-}
-
-// Lambert's polygon formula for the rectangle light `l`.
-double rect_irradiance(const scene::Light& l, const Vec3& p, const Vec3& n) {
-  const Vec3 c = l.position, u = l.u_axis * 0.5, v = l.v_axis * 0.5;
-  return l.color.r * scene::polygon_projected_solid_angle({c - u - v, c + u - v, c + u + v, c - u + v}, p, n);
-}
-
 // Exact lightmaps stay exact: under a uniform sky every estimate is π (no variance), and a point light's estimator
 // has none either; the luminance term then keeps only taps equal to the texel (to 1e-9), so the denoised image is the
 // raw one to float storage.
@@ -501,9 +478,9 @@ TEST(DenoisedBake, AClosedBoxFurnaceIsSmoothedWithoutBias) {
 // 0.5 %. (Where the change between texels is several times the noise, as on this floor at 32², the filter cannot
 // tell it from noise at the edge-stopping scale and raises the RMS error by 10–20 %: docs/LIGHTMAP.md.)
 TEST(DenoisedBake, UnderASquareLightTheMeanStaysAndTheErrorFalls) {
-  const scene::Scene s = floor_under_square_light();
+  const scene::Scene s = test::floor_under_square_light();
   const auto exact = test::texel_means(
-      s, "floor", 64, [&](const Vec3& p, const Vec3& n) { return rect_irradiance(s.lights[0], p, n); });
+      s, "floor", 64, [&](const Vec3& p, const Vec3& n) { return test::rect_light_irradiance(s.lights[0], p, n); });
   const Compared c = compare(bake_lightmaps(denoised_input(s, 64, 8)), "floor", exact, 1e-6);
   EXPECT_LT(c.denoised_rms, c.raw_rms);
   EXPECT_NEAR(c.denoised_mean / c.exact_mean, 1.0, 0.005);
@@ -513,14 +490,15 @@ TEST(DenoisedBake, UnderASquareLightTheMeanStaysAndTheErrorFalls) {
 // reaches it; albedo 0 everywhere, so no bounce either). The dark chart stays exactly black, and the lit chart's
 // texels beside it are held to the same bound as the others.
 TEST(DenoisedBake, ALitFloorBesideAnUnlitChartStaysBlack) {
-  scene::Scene s = floor_under_square_light();
+  scene::Scene s = test::floor_under_square_light();
   s.instances[0].lightmap = "atlas";
   s.instances[0].lightmap_scale_offset = {0.5, 1, 0, 0};
   const int under = test::add_quad(s, "under", {-1, -0.5, -1}, {1, -0.5, -1}, {1, -0.5, 1}, {-1, -0.5, 1}, 0, 4);
   s.instances[under].lightmap = "atlas";
   s.instances[under].lightmap_scale_offset = {0.5, 1, 0.5, 0};
-  const auto exact = test::texel_means(
-      s, "atlas", 64, [&](const Vec3& p, const Vec3& n) { return n.y > 0 ? rect_irradiance(s.lights[0], p, n) : 0.0; });
+  const auto exact = test::texel_means(s, "atlas", 64, [&](const Vec3& p, const Vec3& n) {
+    return n.y > 0 ? test::rect_light_irradiance(s.lights[0], p, n) : 0.0;
+  });
   const LightmapBakeResult r = bake_lightmaps(denoised_input(s, 64, 16));
   const Texels t = texels_of(r, "atlas");
   int dark = 0;
@@ -543,7 +521,7 @@ TEST(DenoisedBake, ALitFloorBesideAnUnlitChartStaysBlack) {
 // The raw output is the same bytes with or without denoising, the denoised one is there only when asked, with the
 // irradiance's metadata and a content that says what made it, and the report says whether and how.
 TEST(DenoisedBake, TheDenoisedOutputIsAnExtraOnRequest) {
-  LightmapBakeInput in = denoised_input(floor_under_square_light(), 16, 16);
+  LightmapBakeInput in = denoised_input(test::floor_under_square_light(), 16, 16);
   in.padding = 2;
   const LightmapBakeResult with = bake_lightmaps(in);
   in.denoise = false;

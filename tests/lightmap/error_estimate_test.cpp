@@ -10,7 +10,6 @@
 
 #include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/math/constants.h"
-#include "bakers/scene/polygon_irradiance.h"
 #include "tests/support/test_scenes.h"
 
 namespace kiln::lightmap {
@@ -18,28 +17,11 @@ namespace {
 
 constexpr int kW = 32;
 
-// A black floor 2 m wide under a one-sided 1 m square light 1 m above it, off centre: direct light only, with a soft
-// falloff and the light's sampled points the only noise.
-scene::Scene square_light() {
-  scene::Scene s;
-  s.materials.push_back(test::lambert_material("black", 0.0));
-  test::add_floor(s, 2.0, 0);
-  scene::Light l;
-  l.type = scene::LightShape::rect;
-  l.position = {0.1, 1.0, -0.1};
-  l.u_axis = {1, 0, 0};
-  l.v_axis = {0, 0, 1};
-  l.direction = {0, -1, 0};
-  l.color = Rgb{10.0};
-  s.lights.push_back(l);
-  return s;
-}
+// The exact lightmap of test::floor_under_square_light() (direct light only, with a soft falloff and the light's
+// sampled points the only noise): Lambert's formula averaged over each texel's sample points.
 std::vector<double> square_light_exact(const scene::Scene& s) {
-  const scene::Light& l = s.lights[0];
-  return test::texel_means(s, "floor", kW, [&](const Vec3& p, const Vec3& n) {
-    const Vec3 c = l.position, u = l.u_axis * 0.5, v = l.v_axis * 0.5;
-    return l.color.r * scene::polygon_projected_solid_angle({c - u - v, c + u - v, c + u + v, c - u + v}, p, n);
-  });
+  return test::texel_means(
+      s, "floor", kW, [&](const Vec3& p, const Vec3& n) { return test::rect_light_irradiance(s.lights[0], p, n); });
 }
 
 // Inside a closed box of albedo 0.5 emitting 1 everywhere, E = π/(1 − ρ) = 2π at every texel: the noise of many
@@ -91,7 +73,7 @@ void expect_honest(const scene::Scene& s, const std::string& map, const std::vec
 }
 
 TEST(ErrorEstimate, IsWithinTwiceTheMeasuredErrorUnderASquareLight) {
-  const scene::Scene s = square_light();
+  const scene::Scene s = test::floor_under_square_light();
   expect_honest(s, "floor", square_light_exact(s), "square light");
 }
 
@@ -105,7 +87,7 @@ TEST(ErrorEstimate, IsWithinTwiceTheMeasuredErrorInAFurnace) {
 // exact mean (its own noise is ~1 %/√1024 ≈ 0.03 %, so 0.1 % is 3 of those and any bias of the stratified
 // sampling above ~0.05 % would show).
 TEST(ErrorEstimate, TheMeanUnderASquareLightStaysWithinATenthOfAPercent) {
-  const scene::Scene s = square_light();
+  const scene::Scene s = test::floor_under_square_light();
   LightmapBakeInput in = test::lightmap_input(s, kW, 0.01);
   in.error_metric = ErrorMetric::lightmap;
   const Measured m = measure(bake_lightmaps(in), "floor", square_light_exact(s));

@@ -11,7 +11,6 @@
 
 #include "bakers/image/exr.h"
 #include "bakers/math/constants.h"
-#include "bakers/scene/polygon_irradiance.h"
 #include "tests/support/test_scenes.h"
 
 namespace kiln::lightmap {
@@ -110,11 +109,7 @@ scene::Scene rect_light_scene(double albedo) {
   return s;
 }
 
-double rect_irradiance(const scene::Light& l, const Vec3& p) {
-  const Vec3 c = l.position, u = l.u_axis * 0.5, v = l.v_axis * 0.5;
-  const std::vector<Vec3> polygon{c - u - v, c + u - v, c + u + v, c - u + v};
-  return l.color.r * scene::polygon_projected_solid_angle(polygon, p, {0, 1, 0});
-}
+double rect_irradiance(const scene::Light& l, const Vec3& p) { return test::rect_light_irradiance(l, p, {0, 1, 0}); }
 
 // 2a. A plane under a one-sided rectangular light: Lambert's polygon formula at every texel. The baker's texel is the
 // mean over its stratified sample points, the reference a 4 × 4 midpoint average over the texel: they differ by the

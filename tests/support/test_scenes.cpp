@@ -9,6 +9,7 @@
 #include "bakers/image/exr.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/math/constants.h"
+#include "bakers/scene/polygon_irradiance.h"
 
 namespace kiln::test {
 namespace {
@@ -167,6 +168,26 @@ scene::Scene floor_under_point_light(double rho, const Vec3& position, Rgb I) {
   l.color = I;
   s.lights = {l};
   return s;
+}
+
+scene::Scene floor_under_square_light() {
+  scene::Scene s;
+  s.materials.push_back(lambert_material("black", 0.0));
+  add_floor(s, 2.0, 0);
+  scene::Light l;
+  l.type = scene::LightShape::rect;
+  l.position = {0.1, 1.0, -0.1};
+  l.u_axis = {1, 0, 0};
+  l.v_axis = {0, 0, 1};
+  l.direction = {0, -1, 0};
+  l.color = Rgb{10.0};
+  s.lights.push_back(l);
+  return s;
+}
+
+double rect_light_irradiance(const scene::Light& l, const Vec3& p, const Vec3& n) {
+  const Vec3 c = l.position, u = l.u_axis * 0.5, v = l.v_axis * 0.5;
+  return l.color.r * scene::polygon_projected_solid_angle({c - u - v, c + u - v, c + u + v, c - u + v}, p, n);
 }
 
 std::vector<double> texel_means(const scene::Scene& s, const std::string& name, int resolution,

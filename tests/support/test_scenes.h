@@ -44,6 +44,14 @@ int add_floor(scene::Scene& s, double size, uint32_t material, int n = 4);
 // `position`, and nothing else.
 scene::Scene floor_under_point_light(double rho, const Vec3& position, Rgb I);
 
+// A 2 m black floor (add_floor, albedo 0: all light is direct) under a one-sided 1 m square light of radiance 10,
+// 1 m above it and off centre (0.1, 1, −0.1), facing down.
+scene::Scene floor_under_square_light();
+
+// The irradiance from rectangle light `l` (one-sided, radiance l.color.r) at p with normal n, by Lambert's polygon
+// formula (scene::polygon_projected_solid_angle), occlusion aside.
+double rect_light_irradiance(const scene::Light& l, const Vec3& p, const Vec3& n);
+
 // Per texel of lightmap `name` at `resolution`², the weighted mean of f(position, normal) over the sample points the
 // baker's rasterizer (bakers/lightmap/texels.h) puts in the texel, with the weights the baker averages its estimates
 // with; NaN for texels no triangle covers. An analytic field evaluated this way is exactly what a noise-free bake
