@@ -39,7 +39,6 @@ LightmapImage::LightmapImage(std::string name, int width, int height, std::vecto
   }
   sum_.assign(validity_.size(), Rgb{});
   replicas_.assign(validity_.size(), ReplicaSums{});
-  count_.assign(validity_.size(), 0);
 }
 
 double standard_error_of_mean(double sum, double sum_sq, uint32_t n) {
@@ -54,20 +53,21 @@ bool LightmapImage::acceptable(const Rgb& e) { return e.is_finite() && e.min() >
 bool LightmapImage::add(size_t texel, const Rgb& e, int replica) {
   if (!valid(texel) || !acceptable(e)) return false;
   ReplicaSums one;
-  one.add(replica >= 0 ? replica % kReplicas : static_cast<int>(count_[texel] % kReplicas), luminance(e));
+  one.add(replica >= 0 ? replica % kReplicas : static_cast<int>(count(texel) % kReplicas), luminance(e));
   merge(texel, e, one);
   return true;
 }
 
 void LightmapImage::merge(size_t texel, const Rgb& sum, const ReplicaSums& replicas) {
-  const uint64_t count = replicas.count();
-  if (!valid(texel) || count == 0) return;
+  if (!valid(texel) || replicas.count() == 0) return;
   sum_[texel] += sum;
   replicas_[texel].merge(replicas);
-  count_[texel] += static_cast<uint32_t>(count);
 }
 
-Rgb LightmapImage::mean(size_t texel) const { return count_[texel] > 0 ? sum_[texel] / count_[texel] : Rgb{}; }
+Rgb LightmapImage::mean(size_t texel) const {
+  const uint32_t n = count(texel);
+  return n > 0 ? sum_[texel] / n : Rgb{};
+}
 
 double LightmapImage::standard_error(size_t texel) const {
   if (!valid(texel)) return 0;
@@ -76,20 +76,21 @@ double LightmapImage::standard_error(size_t texel) const {
 
 double LightmapImage::brightness() const {
   double sum = 0;
-  size_t n = 0;
+  size_t texels = 0;
   for (size_t t = 0; t < texel_count(); ++t) {
-    if (!valid(t) || count_[t] == 0) continue;
-    sum += luminance(sum_[t]) / count_[t];
-    ++n;
+    const uint32_t n = count(t);
+    if (!valid(t) || n == 0) continue;
+    sum += luminance(sum_[t]) / n;
+    ++texels;
   }
-  return n > 0 ? sum / n : 0.0;
+  return texels > 0 ? sum / texels : 0.0;
 }
 
 double LightmapImage::error(size_t texel, ErrorMetric metric, double brightness, double floor) const {
   if (!valid(texel)) return 0;
   const double se = standard_error(texel);
   if (!std::isfinite(se)) return std::numeric_limits<double>::infinity();
-  const double mean_y = luminance(sum_[texel]) / count_[texel];
+  const double mean_y = luminance(sum_[texel]) / count(texel);
   const double denominator = std::max(metric == ErrorMetric::texel ? mean_y : brightness, floor);
   // Texel metric, all estimates 0 (non-negative ones with a zero mean): no light reaches the texel, and that is
   // exact. Lightmap metric, a black lightmap: the same for every texel.
@@ -102,7 +103,7 @@ LightmapImage::ErrorSummary LightmapImage::error_summary(double target, double f
   s.brightness = brightness();
   double sum_sq = 0;
   for (size_t t = 0; t < texel_count(); ++t) {
-    s.estimates += count_[t];
+    s.estimates += count(t);
     if (!valid(t)) continue;
     ++s.valid;
     const double e = error(t, metric, s.brightness, floor);

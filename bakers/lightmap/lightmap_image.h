@@ -59,7 +59,8 @@ class LightmapImage {
   // worker accumulates on its own before merging). Ignored for an invalid texel.
   void merge(size_t texel, const Rgb& sum, const ReplicaSums& replicas);
 
-  uint32_t count(size_t texel) const { return count_[texel]; }
+  // Estimates added to the texel, over its replicas.
+  uint32_t count(size_t texel) const { return static_cast<uint32_t>(replicas_[texel].count()); }
   // The mean of the estimates; black without any.
   Rgb mean(size_t texel) const;
   // The standard error of the texel's mean luminance (W·m⁻²): 0 for invalid texels, +∞ without an estimate.
@@ -90,9 +91,8 @@ class LightmapImage {
   image::FloatImage validity_image() const;
   image::FloatImage error_image(double floor = 0, ErrorMetric metric = ErrorMetric::texel) const;
 
-  // Memory held per texel: sum (3 doubles), replica sums, count (uint32), validity (byte).
-  static constexpr size_t kBytesPerTexel =
-      3 * sizeof(double) + sizeof(ReplicaSums) + sizeof(uint32_t) + sizeof(uint8_t);
+  // Memory held per texel: sum (3 doubles), replica sums (with the counts), validity (byte).
+  static constexpr size_t kBytesPerTexel = 3 * sizeof(double) + sizeof(ReplicaSums) + sizeof(uint8_t);
 
  private:
   std::string name_;
@@ -100,7 +100,6 @@ class LightmapImage {
   std::vector<uint8_t> validity_;
   std::vector<Rgb> sum_;
   std::vector<ReplicaSums> replicas_;
-  std::vector<uint32_t> count_;
 };
 
 struct LightmapOutputOptions {
