@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "bakers/image/exr.h"
+#include "tests/support/error_of.h"
 
 namespace kiln::envmap {
 namespace {
@@ -44,17 +45,7 @@ std::string make_png(int w, int h, int channels, unsigned char value) {
   return std::string(buffer.begin(), buffer.end());
 }
 
-// The message of the std::exception `fn` throws (fails the test if it throws nothing).
-template <class Fn>
-std::string error_of(Fn fn) {
-  try {
-    fn();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected an exception";
-  return "";
-}
+using test::error_of;
 
 double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 

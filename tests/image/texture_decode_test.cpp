@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "bakers/image/texture_decode.h"
+#include "tests/support/error_of.h"
 #include "tests/support/temp_dir.h"
 
 namespace kiln {
@@ -59,29 +60,19 @@ std::string encoded(const std::string& extension, OIIO::TypeDesc type = OIIO::Ty
 std::string dds() {
   std::vector<uint32_t> h(32, 0);  // "DDS " then the 124-byte header: 31 words
   std::memcpy(&h[0], "DDS ", 4);
-  h[1] = 124;                                                // dwSize
-  h[2] = 0x1 | 0x2 | 0x4 | 0x1000;                           // CAPS, HEIGHT, WIDTH, PIXELFORMAT
-  h[3] = kH, h[4] = kW, h[5] = kW * 4;                       // height, width, pitch
-  h[19] = 32, h[20] = 0x40 | 0x1, h[22] = 32;                // pixel format: size, RGB | ALPHAPIXELS, 32 bits
+  h[1] = 124;                                  // dwSize
+  h[2] = 0x1 | 0x2 | 0x4 | 0x1000;             // CAPS, HEIGHT, WIDTH, PIXELFORMAT
+  h[3] = kH, h[4] = kW, h[5] = kW * 4;         // height, width, pitch
+  h[19] = 32, h[20] = 0x40 | 0x1, h[22] = 32;  // pixel format: size, RGB | ALPHAPIXELS, 32 bits
   h[23] = 0x00ff0000, h[24] = 0x0000ff00, h[25] = 0x000000ff, h[26] = 0xff000000;  // R, G, B, A masks
-  h[27] = 0x1000;                                            // caps: TEXTURE
+  h[27] = 0x1000;                                                                  // caps: TEXTURE
   std::string out(reinterpret_cast<const char*>(h.data()), 128);
-  for (int p = 0; p < kW * kH; ++p) out += {static_cast<char>(kRgb[2]), static_cast<char>(kRgb[1]),
-                                            static_cast<char>(kRgb[0]), static_cast<char>(255)};
+  for (int p = 0; p < kW * kH; ++p)
+    out += {static_cast<char>(kRgb[2]), static_cast<char>(kRgb[1]), static_cast<char>(kRgb[0]), static_cast<char>(255)};
   return out;
 }
 
-// The message of what `fn` throws.
-template <class Fn>
-std::string error_of(Fn fn) {
-  try {
-    fn();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected an exception";
-  return "";
-}
+using test::error_of;
 
 struct Case {
   std::string extension, format;  // the file's, and OpenImageIO's name for it
@@ -90,10 +81,9 @@ struct Case {
 
 TEST(TextureDecode, TgaTiffBmpDdsAndTheOtherFormatsOpenImageIoReadsAreRead) {
   const std::vector<Case> cases = {
-      {"tga", "targa", 1e-4}, {"tif", "tiff", 1e-4},     {"bmp", "bmp", 1e-4},   {"png", "png", 1e-4},
-      {"gif", "gif", 1e-4},   {"pnm", "pnm", 1e-4},      {"dpx", "dpx", 1e-4},   {"iff", "iff", 1e-4},
-      {"sgi", "sgi", 1e-4},
-      {"jpg", "jpeg", 0.03},  {"webp", "webp", 0.03},    {"heic", "heif", 0.03},
+      {"tga", "targa", 1e-4}, {"tif", "tiff", 1e-4}, {"bmp", "bmp", 1e-4},   {"png", "png", 1e-4},
+      {"gif", "gif", 1e-4},   {"pnm", "pnm", 1e-4},  {"dpx", "dpx", 1e-4},   {"iff", "iff", 1e-4},
+      {"sgi", "sgi", 1e-4},   {"jpg", "jpeg", 0.03}, {"webp", "webp", 0.03}, {"heic", "heif", 0.03},
   };
   const double expected[3] = {srgb_to_linear(kRgb[0] / 255.0), srgb_to_linear(kRgb[1] / 255.0),
                               srgb_to_linear(kRgb[2] / 255.0)};
