@@ -29,37 +29,18 @@
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/raw_connection.h"
 #include "tests/integration/service_client.h"
+#include "tests/integration/test_certs.h"
 
 namespace kiln {
 namespace {
 
 using client::Client;
 using client::TlsError;
+using test::cert;
+using test::cert_dir;
 using test::Daemon;
 using test::ggx_job;
 using Clock = std::chrono::steady_clock;
-
-// The test's own CA and certificates, made once per run (P-256 keys: a fraction of a second), removed at exit.
-struct CertDir {
-  std::filesystem::path path =
-      std::filesystem::temp_directory_path() / ("kiln_tls_certs_" + std::to_string(::getpid()));
-  CertDir() {
-    const std::string command =
-        std::string(KILN_SOURCE_DIR) + "/tests/tools/make_test_certs.sh " + path.string() + " 2>&1";
-    if (std::system(command.c_str()) != 0) {
-      throw std::runtime_error("cannot make the test certificates with " + command + " (is openssl installed?)");
-    }
-  }
-  ~CertDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path, ec);
-  }
-};
-const std::filesystem::path& cert_dir() {
-  static const CertDir dir;
-  return dir.path;
-}
-std::string cert(const char* name) { return (cert_dir() / name).string(); }
 
 // kilnd with TLS, its certificate made for `server` (server or wrong-name), optionally requiring client
 // certificates from the test's CA.
@@ -76,8 +57,8 @@ client::Options tls_options(const char* ca = "ca.pem", const char* client_name =
   o.read_timeout = std::chrono::seconds(10);
   o.tls.ca_file = cert(ca);
   if (client_name) {
-    o.tls.cert_file = cert((std::string(client_name) + ".pem").c_str());
-    o.tls.key_file = cert((std::string(client_name) + ".key").c_str());
+    o.tls.cert_file = cert(std::string(client_name) + ".pem");
+    o.tls.key_file = cert(std::string(client_name) + ".key");
   }
   return o;
 }
