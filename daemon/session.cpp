@@ -468,6 +468,9 @@ std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, Co
   std::string address = ec ? std::string() : ep.address().to_string();
   std::string peer = ec ? "tcp" : address + ":" + std::to_string(ep.port());
   if (tls) {
+    // TLS writes its handshake and session tickets as several small records, each awaiting the one before with
+    // Nagle's algorithm on: with the client's delayed acknowledgement, that stalled each handshake by ~40 ms.
+    socket.set_option(tcp::no_delay(true), ec);
     return std::make_shared<SocketSession<TlsStream>>(io, service, registry, TlsStream(std::move(socket), *tls), false,
                                                       std::move(peer), std::move(address));
   }
