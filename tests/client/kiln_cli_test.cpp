@@ -774,6 +774,9 @@ TEST(KilnCliBinary, HelpAndUsageErrors) {
       {{"jobs", "--limit", "0"}, "kiln: --limit: must be a whole number in [1, 1000], got 0"},
       {{"status", "--server", "localhost"}, "kiln: --server: server address \"localhost\": expected HOST:PORT"},
       {{"status", "--token-file", "/nonexistent/token"}, "kiln: --token-file /nonexistent/token: cannot read"},
+      {{"status", "--tls-ca", "/nonexistent/ca.pem"}, "kiln: TLS CA file /nonexistent/ca.pem: cannot read it"},
+      {{"--tls-ca=/nonexistent/ca.pem", "status"}, "kiln: TLS CA file /nonexistent/ca.pem: cannot read it"},
+      {{"status", "--tls-cert", "client.pem", "--tls-key", "client.key"}, "kiln: --tls-cert needs --tls-ca"},
   };
   for (const auto& [args, expected] : cases) {
     const Outcome r = kiln(args);
