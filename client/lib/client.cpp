@@ -89,6 +89,10 @@ bool contains(const std::string& text, const char* part) { return text.find(part
 // The TLS context for `tls`: TLS 1.2 or newer, the server's certificate checked against ca_file, this client's
 // certificate if given. Throws std::invalid_argument naming the file that cannot be used.
 std::unique_ptr<asio::ssl::context> make_tls_context(const TlsOptions& tls) {
+  if (tls.cert_file.empty() != tls.key_file.empty()) {
+    throw std::invalid_argument(tls.cert_file.empty() ? "TLS client key " + tls.key_file + ": needs its certificate"
+                                                      : "TLS client certificate " + tls.cert_file + ": needs its key");
+  }
   auto ctx = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_client);
   SSL_CTX_set_min_proto_version(ctx->native_handle(), TLS1_2_VERSION);
   ctx->set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_compression);
@@ -107,10 +111,6 @@ std::unique_ptr<asio::ssl::context> make_tls_context(const TlsOptions& tls) {
                                 "); give the CA that signed the server's certificate");
   }
   ctx->set_verify_mode(asio::ssl::verify_peer);
-  if (tls.cert_file.empty() != tls.key_file.empty()) {
-    throw std::invalid_argument(tls.cert_file.empty() ? "a TLS client key needs its certificate: give both"
-                                                      : "a TLS client certificate needs its key: give both");
-  }
   if (!tls.cert_file.empty()) {
     usable("TLS client certificate", tls.cert_file, "this client's certificate in PEM");
     usable("TLS client key", tls.key_file, "the client certificate's private key in PEM");

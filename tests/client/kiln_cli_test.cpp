@@ -777,6 +777,8 @@ TEST(KilnCliBinary, HelpAndUsageErrors) {
       {{"status", "--tls-ca", "/nonexistent/ca.pem"}, "kiln: TLS CA file /nonexistent/ca.pem: cannot read it"},
       {{"--tls-ca=/nonexistent/ca.pem", "status"}, "kiln: TLS CA file /nonexistent/ca.pem: cannot read it"},
       {{"status", "--tls-cert", "client.pem", "--tls-key", "client.key"}, "kiln: --tls-cert needs --tls-ca"},
+      {{"status", "--tls-ca", "ca.pem", "--tls-key", "client.key"},
+       "kiln: TLS client key client.key: needs its certificate (from --tls-ca, --tls-key)"},
   };
   for (const auto& [args, expected] : cases) {
     const Outcome r = kiln(args);
