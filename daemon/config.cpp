@@ -65,6 +65,7 @@ struct Flag {
   const char* field;  // the config file's field
   const char* help;
   std::function<void(Config&, const std::string&)> set;
+  bool takes_value = true;  // false: a switch, set with ""
 };
 
 const std::vector<Flag>& flags() {
@@ -77,6 +78,14 @@ const std::vector<Flag>& flags() {
        [](Config& c, const std::string& v) { c.store = v; }},
       {"--token-file", "token_file", "file of accepted tokens (mode 0600), required with TCP",
        [](Config& c, const std::string& v) { c.token_file = v; }},
+      {"--tls-cert", "tls_cert", "TLS on TCP: the server's certificate chain (PEM); needs --tls-key",
+       [](Config& c, const std::string& v) { c.tls_cert = v; }},
+      {"--tls-key", "tls_key", "TLS on TCP: the certificate's private key (PEM, not readable by others)",
+       [](Config& c, const std::string& v) { c.tls_key = v; }},
+      {"--tls-client-ca", "tls_client_ca", "TLS: require client certificates that chain to these CAs (PEM)",
+       [](Config& c, const std::string& v) { c.tls_client_ca = v; }},
+      {"--insecure-tcp", "insecure_tcp", "allow a non-loopback --listen without TLS (tokens in clear)",
+       [](Config& c, const std::string&) { c.insecure_tcp = true; }, false},
       {"--workers", "workers", "jobs that run at once [1, 256]",
        [](Config& c, const std::string& v) { c.workers = parse_unsigned("--workers", v, 1, 256); }},
       {"--threads", "threads", "baking threads in total, 0 = all cores [0, 1024]",
@@ -136,6 +145,10 @@ void load_config_file(const std::string& path, Config& config) {
   if (file.has_socket()) config.socket = file.socket();
   if (file.has_store()) config.store = file.store();
   if (file.has_token_file()) config.token_file = file.token_file();
+  if (file.has_tls_cert()) config.tls_cert = file.tls_cert();
+  if (file.has_tls_key()) config.tls_key = file.tls_key();
+  if (file.has_tls_client_ca()) config.tls_client_ca = file.tls_client_ca();
+  if (file.has_insecure_tcp()) config.insecure_tcp = file.insecure_tcp();
   if (file.has_workers()) config.workers = file.workers();
   if (file.has_threads()) config.threads = file.threads();
   if (file.has_store_limit_bytes()) config.store_limit_bytes = file.store_limit_bytes();
@@ -178,6 +191,10 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
       if (a == f.name) flag = &f;
     }
     if (!flag) throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
+    if (!flag->takes_value) {
+      flag->set(cl.config, "");
+      continue;
+    }
     if (i + 1 >= args.size()) throw std::invalid_argument(a + ": missing value");
     flag->set(cl.config, args[++i]);
   }
@@ -193,6 +210,19 @@ void validate(const Config& c) {
   }
   if (!c.listen.empty() && c.token_file.empty()) {
     throw std::invalid_argument("--listen needs --token-file: TCP clients must present a token");
+  }
+  if (c.tls_cert.empty() != c.tls_key.empty()) {
+    throw std::invalid_argument(c.tls_cert.empty() ? "--tls-key needs --tls-cert: give the certificate it belongs to"
+                                                   : "--tls-cert needs --tls-key: give the certificate's private key");
+  }
+  if (!c.tls_client_ca.empty() && c.tls_cert.empty()) {
+    throw std::invalid_argument(
+        "--tls-client-ca needs --tls-cert and --tls-key: client certificates are checked in a TLS handshake");
+  }
+  if (!c.tls_cert.empty() && c.listen.empty()) {
+    throw std::invalid_argument(
+        "--tls-cert applies to the TCP listener, and there is none: give --listen HOST:PORT "
+        "(the Unix socket stays plain)");
   }
   if (c.store.empty()) throw std::invalid_argument("--store: a folder is required");
   if (c.workers < 1 || c.workers > 256) throw std::invalid_argument("workers: must be in [1, 256]");
@@ -230,7 +260,8 @@ std::string usage() {
       "given with --config (annotated example: deploy/kilnd.conf), then these flags:\n\n";
   for (const Flag& f : flags()) {
     char line[256];
-    std::snprintf(line, sizeof line, "  %-28s %-26s %s\n", f.name, f.field, f.help);
+    const std::string name = std::string(f.name) + (f.takes_value ? "" : " (no value)");
+    std::snprintf(line, sizeof line, "  %-28s %-26s %s\n", name.c_str(), f.field, f.help);
     u += line;
   }
   u += "\nThe second column is the config file's field. Logs go to stderr. SIGTERM or SIGINT stops accepting,\n"

@@ -12,6 +12,14 @@ struct Config {
   std::string socket;
   std::string store = "kiln-store";
   std::string token_file;
+  // TLS on the TCP listener (the Unix socket stays plain: it is local and its permissions protect it). The
+  // certificate chain and key in PEM; with client_ca, clients must present a certificate that chains to it.
+  std::string tls_cert;
+  std::string tls_key;
+  std::string tls_client_ca;
+  // Allows listening beyond loopback without TLS (tokens then cross the network in clear): for networks protected
+  // otherwise, such as a VPN or an SSH tunnel's far end.
+  bool insecure_tcp = false;
   uint32_t workers = 1;
   uint32_t threads = 0;
   uint64_t store_limit_bytes = 0;
@@ -48,7 +56,8 @@ void load_config_file(const std::string& path, Config& config);
 // people ("--workers: expected a whole number in [1, 256], got 'x'").
 CommandLine parse_command_line(const std::vector<std::string>& args);
 
-// Checks ranges and combinations (TCP needs a token file; at least one listener). Throws std::invalid_argument.
+// Checks ranges and combinations (TCP needs a token file; at least one listener; the TLS files go together).
+// Throws std::invalid_argument. Whether the TCP address is loopback is checked when it is resolved (server.cpp).
 void validate(const Config& config);
 
 // --help: every flag and its config-file field.

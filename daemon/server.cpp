@@ -4,6 +4,7 @@
 #include <utility>
 
 #include <boost/asio.hpp>
+#include <boost/asio/ssl/context.hpp>
 
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -19,6 +20,7 @@
 #include "daemon/log.h"
 #include "daemon/service.h"
 #include "daemon/session.h"
+#include "daemon/tls_context.h"
 
 namespace kiln::daemon {
 
@@ -39,6 +41,7 @@ struct Server::Impl : ConnectionRegistry {
   std::mutex sessions_mutex;
   std::set<std::weak_ptr<Session>, std::owner_less<std::weak_ptr<Session>>> sessions;  // so stop() can close them
 
+  std::unique_ptr<asio::ssl::context> tls;  // TLS on the TCP listener, if configured; outlives the sessions
   asio::io_context io;
   std::optional<tcp::acceptor> tcp_acceptor;
   std::optional<unix_socket::acceptor> unix_acceptor;
@@ -51,6 +54,10 @@ struct Server::Impl : ConnectionRegistry {
   template <class Acceptor>
   void accept_later(Acceptor& acceptor);
   void admit(const std::shared_ptr<Session>& session);
+  std::shared_ptr<Session> new_session(tcp::socket s) {
+    return make_session(io, service, *this, std::move(s), tls.get());
+  }
+  std::shared_ptr<Session> new_session(unix_socket::socket s) { return make_session(io, service, *this, std::move(s)); }
 
   bool promote(uint64_t session_id) override {
     std::lock_guard lock(registry_mutex);
@@ -101,7 +108,7 @@ void Server::Impl::accept(Acceptor& acceptor) {
                                                                  typename Acceptor::protocol_type::socket s) {
     if (stopping) return;
     if (!ec) {
-      admit(make_session(io, service, *this, std::move(s)));
+      admit(new_session(std::move(s)));
     } else if (ec != asio::error::operation_aborted) {
       // Out of file descriptors (or another transient failure): the pending connection stays in the backlog, so
       // accepting again at once would spin. Pause briefly; closing connections frees descriptors meanwhile.
@@ -167,6 +174,19 @@ Server::Server(Service& service) : impl_(std::make_unique<Impl>(service)) {
     if (ec || results.empty())
       throw std::runtime_error("--listen " + c.listen + ": cannot resolve (" + ec.message() + ")");
     const tcp::endpoint ep = results.begin()->endpoint();
+    impl_->tls = make_tls_context(c);
+    if (!impl_->tls && !ep.address().is_loopback()) {
+      if (!c.insecure_tcp) {
+        throw std::runtime_error(
+            "--listen " + c.listen + ": " + ep.address().to_string() +
+            " is not a loopback address, and without TLS the clients' tokens would cross the network in clear. Give "
+            "--tls-cert FILE and --tls-key FILE (docs/SECURITY.md), or --insecure-tcp if the network is protected "
+            "otherwise (a VPN, an SSH tunnel)");
+      }
+      log_line("listener", "--insecure-tcp: listening on " + ep.address().to_string() +
+                               " without TLS; tokens and jobs cross the network in clear");
+    }
+    if (impl_->tls) log_line("listener", describe_tls(c, *impl_->tls));
     tcp::acceptor a(impl_->io);
     a.open(ep.protocol(), ec);
     if (!ec) a.set_option(tcp::acceptor::reuse_address(true), ec);

@@ -1,5 +1,9 @@
 #include "daemon/session.h"
 
+#include <openssl/ssl.h>
+#include <openssl/x509.h>
+#include <boost/asio/ssl.hpp>
+
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -7,9 +11,11 @@
 #include <deque>
 #include <map>
 #include <optional>
+#include <type_traits>
 
 #include "daemon/log.h"
 #include "daemon/service.h"
+#include "daemon/tls_context.h"
 #include "proto/framing.h"
 #include "proto/kiln.pb.h"
 
@@ -18,8 +24,31 @@ namespace kiln::daemon {
 namespace asio = boost::asio;
 using asio::ip::tcp;
 using unix_socket = asio::local::stream_protocol;
+using TlsStream = asio::ssl::stream<tcp::socket>;
 
 namespace {
+
+template <class Socket>
+constexpr bool kIsTls = std::is_same_v<Socket, TlsStream>;
+
+// The socket under the stream, to shut down and close (a TLS session ends without close_notify: kiln's frames carry
+// their own lengths, so a truncated stream cannot pass for a complete answer).
+template <class Socket>
+auto& lowest_layer(Socket& s) {
+  if constexpr (kIsTls<Socket>) {
+    return s.lowest_layer();
+  } else {
+    return s;
+  }
+}
+
+// The reason of a failed handshake for the log, with the certificate check's own reason when that is what failed.
+std::string handshake_failure(TlsStream& stream, const boost::system::error_code& ec) {
+  std::string why = ec.message();
+  const long verify = SSL_get_verify_result(stream.native_handle());
+  if (verify != X509_V_OK) why += " (client certificate: " + std::string(X509_verify_cert_error_string(verify)) + ")";
+  return why;
+}
 
 constexpr std::size_t kReadChunk = 64 * 1024;
 // Past this many bytes of answers not yet written, the session stops reading requests until the client catches up.
@@ -50,8 +79,12 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   void start() override {
     service_.connection_opened();
     asio::dispatch(strand_, [self = this->shared_from_this()] {
-      self->arm_deadline();
-      self->read();
+      self->arm_deadline();  // before hello, it covers the TLS handshake too
+      if constexpr (kIsTls<Socket>) {
+        self->peek_first_bytes();
+      } else {
+        self->read();
+      }
       self->schedule_heartbeat();
     });
   }
@@ -63,6 +96,10 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   // Refuses the connection at once (too many connections): one id-0 error, then close.
   void refuse(const std::string& message) override {
     asio::dispatch(strand_, [self = this->shared_from_this(), message] {
+      if (!self->ready_) {
+        log_line(self->subject(), "dropped before its TLS handshake ended: " + message);
+        return self->shutdown();
+      }
       v1::Response r;
       Service::connection_error(r, v1::Error::RESOURCE_EXHAUSTED, message);
       self->send(r);
@@ -81,6 +118,62 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
  private:
   std::string subject() const { return "connection " + std::to_string(info_.id) + " (" + info_.peer + ")"; }
 
+  // TLS: the first bytes are looked at, not taken, to tell a TLS client from one speaking plain kiln frames, which
+  // would otherwise get only a TLS alert it cannot read.
+  void peek_first_bytes() {
+    if constexpr (kIsTls<Socket>) {
+      socket_.next_layer().async_receive(
+          asio::buffer(buffer_.data(), 2), tcp::socket::message_peek,
+          asio::bind_executor(strand_, [self = this->shared_from_this()](auto ec, std::size_t n) {
+            if (self->closed_) return;
+            if (ec) return self->shutdown();  // gone before saying anything
+            if (starts_tls_handshake(std::string_view(self->buffer_.data(), n))) return self->handshake();
+            self->refuse_plain_client();
+          }));
+    }
+  }
+
+  void handshake() {
+    if constexpr (kIsTls<Socket>) {
+      socket_.async_handshake(
+          asio::ssl::stream_base::server, asio::bind_executor(strand_, [self = this->shared_from_this()](auto ec) {
+            if (self->closed_) return;  // the hello deadline ended it, and said so
+            if (ec) {
+              // Only this connection ends; the others are on their own strands and sockets.
+              log_line(self->subject(), "TLS handshake failed: " + handshake_failure(self->socket_, ec));
+              return self->shutdown();
+            }
+            self->ready_ = true;
+            self->read();
+          }));
+    }
+  }
+
+  // A client that speaks plain kiln frames to the TLS listener gets one plain id-0 error saying so, which every kiln
+  // client can read, then the connection closes. What it sent is read first: closing a socket with unread bytes
+  // resets the connection, and the client could lose the answer.
+  void refuse_plain_client() {
+    if constexpr (kIsTls<Socket>) {
+      const std::string why =
+          "this kilnd accepts only TLS on TCP, and the client spoke without it: connect with TLS (kiln --tls-ca "
+          "FILE, KILN_TLS_CA, or kiln.Client(tls_ca=...) in Python), trusting the CA that signed the server's "
+          "certificate";
+      log_line(subject(), "dropped: the client spoke plain TCP to the TLS listener");
+      boost::system::error_code ignored;
+      auto& raw = socket_.next_layer();
+      const std::size_t available = std::min(raw.available(ignored), buffer_.size());
+      if (available > 0) raw.read_some(asio::buffer(buffer_.data(), available), ignored);
+      v1::Response r;
+      Service::connection_error(r, v1::Error::FAILED_PRECONDITION, why);
+      auto frame = std::make_shared<std::string>();
+      proto::append_frame(r, *frame);
+      asio::async_write(raw, asio::buffer(*frame),
+                        asio::bind_executor(strand_, [self = this->shared_from_this(), frame](auto, std::size_t) {
+                          self->shutdown();
+                        }));
+    }
+  }
+
   void read() {
     if (closed_ || reading_ || closing_) return;
     if (pending_bytes_ > kMaxPendingWrite) return;  // backpressure: resumed when writes drain
@@ -95,10 +188,21 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   void on_read(const boost::system::error_code& ec, std::size_t n) {
     if (closed_) return;
     if (ec) {
-      if (ec != asio::error::eof && ec != asio::error::operation_aborted) {
+      // A TLS client may close without TLS's close_notify (stream_truncated): frames carry their lengths, so that
+      // is an ordinary end, as eof is.
+      if (ec != asio::error::eof && ec != asio::error::operation_aborted && ec != asio::ssl::error::stream_truncated) {
         log_line(subject(), "read failed: " + ec.message());
       }
       return shutdown();
+    }
+    if (sniff_tls_) {
+      sniff_tls_ = false;
+      if (starts_tls_handshake(std::string_view(buffer_.data(), n))) {
+        return drop(
+            "the client began a TLS handshake, but this kilnd serves TCP without TLS: connect without TLS, "
+            "or start kilnd with --tls-cert and --tls-key",
+            v1::Error::FAILED_PRECONDITION);
+      }
     }
     if (!decoder_.feed(std::string_view(buffer_.data(), n))) return drop_for_decoder_error();
     std::string_view payload;
@@ -238,6 +342,12 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
         if (self->info_.authenticated) return self->arm_deadline();  // said hello meanwhile: the usual deadlines
         char limit[32];
         std::snprintf(limit, sizeof limit, "%g", self->service_.config().hello_deadline_seconds);
+        if (!self->ready_) {
+          // Nothing can be said to a client whose TLS handshake has not ended: closing ends the handshake too.
+          log_line(self->subject(), std::string("dropped: no TLS handshake and hello within the hello deadline (") +
+                                        limit + " s after connecting)");
+          return self->shutdown();
+        }
         return self->drop(std::string("no successful hello within the hello deadline (") + limit +
                               " s after connecting); connect again and say hello first",
                           v1::Error::DEADLINE_EXCEEDED);
@@ -297,6 +407,7 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   void drop(const std::string& why, int code) {
     if (closing_ || closed_) return;
     log_line(subject(), "dropped: " + why);
+    if (!ready_) return shutdown();  // mid-handshake: there is no channel to answer on
     v1::Response r;
     Service::connection_error(r, code, why);
     closing_ = true;
@@ -308,8 +419,9 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
     closed_ = true;
     watches_.clear();  // unsubscribes
     boost::system::error_code ignored;
-    socket_.shutdown(Socket::shutdown_both, ignored);
-    socket_.close(ignored);
+    auto& raw = lowest_layer(socket_);
+    raw.shutdown(tcp::socket::shutdown_both, ignored);
+    raw.close(ignored);
     deadline_.cancel();
     heartbeat_.cancel();
     answer_delay_.cancel();
@@ -341,16 +453,27 @@ class SocketSession : public Session, public std::enable_shared_from_this<Socket
   std::optional<std::chrono::steady_clock::time_point> frame_started_;
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   bool reading_ = false, closing_ = false, closed_ = false, counted_ = false, promoted_ = false;
+  // False until a TLS session's handshake succeeds: before, nothing can be written to the client.
+  bool ready_ = !kIsTls<Socket>;
+  // A plain TCP session looks at its first bytes for a TLS handshake, to tell such a client what is wrong.
+  bool sniff_tls_ = std::is_same_v<Socket, tcp::socket>;
 };
 
 }  // namespace
 
 std::shared_ptr<Session> make_session(asio::io_context& io, Service& service, ConnectionRegistry& registry,
-                                      tcp::socket socket) {
+                                      tcp::socket socket, asio::ssl::context* tls) {
   boost::system::error_code ec;
   const auto ep = socket.remote_endpoint(ec);
   std::string address = ec ? std::string() : ep.address().to_string();
   std::string peer = ec ? "tcp" : address + ":" + std::to_string(ep.port());
+  if (tls) {
+    // TLS writes its handshake and session tickets as several small records, each awaiting the one before with
+    // Nagle's algorithm on: with the client's delayed acknowledgement, that stalled each handshake by ~40 ms.
+    socket.set_option(tcp::no_delay(true), ec);
+    return std::make_shared<SocketSession<TlsStream>>(io, service, registry, TlsStream(std::move(socket), *tls), false,
+                                                      std::move(peer), std::move(address));
+  }
   return std::make_shared<SocketSession<tcp::socket>>(io, service, registry, std::move(socket), false, std::move(peer),
                                                       std::move(address));
 }

@@ -10,6 +10,10 @@
 #include <memory>
 #include <string>
 
+namespace boost::asio::ssl {
+class context;
+}
+
 namespace kiln::daemon {
 
 class Service;
@@ -43,9 +47,10 @@ class Session {
 };
 
 // A session over an accepted TCP or Unix socket connection, run on its own strand of `io`. `registry` must outlive
-// the session (it is told when the session ends).
+// the session (it is told when the session ends). With `tls` (which must outlive the session too), a TCP session
+// begins with a TLS handshake, within the hello deadline; a client that speaks plain TCP to it is told to use TLS.
 std::shared_ptr<Session> make_session(boost::asio::io_context& io, Service& service, ConnectionRegistry& registry,
-                                      boost::asio::ip::tcp::socket socket);
+                                      boost::asio::ip::tcp::socket socket, boost::asio::ssl::context* tls);
 std::shared_ptr<Session> make_session(boost::asio::io_context& io, Service& service, ConnectionRegistry& registry,
                                       boost::asio::local::stream_protocol::socket socket);
 

@@ -9,7 +9,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   libembree-dev libopenvdb-dev libopenimageio-dev openimageio-tools libopencolorio-dev opencolorio-tools
   libboost-dev libboost-system-dev libboost-iostreams-dev libprotobuf-dev protobuf-compiler libtbb-dev
-  libsqlite3-dev libssl-dev python3 python3-protobuf libassimp-dev nlohmann-json3-dev
+  libsqlite3-dev libssl-dev openssl python3 python3-protobuf libassimp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   assimp-testmodels  # real models for the importer's test (tests/integration/assimp_models_test.cpp): 21 MB, 74 MB installed
 )

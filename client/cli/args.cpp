@@ -19,7 +19,10 @@ std::vector<std::string> Flags::all(const std::string& name) const {
   return it == values.end() ? std::vector<std::string>{} : it->second;
 }
 
-std::vector<FlagSpec> global_flag_specs() { return {{"--server"}, {"--token-file"}, {"--help", false}, {"-h", false}}; }
+std::vector<FlagSpec> global_flag_specs() {
+  return {{"--server"},  {"--token-file"},  {"--tls-ca"}, {"--tls-cert"},
+          {"--tls-key"}, {"--help", false}, {"-h", false}};
+}
 
 Flags parse_flags(const std::vector<std::string>& args, const std::vector<FlagSpec>& specs,
                   const std::string& command) {

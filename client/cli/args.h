@@ -53,7 +53,7 @@ struct Flags {
 // ("kiln bake material"). Throws UsageError for an unknown flag, a missing value, or a flag given twice.
 Flags parse_flags(const std::vector<std::string>& args, const std::vector<FlagSpec>& specs, const std::string& command);
 
-// The flags every command takes: --server, --token-file, --help.
+// The flags every command takes: --server, --token-file, --tls-ca, --tls-cert, --tls-key, --help.
 std::vector<FlagSpec> global_flag_specs();
 
 // Numbers from the command line; errors name the flag and repeat what was given.

@@ -47,7 +47,7 @@ options:
   --out DIR                    where the outputs and report.json go (required; created if missing)
   --priority N                 higher runs first, [-100, 100]; default 0
   --idempotency-key KEY        resubmitting with the same key and spec returns the first job
-  --server HOST:PORT | unix:PATH, --token-file FILE   see `kiln --help`
+  --server HOST:PORT | unix:PATH, --token-file FILE, --tls-ca FILE   see `kiln --help`
 
 example:
   kiln bake material --model ggx --alpha 0.3 --fresnel schlick --f0 0.04 --out out/ggx

@@ -2,7 +2,7 @@
 
 namespace kiln::cli {
 
-const char* const kHelp = R"(usage: kiln [--server ADDR] [--token-file FILE] COMMAND [ARGS]
+const char* const kHelp = R"(usage: kiln [--server ADDR] [--token-file FILE] [--tls-ca FILE] COMMAND [ARGS]
 
 kiln talks to kilnd, the kiln baking daemon: it submits bake jobs, follows them and fetches what they made.
 
@@ -30,6 +30,11 @@ global options (anywhere on the line):
   --token-file FILE     the token, from the first line of FILE that is not blank or a # comment; default
                         $KILN_TOKEN, else the file named by $KILN_TOKEN_FILE. TCP needs a token; on a Unix socket
                         the socket's file permissions decide and the token is not needed.
+  --tls-ca FILE         connect over TLS, trusting the CA certificates in FILE (PEM) for the server's certificate,
+                        which must also name the host of --server; default $KILN_TLS_CA. TCP only.
+  --tls-cert FILE, --tls-key FILE
+                        this client's certificate and key (PEM), for a kilnd that requires client certificates;
+                        default $KILN_TLS_CERT, $KILN_TLS_KEY
   --version             print the client's version
 
 Progress goes to stderr: a bar redrawn in place on a terminal, otherwise plain lines (one per 10 % of progress, at

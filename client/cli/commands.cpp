@@ -1,5 +1,6 @@
 #include "client/cli/commands.h"
 
+#include <algorithm>
 #include <optional>
 #include <ostream>
 
@@ -53,7 +54,16 @@ std::string command_names() {
   return names;
 }
 
-bool is_global_with_value(const std::string& arg) { return arg == "--server" || arg == "--token-file"; }
+const std::vector<std::string> kGlobalsWithValue = {"--server", "--token-file", "--tls-ca", "--tls-cert", "--tls-key"};
+
+bool is_global_with_value(const std::string& arg) {
+  return std::find(kGlobalsWithValue.begin(), kGlobalsWithValue.end(), arg) != kGlobalsWithValue.end();
+}
+// "--server=ADDR" and the like.
+bool is_global_with_joined_value(const std::string& arg) {
+  const auto eq = arg.find('=');
+  return eq != std::string::npos && is_global_with_value(arg.substr(0, eq));
+}
 bool is_env_type(const std::string& bake_type) { return bake_type == "env" || bake_type == "environment"; }
 
 // Where the command is on the line: the first word that is neither a global flag nor its value. When --help or
@@ -75,7 +85,7 @@ std::optional<std::size_t> find_command_word(const std::vector<std::string>& arg
       answer = std::string(kVersion) + "\n";
       return std::nullopt;
     }
-    if (a.rfind("--server=", 0) == 0 || a.rfind("--token-file=", 0) == 0) continue;
+    if (is_global_with_joined_value(a)) continue;
     throw UsageError("unknown option " + a + " before the command (see `kiln --help`)");
   }
   return std::nullopt;
@@ -171,7 +181,7 @@ int run(const std::vector<std::string>& args, Context& ctx) {
 }  // namespace
 
 int run_kiln(const std::vector<std::string>& args, std::ostream& out, std::ostream& err, const Terminal& terminal) {
-  Context ctx{{}, {}, terminal, out, err, std::nullopt, {}};
+  Context ctx{{}, {}, {}, {}, terminal, out, err, std::nullopt, {}};
   try {
     return run(args, ctx);
   } catch (const UsageError& e) {

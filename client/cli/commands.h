@@ -13,8 +13,8 @@ struct Terminal {
 };
 
 // Runs `kiln ARGS...` (args without the program name) and returns the exit status (args.h: kExit*). Every error
-// is reported on `err` as one line starting with "kiln: "; nothing is thrown. Reads KILN_SERVER, KILN_TOKEN and
-// KILN_TOKEN_FILE from the environment.
+// is reported on `err` as one line starting with "kiln: "; nothing is thrown. Reads KILN_SERVER, KILN_TOKEN,
+// KILN_TOKEN_FILE, KILN_TLS_CA, KILN_TLS_CERT and KILN_TLS_KEY from the environment.
 int run_kiln(const std::vector<std::string>& args, std::ostream& out, std::ostream& err, const Terminal& terminal);
 
 }  // namespace kiln::cli

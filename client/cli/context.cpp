@@ -34,6 +34,25 @@ void set_server_and_token(Context& ctx, const Flags& flags) {
   } else if (const char* file = std::getenv("KILN_TOKEN_FILE"); file && *file) {
     ctx.token = read_token_file(file, "KILN_TOKEN_FILE");
   }
+  const auto tls_setting = [&](const char* flag, const char* env, std::string& into) {
+    std::string source;
+    if (auto v = flags.get(flag)) {
+      into = *v;
+      source = flag;
+    } else if (const char* e = std::getenv(env); e && *e) {
+      into = e;
+      source = env;
+    }
+    if (!source.empty()) ctx.tls_sources += (ctx.tls_sources.empty() ? "" : ", ") + source;
+  };
+  tls_setting("--tls-ca", "KILN_TLS_CA", ctx.tls.ca_file);
+  tls_setting("--tls-cert", "KILN_TLS_CERT", ctx.tls.cert_file);
+  tls_setting("--tls-key", "KILN_TLS_KEY", ctx.tls.key_file);
+  if (ctx.tls.ca_file.empty() && !ctx.tls.cert_file.empty()) {
+    throw UsageError(
+        "--tls-cert needs --tls-ca (or KILN_TLS_CA): a client certificate is only sent over TLS, and "
+        "TLS needs the CA that signed the server's certificate");
+  }
 }
 
 std::string read_token_file(const std::string& path, const std::string& source) {
@@ -58,12 +77,15 @@ void connect_and_greet(Context& ctx) {
   ctx.client.reset();
   client::Options options;
   options.client_name = "kiln-cli 0.1.0";
+  options.tls = ctx.tls;
   try {
     Client c(ctx.server, options);
     ctx.hello = c.hello(ctx.token);
     ctx.client.emplace(std::move(c));
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--server: ") + e.what());
+    const std::string what = e.what();
+    if (what.rfind("TLS", 0) == 0) throw UsageError(what + " (from " + ctx.tls_sources + ")");
+    throw UsageError("--server: " + what);
   } catch (const ServerError& e) {
     if (e.code() == v1::Error::UNAUTHENTICATED) {
       throw Failure(kExitServer,
@@ -80,6 +102,8 @@ Client& connected_client(Context& ctx) {
   if (ctx.client && ctx.client->is_open()) return *ctx.client;
   try {
     connect_and_greet(ctx);
+  } catch (const client::TlsError& e) {
+    throw Failure(kExitServer, "cannot talk to kilnd at " + ctx.server + ": " + e.what());
   } catch (const ConnectionError& e) {
     throw Failure(kExitServer, "cannot talk to kilnd at " + ctx.server + ": " + e.what() +
                                    ". Is kilnd running there? Choose the server with --server HOST:PORT, "

@@ -15,6 +15,8 @@ namespace kiln::cli {
 struct Context {
   std::string server;
   std::string token;
+  client::TlsOptions tls;   // TLS on TCP when tls.ca_file is set
+  std::string tls_sources;  // where the TLS settings came from, for errors ("--tls-ca", "KILN_TLS_CA")
   Terminal terminal;
   std::ostream& out;
   std::ostream& err;
@@ -23,7 +25,8 @@ struct Context {
 };
 
 // The server from --server, else $KILN_SERVER, else the default; the token from --token-file, else $KILN_TOKEN,
-// else the file named by $KILN_TOKEN_FILE (none: no token).
+// else the file named by $KILN_TOKEN_FILE (none: no token); TLS's files from --tls-ca, --tls-cert and --tls-key,
+// else $KILN_TLS_CA, $KILN_TLS_CERT and $KILN_TLS_KEY (no CA: no TLS).
 void set_server_and_token(Context& ctx, const Flags& flags);
 
 // The token in the first line of the file that is not blank or a # comment; `source` names where the path came

@@ -19,7 +19,7 @@ const char* const kWaitingBakeOptionsHelp = R"(options:
                                (neither: print the job id and return; `kiln watch ID` follows it)
   --priority N                 higher runs first, [-100, 100]; default 0
   --idempotency-key KEY        resubmitting with the same key and spec returns the first job
-  --server HOST:PORT | unix:PATH, --token-file FILE   see `kiln --help`
+  --server HOST:PORT | unix:PATH, --token-file FILE, --tls-ca FILE   see `kiln --help`
 )";
 
 std::vector<FlagSpec> bake_flag_specs(std::initializer_list<const char*> with_value,

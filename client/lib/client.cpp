@@ -5,7 +5,11 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/local/stream_protocol.hpp>
+#include <boost/asio/ssl.hpp>
 #include <boost/asio/write.hpp>
+
+#include <openssl/ssl.h>
+#include <openssl/x509.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -80,6 +84,50 @@ Address parse_address(const std::string& address) {
 
 std::string ms(std::chrono::milliseconds d) { return std::to_string(d.count()) + " ms"; }
 
+bool contains(const std::string& text, const char* part) { return text.find(part) != std::string::npos; }
+
+// The TLS context for `tls`: TLS 1.2 or newer, the server's certificate checked against ca_file, this client's
+// certificate if given. Throws std::invalid_argument naming the file that cannot be used.
+std::unique_ptr<asio::ssl::context> make_tls_context(const TlsOptions& tls) {
+  if (tls.cert_file.empty() != tls.key_file.empty()) {
+    throw std::invalid_argument(tls.cert_file.empty() ? "TLS client key " + tls.key_file + ": needs its certificate"
+                                                      : "TLS client certificate " + tls.cert_file + ": needs its key");
+  }
+  auto ctx = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_client);
+  SSL_CTX_set_min_proto_version(ctx->native_handle(), TLS1_2_VERSION);
+  ctx->set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_compression);
+  const auto usable = [](const std::string& what, const std::string& path, const std::string& wanted) {
+    std::ifstream in(path);
+    if (!in) {
+      throw std::invalid_argument(what + " " + path + ": cannot read it (" + std::strerror(errno) + "); give " +
+                                  wanted);
+    }
+  };
+  error_code ec;
+  usable("TLS CA file", tls.ca_file, "the PEM certificate of the CA that signed the server's certificate");
+  ctx->load_verify_file(tls.ca_file, ec);
+  if (ec) {
+    throw std::invalid_argument("TLS CA file " + tls.ca_file + ": holds no PEM certificate (" + ec.message() +
+                                "); give the CA that signed the server's certificate");
+  }
+  ctx->set_verify_mode(asio::ssl::verify_peer);
+  if (!tls.cert_file.empty()) {
+    usable("TLS client certificate", tls.cert_file, "this client's certificate in PEM");
+    usable("TLS client key", tls.key_file, "the client certificate's private key in PEM");
+    ctx->use_certificate_chain_file(tls.cert_file, ec);
+    if (ec) {
+      throw std::invalid_argument("TLS client certificate " + tls.cert_file + ": not a PEM certificate (" +
+                                  ec.message() + ")");
+    }
+    ctx->use_private_key_file(tls.key_file, asio::ssl::context::pem, ec);
+    if (ec) {
+      throw std::invalid_argument("TLS client key " + tls.key_file + ": not the unencrypted PEM key of " +
+                                  tls.cert_file + " (" + ec.message() + ")");
+    }
+  }
+  return ctx;
+}
+
 // The path of the first string field in `m` that is not UTF-8 ("job.lightmap.materials[2].name"), or "". protobuf
 // serialises such a field (logging an error) but no peer can parse the frame: kilnd would drop the request.
 std::string non_utf8_field(const google::protobuf::Message& m, const std::string& path) {
@@ -120,9 +168,16 @@ v1::Digest digest_of(std::string_view bytes) {
 }
 
 struct Client::Impl {
+  using TlsStream = asio::ssl::stream<asio::generic::stream_protocol::socket&>;
+
   Options options;
   asio::io_context io;
   asio::generic::stream_protocol::socket socket{io};
+  // With TLS, reads and writes go through this stream over `socket`. Kept until the Impl goes, not reset on close:
+  // an operation aborted by a timeout still refers to it until it has finished.
+  std::unique_ptr<asio::ssl::context> tls_context;
+  std::unique_ptr<TlsStream> tls;
+  std::string address, host;
   proto::FrameDecoder decoder{proto::kDefaultMaxFrameBytes};
   std::vector<char> read_buffer = std::vector<char>(kReadChunkBytes);
   v1::Limits limits;
@@ -166,13 +221,68 @@ struct Client::Impl {
     }
     if (result) {
       if (result == asio::error::eof) fail(std::string(what) + ": the server closed the connection");
+      if (tls &&
+          (result.category() == asio::error::get_ssl_category() || result == asio::ssl::error::stream_truncated)) {
+        const std::string why = std::string(what) + ": " + explain_tls(result);
+        close();
+        throw TlsError(why);
+      }
       fail(std::string(what) + ": " + result.message());
     }
     return bytes;
   }
 
-  void connect(const std::string& address) {
+  // A TLS failure for people: what it means here and what to do. Under TLS 1.3 a server refusing this client's
+  // certificate says so after the handshake, so this also explains the first read's error.
+  std::string explain_tls(const error_code& ec) {
+    const std::string reason = ec.message();
+    if (ec == asio::ssl::error::stream_truncated || contains(reason, "wrong version number") ||
+        contains(reason, "packet length too long") || contains(reason, "record layer failure")) {
+      return "the server at " + address + " does not speak TLS (" + reason +
+             "): start kilnd with --tls-cert and --tls-key, or connect without a TLS CA";
+    }
+    if (contains(reason, "certificate verify failed")) {
+      const long verify = SSL_get_verify_result(tls->native_handle());
+      if (verify == X509_V_ERR_HOSTNAME_MISMATCH || verify == X509_V_ERR_IP_ADDRESS_MISMATCH) {
+        return "the server's certificate does not name the host " + host +
+               ": connect by a name or address it was made for, or give the server a certificate for " + host;
+      }
+      return "the server's certificate is refused (" + std::string(X509_verify_cert_error_string(verify)) +
+             "): it must be signed by a CA in " + options.tls.ca_file + " and name the host of " + address;
+    }
+    if (contains(reason, "alert certificate required") || contains(reason, "alert bad certificate") ||
+        contains(reason, "alert unknown ca") || contains(reason, "alert handshake failure") ||
+        contains(reason, "alert certificate unknown")) {
+      return "the server refused the TLS connection (" + reason + ")" +
+             (options.tls.cert_file.empty() ? "; it may require a client certificate: give one with its key"
+                                            : "; it does not accept the client certificate " + options.tls.cert_file +
+                                                  ": it must be signed by a CA in the server's --tls-client-ca");
+    }
+    return "TLS failed (" + reason + ")";
+  }
+
+  template <typename Handler>
+  void start_write(const std::string& bytes, Handler handler) {
+    if (tls) {
+      asio::async_write(*tls, asio::buffer(bytes), handler);
+    } else {
+      asio::async_write(socket, asio::buffer(bytes), handler);
+    }
+  }
+  template <typename Handler>
+  void start_read(Handler handler) {
+    if (tls) {
+      tls->async_read_some(asio::buffer(read_buffer), handler);
+    } else {
+      socket.async_read_some(asio::buffer(read_buffer), handler);
+    }
+  }
+
+  void connect(const std::string& server) {
+    address = server;
     const Address a = parse_address(address);
+    // TLS files are checked before connecting: a wrong path is the caller's mistake, not the network's.
+    if (!a.unix_socket && !options.tls.ca_file.empty()) tls_context = make_tls_context(options.tls);
     const auto deadline = Clock::now() + options.connect_timeout;
     if (a.unix_socket) {
       const asio::generic::stream_protocol::endpoint endpoint{asio::local::stream_protocol::endpoint(a.path)};
@@ -196,16 +306,41 @@ struct Client::Impl {
           deadline, options.connect_timeout, what.c_str());
       // Requests are single small frames answered before the next: Nagle's delay would only add latency.
       socket.set_option(asio::ip::tcp::no_delay(true), ec);
+      if (tls_context) handshake(a, deadline);
     }
     open = true;
+  }
+
+  // Within the connect deadline: the server's own hello deadline counts its handshake too.
+  void handshake(const Address& a, Clock::time_point deadline) {
+    tls = std::make_unique<TlsStream>(socket, *tls_context);
+    host = a.host;
+    error_code ec;
+    asio::ip::make_address(a.host, ec);
+    const bool is_address = !ec;
+    // The certificate must name the host (an IP address must be in its subjectAltName), checked by OpenSSL with the
+    // chain, so that a mismatch has its own verify result; names also go in SNI.
+    SSL* ssl = tls->native_handle();
+    if (is_address) {
+      X509_VERIFY_PARAM_set1_ip_asc(SSL_get0_param(ssl), a.host.c_str());
+    } else {
+      SSL_set1_host(ssl, a.host.c_str());
+      SSL_set_tlsext_host_name(ssl, a.host.c_str());
+    }
+    const std::string what = "TLS handshake with " + address;
+    wait(
+        [&](auto handler) {
+          tls->async_handshake(asio::ssl::stream_base::client, [handler](const error_code& e) { handler(e, 0); });
+        },
+        deadline, options.connect_timeout, what.c_str());
   }
 
   void send(const v1::Request& request) {
     if (!open) throw ConnectionError("not connected");
     // A request the server would refuse as too large fails here, before anything is sent (FrameTooLarge).
     const std::string frame = proto::encode_frame(request, limits.max_frame_bytes());
-    wait([&](auto handler) { asio::async_write(socket, asio::buffer(frame), handler); },
-         Clock::now() + options.write_timeout, options.write_timeout, "sending a request");
+    wait([&](auto handler) { start_write(frame, handler); }, Clock::now() + options.write_timeout,
+         options.write_timeout, "sending a request");
   }
 
   v1::Response read_response(Clock::time_point deadline) {
@@ -222,8 +357,8 @@ struct Client::Impl {
         case proto::FrameDecoder::Status::need_more:
           break;
       }
-      const std::size_t n = wait([&](auto handler) { socket.async_read_some(asio::buffer(read_buffer), handler); },
-                                 deadline, options.read_timeout, "waiting for the server's answer");
+      const std::size_t n = wait([&](auto handler) { start_read(handler); }, deadline, options.read_timeout,
+                                 "waiting for the server's answer");
       decoder.feed(std::string_view(read_buffer.data(), n));
     }
   }
@@ -394,7 +529,8 @@ v1::SubmitReply Client::submit(const v1::JobSpec& job, std::int32_t priority, co
   std::string field = non_utf8_field(job, "job");
   if (field.empty() && !proto::is_utf8(idempotency_key)) field = "idempotency_key";
   if (!field.empty()) {
-    throw std::invalid_argument(field + ": not valid UTF-8, which protobuf's string fields must be (kilnd could not "
+    throw std::invalid_argument(field +
+                                ": not valid UTF-8, which protobuf's string fields must be (kilnd could not "
                                 "parse the request); nothing was sent");
   }
   v1::Request request;

@@ -1,7 +1,7 @@
 // The C++ client of kilnd: one blocking connection, one request at a time (not thread-safe; use one Client per
 // thread). Used by the `kiln` command line and the integration tests.
 //
-//   kiln::client::Client c("127.0.0.1:7700");        // or "unix:/run/kiln/kilnd.sock"
+//   kiln::client::Client c("127.0.0.1:7700");        // or "unix:/run/kiln/kilnd.sock"; TLS: see Options::tls
 //   c.hello(token);
 //   auto reply = c.submit(job);
 //   c.watch(reply.job_id(), [](const kiln::v1::JobEvent& e) { ... });
@@ -24,6 +24,14 @@
 
 namespace kiln::client {
 
+// TLS to a kilnd started with --tls-cert (TCP only: a Unix socket stays plain). The server's certificate must chain
+// to a CA in ca_file and name the host of the address (a DNS name, or an IP address in its subjectAltName).
+struct TlsOptions {
+  std::string ca_file;    // PEM CA certificates to trust; non-empty turns TLS on
+  std::string cert_file;  // this client's certificate chain (PEM), for a server that requires one (--tls-client-ca)
+  std::string key_file;   // its private key (PEM); needed with cert_file
+};
+
 struct Options {
   // Resolving and connecting, together.
   std::chrono::milliseconds connect_timeout{10'000};
@@ -33,6 +41,7 @@ struct Options {
   // For each request to be sent whole.
   std::chrono::milliseconds write_timeout{60'000};
   std::string client_name = "kiln-client 0.1.0";  // Hello.client, for the server's logs
+  TlsOptions tls;
 };
 
 // The server answered a request with an error. Also raised with DATA_LOSS when fetched bytes fail verification.
@@ -53,6 +62,12 @@ class ConnectionError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+// TLS failed: the server does not speak it, its certificate is not trusted or not for this host, or it refused this
+// client's certificate. The message says which and what to do.
+class TlsError : public ConnectionError {
+ public:
+  using ConnectionError::ConnectionError;
+};
 // Connecting, sending or receiving took longer than its Options timeout.
 class TimeoutError : public ConnectionError {
  public:
@@ -67,8 +82,11 @@ v1::Digest digest_of(std::string_view bytes);
 
 class Client {
  public:
-  // Connects to "HOST:PORT" (HOST a name, an IPv4 address or a bracketed IPv6 one) or "unix:PATH". Throws
-  // std::invalid_argument for a malformed address, ConnectionError (TimeoutError) if the server cannot be reached.
+  // Connects to "HOST:PORT" (HOST a name, an IPv4 address or a bracketed IPv6 one) or "unix:PATH", with TLS's
+  // handshake on TCP if options.tls.ca_file is set (within connect_timeout). Throws std::invalid_argument for a
+  // malformed address or an unusable TLS file (naming it), ConnectionError (TimeoutError) if the server cannot be
+  // reached or the handshake fails (saying why: a server without TLS, a certificate not trusted or not for this
+  // host, a client certificate refused).
   explicit Client(const std::string& address, Options options = {});
   ~Client();
   Client(Client&&) noexcept;

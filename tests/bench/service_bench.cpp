@@ -1,5 +1,7 @@
 // What the service costs: a cache-hit submit's round trip, small material jobs per second with 1 and 2 workers,
-// and upload and download speed on loopback. Each benchmark starts its own kilnd (tests/integration's fixture).
+// upload and download speed on loopback, and what TLS adds (argument 1: kilnd with --tls-cert, the client with the
+// test CA) to connecting, a round trip and a download. Each benchmark starts its own kilnd (tests/integration's
+// fixture).
 //   build/tests/service_bench --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 
@@ -11,6 +13,7 @@
 #include "client/lib/client.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
+#include "tests/integration/test_certs.h"
 
 namespace {
 
@@ -103,5 +106,52 @@ void BM_Download(benchmark::State& state) {
 BENCHMARK(BM_Download)->Arg(16 << 20)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 
 }  // namespace
+
+// A kilnd with TLS when `tls`, and the options of a client that trusts it.
+struct Endpoint {
+  explicit Endpoint(bool tls)
+      : daemon(tls ? std::vector<std::string>{"--tls-cert", kiln::test::cert("server.pem"), "--tls-key",
+                                              kiln::test::cert("server.key")}
+                   : std::vector<std::string>{}) {
+    if (tls) options.tls.ca_file = kiln::test::cert("ca.pem");
+  }
+  Client connect() const {
+    Client c(daemon.tcp(), options);
+    c.hello(daemon.token());
+    return c;
+  }
+  Daemon daemon;
+  kiln::client::Options options;
+};
+
+const char* tls_label(const benchmark::State& state) { return state.range(0) ? "TLS" : "plain"; }
+
+// Connecting and saying hello: with TLS, the handshake (ECDHE P-256, an ECDSA certificate) is in it.
+void BM_ConnectAndHello(benchmark::State& state) {
+  const Endpoint e(state.range(0) != 0);
+  for (auto _ : state) e.connect();
+  state.SetLabel(tls_label(state));
+}
+BENCHMARK(BM_ConnectAndHello)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond)->UseRealTime()->MinTime(2.0);
+
+void BM_StatusRoundTrip(benchmark::State& state) {
+  const Endpoint e(state.range(0) != 0);
+  Client c = e.connect();
+  for (auto _ : state) benchmark::DoNotOptimize(c.status());
+  state.SetLabel(tls_label(state));
+}
+BENCHMARK(BM_StatusRoundTrip)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond)->UseRealTime()->MinTime(2.0);
+
+// 16 MiB fetched and verified, as BM_Download, plain and over TLS.
+void BM_DownloadTls(benchmark::State& state) {
+  const Endpoint e(state.range(0) != 0);
+  Client c = e.connect();
+  const std::string blob = random_bytes(16 << 20, 9);
+  const v1::Digest digest = c.upload_blob(blob);
+  for (auto _ : state) benchmark::DoNotOptimize(c.fetch(digest));
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * (16 << 20));
+  state.SetLabel(tls_label(state));
+}
+BENCHMARK(BM_DownloadTls)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 
 BENCHMARK_MAIN();

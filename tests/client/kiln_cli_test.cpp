@@ -774,6 +774,11 @@ TEST(KilnCliBinary, HelpAndUsageErrors) {
       {{"jobs", "--limit", "0"}, "kiln: --limit: must be a whole number in [1, 1000], got 0"},
       {{"status", "--server", "localhost"}, "kiln: --server: server address \"localhost\": expected HOST:PORT"},
       {{"status", "--token-file", "/nonexistent/token"}, "kiln: --token-file /nonexistent/token: cannot read"},
+      {{"status", "--tls-ca", "/nonexistent/ca.pem"}, "kiln: TLS CA file /nonexistent/ca.pem: cannot read it"},
+      {{"--tls-ca=/nonexistent/ca.pem", "status"}, "kiln: TLS CA file /nonexistent/ca.pem: cannot read it"},
+      {{"status", "--tls-cert", "client.pem", "--tls-key", "client.key"}, "kiln: --tls-cert needs --tls-ca"},
+      {{"status", "--tls-ca", "ca.pem", "--tls-key", "client.key"},
+       "kiln: TLS client key client.key: needs its certificate (from --tls-ca, --tls-key)"},
   };
   for (const auto& [args, expected] : cases) {
     const Outcome r = kiln(args);

@@ -130,9 +130,41 @@ TEST(Config, ConnectionBoundsFromFileAndFlag) {
   EXPECT_THROW(parse_command_line({"--max-pre-hello-connections", "0"}), std::invalid_argument);
 }
 
+TEST(Config, TlsFromFileAndFlags) {
+  const std::string f =
+      write_file("tls.conf", "tls_cert: \"/etc/kiln/cert.pem\"\ntls_key: \"/etc/kiln/key.pem\"\ninsecure_tcp: false\n");
+  // --insecure-tcp takes no value: the flag after it is still a flag.
+  const Config c =
+      parse_command_line({"--config", f, "--insecure-tcp", "--tls-client-ca", "/etc/kiln/clients.pem"}).config;
+  EXPECT_EQ(c.tls_cert, "/etc/kiln/cert.pem");
+  EXPECT_EQ(c.tls_key, "/etc/kiln/key.pem");
+  EXPECT_EQ(c.tls_client_ca, "/etc/kiln/clients.pem");
+  EXPECT_TRUE(c.insecure_tcp);
+  EXPECT_FALSE(parse_command_line({}).config.insecure_tcp);
+}
+
+TEST(Config, TlsFilesGoTogether) {
+  const auto message = [](std::vector<std::string> args) {
+    args.insert(args.end(), {"--token-file", "t"});
+    try {
+      validate(parse_command_line(args).config);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message({"--tls-cert", "c.pem", "--tls-key", "k.pem"}), "");
+  EXPECT_NE(message({"--tls-cert", "c.pem"}).find("--tls-cert needs --tls-key"), std::string::npos);
+  EXPECT_NE(message({"--tls-key", "k.pem"}).find("--tls-key needs --tls-cert"), std::string::npos);
+  EXPECT_NE(message({"--tls-client-ca", "ca.pem"}).find("--tls-client-ca needs --tls-cert"), std::string::npos);
+  EXPECT_NE(message({"--listen", "", "--socket", "s", "--tls-cert", "c", "--tls-key", "k"}).find("Unix socket stays"),
+            std::string::npos);
+}
+
 TEST(Config, HelpListsEveryFlag) {
   const std::string u = usage();
-  for (const char* f : {"--config", "--listen", "--socket", "--store", "--token-file", "--workers", "--threads"}) {
+  for (const char* f : {"--config", "--listen", "--socket", "--store", "--token-file", "--workers", "--threads",
+                        "--tls-cert", "--tls-key", "--tls-client-ca", "--insecure-tcp"}) {
     EXPECT_NE(u.find(f), std::string::npos) << f;
   }
   EXPECT_TRUE(parse_command_line({"--workers", "bad", "--help"}).help);  // --help wins over a bad flag

@@ -35,9 +35,9 @@ def ggx_job(alpha, samples=512, table=8, name=None):
 
 
 class Daemon:
-    """The real kilnd in a temporary folder: TCP on a free loopback port and a Unix socket."""
+    """The real kilnd in a temporary folder: TCP on a free loopback port and a Unix socket; extra_flags appended."""
 
-    def __init__(self):
+    def __init__(self, extra_flags=()):
         binary = os.environ.get("KILND")
         if not binary or not os.access(binary, os.X_OK):
             raise RuntimeError("set KILND to the kilnd binary (<build>/bin/kilnd); CTest does")
@@ -52,7 +52,7 @@ class Daemon:
             self.proc = subprocess.Popen(
                 [binary, "--listen", "127.0.0.1:0", "--socket", self.socket, "--store",
                  os.path.join(self.dir, "store"), "--token-file", tokens, "--workers", "2",
-                 "--hello-deadline", "2"],
+                 "--hello-deadline", "2", *extra_flags],
                 stdout=out, stderr=err, stdin=subprocess.DEVNULL)
         self.port = None
         prefix = "kilnd: listening on 127.0.0.1:"

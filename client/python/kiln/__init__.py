@@ -65,7 +65,7 @@ pb = _load_pb2()
 # The modules below need pb loaded first.
 from .client import PROTOCOL_VERSION, Client  # noqa: E402
 from .digests import digest_of  # noqa: E402
-from .errors import ConnectionError, KilnError, ServerError, TimeoutError  # noqa: E402
+from .errors import ConnectionError, KilnError, ServerError, TimeoutError, TlsError  # noqa: E402
 from .jobs import environment_job, load_job, material_job, parse_job, state_name  # noqa: E402
 from .lightmap import Mesh, lightmap_job, mesh  # noqa: E402
 
@@ -77,6 +77,7 @@ __all__ = [
     "Mesh",
     "ServerError",
     "TimeoutError",
+    "TlsError",
     "digest_of",
     "environment_job",
     "lightmap_job",

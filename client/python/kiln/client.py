@@ -14,12 +14,14 @@ import builtins
 import hashlib
 import os
 import socket
+import ssl
 import tempfile
 import time
 
 from . import kiln_pb2 as pb
 from .digests import _as_digest, _valid_sha256, digest_of
-from .errors import ConnectionError, KilnError, ServerError, TimeoutError, _code_name
+from . import tls as _tls
+from .errors import ConnectionError, KilnError, ServerError, TimeoutError, TlsError, _code_name
 from .jobs import parse_job, state_name
 from .wire import _decode_varint, _encode_varint, _parse_address, _read_token_file
 
@@ -53,14 +55,19 @@ class Client:
     token: for TCP (the Unix socket's permissions decide there); default: the first line of token_file that is not
     blank or a # comment, else $KILN_TOKEN, else the file named by $KILN_TOKEN_FILE.
     timeout: seconds for each request to be sent and for each response to arrive; while watching, for each event
-    (never less than twice the server's heartbeat period). connect_timeout: seconds for connecting.
+    (never less than twice the server's heartbeat period). connect_timeout: seconds for connecting (and TLS's
+    handshake).
+    tls_ca: TLS to a kilnd started with --tls-cert: the PEM file of the CA certificates to trust for the server's
+    certificate, which must also name the host of the address; default $KILN_TLS_CA (neither: no TLS). TCP only: a
+    Unix socket stays plain. tls_cert, tls_key: this client's certificate and key (PEM), for a kilnd that requires
+    client certificates; default $KILN_TLS_CERT, $KILN_TLS_KEY. A TLS failure is a TlsError saying what to do.
 
     The constructor connects (ConnectionError if it cannot); the first request says hello with the token (hello()
     does it explicitly and returns the server's HelloReply). Use as a context manager or call close().
     """
 
     def __init__(self, address=None, token=None, timeout=60.0, *, token_file=None, connect_timeout=10.0,
-                 client_name=_CLIENT_NAME):
+                 client_name=_CLIENT_NAME, tls_ca=None, tls_cert=None, tls_key=None):
         self.address = address or os.environ.get("KILN_SERVER") or DEFAULT_ADDRESS
         self._kind, self._target = _parse_address(self.address)
         if token is None and token_file:
@@ -73,6 +80,13 @@ class Client:
         self.timeout = float(timeout)
         self.connect_timeout = float(connect_timeout)
         self.client_name = client_name
+        self.tls_ca, self.tls_cert, self.tls_key = _tls.settings(tls_ca, tls_cert, tls_key)
+        if self.tls_cert and not self.tls_ca:
+            raise KilnError("tls_cert needs tls_ca (or $KILN_TLS_CA): a client certificate is only sent over TLS, "
+                            "and TLS needs the CA that signed the server's certificate")
+        # Files are checked now: a wrong path is the caller's mistake, not the network's.
+        self._tls = (_tls.tls_context(self.tls_ca, self.tls_cert, self.tls_key)
+                     if self.tls_ca and self._kind == "tcp" else None)
         self._sock = None
         self._buf = bytearray()
         self._next_id = 1
@@ -125,12 +139,32 @@ class Client:
                 sock = socket.create_connection(self._target, timeout=self.connect_timeout)
                 # Requests are single small frames answered before the next: Nagle's delay only adds latency.
                 sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                if self._tls is not None:
+                    sock = self._handshake(sock)
+        except TlsError:
+            raise
         except builtins.TimeoutError as e:
             raise TimeoutError("connecting to %s timed out after %g s" % (self.address, self.connect_timeout)) from e
         except OSError as e:
             raise ConnectionError("connecting to %s: %s" % (self.address, e.strerror or e)) from e
         self._sock = sock
         self._connected_at = time.monotonic()
+
+    def _handshake(self, sock):
+        """TLS over the connected socket, within connect_timeout (the server's hello deadline counts it too)."""
+        try:
+            return self._tls.wrap_socket(sock, server_hostname=self._target[0])
+        except builtins.TimeoutError:
+            sock.close()
+            raise
+        except (ssl.SSLError, builtins.ConnectionResetError) as e:
+            sock.close()
+            raise TlsError("TLS handshake with %s: %s" % (self.address, self._explain_tls(e))) from e
+
+    def _explain_tls(self, error):
+        if isinstance(error, builtins.ConnectionResetError):
+            error = ssl.SSLEOFError("the connection was reset")
+        return _tls.explain(error, self.address, self.tls_ca, self.tls_cert)
 
     def _fail(self, why, cls=ConnectionError, **kw):
         self.close()
@@ -154,6 +188,8 @@ class Client:
             self._sock.sendall(frame)
         except builtins.TimeoutError:
             self._fail("sending a request timed out after %g s" % self.timeout, TimeoutError)
+        except ssl.SSLError as e:
+            self._fail("sending a request: %s" % self._explain_tls(e), TlsError)
         except OSError as e:
             self._fail("sending a request: %s" % (e.strerror or e))
 
@@ -180,6 +216,8 @@ class Client:
                 data = self._sock.recv(_READ_BYTES)
             except builtins.TimeoutError:
                 self._fail("waiting for the server's answer timed out after %g s" % timeout, TimeoutError)
+            except ssl.SSLError as e:
+                self._fail("waiting for the server's answer: %s" % self._explain_tls(e), TlsError)
             except OSError as e:
                 self._fail("waiting for the server's answer: %s" % (e.strerror or e))
             if not data:

@@ -49,5 +49,10 @@ class ConnectionError(KilnError, builtins.ConnectionError):
         self.field = field
 
 
+class TlsError(ConnectionError):
+    """TLS failed: the server does not speak it, its certificate is not trusted or not for this host, or it refused
+    this client's certificate. The message says which and what to do."""
+
+
 class TimeoutError(ConnectionError, builtins.TimeoutError):  # noqa: A001 (mirrors the C++ client's name)
     """Connecting, sending or receiving took longer than its timeout."""
