@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "bakers/lightmap/light_budget.h"
 #include "bakers/lightmap/path_sampler.h"
 #include "bakers/lightmap/texel_neighbourhood.h"
 #include "bakers/math/rng.h"
@@ -67,46 +68,61 @@ void merge(LightmapState& m, size_t t, const Partial& p) {
 
 // ---- Scheduling ----
 
-// The variance of one estimate relative to the metric's luminance, v = n·error², per texel (−1: none). Empty unless
-// some texel of the lightmap has its min_samples: budget-bound bakes (min_samples = max_samples) never need it, and it
-// is O(texels) per pass.
-std::vector<double> error_variances(const LightmapState& m, const SamplingOptions& o) {
+// Per texel, the variance of one estimate relative to the metric's luminance, v = n·error² (−1: none), and the
+// share of target² left to the texel's own estimates: target² less the variance of its traced term (light tracing),
+// at least (1 − kTracedMaxShare)·target² (light_budget.h). Empty unless some texel of the lightmap has its min_samples:
+// budget-bound bakes (min_samples = max_samples) never need it, and it is O(texels) per pass.
+struct ErrorVariances {
+  std::vector<double> v, allowance;
+};
+
+ErrorVariances error_variances(const LightmapState& m, const SamplingOptions& o) {
   const LightmapImage& img = m.image;
   bool any_adaptive = false;
   for (size_t t = 0; t < img.texel_count() && !any_adaptive; ++t) {
     any_adaptive = img.count(t) >= o.min_samples && m.attempts[t] < o.max_samples;
   }
-  std::vector<double> v;
-  if (!any_adaptive) return v;
-  v.assign(img.texel_count(), -1);
+  ErrorVariances ev;
+  if (!any_adaptive) return ev;
+  ev.v.assign(img.texel_count(), -1);
+  ev.allowance.assign(img.texel_count(), o.target_error * o.target_error);
   const double brightness = o.metric == ErrorMetric::lightmap ? img.brightness() : 0.0;
+  const double target2 = o.target_error * o.target_error;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, img.texel_count(), 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) {
-      if (img.valid(t) && img.count(t) >= kReplicas) {
-        const double e = img.error(t, o.metric, brightness);
-        v[t] = std::isfinite(e) ? e * e * img.count(t) : -1;
+      if (!img.valid(t) || img.count(t) < kReplicas) continue;
+      const double e = img.relative(t, img.gathered_standard_error(t), o.metric, brightness);
+      ev.v[t] = std::isfinite(e) ? e * e * img.count(t) : -1;
+      if (!m.traced.empty() && m.traced[t]) {
+        const double p = img.relative(t, img.traced_standard_error(t), o.metric, brightness);
+        ev.allowance[t] = std::max(target2 - p * p, (1 - kTracedMaxShare) * target2);
       }
     }
   });
-  return v;
+  return ev;
 }
 
-// The samples a texel needs, n = v/target², from v pooled over its 3 × 3 neighbourhood: deciding from the texel's
-// own variance alone biases the result low, since an estimate that has not yet met its rare large samples also looks
-// precise (measured: 1-2 % low at a 2 % target in a furnace). Neighbours are independent estimates of nearly the
-// same variance, which breaks that correlation. 0 when no neighbour has a variance.
-double pooled_goal(const std::vector<double>& v, int x, int y, int w, int h, double target_error) {
+// The samples a texel needs, n = v/allowance (target² without light tracing), from v pooled over its 3 × 3
+// neighbourhood: deciding from the texel's own variance alone biases the result low, since an estimate that has not
+// yet met its rare large samples also looks precise (measured: 1-2 % low at a 2 % target in a furnace). Neighbours
+// are independent estimates of nearly the same variance, which breaks that correlation; only neighbours that
+// estimate the same light (all of it, or the direct light of a traced texel) are pooled. 0 when no neighbour has a
+// variance.
+double pooled_goal(const ErrorVariances& ev, const std::vector<uint8_t>& traced, int x, int y, int w, int h) {
+  const size_t t = static_cast<size_t>(y) * w + x;
+  const auto kind = [&](size_t i) { return traced.empty() ? 0 : traced[i]; };
   double sum = 0;
   int count = 0;
   for_each_neighbour(x, y, w, h, [&](int xx, int yy) {
-    const double vv = v[static_cast<size_t>(yy) * w + xx];
-    if (vv >= 0) sum += vv, ++count;
+    const size_t i = static_cast<size_t>(yy) * w + xx;
+    const double vv = ev.v[i];
+    if (vv >= 0 && kind(i) == kind(t)) sum += vv, ++count;
   });
-  return count ? sum / count / (target_error * target_error) : 0;
+  return count ? sum / count / ev.allowance[t] : 0;
 }
 
 // The estimates texel (x, y) gets this pass; 0 when it has enough.
-uint64_t texel_batch(const LightmapState& m, const std::vector<double>& v, int x, int y, const SamplingOptions& o,
+uint64_t texel_batch(const LightmapState& m, const ErrorVariances& ev, int x, int y, const SamplingOptions& o,
                      double rare_event_paths) {
   const LightmapImage& img = m.image;
   const int w = img.width(), h = img.height();
@@ -121,7 +137,7 @@ uint64_t texel_batch(const LightmapState& m, const std::vector<double>& v, int x
   if (n >= o.min_samples) {
     // Every estimate traces one path per sample point of the texel.
     const double paths_per_estimate = static_cast<double>(std::max<size_t>(1, m.texels.at(t).size()));
-    goal = std::max(pooled_goal(v, x, y, w, h, o.target_error), std::ceil(rare_event_paths / paths_per_estimate));
+    goal = std::max(pooled_goal(ev, m.traced, x, y, w, h), std::ceil(rare_event_paths / paths_per_estimate));
   }
   const double want = std::ceil(goal) - static_cast<double>(n);
   if (!(want >= 1)) return 0;
@@ -134,13 +150,13 @@ uint64_t texel_batch(const LightmapState& m, const std::vector<double>& v, int x
 // One lightmap's batches, row-parallel, concatenated in row order.
 void schedule_lightmap(const LightmapState& m, uint32_t map, const SamplingOptions& o, double rare_event_paths,
                        std::vector<TexelBatch>& out) {
-  const std::vector<double> v = error_variances(m, o);
+  const ErrorVariances ev = error_variances(m, o);
   const int w = m.image.width(), h = m.image.height();
   std::vector<std::vector<TexelBatch>> rows(h);
   tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& ry) {
     for (int y = ry.begin(); y != ry.end(); ++y) {
       for (int x = 0; x < w; ++x) {
-        const uint64_t batch = texel_batch(m, v, x, y, o, rare_event_paths);
+        const uint64_t batch = texel_batch(m, ev, x, y, o, rare_event_paths);
         if (batch > 0) rows[y].push_back({map, static_cast<uint32_t>(batch), static_cast<size_t>(y) * w + x});
       }
     }
@@ -228,8 +244,10 @@ TexelEstimate estimate_texel(const LightmapState& m, size_t t, const TransportCo
 
 // An item's estimates: quasi-random sequences per texel, sample point and replica; a pseudo-random stream of its own
 // for the deeper path vertices.
-Partial estimate_item(const LightmapState& m, const WorkItem& item, const TransportContext& ctx,
-                      const SamplingOptions& o, PassCounts& counts) {
+Partial estimate_item(const LightmapState& m, const WorkItem& item, const TransportContext& full_ctx,
+                      const TransportContext* direct_ctx, const SamplingOptions& o, PassCounts& counts) {
+  const bool traced = direct_ctx && !m.traced.empty() && m.traced[item.texel];
+  const TransportContext& ctx = traced ? *direct_ctx : full_ctx;
   const uint64_t texel_seed = mix(mix(o.seed, item.map), item.texel);
   Pcg32 rng(mix(texel_seed, item.first));
   Partial p;
@@ -285,7 +303,8 @@ std::vector<TexelBatch> schedule_pass(const std::vector<LightmapState>& maps, co
 }
 
 PassCounts run_pass(std::vector<LightmapState>& maps, const std::vector<TexelBatch>& batches,
-                    const TransportContext& ctx, const SamplingOptions& options, const bake::BakeControl& control) {
+                    const TransportContext& ctx, const SamplingOptions& options, const bake::BakeControl& control,
+                    const TransportContext* direct_ctx) {
   size_t partial_count = 0;
   const std::vector<WorkItem> items = work_items(batches, maps, partial_count);
   std::vector<Partial> partials(partial_count);
@@ -303,7 +322,7 @@ PassCounts run_pass(std::vector<LightmapState>& maps, const std::vector<TexelBat
         break;
       }
       const WorkItem& item = items[j];
-      const Partial p = estimate_item(maps[item.map], item, ctx, options, local);
+      const Partial p = estimate_item(maps[item.map], item, ctx, direct_ctx, options, local);
       if (item.partial < 0) {
         merge(maps[item.map], item.texel, p);
       } else {

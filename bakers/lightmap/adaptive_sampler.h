@@ -53,7 +53,10 @@ std::vector<TexelBatch> schedule_pass(const std::vector<LightmapState>& maps, co
 
 // Runs the batches and merges their estimates into the lightmaps. Returns early (without throwing) once
 // control.cancel is set; the caller checks it.
+// `direct_ctx`, when given, estimates the traced texels (LightmapState::traced): its plan has no bounces, since
+// light tracing brings their indirect light.
 PassCounts run_pass(std::vector<LightmapState>& maps, const std::vector<TexelBatch>& batches,
-                    const TransportContext& ctx, const SamplingOptions& options, const bake::BakeControl& control);
+                    const TransportContext& ctx, const SamplingOptions& options, const bake::BakeControl& control,
+                    const TransportContext* direct_ctx = nullptr);
 
 }  // namespace kiln::lightmap

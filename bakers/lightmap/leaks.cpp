@@ -148,6 +148,14 @@ LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOpt
     }
   }
   report.samples = n;
+  for (size_t t = 0; t < texels.texel_count(); ++t) {
+    bool fixed = false;
+    for (uint32_t j = texels.first[t]; j < texels.first[t + 1]; ++j) {
+      fixed = fixed || results[j].verdict != LeakVerdict::clear;
+    }
+    if (!fixed) continue;
+    for (uint32_t j = texels.first[t]; j < texels.first[t + 1]; ++j) texels.samples[j].leak_fixed = true;
+  }
   if (report.invalidated > 0) texels.retain(keep);
   report.texels_invalidated = valid_before - texels.valid_count();
   return report;

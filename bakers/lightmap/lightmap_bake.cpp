@@ -15,6 +15,8 @@
 #include "bakers/lightmap/adaptive_sampler.h"
 #include "bakers/lightmap/integrator.h"
 #include "bakers/lightmap/leaks.h"
+#include "bakers/lightmap/light_budget.h"
+#include "bakers/lightmap/light_tracing.h"
 #include "bakers/lightmap/lightmap_image.h"
 #include "bakers/lightmap/lightmap_outputs.h"
 #include "bakers/lightmap/lightmap_report.h"
@@ -52,6 +54,10 @@ struct LightmapBakeRun {
   std::unique_ptr<scene::SceneLights> lights;
   std::vector<ShadingMaterial> materials;
   TransportContext ctx;
+  // Light tracing: the plan and context of the traced texels' own paths (direct light only), and the tracer.
+  plan::LightmapPlan direct_plan;
+  TransportContext direct_ctx;
+  std::unique_ptr<LightTracer> light_tracer;
   std::vector<LightmapState> maps;
   uint64_t dropped = 0;  // estimates dropped over all passes
   LightmapBakeResult result;
@@ -143,6 +149,8 @@ void plan_bake(LightmapBakeRun& run) {
   options.target_error = run.in.target_error;
   options.max_bounces = run.in.max_bounces;
   options.force_effects = run.in.force_effects;
+  options.directional = run.in.directional;
+  options.per_texel_error = run.in.error_metric == ErrorMetric::texel;
   run.plan = run.in.full_simulation ? plan::full_plan(run.scene(), options) : plan::plan_lightmap(run.scene(), options);
   run.result.plan = run.plan.decisions;
 }
@@ -245,14 +253,114 @@ void record_pass(LightmapBakeRun& run, uint64_t pass) {
   run.progress(0.05 + 0.9 * done, "pass " + std::to_string(pass + 1), rms);
 }
 
+// ---- 5a. Light tracing (light_tracing.h) ----
+
+// Marks the traced texels and builds the tracer; false when the plan has no light tracing or no light emits rays.
+bool prepare_light_tracing(LightmapBakeRun& run) {
+  if (!run.plan.light_tracing) return false;
+  LightTracingStats stats;
+  for (LightmapState& m : run.maps) {
+    const size_t traced = mark_traced_texels(m);
+    stats.texels_traced += traced;
+    stats.texels_gathered += m.texels.valid_count() - traced;
+  }
+  run.light_tracer = std::make_unique<LightTracer>(run.ctx, run.maps, run.plan.bounces, run.in.seed);
+  if (!run.light_tracer->active()) {
+    for (LightmapState& m : run.maps) m.traced.clear();
+    run.light_tracer.reset();
+    return false;
+  }
+  stats.on = true;
+  run.result.light_tracing = stats;
+  run.direct_plan = run.plan;
+  run.direct_plan.bounces = 0;
+  run.direct_plan.russian_roulette = false;
+  run.direct_ctx = run.ctx;
+  run.direct_ctx.plan = &run.direct_plan;
+  return true;
+}
+
+// Every traced texel's term from the rays so far.
+void update_traced_terms(LightmapBakeRun& run) {
+  for (size_t mi = 0; mi < run.maps.size(); ++mi) {
+    LightmapState& m = run.maps[mi];
+    m.image.enable_traced();
+    tbb::parallel_for(size_t{0}, m.traced.size(), [&](size_t t) {
+      if (m.traced[t])
+        m.image.set_traced(t, run.light_tracer->irradiance(mi, t), run.light_tracer->replica_luminance(mi, t));
+    });
+  }
+}
+
+// Traced texels whose term falls short at the rays traced hand their indirect light back to their own paths
+// (light_budget.h): their estimates so far (direct light only) are dropped and they gather all their light.
+void gather_the_rest(LightmapBakeRun& run, const std::vector<TracedTexel>& texels, const SamplingOptions& o) {
+  LightTracingStats& stats = run.result.light_tracing;
+  const double rays = static_cast<double>(run.light_tracer->rays_traced());
+  for (const TracedTexel& x : texels) {
+    if (!gathers_instead(x, rays, o.target_error)) continue;
+    LightmapState& m = run.maps[x.map];
+    m.traced[x.texel] = 0;
+    m.image.clear_traced(x.texel);
+    m.image.reset(x.texel);
+    m.attempts[x.texel] = 0;
+    --stats.texels_traced;
+    ++stats.texels_gathered;
+  }
+}
+
+// Rays from the lights, in rounds that at most quadruple the total, up to the number that minimises the bake's time
+// (light_budget.h), the time limit, or max_samples rays per traced texel. `seconds_per_estimate`: of the texels'
+// own estimates, measured on the first pass.
+void trace_light(LightmapBakeRun& run, const SamplingOptions& o, double seconds_per_estimate) {
+  LightTracer& lt = *run.light_tracer;
+  LightTracingStats& stats = run.result.light_tracing;
+  const Clock::time_point t0 = Clock::now();
+  const double texels = static_cast<double>(std::max<size_t>(1, stats.texels_traced));
+  const double cap = texels * static_cast<double>(o.max_samples);
+  double want = std::max(16 * texels, 65536.0);
+  std::vector<TracedTexel> traced;
+  double tracing_seconds = 0;
+  for (;;) {
+    const double more = std::min(want, cap) - static_cast<double>(lt.rays_traced());
+    if (!(more >= 1)) break;
+    const Clock::time_point round = Clock::now();
+    const LightTracingCounts c = lt.trace(static_cast<uint64_t>(std::ceil(more)), o.deadline, run.control.cancel);
+    tracing_seconds += seconds_since(round);
+    run.check_cancel();
+    stats.rays += c.rays;
+    stats.deposits += c.deposits;
+    run.result.rays += c.rays;
+    update_traced_terms(run);
+    traced = traced_texels(run.maps, lt, o.metric);
+    if (c.out_of_time) break;
+    const double n = static_cast<double>(lt.rays_traced());
+    const double seconds_per_ray = tracing_seconds / n;
+    want = std::min(best_light_rays(traced, o.target_error, n, seconds_per_ray, seconds_per_estimate), 4 * n);
+    if (!(want > n * 1.05)) break;
+  }
+  stats.light_rays = lt.rays_traced();
+  gather_the_rest(run, traced, o);
+  stats.seconds += seconds_since(t0);
+}
+
 void sample_adaptively(LightmapBakeRun& run) {
   const SamplingOptions options = sampling_options(run);
   LightmapBakeResult& result = run.result;
+  const bool tracing = prepare_light_tracing(run);
   for (uint64_t pass = 0;; ++pass) {
     const std::vector<TexelBatch> batches = schedule_pass(run.maps, options);
     if (batches.empty()) break;
-    const PassCounts counts = run_pass(run.maps, batches, run.ctx, options, run.control);
+    const Clock::time_point pass_start = Clock::now();
+    const PassCounts counts =
+        run_pass(run.maps, batches, run.ctx, options, run.control, tracing ? &run.direct_ctx : nullptr);
     run.check_cancel();
+    // After the first pass the texels have a brightness to measure light tracing's error against.
+    if (tracing && pass == 0) {
+      uint64_t estimates = 0;
+      for (const TexelBatch& b : batches) estimates += b.batch;
+      trace_light(run, options, seconds_since(pass_start) / static_cast<double>(std::max<uint64_t>(1, estimates)));
+    }
     result.rays += counts.rays;
     result.occlusion_rays += counts.occlusion_rays;
     result.samples += counts.paths;

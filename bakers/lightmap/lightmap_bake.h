@@ -32,7 +32,7 @@ namespace kiln::lightmap {
 
 class RayLog;
 
-inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-5";
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-6";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
 struct EncodedTexture {
@@ -86,6 +86,17 @@ struct ErrorPoint {
   double error = 0;  // RMS over valid texels of the estimated error under the input's error_metric
 };
 
+// What light tracing did (light_tracing.h), when the plan has it.
+struct LightTracingStats {
+  bool on = false;
+  uint64_t rays = 0;           // closest-hit queries of rays from the lights (also counted in `rays`)
+  uint64_t light_rays = 0;     // rays started at the lights
+  uint64_t deposits = 0;       // into traced texels
+  size_t texels_traced = 0;    // whose indirect light came from light tracing
+  size_t texels_gathered = 0;  // valid texels that gathered all their light
+  double seconds = 0;
+};
+
 struct LightmapBakeResult {
   std::vector<bake::BakeOutput> outputs;
   std::vector<plan::Decision> plan;
@@ -97,7 +108,8 @@ struct LightmapBakeResult {
   // shaded in closed Lambertian form (integrator.h), which is what pruning a glossy lobe buys.
   uint64_t general_vertices = 0;
   double seconds = 0;
-  double error_estimate = 0;         // the last point of the curve
+  double error_estimate = 0;  // the last point of the curve
+  LightTracingStats light_tracing;
   std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people
 };
 

@@ -64,14 +64,65 @@ void LightmapImage::merge(size_t texel, const Rgb& sum, const ReplicaSums& repli
   replicas_[texel].merge(replicas);
 }
 
-Rgb LightmapImage::mean(size_t texel) const {
+void LightmapImage::reset(size_t texel) {
+  sum_[texel] = Rgb{};
+  replicas_[texel] = ReplicaSums{};
+}
+
+void LightmapImage::enable_traced() {
+  if (!traced_.empty()) return;
+  traced_.assign(texel_count(), Rgb{});
+  traced_y_.assign(texel_count(), {});
+}
+
+void LightmapImage::set_traced(size_t texel, const Rgb& mean, const std::array<double, kReplicas>& replica_luminance) {
+  if (traced_.empty()) throw std::logic_error("LightmapImage::set_traced before enable_traced");
+  traced_[texel] = mean;
+  for (int r = 0; r < kReplicas; ++r) traced_y_[texel][r] = static_cast<float>(replica_luminance[r]);
+}
+
+void LightmapImage::clear_traced(size_t texel) {
+  if (traced_.empty()) return;
+  traced_[texel] = Rgb{};
+  traced_y_[texel] = {};
+}
+
+// The replica sums as if every estimate carried its replica's traced term: replica r's mean becomes g_r + p_r.
+ReplicaSums LightmapImage::with_traced(size_t texel) const {
+  ReplicaSums s = replicas_[texel];
+  if (traced_.empty()) return s;
+  for (int r = 0; r < kReplicas; ++r) s.y[r] += static_cast<double>(traced_y_[texel][r]) * s.n[r];
+  return s;
+}
+
+Rgb LightmapImage::gathered_mean(size_t texel) const {
   const uint32_t n = count(texel);
   return n > 0 ? sum_[texel] / n : Rgb{};
 }
 
+Rgb LightmapImage::mean(size_t texel) const {
+  if (count(texel) == 0) return Rgb{};
+  return traced_.empty() ? gathered_mean(texel) : gathered_mean(texel) + traced_[texel];
+}
+
 double LightmapImage::standard_error(size_t texel) const {
   if (!valid(texel)) return 0;
+  return replica_standard_error(with_traced(texel));
+}
+
+double LightmapImage::gathered_standard_error(size_t texel) const {
+  if (!valid(texel)) return 0;
   return replica_standard_error(replicas_[texel]);
+}
+
+double LightmapImage::traced_standard_error(size_t texel) const {
+  if (!valid(texel) || traced_.empty()) return 0;
+  ReplicaSums s;
+  for (int r = 0; r < kReplicas; ++r) {
+    s.y[r] = traced_y_[texel][r];
+    s.n[r] = 1;
+  }
+  return replica_standard_error(s);
 }
 
 double LightmapImage::brightness() const {
@@ -80,17 +131,20 @@ double LightmapImage::brightness() const {
   for (size_t t = 0; t < texel_count(); ++t) {
     const uint32_t n = count(t);
     if (!valid(t) || n == 0) continue;
-    sum += luminance(sum_[t]) / n;
+    sum += luminance(mean(t));
     ++texels;
   }
   return texels > 0 ? sum / texels : 0.0;
 }
 
 double LightmapImage::error(size_t texel, ErrorMetric metric, double brightness, double floor) const {
+  return relative(texel, standard_error(texel), metric, brightness, floor);
+}
+
+double LightmapImage::relative(size_t texel, double se, ErrorMetric metric, double brightness, double floor) const {
   if (!valid(texel)) return 0;
-  const double se = standard_error(texel);
   if (!std::isfinite(se)) return std::numeric_limits<double>::infinity();
-  const double mean_y = luminance(sum_[texel]) / count(texel);
+  const double mean_y = luminance(mean(texel));
   const double denominator = std::max(metric == ErrorMetric::texel ? mean_y : brightness, floor);
   // Texel metric, all estimates 0 (non-negative ones with a zero mean): no light reaches the texel, and that is
   // exact. Lightmap metric, a black lightmap: the same for every texel.

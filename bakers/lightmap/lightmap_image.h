@@ -14,6 +14,7 @@
 // Texel layout and UV convention as in texels.h (row-major, top row first).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -58,6 +59,19 @@ class LightmapImage {
   // Adds estimates at once, already checked with acceptable(), given by their sum and their replica sums (what a
   // worker accumulates on its own before merging). Ignored for an invalid texel.
   void merge(size_t texel, const Rgb& sum, const ReplicaSums& replicas);
+  // Forgets the texel's estimates.
+  void reset(size_t texel);
+
+  // A term estimated apart from the texel's estimates and independently of them (light tracing's indirect light,
+  // light_tracing.h): its mean and each replica's mean luminance. Every reading of the texel (mean, errors,
+  // brightness, images) adds it; each call replaces the last. enable_traced() first, once: it allocates the terms
+  // (zero), after which different texels may be set from different threads at once.
+  void enable_traced();
+  void set_traced(size_t texel, const Rgb& mean, const std::array<double, kReplicas>& replica_luminance);
+  void clear_traced(size_t texel);
+  // The standard errors of the two parts alone (the texel's own estimates; the traced term, 0 without one).
+  double gathered_standard_error(size_t texel) const;
+  double traced_standard_error(size_t texel) const;
 
   // Estimates added to the texel, over its replicas.
   uint32_t count(size_t texel) const { return static_cast<uint32_t>(replicas_[texel].count()); }
@@ -70,6 +84,8 @@ class LightmapImage {
   // The texel's error under `metric` (see the header comment), given the lightmap's brightness; 0 for invalid
   // texels.
   double error(size_t texel, ErrorMetric metric, double brightness, double floor = 0) const;
+  // A standard error of the texel (of one of its parts, say) expressed under `metric` as error() does.
+  double relative(size_t texel, double standard_error, ErrorMetric metric, double brightness, double floor = 0) const;
   // The texel metric's error, s / max(Ȳ, floor).
   double relative_error(size_t texel, double floor = 0) const { return error(texel, ErrorMetric::texel, 0, floor); }
 
@@ -100,6 +116,12 @@ class LightmapImage {
   std::vector<uint8_t> validity_;
   std::vector<Rgb> sum_;
   std::vector<ReplicaSums> replicas_;
+  // Light tracing's term, allocated at the first set_traced.
+  std::vector<Rgb> traced_;
+  std::vector<std::array<float, kReplicas>> traced_y_;
+
+  ReplicaSums with_traced(size_t texel) const;
+  Rgb gathered_mean(size_t texel) const;
 };
 
 struct LightmapOutputOptions {

@@ -67,6 +67,17 @@ Json denoise_json(const LightmapReport& report) {
           {"seconds", report.denoise_seconds}};
 }
 
+Json light_tracing_json(const LightTracingStats& s) {
+  if (!s.on) return {{"on", false}};
+  return {{"on", true},
+          {"light_rays", s.light_rays},
+          {"rays", s.rays},
+          {"deposits", s.deposits},
+          {"texels_traced", s.texels_traced},
+          {"texels_gathered", s.texels_gathered},
+          {"seconds", s.seconds}};
+}
+
 }  // namespace
 
 std::string report_json(const LightmapBakeResult& result, const LightmapReport& report) {
@@ -90,6 +101,7 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["curve"] = curve_json(result.curve);
   j["lightmaps"] = Json::array();
   for (const LightmapReportEntry& m : report.lightmaps) j["lightmaps"].push_back(lightmap_json(m));
+  j["light_tracing"] = light_tracing_json(result.light_tracing);
   j["denoise"] = denoise_json(report);
   j["tracer"] = tracer_json(report);
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};

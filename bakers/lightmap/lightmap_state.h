@@ -27,6 +27,9 @@ struct LightmapState {
   std::vector<std::array<Rgb, 4>> sh_sum;    // per texel
   std::vector<std::array<double, 4>> sh_y2;  // per texel, sum over estimates of each coefficient's luminance²
   std::vector<uint32_t> attempts;            // per texel, estimates tried (kept or dropped)
+  // Per texel, 1 where light tracing brings the indirect light and the texel's own paths gather only direct light
+  // (light_tracing.h); empty when light tracing is off.
+  std::vector<uint8_t> traced;
 };
 
 // A lightmap ready to sample: its texels after leak handling, each sample's receiver, an empty image of its valid

@@ -68,6 +68,9 @@ struct TexelSample {
   // float tracer (scene::self_intersection_offset of the triangle's world vertices rounded to float, as the tracer
   // holds them).
   float ray_offset = 0;
+  // Leak handling moved this point off its triangle, or dropped another point of its texel: the texel's points no
+  // longer stand for the surface the texel covers (light tracing leaves such texels to gathering, light_tracing.h).
+  bool leak_fixed = false;
 
   // For scene::spawn_ray and friends.
   scene::SurfacePoint surface() const { return {position, geometric_normal, ray_offset}; }

@@ -39,6 +39,8 @@ const char* effect_name(LightmapEffect effect) {
       return "textures";
     case LightmapEffect::russian_roulette:
       return "russian_roulette";
+    case LightmapEffect::light_tracing:
+      return "light_tracing";
   }
   return "unknown";
 }

@@ -25,8 +25,9 @@ enum class LightmapEffect {
   anisotropy,
   textures,
   russian_roulette,
+  light_tracing,
 };
-inline constexpr int kLightmapEffectCount = static_cast<int>(LightmapEffect::russian_roulette) + 1;
+inline constexpr int kLightmapEffectCount = static_cast<int>(LightmapEffect::light_tracing) + 1;
 
 // Every effect, in declaration order.
 const std::array<LightmapEffect, kLightmapEffectCount>& lightmap_effects();

@@ -221,6 +221,7 @@ void apply(LightmapPlan& p) {
   p.anisotropy = p.enabled(E::anisotropy);
   p.textures = p.enabled(E::textures);
   p.russian_roulette = p.enabled(E::russian_roulette) && p.bounces > p.russian_roulette_depth;
+  p.light_tracing = p.enabled(E::light_tracing) && p.bounces > 0;
 }
 
 // What the stages of plan_lightmap share. Each stage appends its effects' decisions, in the order of
@@ -377,6 +378,46 @@ void decide_russian_roulette(Planning& s) {
                 : "at most " + std::to_string(depth) + " bounces");
 }
 
+// Why light tracing cannot serve the bake (empty: it can). Rays start at lights with a position; light from
+// infinitely far (the environment, directional lights) is gathered, and so is everything when an output needs it.
+std::string light_tracing_obstacle(const Planning& s) {
+  if (s.options.directional) {
+    return "the directional (SH) output needs the direction of all the light each path gathers";
+  }
+  if (s.has_environment() || s.facts.count(scene::LightShape::directional) > 0) {
+    return "light from infinitely far (the environment or a directional light) cannot be traced from its source";
+  }
+  if (s.options.per_texel_error) {
+    return "the texel error metric asks every texel, however dark, for the same relative error, which rays from the "
+           "lights cannot aim at";
+  }
+  return "";
+}
+
+void decide_light_tracing(Planning& s) {
+  const std::string obstacle = light_tracing_obstacle(s);
+  const int lights = s.facts.count(scene::LightShape::point) + s.facts.count(scene::LightShape::spot) +
+                     s.facts.area_lights() + (s.facts.emissive_triangles > 0 ? 1 : 0);
+  std::string why;
+  if (s.plan.bounces == 0) {
+    why = "no bounces: texels gather their direct light";
+  } else if (!obstacle.empty()) {
+    why = obstacle + ": every texel gathers all its light";
+  } else if (lights == 0) {
+    why = "no light with a position has power";
+  } else {
+    why = "indirect light (" + std::to_string(s.plan.bounces) +
+          " bounces) by rays traced from the lights, each serving every texel it reaches; texels gather their "
+          "direct light (those with shading normals or moved sample points gather all)";
+  }
+  s.decide(LightmapEffect::light_tracing, s.plan.bounces > 0 && obstacle.empty() && lights > 0, why);
+  const auto forced = s.options.force_effects.find(effect_name(LightmapEffect::light_tracing));
+  if (forced != s.options.force_effects.end() && forced->second && !obstacle.empty()) {
+    throw bake::InvalidInput("force_effects", "light_tracing cannot be forced on for this bake: " + obstacle +
+                                                  "; leave it to the planner or force it off");
+  }
+}
+
 // What a job's forcing implies beyond its decisions.
 void follow_forced(Planning& s) {
   LightmapPlan& p = s.plan;
@@ -420,6 +461,7 @@ LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions&
   decide_anisotropy(s);
   decide_textures(s);
   decide_russian_roulette(s);
+  decide_light_tracing(s);
   follow_forced(s);
   apply(s.plan);
   return std::move(s.plan);
@@ -433,9 +475,11 @@ LightmapPlan full_plan(const scene::Scene& scene, const LightmapPlanOptions& opt
   LightmapPlan p = planned;
   p.bounces = options.max_bounces;
   for (Decision& d : p.decisions) {
-    if (follows_the_scene(*parse_lightmap_effect(d.effect))) continue;
-    d.enabled = true;
-    d.reason = "full simulation: everything on";
+    const LightmapEffect effect = *parse_lightmap_effect(d.effect);
+    if (follows_the_scene(effect)) continue;
+    // Light tracing is a way to simulate, not an effect: the reference gathers everything.
+    d.enabled = effect != LightmapEffect::light_tracing;
+    d.reason = d.enabled ? "full simulation: everything on" : "full simulation: every texel gathers all its light";
   }
   if (!p.environment_sampling || scene.environment.constant) {  // no image: nothing to build a map of
     for (Decision& d : p.decisions) {

@@ -24,6 +24,11 @@ struct LightmapPlanOptions {
   double target_error = 0.01;  // relative, (0, 1]
   int max_bounces = 64;        // cap on `bounces`, [0, 1024]
   std::map<std::string, bool> force_effects;
+  // What the bake is asked for beyond irradiance, as far as it decides how light is simulated: the SH output needs
+  // the direction of all the light a texel's paths gather; the texel error metric asks the same relative error of
+  // every texel.
+  bool directional = false;
+  bool per_texel_error = false;
 };
 
 // What the planner found out about one material of the scene.
@@ -50,7 +55,9 @@ struct LightmapPlan {
   bool anisotropy = false;
   bool textures = false;
   bool russian_roulette = false;
-  int russian_roulette_depth = 3;           // bounces taken with certainty before the roulette starts
+  int russian_roulette_depth = 3;  // bounces taken with certainty before the roulette starts
+  // Indirect light by rays from the lights (bakers/lightmap/light_tracing.h); texels then gather direct light only.
+  bool light_tracing = false;
   double albedo_max = 0;                    // ρ_max over the used materials
   std::vector<MaterialAnalysis> materials;  // parallel to Scene::materials
 

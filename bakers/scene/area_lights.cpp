@@ -263,4 +263,27 @@ Rgb DiskLight::Le(const Vec3& /*p*/, const Vec3& wi, const LightHit& /*hit*/) co
 
 Rgb DiskLight::power(double /*scene_radius*/) const { return radiance_ * (kPi * area_ * (two_sided_ ? 2.0 : 1.0)); }
 
+// ---- Light tracing ----
+
+std::optional<LightEmission> RectLight::sample_le(Point2 u_position, Point2 u_direction) const {
+  if (area_ == 0) return std::nullopt;
+  LightEmission e;
+  e.origin = c0_ + ex_ * u_position.x + ey_ * u_position.y;
+  const std::optional<double> factor = lambertian_emission(normal_, two_sided_, u_direction, e);
+  if (!factor) return std::nullopt;
+  e.weight = radiance_ * (*factor * area_);
+  return e;
+}
+
+std::optional<LightEmission> DiskLight::sample_le(Point2 u_position, Point2 u_direction) const {
+  if (area_ == 0) return std::nullopt;
+  LightEmission e;
+  const Point2 d = sample_concentric_disk(u_position);
+  e.origin = center_ + (frame_.s * d.x + frame_.t * d.y) * radius_;
+  const std::optional<double> factor = lambertian_emission(frame_.n, two_sided_, u_direction, e);
+  if (!factor) return std::nullopt;
+  e.weight = radiance_ * (*factor * area_);
+  return e;
+}
+
 }  // namespace kiln::scene

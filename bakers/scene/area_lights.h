@@ -38,6 +38,8 @@ class RectLight final : public LightSource {
   Rgb Le(const Vec3& p, const Vec3& wi, const LightHit& hit) const override;
   std::optional<LightHit> intersect(const Vec3& p, const Vec3& wi, double t_max) const override;
   Rgb power(double scene_radius) const override;
+  bool emits_rays() const override { return area_ > 0; }
+  std::optional<LightEmission> sample_le(Point2 u_position, Point2 u_direction) const override;
 
   double area() const { return area_; }
   // The solid angle the whole rectangle subtends at p (0 on its plane).
@@ -68,6 +70,8 @@ class DiskLight final : public LightSource {
   Rgb Le(const Vec3& p, const Vec3& wi, const LightHit& hit) const override;
   std::optional<LightHit> intersect(const Vec3& p, const Vec3& wi, double t_max) const override;
   Rgb power(double scene_radius) const override;
+  bool emits_rays() const override { return area_ > 0; }
+  std::optional<LightEmission> sample_le(Point2 u_position, Point2 u_direction) const override;
   double area() const { return area_; }
 
  private:

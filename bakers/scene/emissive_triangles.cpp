@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "bakers/math/constants.h"
+#include "bakers/scene/ray_offset.h"
 
 namespace kiln::scene {
 
@@ -117,5 +118,26 @@ Rgb EmissiveTriangles::Le(const Vec3& /*p*/, const Vec3& wi, const LightHit& hit
 }
 
 Rgb EmissiveTriangles::power(double /*scene_radius*/) const { return power_; }
+
+// ---- Light tracing ----
+
+std::optional<LightEmission> EmissiveTriangles::sample_le(Point2 u_position, Point2 u_direction) const {
+  if (sampling_.empty()) return std::nullopt;
+  const AliasTable::Choice choice = choice_.sample(u_position.x);
+  const Sampling& t = sampling_[choice.index];
+  // Uniform barycentrics by the square-to-triangle map of sample() (Heitz 2019).
+  const double ux = choice.u_remapped, uy = u_position.y;
+  const double a = std::min(ux, uy), b = std::max(ux, uy);
+  const double b0 = ux < uy ? a / 2 : b - a / 2, b1 = ux < uy ? b - a / 2 : a / 2;
+  LightEmission e;
+  e.origin = t.p2 + t.e0 * b0 + t.e1 * b1;
+  const EmissiveTriangle& tri = triangles_[choice.index];
+  e.offset = self_intersection_offset(tri.p0, tri.p1, tri.p2, e.origin);
+  const std::optional<double> factor = lambertian_emission(t.ng, t.two_sided, u_direction, e);
+  if (!factor) return std::nullopt;
+  // Le cos θ / (pmf · 1/A · cos θ/π · p(side)).
+  e.weight = t.Le * (*factor / (choice.pmf * t.inv_area));
+  return e;
+}
 
 }  // namespace kiln::scene

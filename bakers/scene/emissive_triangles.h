@@ -46,6 +46,9 @@ class EmissiveTriangles final : public LightSource {
   double pdf_li(const Vec3& p, const Vec3& n, const Vec3& wi, const LightHit& hit) const override;
   Rgb Le(const Vec3& p, const Vec3& wi, const LightHit& hit) const override;
   Rgb power(double scene_radius) const override;
+  // A triangle by power (the alias table's choice, from u_position.x), a point uniform on it, a Lambertian direction.
+  bool emits_rays() const override { return !empty(); }
+  std::optional<LightEmission> sample_le(Point2 u_position, Point2 u_direction) const override;
 
   int size() const { return static_cast<int>(triangles_.size()); }
   bool empty() const { return triangles_.empty(); }

@@ -29,6 +29,7 @@
 #include "bakers/math/rgb.h"
 #include "bakers/math/sampling.h"
 #include "bakers/math/vec3.h"
+#include "bakers/scene/light_emission.h"
 
 namespace kiln::scene {
 
@@ -90,6 +91,13 @@ class LightSource {
     return std::nullopt;
   }
   virtual Rgb power(double scene_radius) const = 0;
+  // Light tracing: a ray leaving the light from the quasi-random numbers u_position and u_direction (light_emission.h);
+  // nullopt for a ray that carries nothing. Lights that cannot start rays (infinite lights) answer false to
+  // emits_rays() and always nullopt.
+  virtual bool emits_rays() const { return false; }
+  virtual std::optional<LightEmission> sample_le(Point2 /*u_position*/, Point2 /*u_direction*/) const {
+    return std::nullopt;
+  }
   // True when sample_li at p is uniform in the solid angle the light subtends there (a spherical rectangle, a sun
   // disc): light sampling then leaves only the variation of cos θ, and the transport lets it own the light rather
   // than combine it with BSDF sampling, whose rare hits on a small light only add skewed variance.

@@ -141,4 +141,30 @@ Rgb DirectionalLight::power(double scene_radius) const {
   return irradiance_ * (kPi * scene_radius * scene_radius);
 }
 
+// ---- Light tracing ----
+
+std::optional<LightEmission> PointLight::sample_le(Point2 /*u_position*/, Point2 u_direction) const {
+  if (intensity_.is_black()) return std::nullopt;
+  LightEmission e;
+  e.origin = position_;
+  e.direction = sample_uniform_sphere(u_direction);
+  e.weight = intensity_ * (4.0 * kPi);
+  return e;
+}
+
+std::optional<LightEmission> SpotLight::sample_le(Point2 /*u_position*/, Point2 u_direction) const {
+  if (!valid_axis_ || intensity_.is_black()) return std::nullopt;
+  // Uniform in the outer cone: cos θ uniform in [cos θ_outer, 1].
+  const double cos_theta = 1.0 - u_direction.x * (1.0 - cos_outer_);
+  const double sin_theta = std::sqrt(std::max(0.0, 1.0 - cos_theta * cos_theta));
+  const double phi = 2.0 * kPi * u_direction.y;
+  LightEmission e;
+  e.origin = position_;
+  e.direction = Frame::from_normal(axis_).from_local({sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta});
+  const double a = falloff(cos_theta);
+  if (a == 0) return std::nullopt;  // on the outer cone's rim
+  e.weight = intensity_ * (a * 2.0 * kPi * (1.0 - cos_outer_));
+  return e;
+}
+
 }  // namespace kiln::scene

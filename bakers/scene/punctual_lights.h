@@ -26,6 +26,9 @@ class PointLight final : public LightSource {
   bool is_delta() const override { return true; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   Rgb power(double scene_radius) const override;
+  bool emits_rays() const override { return !intensity_.is_black(); }
+  // A direction uniform on the sphere: weight 4π I.
+  std::optional<LightEmission> sample_le(Point2 u_position, Point2 u_direction) const override;
 
  private:
   Vec3 position_;
@@ -40,6 +43,9 @@ class SpotLight final : public LightSource {
   bool is_delta() const override { return true; }
   std::optional<LightSample> sample_li(const Vec3& p, const Vec3& n, Point2 u) const override;
   Rgb power(double scene_radius) const override;
+  bool emits_rays() const override { return valid_axis_ && !intensity_.is_black(); }
+  // A direction uniform in the outer cone (solid angle Ω = 2π(1 − cos θ_outer)): weight I a(cos) Ω.
+  std::optional<LightEmission> sample_le(Point2 u_position, Point2 u_direction) const override;
   // glTF's falloff a(cos) above, cos between the axis and the direction from the light.
   double falloff(double cos_angle) const;
 

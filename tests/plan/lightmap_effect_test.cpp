@@ -23,7 +23,8 @@ TEST(LightmapEffect, NamesAreStableAndInOrder) {
                                              "specular_interreflection",
                                              "anisotropy",
                                              "textures",
-                                             "russian_roulette"};
+                                             "russian_roulette",
+                                             "light_tracing"};
   EXPECT_EQ(lightmap_effect_names(), expected);
   ASSERT_EQ(lightmap_effects().size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) EXPECT_EQ(effect_name(lightmap_effects()[i]), expected[i]);
