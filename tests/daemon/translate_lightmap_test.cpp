@@ -405,6 +405,21 @@ TEST(MeshBlob, DecodesTheDocumentedLayout) {
   }
 }
 
+// A blob of 0 vertices and 0 triangles (any flags) is in the layout: it decodes to empty arrays, and the bake's
+// scene check says what is wrong with an empty mesh. Decoding it once copied 0 bytes to a null pointer, undefined
+// behaviour that the sanitizer build reports (found by tests/fuzz/mesh_blob_fuzz.cpp).
+TEST(MeshBlob, AnEmptyMeshDecodesToEmptyArrays) {
+  for (uint32_t flags : {0u, 15u}) {
+    BlobWriter w;
+    w.u32(0);
+    w.u32(0);
+    w.u32(flags);
+    const scene::Mesh m = decode_mesh_blob(w.bytes, "f", "empty");
+    EXPECT_TRUE(m.positions.empty() && m.normals.empty() && m.uv.empty() && m.lightmap_uv.empty());
+    EXPECT_TRUE(m.indices.empty() && m.material.empty());
+  }
+}
+
 TEST(MeshBlob, MalformedBlobsAreRefusedNamingTheField) {
   const std::string good = triangle_blob();
   const std::string field = "job.lightmap.meshes[3].geometry";
