@@ -123,7 +123,7 @@ v1::JobSpec full_job() {
 
 TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   const BakeRequest r = translate(full_job());
-  EXPECT_EQ(job_type(r), "lightmap");
+  EXPECT_STREQ(job_type(r), "lightmap");
   EXPECT_EQ(r.name, "test scene");
   const lightmap::LightmapBakeInput& in = r.lightmap();
   const scene::Scene& s = in.scene;
