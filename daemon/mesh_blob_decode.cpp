@@ -33,10 +33,15 @@ scene::Mesh decode_mesh_blob(const std::string& bytes, const std::string& field,
                                   std::to_string(flags) + ") needs " + std::to_string(expected));
   }
   const char* at = bytes.data() + kHeader;
+  // memcpy needs non-null pointers even for 0 bytes, and an empty vector's data() may be null (a mesh of 0
+  // vertices or 0 triangles decodes to empty arrays).
+  auto copy = [&](void* into, size_t bytes) {
+    if (bytes > 0) std::memcpy(into, at, bytes);
+    at += bytes;
+  };
   auto floats = [&](size_t n) {
     std::vector<float> out(n);
-    std::memcpy(out.data(), at, n * 4);
-    at += n * 4;
+    copy(out.data(), n * 4);
     return out;
   };
   scene::Mesh m;
@@ -55,11 +60,10 @@ scene::Mesh decode_mesh_blob(const std::string& bytes, const std::string& field,
   if (uv) uvs(m.uv);
   if (lightmap_uv) uvs(m.lightmap_uv);
   m.indices.resize(3ull * t);
-  std::memcpy(m.indices.data(), at, m.indices.size() * 4);
-  at += m.indices.size() * 4;
+  copy(m.indices.data(), m.indices.size() * 4);
   if (materials) {
     m.material.resize(t);
-    std::memcpy(m.material.data(), at, m.material.size() * 4);
+    copy(m.material.data(), m.material.size() * 4);
   }
   // Indices out of range, NaN positions and the like are the scene check's to report, per triangle: the mesh
   // still bakes what it can.

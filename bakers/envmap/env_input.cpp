@@ -22,6 +22,8 @@
 #include "bakers/envmap/env_rotation.h"
 #include "bakers/image/color.h"
 #include "bakers/image/image_format.h"
+#include "bakers/image/exr.h"
+#include "bakers/image/png.h"
 
 namespace kiln::envmap {
 namespace {
@@ -137,6 +139,9 @@ const Format& detect_format(const std::string& bytes, const std::string& who, Sh
                              "); upload " + (shape == Shape::equirect ? "an equirectangular " : "a square ") +
                              kAccepted + " file");
   }
+  // Before libpng allocates what a chunk claims, and OpenEXR what an attribute claims.
+  if (std::strcmp(format->name, "png") == 0) image::check_png_chunk_lengths(bytes, who);
+  if (std::strcmp(format->name, "openexr") == 0) image::check_exr_attribute_sizes(bytes, who);
   return *format;
 }
 

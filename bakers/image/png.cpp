@@ -48,7 +48,34 @@ void check_image(const Png8Image& image) {
   }
 }
 
+uint32_t big_endian_u32(const std::string& bytes, size_t at) {
+  uint32_t v = 0;
+  for (size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
+  return v;
+}
+
 }  // namespace
+
+void check_png_chunk_lengths(const std::string& bytes, const std::string& who) {
+  // Each chunk: length (4 bytes, big-endian, at most 2^31 - 1), type (4), data (length), CRC (4). A chunk header
+  // cut short is left to libpng, which reports the truncation without allocating.
+  for (size_t at = 8; at + 8 <= bytes.size();) {
+    const uint64_t length = big_endian_u32(bytes, at);
+    std::string type = bytes.substr(at + 4, 4);
+    for (char& c : type) {
+      if (c < 32 || c > 126) c = '?';
+    }
+    const uint64_t follow = bytes.size() - at - 8;  // its data and CRC, if the file is whole
+    if (length > 0x7fffffffu || length + 4 > follow) {
+      throw std::runtime_error(who + ": the PNG chunk \"" + type + "\" at byte " + std::to_string(at) + " declares " +
+                               std::to_string(length) + " bytes of data, but only " +
+                               std::to_string(follow >= 4 ? follow - 4 : 0) +
+                               " follow it (truncated or corrupt?); re-export the file and upload it again");
+    }
+    if (type == "IEND") return;
+    at += 12 + length;
+  }
+}
 
 std::string encode_png(const Png8Image& image) {
   check_image(image);
@@ -69,6 +96,7 @@ Png8Image decode_png(const std::string& bytes) {
     throw std::runtime_error("decode_png: the " + std::to_string(bytes.size()) +
                              " bytes are not a PNG image (a PNG file starts with 89 50 4e 47 0d 0a 1a 0a)");
   }
+  check_png_chunk_lengths(bytes, "decode_png");
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   std::unique_ptr<OIIO::ImageInput> in = detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_png", "PNG");
   const OIIO::ImageSpec& spec = in->spec();

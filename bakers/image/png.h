@@ -33,4 +33,10 @@ std::string encode_png(const Png8Image& image);
 // the bytes are not a readable PNG image.
 Png8Image decode_png(const std::string& bytes);
 
+// Throws std::runtime_error naming `who`, the chunk and its offset if a chunk of the PNG file `bytes` (which start
+// with the PNG signature) declares more data than the file holds after it. libpng allocates a chunk's declared
+// length before reading it, so without this check a 234-byte upload whose tEXt chunk claims 1.8 GB makes the
+// decoder allocate 1.8 GB. decode_png, the texture decoder and the environment decoder check every PNG so.
+void check_png_chunk_lengths(const std::string& bytes, const std::string& who);
+
 }  // namespace kiln::image

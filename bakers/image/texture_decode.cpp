@@ -13,6 +13,8 @@
 #include "bakers/image/color.h"
 #include "bakers/image/image_format.h"
 #include "bakers/image/oiio_memory.h"
+#include "bakers/image/exr.h"
+#include "bakers/image/png.h"
 
 namespace kiln::image {
 namespace {
@@ -126,6 +128,9 @@ DecodedTexture decode_texture(const std::string& bytes, const std::string& color
                              " bytes are not an image kiln reads (they start with " + hex_prefix(bytes, 8) +
                              "); upload a " + kAcceptedTextureFormats + " file");
   }
+  // Before libpng allocates what a chunk claims, and OpenEXR what an attribute claims.
+  if (std::strcmp(format->name, "png") == 0) check_png_chunk_lengths(bytes, who);
+  if (std::strcmp(format->name, "openexr") == 0) check_exr_attribute_sizes(bytes, who);
   const ColorConfig& config = ColorConfig::active();
   if (!color_space.empty() && !config.has_space(color_space)) {
     throw std::invalid_argument(who + ": colour space '" + color_space + "' is not in the active OpenColorIO config");

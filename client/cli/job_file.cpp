@@ -142,6 +142,9 @@ std::optional<std::string> locate_field(const std::string& text, const std::stri
     }
     const pb::FieldDescriptor* field = descriptor->FindFieldByName(name);
     if (!field) break;
+    // An index on a singular field ("job.material[0]") names nothing in the text (and protobuf's GetLocation
+    // aborts the process on one): the enclosing field is as near as the path gets.
+    if (!field->is_repeated() && index >= 0) break;
     if (field->is_repeated() && index < 0) index = 0;
     const auto location = node->GetLocation(field, index);
     if (location.line < 0) break;

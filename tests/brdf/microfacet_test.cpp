@@ -645,7 +645,7 @@ TEST(MicrofacetBrdf, EvalMatchesTheMicrofacetFormula) {
           theta_phi(wo, to, po);
           theta_phi(wi, ti, pi);
           const double d = kind == Distribution::ggx ? d_ggx_ref(th, ph, ax, ay) : d_beckmann_ref(th, ph, ax, ay);
-          const auto lambda = [&](double t, double phi) {
+          const auto lambda = [&, ax = ax, ay = ay](double t, double phi) {  // clang 14 cannot capture bindings
             const double a = alpha_along(phi, ax, ay);
             return kind == Distribution::ggx ? lambda_ggx_ref(t, a) : lambda_beckmann_ref(t, a);
           };

@@ -505,6 +505,10 @@ TEST(KilnCliJobFiles, ServerFieldPathsAreLocatedInTheText) {
   EXPECT_EQ(locate_field(text, "job.nonsense"), std::nullopt);
   EXPECT_EQ(locate_field(text, "digests[0]"), std::nullopt);
   EXPECT_EQ(locate_field("not a job {", "job.material"), std::nullopt);
+  // An index on a singular field (a malformed path from a server) stops the walk at the enclosing field; it used to
+  // abort the client inside protobuf (found by tests/fuzz/job_text_fuzz.cpp).
+  EXPECT_EQ(locate_field(text, "job.material[0].ggx.alpha"), std::nullopt);
+  EXPECT_EQ(locate_field(text, "job.material.ggx[2].alpha"), "2:1");
 }
 
 // ---- Progress, formats, reports ---------------------------------------------------------------------------------

@@ -123,7 +123,7 @@ v1::JobSpec full_job() {
 
 TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   const BakeRequest r = translate(full_job());
-  EXPECT_EQ(job_type(r), "lightmap");
+  EXPECT_STREQ(job_type(r), "lightmap");
   EXPECT_EQ(r.name, "test scene");
   const lightmap::LightmapBakeInput& in = r.lightmap();
   const scene::Scene& s = in.scene;
@@ -402,6 +402,21 @@ TEST(MeshBlob, DecodesTheDocumentedLayout) {
     EXPECT_EQ(k.uv.size(), (flags & 2u) ? 3u : 0u);
     EXPECT_EQ(k.lightmap_uv.size(), (flags & 4u) ? 3u : 0u);
     EXPECT_EQ(k.material.size(), (flags & 8u) ? 1u : 0u);
+  }
+}
+
+// A blob of 0 vertices and 0 triangles (any flags) is in the layout: it decodes to empty arrays, and the bake's
+// scene check says what is wrong with an empty mesh. Decoding it once copied 0 bytes to a null pointer, undefined
+// behaviour that the sanitizer build reports (found by tests/fuzz/mesh_blob_fuzz.cpp).
+TEST(MeshBlob, AnEmptyMeshDecodesToEmptyArrays) {
+  for (uint32_t flags : {0u, 15u}) {
+    BlobWriter w;
+    w.u32(0);
+    w.u32(0);
+    w.u32(flags);
+    const scene::Mesh m = decode_mesh_blob(w.bytes, "f", "empty");
+    EXPECT_TRUE(m.positions.empty() && m.normals.empty() && m.uv.empty() && m.lightmap_uv.empty());
+    EXPECT_TRUE(m.indices.empty() && m.material.empty());
   }
 }
 

@@ -25,7 +25,7 @@ v1::JobSpec spec_from(const std::string& text) {
 TEST(Translate, GgxWithDefaults) {
   const BakeRequest r = translate(spec_from(R"(name: "x" material { ggx { alpha: 0.25 fresnel: FRESNEL_SCHLICK
                                                 f0 { r: 0.04 g: 0.04 b: 0.04 } } })"));
-  EXPECT_EQ(job_type(r), "material");
+  EXPECT_STREQ(job_type(r), "material");
   EXPECT_EQ(r.material().model.model, brdf::Model::ggx);
   EXPECT_EQ(r.material().model.alpha_x, 0.25);
   EXPECT_EQ(r.material().model.alpha_y, 0.25);
@@ -153,7 +153,7 @@ TEST(TranslateEnvironment, EveryFieldReachesTheBakersInput) {
       environment { image { )") + kDigest + R"( } color_space: "lin_rec709" rotation_degrees: -90 intensity: 2.5
                     lobe: ENVIRONMENT_LOBE_BECKMANN size: 64 levels: 3 irradiance_size: 16 dfg_size: 32
                     dfg_samples: 64 preview: false })"));
-  EXPECT_EQ(job_type(r), "environment");
+  EXPECT_STREQ(job_type(r), "environment");
   const envmap::EnvironmentBakeInput& in = r.environment();
   EXPECT_FALSE(in.constant.has_value());
   EXPECT_TRUE(in.image.empty());  // the bytes come with load_inputs
