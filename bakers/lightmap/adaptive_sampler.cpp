@@ -12,21 +12,12 @@
 #include "bakers/lightmap/path_sampler.h"
 #include "bakers/lightmap/texel_neighbourhood.h"
 #include "bakers/math/rng.h"
+#include "bakers/math/seed_mix.h"
 
 namespace kiln::lightmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-// A seed per (bake seed, lightmap, texel, estimate index): every estimate has its own stream, whatever thread
-// computes it, so the bytes do not depend on scheduling.
-uint64_t mix(uint64_t a, uint64_t b) {
-  uint64_t x = a * 0x9E3779B97F4A7C15ull ^ (b + 0x632BE59BD9B4E019ull + (a << 6) + (a >> 2));
-  x ^= x >> 31;
-  x *= 0xBF58476D1CE4E5B9ull;
-  x ^= x >> 27;
-  return x;
-}
 
 // What one work item's estimates add to a texel, accumulated by its worker alone and then merged (merge()).
 struct Partial {
@@ -221,7 +212,7 @@ TexelEstimate estimate_texel(const LightmapState& m, size_t t, const TransportCo
   TexelEstimate s;
   for (size_t k = 0; k < samples.size(); ++k) {
     const Receiver& rec = m.receivers[m.texels.first[t] + k];
-    PathSampler sampler(mix(texel_seed, k * kReplicas + replica), index, rng);
+    PathSampler sampler(mix_seeds(texel_seed, k * kReplicas + replica), index, rng);
     const IrradianceEstimate e = estimate_irradiance(ctx, rec, sampler);
     counts.rays += e.rays;
     counts.occlusion_rays += e.occlusion_rays;
@@ -248,8 +239,8 @@ Partial estimate_item(const LightmapState& m, const WorkItem& item, const Transp
                       const TransportContext* direct_ctx, const SamplingOptions& o, PassCounts& counts) {
   const bool traced = direct_ctx && !m.traced.empty() && m.traced[item.texel];
   const TransportContext& ctx = traced ? *direct_ctx : full_ctx;
-  const uint64_t texel_seed = mix(mix(o.seed, item.map), item.texel);
-  Pcg32 rng(mix(texel_seed, item.first));
+  const uint64_t texel_seed = mix_seeds(mix_seeds(o.seed, item.map), item.texel);
+  Pcg32 rng(mix_seeds(texel_seed, item.first));
   Partial p;
   for (uint32_t b = 0; b < item.count; ++b) {
     ++p.tried;

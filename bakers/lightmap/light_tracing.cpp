@@ -9,6 +9,7 @@
 
 #include "bakers/lightmap/ray_log.h"
 #include "bakers/math/rng.h"
+#include "bakers/math/seed_mix.h"
 #include "bakers/scene/light_sampler.h"
 #include "bakers/scene/ray_offset.h"
 #include "bakers/scene/scene_check.h"
@@ -17,14 +18,6 @@
 
 namespace kiln::lightmap {
 namespace {
-
-uint64_t mix(uint64_t a, uint64_t b) {
-  uint64_t x = a * 0x9E3779B97F4A7C15ull ^ (b + 0x632BE59BD9B4E019ull + (a << 6) + (a >> 2));
-  x ^= x >> 31;
-  x *= 0xBF58476D1CE4E5B9ull;
-  x ^= x >> 27;
-  return x;
-}
 
 bool flat(const TexelSample& s) { return dot(s.shading_normal, s.geometric_normal) >= kFlatNormalCos; }
 
@@ -228,7 +221,7 @@ LightTracingCounts LightTracer::trace(uint64_t count, std::chrono::steady_clock:
       return;
     }
     const uint64_t block = first_block + b;
-    Pcg32 rng(mix(seed_, block));
+    Pcg32 rng(mix_seeds(seed_, block));
     uint64_t local_rays = 0, local_deposits = 0;
     for (uint64_t i = block * kBlock; i < (block + 1) * kBlock; ++i) {
       Walker w{*this, rng};
