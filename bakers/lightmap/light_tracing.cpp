@@ -175,6 +175,8 @@ LightTracer::LightTracer(const TransportContext& ctx, const std::vector<Lightmap
     const scene::LightSource& light = ctx.lights->light(i);
     const double power = luminance(light.power(ctx.lights->scene_radius()));
     if (!light.emits_rays() || !(power > 0) || !std::isfinite(power)) continue;
+    // Exactly the light gathering would see: a delta light the plan does not sample (forced off) reaches no path.
+    if (light.is_delta() && !(ctx.lights->pmf(i) > 0)) continue;
     lights_.push_back(i);
     weights.push_back(power);
     total += light.power(ctx.lights->scene_radius()).max();

@@ -167,6 +167,17 @@ TEST(LightTracing, EmissiveTrianglesAgreeWithGathering) {
   expect_traced_equals_gathered(room_lit_by_a_patch(), "emissive patch");
 }
 
+// A delta light the plan does not sample (forced off) reaches no gathered path, so it sends no rays either: the room
+// stays black, exactly.
+TEST(LightTracing, ALightForcedOffSendsNoRays) {
+  LightmapBakeInput in = traced_input(room_lit_by(scene::LightShape::point), 8, 0.05);
+  in.force_effects["point_lights"] = false;
+  const LightmapBakeResult r = bake_lightmaps(in);
+  EXPECT_EQ(r.light_tracing.light_rays, 0u);
+  const Texels t = texels(r, "room");
+  for (size_t i = 0; i < t.Y.size(); ++i) EXPECT_EQ(t.Y[i], 0.0) << "texel " << i;
+}
+
 // Deposits are summed in fixed point and every block of rays has its own stream: the same bytes on 1 and 2 threads.
 TEST(LightTracing, BytesDoNotDependOnTheThreadCount) {
   const LightmapBakeInput in = traced_input(test::cornell_box(), 8, 0.05);
