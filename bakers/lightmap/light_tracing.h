@@ -60,7 +60,8 @@ struct LightTracingCounts {
 class LightTracer {
  public:
   // The lights that emit rays (LightSource::emits_rays) by power, but for delta lights the plan does not sample
-  // (which no gathered path sees either); the traced texels of `maps` (mark_traced_texels) receive. `bounces`: the most reflections a deposit's light has taken.
+  // (which no gathered path sees either); the traced texels of `maps` (mark_traced_texels) receive. `bounces`: the most
+  // reflections a deposit's light has taken.
   LightTracer(const TransportContext& ctx, const std::vector<LightmapState>& maps, int bounces, uint64_t seed);
   // Some light emits rays.
   bool active() const { return !lights_.empty(); }
