@@ -60,9 +60,9 @@ void merge(LightmapState& m, size_t t, const Partial& p) {
 // ---- Scheduling ----
 
 // Per texel, the variance of one estimate relative to the metric's luminance, v = n·error² (−1: none), and the
-// share of target² left to the texel's own estimates: target² less the variance of its traced term (light tracing),
-// at least (1 − kTracedMaxShare)·target² (light_budget.h). Empty unless some texel of the lightmap has its min_samples:
-// budget-bound bakes (min_samples = max_samples) never need it, and it is O(texels) per pass.
+// share of target² left to the texel's own estimates (gathered_allowance, light_budget.h). Empty unless some texel of
+// the lightmap has its min_samples: budget-bound bakes (min_samples = max_samples) never need it, and it is O(texels)
+// per pass.
 struct ErrorVariances {
   std::vector<double> v, allowance;
 };
@@ -86,7 +86,7 @@ ErrorVariances error_variances(const LightmapState& m, const SamplingOptions& o)
       ev.v[t] = std::isfinite(e) ? e * e * img.count(t) : -1;
       if (!m.traced.empty() && m.traced[t]) {
         const double p = img.relative(t, img.traced_standard_error(t), o.metric, brightness);
-        ev.allowance[t] = std::max(target2 - p * p, (1 - kTracedMaxShare) * target2);
+        ev.allowance[t] = gathered_allowance(target2, p * p);
       }
     }
   });

@@ -40,7 +40,7 @@ TracedTexel pooled(const LightmapState& m, size_t mi, const LightTracer& tracer,
 
 // The estimates' share of the time for one texel at N rays, in units of b (see the header comment).
 double estimate_cost(const TracedTexel& x, double rays, double target2) {
-  return x.v / std::max(target2 - x.c / rays, (1 - kTracedMaxShare) * target2);
+  return x.v / gathered_allowance(target2, x.c / rays);
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 // and those gather as they would without it.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <vector>
 
@@ -29,6 +30,13 @@ namespace kiln::lightmap {
 inline constexpr double kTracedMaxShare = 0.9;
 inline constexpr double kMinDeposits = 8 * kReplicas;
 inline constexpr double kMostGathered = 0.01;
+
+// The variance a traced texel's own estimates may leave, given its traced term's `traced_variance` under the metric:
+// target² less that, at least (1 − kTracedMaxShare)·target². The adaptive sampler aims at it, and the budget above
+// counts the estimates it costs.
+inline double gathered_allowance(double target2, double traced_variance) {
+  return std::max(target2 - traced_variance, (1 - kTracedMaxShare) * target2);
+}
 
 // One traced texel's variances (pooled over its traced 3×3 neighbours, as the adaptive sampler pools) and the rays
 // its deposits ask for.
