@@ -38,6 +38,7 @@
 #include "proto/digest.h"
 #include "proto/framing.h"
 #include "proto/kiln.pb.h"
+#include "tests/support/run_command.h"
 
 namespace kiln::cli {
 namespace {
@@ -708,14 +709,10 @@ Outcome kiln(const std::vector<std::string>& args, const std::string& env = "") 
   std::string cmd = "env -u KILN_SERVER -u KILN_TOKEN -u KILN_TOKEN_FILE " + env + " " + quote(KILN_CLI_BIN);
   for (const auto& a : args) cmd += " " + quote(a);
   cmd += " 2>" + quote(err_file.string()) + " </dev/null";
+  const test::CommandResult run = test::run_command(cmd);
   Outcome r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int status = pclose(p);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.status = run.status;
+  r.out = run.output;
   r.err = read(err_file);
   return r;
 }

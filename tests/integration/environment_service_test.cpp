@@ -1,11 +1,9 @@
 // The environment job end to end: an image generated here is uploaded to the real kilnd, baked, and its outputs
 // fetched and checked; images the decoder refuses fail the job with the decoder's message, and the daemon goes on.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -21,6 +19,7 @@
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/service_client.h"
+#include "tests/support/run_command.h"
 
 namespace kiln {
 namespace {
@@ -320,13 +319,9 @@ TEST(EnvironmentService, KilnBakeEnvWritesTheOutputs) {
                               " --size 16 --irradiance-size 8 --dfg-size 8 "
                               "--dfg-samples 64 --samples 32 --out " +
                               out.string() + " 2>&1";
-  FILE* p = ::popen(command.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::string said;
-  char buf[4096];
-  for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) said.append(buf, n);
-  const int status = ::pclose(p);
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << said;
+  const test::CommandResult run = test::run_command(command);
+  const std::string& said = run.output;
+  ASSERT_EQ(run.status, 0) << said;
   std::set<std::string> written;
   for (const auto& e : std::filesystem::directory_iterator(out)) written.insert(e.path().filename().string());
   std::set<std::string> expected = expected_names(3);

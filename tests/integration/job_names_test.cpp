@@ -1,9 +1,7 @@
 // Job names are the client's text: control characters in them must not forge a line of kilnd's log, nor reach a
 // terminal through the command line's output (issue 19, defect 9). The real kilnd and the real `kiln`.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdio>
 #include <fstream>
 #include <string>
 
@@ -11,6 +9,7 @@
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/service_client.h"
+#include "tests/support/run_command.h"
 
 namespace kiln {
 namespace {
@@ -28,13 +27,7 @@ std::string kiln(const Daemon& d, const std::string& args) {
   std::ofstream(token) << d.token() << "\n";
   const std::string command =
       std::string(KILN_BIN) + " --server " + d.tcp() + " --token-file " + token + " " + args + " 2>&1";
-  std::string said;
-  FILE* p = ::popen(command.c_str(), "r");
-  if (!p) return said;
-  char buf[4096];
-  for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) said.append(buf, n);
-  ::pclose(p);
-  return said;
+  return test::run_command(command).output;
 }
 
 TEST(JobNames, ControlCharactersAreEscapedInTheLogAndTheCommandLine) {

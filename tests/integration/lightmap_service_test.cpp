@@ -4,10 +4,8 @@
 // blob fails the job naming the mesh's field, a bad field is refused at submit naming its path, and the daemon goes
 // on serving.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -22,6 +20,7 @@
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/service_client.h"
+#include "tests/support/run_command.h"
 
 namespace kiln {
 namespace {
@@ -44,14 +43,8 @@ CliRun kiln(const Daemon& d, const std::string& args) {
   if (!fs::exists(token)) std::ofstream(token) << d.token() << "\n";
   const std::string command =
       std::string(KILN_BIN) + " --server " + d.tcp() + " --token-file " + token.string() + " " + args + " 2>&1";
-  CliRun r;
-  FILE* p = ::popen(command.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) r.said.append(buf, n);
-  const int status = ::pclose(p);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  const test::CommandResult r = test::run_command(command);
+  return {r.status, r.output};
 }
 
 std::string job_id(const std::string& said) {

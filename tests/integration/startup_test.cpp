@@ -2,10 +2,7 @@
 // the real daemon.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-
 #include <chrono>
-#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <thread>
@@ -17,6 +14,7 @@
 #include "tests/integration/daemon_fixture.h"
 #include "tests/integration/raw_connection.h"
 #include "tests/integration/service_client.h"
+#include "tests/support/run_command.h"
 
 namespace kiln {
 namespace {
@@ -54,14 +52,8 @@ TEST(Startup, CrashLoopGuardIsASettingNamedInTheFailure) {
 
 // Runs kilnd with `args` (paths without spaces) until it exits, at most 20 s; its exit status and output.
 std::pair<int, std::string> run_kilnd(const std::string& args) {
-  const std::string command = "timeout 20 " + std::string(KILND_BIN) + " " + args + " 2>&1";
-  FILE* p = ::popen(command.c_str(), "r");
-  if (!p) return {-1, "popen failed"};
-  std::string out;
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int status = ::pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  const test::CommandResult r = test::run_command("timeout 20 " + std::string(KILND_BIN) + " " + args + " 2>&1");
+  return {r.status, r.output};
 }
 
 // A second kilnd given the Unix socket of a running one used to unlink it and bind its own, cutting the first off

@@ -8,12 +8,10 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -30,6 +28,7 @@
 #include "tests/integration/raw_connection.h"
 #include "tests/integration/service_client.h"
 #include "tests/integration/test_certs.h"
+#include "tests/support/run_command.h"
 
 namespace kiln {
 namespace {
@@ -299,13 +298,8 @@ TEST(Tls, TheTokenNeverCrossesTheNetworkInClear) {
 
 // Runs `command` through the shell; its exit status and its output (stdout and stderr).
 std::pair<int, std::string> run(const std::string& command) {
-  FILE* p = ::popen((command + " 2>&1").c_str(), "r");
-  if (!p) return {-1, "popen failed"};
-  std::string out;
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int status = ::pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  const test::CommandResult r = test::run_command(command + " 2>&1");
+  return {r.status, r.output};
 }
 
 // A folder with a token file (mode 0600), for kilnd runs that start and stop (or refuse to start) at once.

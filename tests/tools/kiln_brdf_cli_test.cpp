@@ -1,14 +1,12 @@
 // The kiln-brdf program: its answers agree with closed forms, and bad input gets one line and a non-zero exit.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <array>
-#include <cstdio>
 #include <cstdlib>
 #include <sstream>
 #include <string>
 
 #include "bakers/math/constants.h"
+#include "tests/support/run_command.h"
 
 namespace {
 
@@ -18,16 +16,8 @@ struct Result {
 };
 
 Result run(const std::string& args) {
-  const std::string cmd = std::string(KILN_BRDF_BIN) + " " + args + " 2>&1";
-  Result r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf{};
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  const kiln::test::CommandResult r = kiln::test::run_command(std::string(KILN_BRDF_BIN) + " " + args + " 2>&1");
+  return {r.status, r.output};
 }
 
 double first_number(const std::string& s) { return std::strtod(s.c_str(), nullptr); }
