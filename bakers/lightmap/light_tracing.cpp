@@ -141,26 +141,46 @@ struct LightTracer::Walker {
     const scene::LightSource& light = lt.ctx_.lights->light(lt.lights_[choice.index]);
     const std::optional<scene::LightEmission> e = light.sample_le(uniform2(), uniform2());
     if (!e) return;
-    Rgb beta = e->weight * (1.0 / choice.pmf);
-    const double start = beta.max();
-    scene::Ray ray = e->offset > 0 ? scene::spawn_ray(scene::SurfacePoint(e->origin, e->ng, e->offset), e->direction)
-                                   : scene::Ray{e->origin, e->direction};
+    const Rgb emitted = e->weight * (1.0 / choice.pmf);
+    const scene::Ray ray = e->offset > 0
+                               ? scene::spawn_ray(scene::SurfacePoint(e->origin, e->ng, e->offset), e->direction)
+                               : scene::Ray{e->origin, e->direction};
+    scene::Hit first;
+    if (!trace(ray, first) || lt.bounces_ < 1) return;
+    // The first hit receives only direct light, which gathering brings: its reflections are where deposits start,
+    // and each carries 1/kFirstReflections of the flux.
+    const Rgb share = emitted * (1.0 / kFirstReflections);
+    for (int k = 0; k < kFirstReflections; ++k) {
+      Rgb beta = share;
+      scene::Ray next;
+      if (reflect(first, ray.direction, beta, next) && roulette(beta, share.max()))
+        follow(next, beta, share.max(), replica);
+    }
+  }
+
+  // Russian roulette relative to the flux `start` the ray set out with; false when the ray ends.
+  bool roulette(Rgb& beta, double start) {
+    const double survive = std::min(1.0, beta.max() / start);
+    if (survive < 1) {
+      if (rng.uniform32() >= survive) return false;
+      beta = beta * (1.0 / survive);
+    }
+    return true;
+  }
+
+  // A ray that has reflected once, with flux `beta`, to its end: deposits where it lands, reflects again.
+  void follow(scene::Ray ray, Rgb beta, double start, int replica) {
     scene::Hit hit;
-    for (int reflections = 0;; ++reflections) {
+    for (int reflections = 1;; ++reflections) {
       if (!trace(ray, hit)) return;
       // The deposit waits until the reflection is sampled, while its texel's sums arrive.
-      TexelSums* receiving = reflections >= 1 ? receiver(hit) : nullptr;
+      TexelSums* receiving = receiver(hit);
       const Rgb arrived = beta;
       const bool last = reflections + 1 > lt.bounces_;
       const Vec3 dir = ray.direction;
       const bool reflected = !last && reflect(hit, dir, beta, ray);
       deposit(receiving, arrived, replica);
-      if (!reflected) return;
-      const double survive = std::min(1.0, beta.max() / start);
-      if (survive < 1) {
-        if (rng.uniform32() >= survive) return;
-        beta = beta * (1.0 / survive);
-      }
+      if (!reflected || !roulette(beta, start)) return;
     }
   }
 };

@@ -11,6 +11,12 @@
 // the geometric surface, the irradiance about the shading normal would weigh it by cos θ_s / cos θ_g, which has no
 // finite variance near grazing. The others gather all their light.
 //
+// A ray's first hit receives only direct light, which the texels gather themselves: the ray from the light and its
+// emission sample buy only a point to reflect from. So each first hit reflects kFirstReflections times, each
+// reflection carrying that share of the flux: the branches share their first hit, but deposit in different places,
+// and on the Cornell box the error per deposit did not change from 1 to 16 branches while the rays per deposit fell
+// from 2.3 to 1.3 (docs/PERFORMANCE.md).
+//
 // Reflection follows the transport's conventions (integrator.h): either side reflects, the shading normal shades, a
 // direction below the geometric surface ends the ray. Light carries flux, so a reflection weighs by
 // f(wo, wi) |ns·wi| |ng·wo| / (|ng·wi| pdf(wo)) with wi towards where the light came from and wo where it goes
@@ -47,6 +53,9 @@ namespace kiln::lightmap {
 // A texel whose points' shading normals are all within this cosine of the geometric normal (0.001 rad) is flat:
 // its deposits count as irradiance about the shading normal, an error below 5e-7 relative.
 inline constexpr double kFlatNormalCos = 0.9999995;
+
+// Reflections of each ray's first hit (see the header comment).
+inline constexpr int kFirstReflections = 8;
 
 // Marks the texels of `m` that light tracing serves (m.traced; see the header comment); returns how many.
 size_t mark_traced_texels(LightmapState& m);
