@@ -47,11 +47,67 @@ size_t mark_traced_texels(LightmapState& m) {
   return n;
 }
 
+// Deposits waiting to be added. They land anywhere in the lightmaps' sums, and adding each as its ray arrived
+// stalled on memory for a fifth of the tracing time: added in runs, the sums of those further down the run are
+// fetched while the earlier ones are added.
+class LightTracer::PendingDeposits {
+ public:
+  PendingDeposits() { pending_.reserve(kRun); }
+  ~PendingDeposits() { flush(); }
+
+  void add(TexelSums* s, const Rgb& beta, double unit, int replica) {
+    const Rgb q = beta * (1.0 / unit);
+    pending_.push_back(
+        {s, {std::llround(q.r), std::llround(q.g), std::llround(q.b)}, std::llround(luminance(q)), replica});
+    if (pending_.size() == kRun) flush();
+  }
+  // Deposits added into traced texels so far.
+  uint64_t added() const { return added_; }
+
+  void flush() {
+    constexpr size_t kAhead = 8;  // sums in flight: enough to cover a fetch from memory
+    for (size_t i = 0; i < pending_.size(); ++i) {
+      if (i + kAhead < pending_.size()) {
+        const char* ahead = reinterpret_cast<const char*>(pending_[i + kAhead].sums);
+        __builtin_prefetch(ahead, 1);
+        __builtin_prefetch(ahead + 64, 1);
+      }
+      apply(pending_[i]);
+    }
+    pending_.clear();
+  }
+
+ private:
+  static constexpr size_t kRun = 1024;  // 48 KiB: stays in the core's cache
+  struct Deposit {
+    TexelSums* sums;
+    int64_t flux[3];
+    int64_t flux_y;
+    int replica;
+  };
+
+  void apply(const Deposit& d) {
+    TexelSums& s = *d.sums;
+    if (!(s.area > 0)) return;  // not a traced texel
+    const auto add = [](int64_t& to, int64_t v) {
+      std::atomic_ref<int64_t>(to).fetch_add(v, std::memory_order_relaxed);
+    };
+    for (int c = 0; c < 3; ++c) add(s.flux[c], d.flux[c]);
+    add(s.flux_y[d.replica], d.flux_y);
+    add(s.deposits, 1);
+    ++added_;
+  }
+
+  std::vector<Deposit> pending_;
+  uint64_t added_ = 0;
+};
+
 // One ray from a light and its reflections: deposits into the traced texels it reaches.
 struct LightTracer::Walker {
   LightTracer& lt;
   Pcg32& rng;
-  uint64_t rays = 0, deposits = 0;
+  PendingDeposits& pending;
+  uint64_t rays = 0;
 
   Point2 uniform2() {
     const double u = rng.uniform32();
@@ -64,29 +120,16 @@ struct LightTracer::Walker {
     return lt.ctx_.tracer->intersect(ray, hit, scene::HitDetail{.lightmap_uv = true, .uv = lt.ctx_.textured});
   }
 
-  // The sums of the traced texel at `hit`'s front, or null (the back, no lightmap, not traced). Fetched ahead: the
-  // sums are scattered over the lightmap, and waiting for them was a fifth of the tracing time.
-  TexelSums* receiver(const scene::Hit& hit) {
-    if (!hit.front_face) return nullptr;  // a lightmap receives on its front side
+  // Deposits `beta` into the sums of the texel at `hit`'s front, if it has a lightmap (whether the texel is traced is
+  // looked up when the deposit is added).
+  void deposit(const scene::Hit& hit, const Rgb& beta, int replica) {
+    if (!hit.front_face) return;  // a lightmap receives on its front side
     const int map = lt.map_of_instance_[hit.instance];
-    if (map < 0) return nullptr;
+    if (map < 0) return;
     Receiving& r = lt.maps_[map];
     const int x = std::clamp(static_cast<int>(hit.lightmap_uv.x * r.width), 0, r.width - 1);
     const int y = std::clamp(static_cast<int>(hit.lightmap_uv.y * r.height), 0, r.height - 1);
-    TexelSums* s = &r.texels[static_cast<size_t>(y) * r.width + x];
-    __builtin_prefetch(s, 1);
-    __builtin_prefetch(reinterpret_cast<const char*>(s) + 64, 1);
-    return s;
-  }
-
-  void deposit(TexelSums* s, const Rgb& beta, int replica) {
-    if (!s || !(s->area > 0)) return;
-    const Rgb q = beta * (1.0 / lt.unit_);
-    const int64_t qc[3] = {std::llround(q.r), std::llround(q.g), std::llround(q.b)};
-    for (int c = 0; c < 3; ++c) std::atomic_ref<int64_t>(s->flux[c]).fetch_add(qc[c], std::memory_order_relaxed);
-    std::atomic_ref<int64_t>(s->flux_y[replica]).fetch_add(std::llround(luminance(q)), std::memory_order_relaxed);
-    std::atomic_ref<int64_t>(s->deposits).fetch_add(1, std::memory_order_relaxed);
-    ++deposits;
+    pending.add(&r.texels[static_cast<size_t>(y) * r.width + x], beta, lt.unit_, replica);
   }
 
   // The reflection at `hit` of light that arrived travelling along `dir`: the new direction, with beta updated;
@@ -173,14 +216,10 @@ struct LightTracer::Walker {
     scene::Hit hit;
     for (int reflections = 1;; ++reflections) {
       if (!trace(ray, hit)) return;
-      // The deposit waits until the reflection is sampled, while its texel's sums arrive.
-      TexelSums* receiving = receiver(hit);
-      const Rgb arrived = beta;
-      const bool last = reflections + 1 > lt.bounces_;
+      deposit(hit, beta, replica);
+      if (reflections + 1 > lt.bounces_) return;
       const Vec3 dir = ray.direction;
-      const bool reflected = !last && reflect(hit, dir, beta, ray);
-      deposit(receiving, arrived, replica);
-      if (!reflected || !roulette(beta, start)) return;
+      if (!reflect(hit, dir, beta, ray) || !roulette(beta, start)) return;
     }
   }
 };
@@ -244,15 +283,12 @@ LightTracingCounts LightTracer::trace(uint64_t count, std::chrono::steady_clock:
     }
     const uint64_t block = first_block + b;
     Pcg32 rng(mix_seeds(seed_, block));
-    uint64_t local_rays = 0, local_deposits = 0;
-    for (uint64_t i = block * kBlock; i < (block + 1) * kBlock; ++i) {
-      Walker w{*this, rng};
-      w.walk(i);
-      local_rays += w.rays;
-      local_deposits += w.deposits;
-    }
-    rays += local_rays;
-    deposits += local_deposits;
+    PendingDeposits pending;
+    Walker w{*this, rng, pending};
+    for (uint64_t i = block * kBlock; i < (block + 1) * kBlock; ++i) w.walk(i);
+    pending.flush();
+    rays += w.rays;
+    deposits += pending.added();
     ++done;
   });
   // Blocks skipped at the deadline leave a gap in the sequence: the next call starts after the last block asked for,

@@ -118,6 +118,7 @@ class LightTracer {
     int width = 0, height = 0;
     std::vector<TexelSums, HugePages<TexelSums>> texels;
   };
+  class PendingDeposits;
   struct Walker;
 
   const TransportContext& ctx_;
