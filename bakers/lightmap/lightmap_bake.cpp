@@ -318,7 +318,7 @@ void trace_light(LightmapBakeRun& run, const SamplingOptions& o, double seconds_
   const Clock::time_point t0 = Clock::now();
   const double texels = static_cast<double>(std::max<size_t>(1, stats.texels_traced));
   const double cap = texels * static_cast<double>(o.max_samples);
-  double want = std::max(16 * texels, 65536.0);
+  double want = std::max(16 * texels, 65536.0) / kFirstReflections;
   std::vector<TracedTexel> traced;
   double tracing_seconds = 0;
   for (;;) {
