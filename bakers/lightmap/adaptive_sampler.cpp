@@ -242,6 +242,9 @@ Partial estimate_item(const LightmapState& m, const WorkItem& item, const Transp
   const uint64_t texel_seed = mix_seeds(mix_seeds(o.seed, item.map), item.texel);
   Pcg32 rng(mix_seeds(texel_seed, item.first));
   Partial p;
+  const uint64_t rays_before = counts.rays;
+  counts.estimates += item.count;
+  if (traced) counts.traced_estimates += item.count;
   for (uint32_t b = 0; b < item.count; ++b) {
     ++p.tried;
     const uint64_t estimate = item.first + b;
@@ -256,12 +259,14 @@ Partial estimate_item(const LightmapState& m, const WorkItem& item, const Transp
     }
     p.add(static_cast<int>(estimate % kReplicas), irradiance, s.ao * inv_weight, s.sh, s.weight, o.directional);
   }
+  if (traced) counts.traced_rays += counts.rays - rays_before;
   return p;
 }
 
 // Sums the workers' counts.
 struct SharedCounts {
   std::atomic<uint64_t> rays{0}, occlusion_rays{0}, paths{0}, general_vertices{0}, dropped{0};
+  std::atomic<uint64_t> estimates{0}, traced_estimates{0}, traced_rays{0};
   std::atomic<bool> out_of_time{false};
 
   void add(const PassCounts& c) {
@@ -270,10 +275,14 @@ struct SharedCounts {
     paths.fetch_add(c.paths, std::memory_order_relaxed);
     general_vertices.fetch_add(c.general_vertices, std::memory_order_relaxed);
     dropped.fetch_add(c.dropped, std::memory_order_relaxed);
+    estimates.fetch_add(c.estimates, std::memory_order_relaxed);
+    traced_estimates.fetch_add(c.traced_estimates, std::memory_order_relaxed);
+    traced_rays.fetch_add(c.traced_rays, std::memory_order_relaxed);
   }
   PassCounts total() const {
-    return {rays.load(),    occlusion_rays.load(), paths.load(), general_vertices.load(),
-            dropped.load(), out_of_time.load()};
+    return {rays.load(),       occlusion_rays.load(), paths.load(),     general_vertices.load(),
+            dropped.load(),    out_of_time.load(),    estimates.load(), traced_estimates.load(),
+            traced_rays.load()};
   }
 };
 

@@ -45,6 +45,8 @@ struct PassCounts {
   uint64_t rays = 0, occlusion_rays = 0, paths = 0, general_vertices = 0;
   uint64_t dropped = 0;      // estimates with a non-finite contribution, or not acceptable as irradiance
   bool out_of_time = false;  // the pass stopped at the deadline
+  // Of the estimates and rays above, those of texels light tracing serves (direct light only).
+  uint64_t estimates = 0, traced_estimates = 0, traced_rays = 0;
 };
 
 // The texels still short of their goal, with their batches, lightmap by lightmap in row-major order. Empty when

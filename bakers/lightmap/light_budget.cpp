@@ -34,13 +34,18 @@ TracedTexel pooled(const LightmapState& m, size_t mi, const LightTracer& tracer,
   out.v = nv ? v / nv : 0;
   out.c = nc ? c / nc : 0;
   out.min_rays = deposits > 0 ? rays * kMinDeposits / deposits : std::numeric_limits<double>::infinity();
-  out.area = tracer.area(mi, out.texel);
+  const double indirect = img.relative(out.texel, luminance(tracer.irradiance(mi, out.texel)), metric, brightness);
+  out.y = std::isfinite(indirect) ? indirect : 0;
   return out;
 }
 
-// The estimates' share of the time for one texel at N rays, in units of b (see the header comment).
-double estimate_cost(const TracedTexel& x, double rays, double target2) {
-  return x.v / gathered_allowance(target2, x.c / rays);
+// The cost of texel x's estimates at N rays (see the header comment).
+double estimate_cost(const TracedTexel& x, double rays, double target_error, const GatherCosts& costs) {
+  const double target2 = target_error * target_error;
+  if (gathers_instead(x, rays, target_error)) {
+    return costs.full * (x.v + kIndirectVariance * x.y * x.y) / target2;
+  }
+  return costs.direct * x.v / gathered_allowance(target2, x.c / rays);
 }
 
 }  // namespace
@@ -70,34 +75,13 @@ bool gathers_instead(const TracedTexel& x, double rays, double target_error) {
 }
 
 double best_light_rays(const std::vector<TracedTexel>& texels, double target_error, double rays_now,
-                       double seconds_per_ray, double seconds_per_estimate) {
-  const double target2 = target_error * target_error;
-  if (texels.empty()) return rays_now;
-  // Each texel's least N and its area, in order of the least N; `from` serves 1 − kMostGathered of the area.
-  std::vector<std::pair<double, double>> least(texels.size());
-  double area = 0;
-  for (size_t i = 0; i < texels.size(); ++i) {
-    least[i] = {std::max(texels[i].min_rays, texels[i].c / (kTracedMaxShare * target2)), texels[i].area};
-    area += texels[i].area;
-  }
-  std::sort(least.begin(), least.end());
-  double covered = 0, from = least.back().first;
-  for (const auto& [rays, a] : least) {
-    covered += a;
-    if (covered >= (1 - kMostGathered) * area) {
-      from = rays;
-      break;
-    }
-  }
-  from = std::max(rays_now, from);
-  if (!std::isfinite(from)) return from;  // most texels have no deposit yet: more rays first
-  double best = from, best_time = std::numeric_limits<double>::infinity();
+                       double cost_per_ray, const GatherCosts& costs) {
+  double best = rays_now, best_cost = std::numeric_limits<double>::infinity();
   // A geometric grid is fine enough: the time is flat about its minimum.
-  for (double rays = from; rays <= 64 * from; rays *= 1.05) {
-    double estimates = 0;
-    for (const TracedTexel& x : texels) estimates += estimate_cost(x, rays, target2);
-    const double time = seconds_per_ray * rays + seconds_per_estimate * estimates;
-    if (time < best_time) best_time = time, best = rays;
+  for (double rays = rays_now; rays <= 4096 * rays_now; rays *= 1.05) {
+    double cost = cost_per_ray * rays;
+    for (const TracedTexel& x : texels) cost += estimate_cost(x, rays, target_error, costs);
+    if (cost < best_cost) best_cost = cost, best = rays;
   }
   return best;
 }

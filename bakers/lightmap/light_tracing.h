@@ -86,8 +86,6 @@ class LightTracer {
   Rgb irradiance(size_t map, size_t texel) const;
   std::array<double, kReplicas> replica_luminance(size_t map, size_t texel) const;
   uint64_t deposits(size_t map, size_t texel) const { return maps_[map].texels[texel].deposits; }
-  // The world area the texel covers (0 for texels not traced).
-  double area(size_t map, size_t texel) const { return maps_[map].texels[texel].area; }
 
   static constexpr uint64_t kBlock = 4096;  // rays per block: a multiple of kReplicas
 
