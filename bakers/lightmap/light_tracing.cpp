@@ -33,6 +33,8 @@ T* LightTracer::HugePages<T>::allocate(size_t n) {
   return static_cast<T*>(p);
 }
 
+const size_t LightTracer::kBytesPerTexel = sizeof(LightTracer::TexelSums);
+
 size_t mark_traced_texels(LightmapState& m) {
   const LightmapTexels& texels = m.texels;
   m.traced.assign(texels.texel_count(), 0);

@@ -88,6 +88,7 @@ class LightTracer {
   uint64_t deposits(size_t map, size_t texel) const { return maps_[map].texels[texel].deposits; }
 
   static constexpr uint64_t kBlock = 4096;  // rays per block: a multiple of kReplicas
+  static const size_t kBytesPerTexel;        // the sums of every texel of a lightmap with traced texels
 
  private:
   // One texel's sums, together (a deposit touches two cache lines rather than one per array).

@@ -404,7 +404,7 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
   }
   if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space));
   run.report.lightmaps.push_back({m.name, m.image.width(), m.image.error_summary(in.target_error, 0, in.error_metric),
-                                  sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional))});
+                                  sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional, !m.traced.empty()))});
 }
 
 void write_report(LightmapBakeRun& run) {

@@ -109,6 +109,8 @@ class LightmapImage {
 
   // Memory held per texel: sum (3 doubles), replica sums (with the counts), validity (byte).
   static constexpr size_t kBytesPerTexel = 3 * sizeof(double) + sizeof(ReplicaSums) + sizeof(uint8_t);
+  // And with a traced term: its mean and replicas' luminances.
+  static constexpr size_t kTracedBytesPerTexel = sizeof(Rgb) + kReplicas * sizeof(float);
 
  private:
   std::string name_;

@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "bakers/lightmap/light_tracing.h"
+
 namespace kiln::lightmap {
 namespace {
 
@@ -38,9 +40,13 @@ LightmapState make_lightmap_state(std::string name, LightmapTexels texels, const
   return m;
 }
 
-BakeStateBytes lightmap_state_bytes(bool ao, bool directional) {
+BakeStateBytes lightmap_state_bytes(bool ao, bool directional, bool traced) {
   BakeStateBytes b;
   b.per_texel = element_bytes<decltype(LightmapState::attempts)>();
+  if (traced) {
+    b.per_texel += element_bytes<decltype(LightmapState::traced)>() + LightmapImage::kTracedBytesPerTexel +
+                   LightTracer::kBytesPerTexel;
+  }
   if (ao) b.per_texel += element_bytes<decltype(LightmapState::ao_sum)>();
   if (directional) {
     b.per_texel += element_bytes<decltype(LightmapState::sh_sum)>() + element_bytes<decltype(LightmapState::sh_y2)>();

@@ -37,7 +37,8 @@ struct LightmapState {
 LightmapState make_lightmap_state(std::string name, LightmapTexels texels, const LeakReport& leaks, bool ao,
                                   bool directional);
 
-// What a LightmapState holds beside its texels and image, per texel and per sample, for the report's memory figures.
-BakeStateBytes lightmap_state_bytes(bool ao, bool directional);
+// What a LightmapState holds beside its texels and image, per texel and per sample, for the report's memory figures;
+// `traced`: with light tracing's sums and terms (light_tracing.h).
+BakeStateBytes lightmap_state_bytes(bool ao, bool directional, bool traced);
 
 }  // namespace kiln::lightmap
