@@ -19,6 +19,12 @@
 // (RMS over valid texels of the relative standard error of the mean luminance, report.json's error_estimate); "error
 // vs ref" is the RMS over valid texels of |Y − Y_ref| / Y_ref, Y the luminance of the irradiance.
 //
+// The curve under the default metric: targets 0.08, 0.04, 0.02, 0.01 (--quick: 0.1, 0.05) with error_metric lightmap,
+// as the plan has it (light tracing on) and with light tracing forced off (every texel gathers all its light: the
+// sampling before light tracing), each the fastest of 3 in CPU time; the error against the reference under the same
+// metric, and the ratio of 1 / (error² · CPU s) between the two: how much less time light tracing takes for the same
+// error, measured in one process.
+//
 // The reference: a bake of 4096 estimates per texel (1024 with --quick) with another seed, computed once at the start
 // of the run (not cached: a stale reference from an older baker would silently measure the wrong thing). Its own
 // error e_ref (~1/√16 or 1/√4 of the 256-sample bake's) is independent of each bake's and adds in quadrature, so
@@ -63,8 +69,8 @@
 #include "bakers/lightmap/ray_log.h"
 #include "bakers/scene/scene_check.h"
 #include "bakers/scene/tracer.h"
-#include "tests/support/test_scenes.h"
 #include "tests/bench/table_file.h"
+#include "tests/support/test_scenes.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -210,6 +216,59 @@ double error_vs(const Luminances& a, const Luminances& ref) {
       if (!std::isfinite(a[m][t]) || !std::isfinite(ref[m][t]) || !(ref[m][t] > 0)) continue;
       const double e = (a[m][t] - ref[m][t]) / ref[m][t];
       sum += e * e;
+      ++n;
+    }
+  }
+  return n ? std::sqrt(sum / n) : NAN;
+}
+
+// The error under the default metric (error_metric.h): per lightmap, (Y − Y_ref) / B_ref with B_ref the mean
+// luminance of the reference's valid texels, RMS over the texels valid in both (every lightmap's texels together, as
+// report.json's error_estimate).
+double lightmap_error_vs(const Luminances& a, const Luminances& ref) {
+  double sum = 0;
+  size_t n = 0;
+  for (size_t m = 0; m < std::min(a.size(), ref.size()); ++m) {
+    double b = 0;
+    size_t valid = 0;
+    for (const double y : ref[m]) {
+      if (std::isfinite(y)) b += y, ++valid;
+    }
+    if (!(b > 0)) continue;
+    b /= static_cast<double>(valid);
+    for (size_t t = 0; t < std::min(a[m].size(), ref[m].size()); ++t) {
+      if (!std::isfinite(a[m][t]) || !std::isfinite(ref[m][t])) continue;
+      const double e = (a[m][t] - ref[m][t]) / b;
+      sum += e * e;
+      ++n;
+    }
+  }
+  return n ? std::sqrt(sum / n) : NAN;
+}
+
+// The reference's own error under the default metric, from its error images (texel metric: the standard error over
+// the texel's own luminance, well above the error floor in the box): RMS of σ_t / B_ref.
+double reference_lightmap_error(const Run& reference) {
+  double sum = 0;
+  size_t n = 0;
+  size_t m = 0;
+  for (const bake::BakeOutput& o : reference.result.outputs) {
+    const std::string suffix = "_error.exr";
+    if (o.name.size() <= suffix.size() || o.name.compare(o.name.size() - suffix.size(), suffix.size(), suffix) != 0)
+      continue;
+    const image::FloatImage error = image::decode_exr(o.bytes);
+    const std::vector<double>& Y = reference.Y.at(m++);
+    double b = 0;
+    size_t valid = 0;
+    for (const double y : Y) {
+      if (std::isfinite(y)) b += y, ++valid;
+    }
+    if (!(b > 0)) continue;
+    b /= static_cast<double>(valid);
+    for (size_t t = 0; t < Y.size(); ++t) {
+      if (!std::isfinite(Y[t])) continue;
+      const double sigma = error.pixels[t * error.channels] * Y[t];
+      sum += (sigma / b) * (sigma / b);
       ++n;
     }
   }
@@ -366,6 +425,18 @@ int main(int argc, char** argv) {
     }
     return in;
   };
+  // Error against time under the default metric: light tracing (the plan's default) against light tracing forced off
+  // (every texel gathers all its light, as every bake did before it), at the same targets, fastest of 3 each.
+  std::vector<std::pair<Run, Run>> curve;
+  for (const double target : quick ? std::vector<double>{0.1, 0.05} : std::vector<double>{0.08, 0.04, 0.02, 0.01}) {
+    std::fprintf(stderr, "default metric, target %.2f, with and without light tracing...\n", target);
+    LightmapBakeInput in = input(4096, target, 1);
+    in.error_metric = ErrorMetric::lightmap;
+    LightmapBakeInput off = in;
+    off.force_effects["light_tracing"] = false;
+    curve.emplace_back(timed_bake("target " + fmt("%.2f", target), in, pools, 3, false),
+                       timed_bake("target " + fmt("%.2f", target), off, pools, 3, false));
+  }
   std::fprintf(stderr, "planned vs full simulation...\n");
   const Run planned =
       timed_bake("imported box, planned, target " + fmt("%.2f", plan_target), imported(4096, plan_target, 1), pools, 3);
@@ -417,6 +488,37 @@ int main(int argc, char** argv) {
        " (RMS relative luminance difference; their estimated errors " + fmt("%.4f", planned.result.error_estimate) +
        " and " + fmt("%.4f", full.result.error_estimate) + ", so within noise if below about " +
        fmt("%.4f", std::hypot(planned.result.error_estimate, full.result.error_estimate)) + ").");
+  line("");
+  const double e_ref_lightmap = reference_lightmap_error(reference);
+  line(
+      "Error against time under the default metric (a texel's error over its lightmap's brightness), with light "
+      "tracing and with it forced off (every texel gathers all its light); error vs ref under the same metric, the "
+      "reference's own (" +
+      fmt("%.4f", e_ref_lightmap) +
+      ") removed in quadrature; efficiency = 1 / (error² · CPU "
+      "s), off / on is how much less time light tracing needs for the same error.");
+  line("");
+  line(
+      "| target | light tracing | time (s) | CPU (s) | samples | light rays | rays | est. error | error vs ref | "
+      "(ref removed) | efficiency | off / on |");
+  line("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+  for (const auto& [on, off] : curve) {
+    double efficiency[2];
+    int i = 0;
+    for (const Run* r : {&on, &off}) {
+      const LightmapBakeResult& b = r->result;
+      const double e =
+          std::sqrt(std::max(0.0, std::pow(lightmap_error_vs(r->Y, reference.Y), 2) - e_ref_lightmap * e_ref_lightmap));
+      efficiency[i] = 1 / (e * e * r->cpu_seconds);
+      line("| " + r->label.substr(7) + " | " + (i == 0 ? "on" : "off") + " | " + fmt("%.2f", b.seconds) + " | " +
+           fmt("%.2f", r->cpu_seconds) + " | " + std::to_string(b.samples) + " | " +
+           std::to_string(b.light_tracing.light_rays) + " | " + std::to_string(b.rays) + " | " +
+           fmt("%.4f", b.error_estimate) + " | " + fmt("%.4f", lightmap_error_vs(r->Y, reference.Y)) + " | " +
+           fmt("%.4f", e) + " | " + fmt("%.0f", efficiency[i]) + " | " +
+           (i == 1 ? fmt("%.2fx", efficiency[0] / efficiency[1]) : "") + " |");
+      ++i;
+    }
+  }
   line("");
   line("Command: " + command + " (" + std::to_string(tbb::this_task_arena::max_concurrency()) + " TBB threads)");
   std::fputs(table.c_str(), stdout);
