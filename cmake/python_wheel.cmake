@@ -28,6 +28,8 @@ add_custom_command(OUTPUT ${KILN_PYTHON_WHEEL}
   COMMAND ${CMAKE_COMMAND} -E env --unset=PIP_FIND_LINKS --unset=PIP_INDEX_URL
           /usr/bin/python3 -m pip wheel --quiet --disable-pip-version-check --no-build-isolation --no-index --no-deps
           --wheel-dir ${PROJECT_BINARY_DIR}/python/dist ${_stage}
-  DEPENDS ${_kiln_py_files} ${_kiln_py_sources} ${PROJECT_BINARY_DIR}/python/kiln/kiln_pb2.py kiln_proto_python
+  DEPENDS ${_kiln_py_files} ${_kiln_py_sources} ${PROJECT_BINARY_DIR}/python/kiln/kiln_pb2.py
   COMMENT "Building the Python client's wheel" VERBATIM)
 add_custom_target(kiln_python_wheel ALL DEPENDS ${KILN_PYTHON_WHEEL})
+# Made in proto/ (kiln_proto_python): an order dependency here, the file dependency above for rebuilds.
+add_dependencies(kiln_python_wheel kiln_proto_python)
