@@ -65,12 +65,15 @@ if(KILN_HELP2MAN)
     list(GET fields 1 component)
     list(GET fields 2 summary)
     set(page ${PROJECT_BINARY_DIR}/man/${program}.1)
-    # --version-string: not every program has --version; --no-info: Debian has no info pages for these.
-    add_custom_command(OUTPUT ${page}
+    # --version-string: not every program has --version; --no-info: Debian has no info pages for these. Compressed
+    # as Debian policy 12.1 asks (gzip -9n: reproducible).
+    add_custom_command(OUTPUT ${page}.gz
       COMMAND ${CMAKE_COMMAND} -E make_directory ${PROJECT_BINARY_DIR}/man
       COMMAND ${KILN_HELP2MAN} --no-info --no-discard-stderr --version-string=${PROJECT_VERSION}
               --name=${summary} --section=1 --output=${page} $<TARGET_FILE:${program}>
+      COMMAND gzip -9nf ${page}
       DEPENDS ${program} VERBATIM)
+    set(page ${page}.gz)
     list(APPEND _man_pages ${page})
     install(FILES ${page} DESTINATION ${CMAKE_INSTALL_MANDIR}/man1 COMPONENT ${component})
   endforeach()
@@ -79,12 +82,15 @@ else()
   message(STATUS "kiln: help2man not found (Debian package help2man): installing without man pages")
 endif()
 
-# --- the copyright each package's documentation folder carries (Debian policy 12.5) ------------------------------
+# --- each package's documentation folder: copyright and changelog (Debian policy 12.5, 12.7) ---------------------
+execute_process(COMMAND gzip -9nc ${PROJECT_SOURCE_DIR}/deploy/debian/changelog
+                OUTPUT_FILE ${PROJECT_BINARY_DIR}/changelog.Debian.gz COMMAND_ERROR_IS_FATAL ANY)
+set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/deploy/debian/changelog)
 foreach(component daemon client dev)
   set(_package "kiln-${component}")
   if(component STREQUAL "dev")
     set(_package "libkiln-client-dev")
   endif()
-  install(FILES ${PROJECT_SOURCE_DIR}/deploy/debian/copyright DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/${_package}
-          COMPONENT ${component})
+  install(FILES ${PROJECT_SOURCE_DIR}/deploy/debian/copyright ${PROJECT_BINARY_DIR}/changelog.Debian.gz
+          DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/${_package} COMPONENT ${component})
 endforeach()

@@ -36,7 +36,7 @@ ls "$prefix"/share/kiln/examples/*.textproto > /dev/null || fail "the install ha
 [ -n "$(find "$prefix" -name libkiln_client.a)" ] ||
   fail "the install has no libkiln_client.a"
 if command -v help2man > /dev/null; then
-  for p in kilnd kiln kiln-brdf kiln-sky; do [ -s "$prefix/share/man/man1/$p.1" ] || fail "no man page for $p"; done
+  for p in kilnd kiln kiln-brdf kiln-sky; do [ -s "$prefix/share/man/man1/$p.1.gz" ] || fail "no man page for $p"; done
 else
   echo "install_test: help2man is not installed, so no man pages were made (Debian package help2man)"
 fi
@@ -131,7 +131,7 @@ if command -v systemd-analyze > /dev/null; then
   # Any complaint about the unit is printed by verify, with or without a failing exit status: both fail the test.
   # verify also runs `man` on the unit's Documentation=man:kilnd(1): the installed page, where man is installed.
   man_check=(--man=no)
-  if command -v man > /dev/null && [ -s "$prefix/share/man/man1/kilnd.1" ]; then man_check=(--man=yes); fi
+  if command -v man > /dev/null && [ -s "$prefix/share/man/man1/kilnd.1.gz" ]; then man_check=(--man=yes); fi
   MANPATH="$prefix/share/man" systemd-analyze verify "${man_check[@]}" "$prefix/lib/systemd/system/kilnd.service" \
     > "$work/verify.log" 2>&1 ||
     { cat "$work/verify.log"; fail "systemd-analyze verify kilnd.service"; }
