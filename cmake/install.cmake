@@ -36,6 +36,17 @@ endif()
 # --- the C++ client library: find_package(kiln) gives kiln::client; pkg-config kiln-client ---------------------------
 install(TARGETS kiln_client kiln_proto kiln_digest EXPORT kilnTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev)
+# --strip (and CPack's CPACK_STRIP_FILES) leave static libraries alone; their debug info is 9/10 of their size
+# (libkiln_proto.a: 10.1 MB, 0.95 MB without).
+if(CMAKE_STRIP)
+  install(CODE "if(CMAKE_INSTALL_DO_STRIP)
+  foreach(lib kiln_client kiln_proto kiln_digest)
+    execute_process(COMMAND \"${CMAKE_STRIP}\" --strip-debug
+                            \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_LIBDIR}/lib\${lib}.a\"
+                    COMMAND_ERROR_IS_FATAL ANY)
+  endforeach()
+endif()" COMPONENT dev)
+endif()
 install(FILES ${PROJECT_SOURCE_DIR}/client/lib/client.h DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/kiln/client/lib
         COMPONENT dev)
 install(FILES ${PROJECT_BINARY_DIR}/proto/kiln.pb.h ${PROJECT_SOURCE_DIR}/proto/kiln.proto
