@@ -33,6 +33,14 @@ for f in bin/kilnd bin/kiln bin/kiln-brdf bin/kiln-sky etc/kiln/kilnd.conf lib/s
   [ -e "$prefix/$f" ] || fail "the install has no $f"
 done
 ls "$prefix"/share/kiln/examples/*.textproto > /dev/null || fail "the install has no example jobs"
+# The wheel for machines without protoc must carry the protocol module the build generated, and python -m kiln.
+/usr/bin/python3 - "$prefix"/share/kiln/python/kiln_client-*-py3-none-any.whl "$build/python/kiln/kiln_pb2.py" <<'PY' ||
+import sys, zipfile
+with zipfile.ZipFile(sys.argv[1]) as wheel, open(sys.argv[2], "rb") as generated:
+    assert wheel.read("kiln/kiln_pb2.py") == generated.read(), "its kiln_pb2.py is not the build's"
+    assert "kiln/__main__.py" in wheel.namelist(), "it has no kiln/__main__.py"
+PY
+  fail "the installed wheel is not whole"
 [ -n "$(find "$prefix" -name libkiln_client.a)" ] ||
   fail "the install has no libkiln_client.a"
 if command -v help2man > /dev/null; then
