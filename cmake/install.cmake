@@ -2,7 +2,8 @@
 # daemon (kilnd, the local tools, the OpenColorIO config, kilnd.conf, the systemd unit), client (kiln, the Python
 # module, the example jobs) and dev (the C++ client library, its headers, CMake package config and pkg-config file).
 # The binaries carry no path to the source or build tree: the OCIO config is compiled in (bakers/CMakeLists.txt) and
-# installed only for $OCIO users; the paths in kilnd.conf and the unit follow the prefix (cmake/install_system_files.cmake).
+# installed only for $OCIO users; the paths in kilnd.conf and the unit follow the prefix
+# (cmake/install_system_files.cmake).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
@@ -24,7 +25,8 @@ include(\"${PROJECT_SOURCE_DIR}/cmake/install_system_files.cmake\")" COMPONENT d
 # --- the Python module (the pip route: client/python/pyproject.toml) ----------------------------------------------
 # Debian's layout by default (/usr/lib/python3/dist-packages with the /usr prefix); set it to your interpreter's
 # site-packages relative to the prefix for another one.
-set(KILN_INSTALL_PYTHONDIR "lib/python3/dist-packages" CACHE STRING "Where the Python module kiln goes, under the prefix")
+set(KILN_INSTALL_PYTHONDIR "lib/python3/dist-packages" CACHE STRING
+    "Where the Python module kiln goes, under the prefix")
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/client/python/kiln DESTINATION ${KILN_INSTALL_PYTHONDIR} COMPONENT client
         FILES_MATCHING PATTERN "*.py" PATTERN "__pycache__" EXCLUDE)
 install(FILES ${PROJECT_BINARY_DIR}/python/kiln/kiln_pb2.py DESTINATION ${KILN_INSTALL_PYTHONDIR}/kiln COMPONENT client)

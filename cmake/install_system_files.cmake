@@ -2,10 +2,12 @@
 # paths of the prefix given at install time. With the /usr prefix (the Debian packages) they are the system's:
 # /etc/kiln, /var/lib/kiln, /run/kiln, /lib/systemd/system; with any other prefix P they stay under it: P/etc/kiln,
 # P/var/lib/kiln, P/run/kiln, P/lib/systemd/system, so that an install to a scratch prefix runs as it is.
-# In: KILN_SOURCE_DIR, KILN_BINARY_DIR, KILN_BINDIR (relative to the prefix), CMAKE_INSTALL_PREFIX; DESTDIR is honoured by file(INSTALL).
+# In: KILN_SOURCE_DIR, KILN_BINARY_DIR, KILN_BINDIR (relative to the prefix), CMAKE_INSTALL_PREFIX. DESTDIR is
+# honoured by file(INSTALL).
 if(CMAKE_INSTALL_PREFIX STREQUAL "/usr")
   set(_root "")
-  set(_unit_dir "/lib/systemd/system")  # where Debian 12's packages put units (lintian: systemd-service-file-outside-lib)
+  # Where Debian 12's packages put units (lintian: systemd-service-file-outside-lib).
+  set(_unit_dir "/lib/systemd/system")
 else()
   set(_root "${CMAKE_INSTALL_PREFIX}")
   set(_unit_dir "${CMAKE_INSTALL_PREFIX}/lib/systemd/system")
