@@ -4,7 +4,7 @@
 # token in the config's token file; the installed `kiln` bakes every installed example; the Python client, pip-installed
 # into a fresh virtual environment (Debian's protobuf through --system-site-packages, no package index), submits the
 # same jobs and fetches byte-identical outputs; a program built with find_package(kiln) says hello; pkg-config finds
-# the library; systemd-analyze verifies the unit where systemd is there.
+# the library; systemd-analyze verifies the unit where systemd is there; a second install keeps an edited kilnd.conf.
 # Usage: install_test.sh SOURCE_DIR BUILD_DIR   (CTest: install_prefix)
 set -euo pipefail
 src="$(cd "$1" && pwd)"
@@ -25,7 +25,8 @@ unset KILN_PYTHON_PROTO PYTHONPATH KILN_SERVER KILN_TOKEN KILN_TOKEN_FILE KILN_T
 cd "$work"
 
 step "cmake --install into $prefix"
-cmake --install "$build" --prefix "$prefix" > "$work/install.log" || { cat "$work/install.log"; fail "cmake --install"; }
+cmake --install "$build" --prefix "$prefix" > "$work/install.log" ||
+  { cat "$work/install.log"; fail "cmake --install"; }
 for f in bin/kilnd bin/kiln bin/kiln-brdf bin/kiln-sky etc/kiln/kilnd.conf lib/systemd/system/kilnd.service \
          share/kiln/ocio/config.ocio include/kiln/client/lib/client.h include/kiln/proto/kiln.pb.h \
          lib/cmake/kiln/kilnConfig.cmake lib/pkgconfig/kiln-client.pc lib/python3/dist-packages/kiln/kiln_pb2.py \
@@ -52,16 +53,19 @@ fi
 if grep -rIl -e "$src" -e "$build" "$prefix" --exclude-dir=bin --exclude='*.a' > "$work/leaks" 2>/dev/null; then
   fail "installed files name the source or build tree: $(tr '\n' ' ' < "$work/leaks")"
 fi
-grep -q "^ExecStart=$prefix/bin/kilnd --config $prefix/etc/kiln/kilnd.conf$" "$prefix/lib/systemd/system/kilnd.service" ||
+unit="$prefix/lib/systemd/system/kilnd.service"
+grep -q "^ExecStart=$prefix/bin/kilnd --config $prefix/etc/kiln/kilnd.conf$" "$unit" ||
   fail "the unit's ExecStart does not name the installed kilnd and config"
-grep -q "^store: \"$prefix/var/lib/kiln\"$" "$prefix/etc/kiln/kilnd.conf" || fail "kilnd.conf's store is not under the prefix"
+grep -q "^store: \"$prefix/var/lib/kiln\"$" "$prefix/etc/kiln/kilnd.conf" ||
+  fail "kilnd.conf's store is not under the prefix"
 
 step "starting the installed kilnd with the installed config"
 token_file="$(sed -n 's/^token_file: "\(.*\)"$/\1/p' "$prefix/etc/kiln/kilnd.conf")"
 [ "$token_file" = "$prefix/etc/kiln/tokens" ] || fail "kilnd.conf's token_file is $token_file, not under the prefix"
 ( umask 077; od -An -N32 -tx1 /dev/urandom | tr -d ' \n' > "$token_file"; echo >> "$token_file" )
 # The build tree moved away for the run: a binary that still reached into it would fail here.
-"$prefix/bin/kilnd" --config "$prefix/etc/kiln/kilnd.conf" --listen 127.0.0.1:0 > "$work/kilnd.out" 2> "$work/kilnd.log" &
+"$prefix/bin/kilnd" --config "$prefix/etc/kiln/kilnd.conf" --listen 127.0.0.1:0 \
+  > "$work/kilnd.out" 2> "$work/kilnd.log" &
 kilnd_pid=$!
 address=""
 for _ in $(seq 1 300); do
@@ -84,7 +88,8 @@ for job in "$prefix"/share/kiln/examples/*.textproto; do
   sed -e 's/^\( *\)samples: [0-9]*/\1samples: 16/' -e 's/^\( *\)target_error: [0-9.e-]*/\1target_error: 0.05/' \
     "$job" > "$work/jobs/$name.textproto"
   "$prefix/bin/kiln" --server "$address" --token-file "$token_file" submit "$work/jobs/$name.textproto" \
-    --out "$work/cpp/$name" > "$work/kiln.out" 2> "$work/kiln.err" || { cat "$work/kiln.err"; fail "kiln submit $name"; }
+    --out "$work/cpp/$name" > "$work/kiln.out" 2> "$work/kiln.err" ||
+    { cat "$work/kiln.err"; fail "kiln submit $name"; }
 done
 
 step "pip install client/python into a fresh virtual environment (--system-site-packages, --no-index)"
@@ -103,7 +108,7 @@ import kiln
 venv = os.path.realpath(sys.argv[1])
 for module in (kiln, kiln.pb):
     path = os.path.realpath(module.__file__)
-    assert path.startswith(venv + os.sep), "%s loaded from %s, outside the virtual environment" % (module.__name__, path)
+    assert path.startswith(venv + os.sep), "%s loaded from %s, outside the venv" % (module.__name__, path)
 print("install_test: kiln %s and its protocol module load from the virtual environment" % kiln.PROTOCOL_VERSION)
 PY
 
@@ -140,11 +145,17 @@ if command -v systemd-analyze > /dev/null; then
   # verify also runs `man` on the unit's Documentation=man:kilnd(1): the installed page, where man is installed.
   man_check=(--man=no)
   if command -v man > /dev/null && [ -s "$prefix/share/man/man1/kilnd.1.gz" ]; then man_check=(--man=yes); fi
-  MANPATH="$prefix/share/man" systemd-analyze verify "${man_check[@]}" "$prefix/lib/systemd/system/kilnd.service" \
+  MANPATH="$prefix/share/man" systemd-analyze verify "${man_check[@]}" "$unit" \
     > "$work/verify.log" 2>&1 ||
     { cat "$work/verify.log"; fail "systemd-analyze verify kilnd.service"; }
   if grep -q "kilnd.service" "$work/verify.log"; then cat "$work/verify.log"; fail "systemd-analyze verify"; fi
 else
   echo "install_test: systemd-analyze is not installed (Debian package systemd): the unit is not verified here"
 fi
+step "installing again over an edited kilnd.conf keeps it and puts the new one beside it"
+sed -i 's/^workers: 1$/workers: 3/' "$prefix/etc/kiln/kilnd.conf"
+cmake --install "$build" --prefix "$prefix" > "$work/install2.log" ||
+  { cat "$work/install2.log"; fail "the second cmake --install"; }
+grep -q "^workers: 3$" "$prefix/etc/kiln/kilnd.conf" || fail "a second install replaced the edited kilnd.conf"
+grep -q "^workers: 1$" "$prefix/etc/kiln/kilnd.conf.new" || fail "a second install left no kilnd.conf.new"
 step "passed"
