@@ -63,7 +63,7 @@ step "starting the installed kilnd with the installed config"
 token_file="$(sed -n 's/^token_file: "\(.*\)"$/\1/p' "$prefix/etc/kiln/kilnd.conf")"
 [ "$token_file" = "$prefix/etc/kiln/tokens" ] || fail "kilnd.conf's token_file is $token_file, not under the prefix"
 ( umask 077; od -An -N32 -tx1 /dev/urandom | tr -d ' \n' > "$token_file"; echo >> "$token_file" )
-# The build tree moved away for the run: a binary that still reached into it would fail here.
+# Run from the scratch folder, with nothing of the developer's environment (unset above) to lead it to the build.
 "$prefix/bin/kilnd" --config "$prefix/etc/kiln/kilnd.conf" --listen 127.0.0.1:0 \
   > "$work/kilnd.out" 2> "$work/kilnd.log" &
 kilnd_pid=$!
