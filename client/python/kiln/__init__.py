@@ -7,13 +7,14 @@
         final = c.watch(reply.job_id, on_event=lambda e: print(e.fraction))
         paths = c.fetch_outputs(reply.job_id, "out/ggx")  # every output, its SHA-256 verified
 
-The protocol's messages (kiln.v1, proto/kiln.proto) are `kiln.pb`: code protoc generates from kiln.proto into
-<build>/python/kiln/kiln_pb2.py. This package finds that file, in this order:
-  1. the folder named by $KILN_PYTHON_PROTO;
-  2. this package's own folder (an installed or copied kiln_pb2.py next to this file);
-  3. <repository>/build*/python/kiln/ (a build tree next to the sources; the newest if there are several);
-  4. a top-level module `kiln_pb2` on sys.path.
-It needs Debian's python3-protobuf (use /usr/bin/python3) and nothing else beyond the standard library.
+The protocol's messages (kiln.v1, proto/kiln.proto) are `kiln.pb`: code protoc generates from kiln.proto. An
+installed kiln (pip, the wheel of the build, the kiln-client package) carries it as kiln/kiln_pb2.py. Run from the
+source tree or an installed one, this package finds it, in this order:
+  1. in the folder named by $KILN_PYTHON_PROTO (<build>/python/kiln, made by the build target kiln_proto_python);
+  2. in this package's own folder (how an installed kiln has it);
+  3. in <repository>/build*/python/kiln/ (a build tree next to the sources; the newest if there are several);
+  4. as a top-level module `kiln_pb2` on sys.path.
+It needs the protobuf runtime, 3.20 or newer (Debian's python3-protobuf), and nothing else beyond the standard library.
 """
 
 import glob as _glob
