@@ -297,6 +297,9 @@ void encode_dfg(EnvironmentRun& run) {
   image.metadata["kiln:axes"] =
       "x: mu = n.v = (x + 0.5)/width; y: perceptual roughness (y + 0.5)/height, alpha = rho^2";
   image.metadata["kiln:lobe"] = to_string(run.in.lobe);
+  image.metadata["kiln:channel.scale"] = "scale: the factor on f0 (E ~= f0 * scale + bias)";
+  image.metadata["kiln:channel.bias"] = "bias: the term added";
+  image.metadata["kiln:channel.energy"] = "scale + bias: the directional albedo with F = 1";
   run.add_output("dfg.exr", "image/x-exr", "data", image::encode_exr(image));
 }
 

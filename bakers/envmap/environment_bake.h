@@ -39,7 +39,7 @@
 
 namespace kiln::envmap {
 
-inline constexpr const char* kEnvironmentBakerVersion = "kiln-environment-1";
+inline constexpr const char* kEnvironmentBakerVersion = "kiln-environment-2";
 
 struct EnvironmentBakeInput {
   // Exactly one source: `constant`, else six `faces`, else `image`.
