@@ -107,6 +107,24 @@ void cube_settings(const EJ& e, envmap::EnvironmentBakeInput& in) {
   set_count(e.has_dfg_size(), e.dfg_size(), kPath + ".dfg_size", bounds::kDfgSize, in.dfg_size);
   set_count(e.has_dfg_samples(), e.dfg_samples(), kPath + ".dfg_samples", bounds::kDfgSamples, in.dfg_samples);
   if (e.has_preview()) in.preview = e.preview();
+  switch (e.dfg_masking()) {
+    case kiln::v1::MASKING_DEFAULT:
+      break;
+    case kiln::v1::MASKING_SEPARABLE:
+      in.dfg_masking = brdf::Masking::separable;
+      break;
+    case kiln::v1::MASKING_HEIGHT_CORRELATED:
+      in.dfg_masking = brdf::Masking::height_correlated;
+      break;
+    case kiln::v1::MASKING_V_GROOVE:
+      in.dfg_masking = brdf::Masking::v_groove;
+      break;
+    case kiln::v1::MASKING_SCHLICK:
+      in.dfg_masking = brdf::Masking::schlick;
+      break;
+    default:
+      throw InvalidField(kPath + ".dfg_masking", "unknown value " + std::to_string(e.dfg_masking()));
+  }
 }
 
 void environment_quality(const kiln::v1::Quality& q, envmap::EnvironmentBakeInput& in) {
@@ -187,8 +205,9 @@ std::string environment_canonical_text(const BakeRequest& r) {
     << "\nintensity=" << format_number(in.decode.intensity) << "\nlobe=" << envmap::to_string(in.lobe)
     << "\nsize=" << in.size << "\nlevels=" << (in.levels != 0 ? in.levels : most_levels(in.size))
     << "\nirradiance_size=" << in.irradiance_size << "\ndfg_size=" << in.dfg_size << "\ndfg_samples=" << in.dfg_samples
-    << "\nsamples=" << in.samples << "\ntarget_error=" << format_number(in.target_error) << "\npreview=" << in.preview
-    << "\nseed=" << in.seed << "\nforce_effects=";
+    << "\ndfg_masking=" << brdf::to_string(envmap::dfg_masking(in.lobe, in.dfg_masking)) << "\nsamples=" << in.samples
+    << "\ntarget_error=" << format_number(in.target_error) << "\npreview=" << in.preview << "\nseed=" << in.seed
+    << "\nforce_effects=";
   for (const auto& [effect, on] : in.force_effects) o << effect << (on ? "+" : "-") << ";";  // sorted by name
   o << "\n";
   return o.str();

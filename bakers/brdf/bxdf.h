@@ -47,6 +47,9 @@ class Bxdf {
   virtual std::string describe() const = 0;
   // Helmholtz reciprocity f(wo, wi) = f(wi, wo) holds for this model as configured.
   virtual bool reciprocal() const { return true; }
+  // f depends on the azimuths of wo and wi only through their difference, as configured: an estimator averaging
+  // over the azimuth of wo may then fix it (albedo.h). False unless a model knows better.
+  virtual bool isotropic() const { return false; }
 };
 
 inline constexpr double kHorizonCos = 1e-100;

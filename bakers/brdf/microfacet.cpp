@@ -75,11 +75,18 @@ Rgb MicrofacetBrdf::eval(const Vec3& wo, const Vec3& wi) const {
   return F(0.5 * (dot(wo, wh) + dot(wi, wh))) * (d * g / denom);
 }
 
+bool MicrofacetBrdf::samples_v_cavity() const {
+  // The V-groove G is the masking of the V-cavity microsurface: its visible normals make the weight F G / G1(wo) ≤ F.
+  // Schlick's rational D has no Smith Λ of its own (it borrows Beckmann's), so it has no Smith visible normals; its
+  // V-cavity ones keep the weight bounded at grazing wo, where D cos θ_h sampling is not (see BRDF.md).
+  return params_.masking == Masking::v_groove || params_.distribution == Distribution::schlick_beckmann;
+}
+
 std::optional<BsdfSample> MicrofacetBrdf::sample(const Vec3& wo, Point2 u, double) const {
   if (!above_horizon(wo)) return std::nullopt;
-  const Vec3 wh = distribution_.sample_wh(wo, u);
+  const Vec3 wh = samples_v_cavity() ? distribution_.sample_wh_v_cavity(wo, u) : distribution_.sample_wh(wo, u);
   const double o_dot_h = dot(wo, wh);
-  // A Beckmann-sampled normal can face away from wo (its sampler ignores visibility); it reflects nothing.
+  // Visible normals face wo; rounding at a grazing facet can still give o·h ≤ 0, which reflects nothing.
   if (!(o_dot_h > 0)) return std::nullopt;
   const Vec3 wi = reflect(wo, wh);
   if (!above_horizon(wi)) return std::nullopt;  // reflected below the horizon: masked in reality, no energy here
@@ -92,7 +99,8 @@ double MicrofacetBrdf::pdf(const Vec3& wo, const Vec3& wi) const {
   const double o_dot_h = dot(wo, wh);
   if (!(o_dot_h > 0)) return 0.0;
   // Jacobian of the reflection map wh -> wi: dω_h / dω_i = 1 / (4 wo·wh).
-  return distribution_.pdf_wh(wo, wh) / (4.0 * o_dot_h);
+  const double pdf_h = samples_v_cavity() ? distribution_.pdf_wh_v_cavity(wo, wh) : distribution_.pdf_wh(wo, wh);
+  return pdf_h / (4.0 * o_dot_h);
 }
 
 std::string MicrofacetBrdf::describe() const {

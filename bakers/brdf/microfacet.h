@@ -27,6 +27,8 @@ class MicrofacetBrdf final : public Bxdf {
   std::optional<BsdfSample> sample(const Vec3& wo, Point2 u, double uc) const override;
   double pdf(const Vec3& wo, const Vec3& wi) const override;
   std::string describe() const override;
+  // α_x = α_y (Schlick's rational D is always isotropic).
+  bool isotropic() const override { return distribution_.alpha_x() == distribution_.alpha_y(); }
 
   const MicrofacetDistribution& distribution() const { return distribution_; }
   // The shadowing-masking term G(wo, wi) for the half vector wh, as configured.
@@ -35,6 +37,10 @@ class MicrofacetBrdf final : public Bxdf {
   Rgb F(double cos_theta_h) const;
 
  private:
+  // Which visible normals sample() draws: the V-cavity ones (V-groove masking, Schlick's rational D) or the
+  // distribution's own Smith ones.
+  bool samples_v_cavity() const;
+
   MicrofacetParams params_;
   MicrofacetDistribution distribution_;
 };

@@ -1,7 +1,10 @@
 #include "bakers/brdf/microfacet_distribution.h"
 
+#include <algorithm>
+#include <cfloat>
 #include <cmath>
 
+#include "bakers/brdf/beckmann_visible.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::brdf {
@@ -99,32 +102,135 @@ Vec3 MicrofacetDistribution::sample_wh(const Vec3& wo, Point2 u) const {
     const Vec3 nh = t1 * p1 + t2 * p2 + vh * std::sqrt(std::fmax(0.0, 1.0 - p1 * p1 - p2 * p2));
     return normalize(Vec3{alpha_x_ * nh.x, alpha_y_ * nh.y, std::fmax(0.0, nh.z)});
   }
-  if (kind_ == Distribution::schlick_beckmann) {
-    // Inverting the CDF of D(t) t in x = t − (1 − m), measured from the lower end of the support:
-    // P(x) = m³ / (1 − m) [1 / (m² − (1 − m) x²) − 1 / m²] = ξ  gives  x² = m² ξ / (m + ξ (1 − m)).
-    // Sampling this D itself matters: its tail is heavier than Beckmann's, whose density would give estimates
-    // of unbounded variance.
-    const double m = alpha_x_;
-    const double x = m * std::sqrt(u.x / (m + u.x * (1.0 - m)));
-    const double cos_theta = std::fmin(1.0, x + 1.0 - m);
-    const double sin_theta = std::sqrt(std::fmax(0.0, 1.0 - cos_theta * cos_theta));
-    const double phi = 2.0 * kPi * u.y;
-    return {sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta};
-  }
-  // Beckmann slopes are Gaussian: P22(x̃, ỹ) ∝ exp(−x̃²/α_x² − ỹ²/α_y²), sampled by Box–Muller; the normal of slope
-  // (x̃, ỹ) is (−x̃, −ỹ, 1) normalised, and this samples D(wh) cos θ_h exactly.
-  // u.x = 0 gives the radius 0 (the normal itself); 1 − u.x > 0 since u ∈ [0, 1).
-  const double r = std::sqrt(-std::log1p(-u.x));
-  const double phi = 2.0 * kPi * u.y;
-  const Vec3 m{-alpha_x_ * r * std::cos(phi), -alpha_y_ * r * std::sin(phi), 1.0};
-  return normalize(m);
+  // Seen from the normal the visible normals are D(wh) cos θ_h; the projected sampler draws them with the same map
+  // as before visible-normal sampling existed, so the environment bake (which samples from v = n) keeps its bytes.
+  if (kind_ == Distribution::schlick_beckmann || (wo.x == 0.0 && wo.y == 0.0)) return sample_wh_projected(u);
+  // Beckmann (Heitz & d'Eon 2014, section 4): stretch wo to unit roughness, sample the visible slopes there in the
+  // frame of wo's azimuth, rotate them back, unstretch, and take the normal of that slope.
+  const Vec3 ws = normalize(Vec3{alpha_x_ * wo.x, alpha_y_ * wo.y, wo.z});
+  const double len = std::hypot(ws.x, ws.y);
+  // len > 0: wo is off the normal and the widths are positive.
+  const double cos_phi = ws.x / len, sin_phi = ws.y / len;
+  const Point2 s = sample_beckmann_visible_slope(ws.z, u);
+  const double sx = alpha_x_ * (cos_phi * s.x - sin_phi * s.y);
+  const double sy = alpha_y_ * (sin_phi * s.x + cos_phi * s.y);
+  return normalize(Vec3{-sx, -sy, 1.0});
 }
 
 double MicrofacetDistribution::pdf_wh(const Vec3& wo, const Vec3& wh) const {
-  if (kind_ == Distribution::ggx) return D_visible(wo, wh);
+  if (kind_ != Distribution::schlick_beckmann) return D_visible(wo, wh);
   if (!(wh.z > 0)) return 0.0;
-  if (kind_ == Distribution::schlick_beckmann) return D(wh) * wh.z;
-  return D_beckmann(wh) * wh.z;
+  return D(wh) * wh.z;
+}
+
+double MicrofacetDistribution::slope_radius(double u) const {
+  if (kind_ == Distribution::ggx) {
+    // GGX slopes of unit roughness: P(r) = r² / (1 + r²), so r² = ξ / (1 − ξ); 1 − ξ > 0 since u ∈ [0, 1).
+    return std::sqrt(u / (1.0 - u));
+  }
+  // Beckmann slopes are Gaussian: P22(x̃, ỹ) ∝ exp(−x̃²/α_x² − ỹ²/α_y²), the radius sampled as in Box–Muller.
+  // u = 0 gives the radius 0 (the normal itself); 1 − u > 0 since u ∈ [0, 1).
+  return std::sqrt(-std::log1p(-u));
+}
+
+double MicrofacetDistribution::rational_cos_theta(double u) const {
+  // Inverting the CDF of D(t) t in x = t − (1 − m), measured from the lower end of the support:
+  // P(x) = m³ / (1 − m) [1 / (m² − (1 − m) x²) − 1 / m²] = ξ  gives  x² = m² ξ / (m + ξ (1 − m)).
+  const double m = alpha_x_;
+  const double x = m * std::sqrt(u / (m + u * (1.0 - m)));
+  return std::fmin(1.0, x + 1.0 - m);
+}
+
+Vec3 MicrofacetDistribution::sample_wh_projected(Point2 u) const {
+  const double phi = 2.0 * kPi * u.y;
+  if (kind_ == Distribution::schlick_beckmann) {
+    const double cos_theta = rational_cos_theta(u.x);
+    const double sin_theta = std::sqrt(std::fmax(0.0, 1.0 - cos_theta * cos_theta));
+    return {sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta};
+  }
+  // Both D's are stretched isotropic slope distributions: draw the slope radius r of unit roughness, stretch by the
+  // widths, and take the normal (−x̃, −ỹ, 1) normalised; D is even in the slope, so the sign is immaterial.
+  const double r = slope_radius(u.x);
+  return normalize(Vec3{-alpha_x_ * r * std::cos(phi), -alpha_y_ * r * std::sin(phi), 1.0});
+}
+
+namespace {
+
+// ψ ∈ [0, π] with density clamp(1 + c cos ψ, 0, 2) / π (c ≥ 0), by inverting its CDF at t ∈ [0, 1]. For c ≤ 1 the
+// CDF is (ψ + c sin ψ)/π (Kepler's equation, solved by safeguarded Newton); for c > 1 the density is 2/π up to
+// ψ1 = acos(1/c), 0 beyond π − ψ1, and 1 + c cos ψ between.
+double sample_v_cavity_offset(double c, double t) {
+  const double target = t * kPi;
+  double lo = 0.0, hi = kPi, base = 0.0;
+  if (c > 1.0) {
+    const double psi1 = std::acos(1.0 / c);
+    if (target <= 2.0 * psi1) return 0.5 * target;
+    lo = psi1;
+    hi = kPi - psi1;
+    base = 2.0 * psi1 - (psi1 + c * std::sin(psi1));  // the CDF·π is continuous at ψ1, where it is 2 ψ1
+  }
+  const auto cdf = [&](double psi) { return base + psi + c * std::sin(psi); };
+  const double c_lo = cdf(lo), c_hi = cdf(hi);
+  // The secant of the bracket as a start; Newton from there, bisecting when a step leaves the bracket.
+  double psi = c_hi > c_lo ? std::clamp(lo + (hi - lo) * (target - c_lo) / (c_hi - c_lo), lo, hi) : lo;
+  for (int it = 0; it < 100; ++it) {
+    const double f = cdf(psi) - target;
+    // Converged in probability (a few ulps of π); near ψ = π the density vanishes for c = 1 and ψ itself is
+    // ill-conditioned, but every ψ there has the right probability.
+    if (std::fabs(f) <= 8.0 * DBL_EPSILON * (1.0 + c)) break;
+    (f < 0.0 ? lo : hi) = psi;
+    const double density = 1.0 + c * std::cos(psi);
+    double next = density > 0.0 ? psi - f / density : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (next == psi) break;
+    psi = next;
+  }
+  return psi;
+}
+
+// The signed offset ψ ∈ [−π, π] from u ∈ [0, 1), monotone and continuous in u (stratification carries over).
+double sample_v_cavity_azimuth(double c, double u) {
+  return u < 0.5 ? -sample_v_cavity_offset(c, 1.0 - 2.0 * u) : sample_v_cavity_offset(c, 2.0 * u - 1.0);
+}
+
+}  // namespace
+
+Vec3 MicrofacetDistribution::sample_wh_v_cavity(const Vec3& wo, Point2 u) const {
+  // Heitz & d'Eon 2014, section 5.1: draw a facet of the V from D cos θ_h, then keep it or take its mirror image in
+  // proportion to their projected areas a = max(0, wo·wh) and b = max(0, wo·wh'). Done directly, that choice needs
+  // a third random number, which stratified estimators leave unstratified (and the two facets' weights differ
+  // through F). Instead the azimuth is drawn from its density given the polar angle or slope radius, which is
+  // uniform (D cos θ_h is isotropic in the unit-roughness slope plane) times 2a / (a + b): with
+  // wo·wh ∝ 1 + c cos ψ (ψ the azimuth of the facet from the one facing wo most), a + b = 2 where both faces are
+  // visible, so the density is clamp(1 + c cos ψ, 0, 2) / (2π), inverted in closed form up to Kepler's equation.
+  if (kind_ == Distribution::schlick_beckmann) {
+    const double cos_theta = rational_cos_theta(u.x);
+    const double sin_theta = std::sqrt(std::fmax(0.0, 1.0 - cos_theta * cos_theta));
+    const double sin_o = std::hypot(wo.x, wo.y);
+    // wo·wh = cos θ_o cos θ_h + sin θ_o sin θ_h cos(φ − φ_o): c = tan θ_o tan θ_h (0 along the normal).
+    const double c = sin_o > 0.0 && cos_theta > 0.0 ? (sin_o * sin_theta) / (wo.z * cos_theta) : 0.0;
+    const double phi_o = sin_o > 0.0 ? std::atan2(wo.y, wo.x) : 0.0;
+    const double phi = phi_o + sample_v_cavity_azimuth(c, u.y);
+    return {sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta};
+  }
+  // GGX and Beckmann: wh ∝ (−α_x r cos φ', −α_y r sin φ', 1) with φ' uniform under D cos θ_h, so
+  // wo·wh ∝ wo.z − r A cos(φ' − β) with A = |(α_x wo.x, α_y wo.y)| and β its angle: c = r A / wo.z, φ' = β + π + ψ.
+  const double r = slope_radius(u.x);
+  const double ax = alpha_x_ * wo.x, ay = alpha_y_ * wo.y;
+  const double a_len = std::hypot(ax, ay);
+  const double c = a_len > 0.0 && r > 0.0 ? r * a_len / wo.z : 0.0;
+  const double beta = a_len > 0.0 ? std::atan2(ay, ax) : 0.0;
+  const double phi = beta + kPi + sample_v_cavity_azimuth(c, u.y);
+  return normalize(Vec3{-alpha_x_ * r * std::cos(phi), -alpha_y_ * r * std::sin(phi), 1.0});
+}
+
+double MicrofacetDistribution::pdf_wh_v_cavity(const Vec3& wo, const Vec3& wh) const {
+  if (!(wo.z > 0) || !(wh.z > 0)) return 0.0;
+  const double o_dot_h = dot(wo, wh);
+  if (!(o_dot_h > 0)) return 0.0;  // back-facing facets are never picked
+  // Drawn directly (kept with probability a / (a + b)) or as the mirror of its mirror image: 2 D cos θ_h a / (a + b).
+  // When both facets face wo, a + b = 2 (n·wo)(n·wh); when only this one does, a + b = a.
+  return D(wh) * std::fmin(o_dot_h, 2.0 * wh.z * wo.z) / wo.z;
 }
 
 }  // namespace kiln::brdf

@@ -30,16 +30,33 @@ class MicrofacetDistribution {
   // The distribution of visible normals D_w(wh) = G1(w) max(0, w·wh) D(wh) / cos θ_w (Heitz 2014, eq 2).
   double D_visible(const Vec3& w, const Vec3& wh) const;
 
-  // Samples a microfacet normal seen from wo (wo.z > 0): GGX samples the visible normals exactly (Heitz 2018);
-  // Beckmann and Schlick's rational D sample their own D(wh) cos θ_h (Beckmann slopes are Gaussian; the rational
-  // D has a closed-form inverse CDF).
+  // Samples a microfacet normal seen from wo (wo.z > 0) from the visible normals D_visible(wo, wh): GGX by Heitz
+  // 2018, Beckmann by Heitz & d'Eon 2014 (beckmann_visible.h). Schlick's rational D has no Smith Λ of its own, so it
+  // has no visible normals in Smith's sense: it samples D(wh) cos θ_h (a closed-form inverse CDF), and the models
+  // sample its V-cavity visible normals instead (sample_wh_v_cavity). Seen from the normal every variant draws
+  // D(wh) cos θ_h.
   Vec3 sample_wh(const Vec3& wo, Point2 u) const;
   // Density of sample_wh per solid angle of wh.
   double pdf_wh(const Vec3& wo, const Vec3& wh) const;
 
+  // Samples D(wh) cos θ_h, the normals weighted by their projected area on the mean surface.
+  Vec3 sample_wh_projected(Point2 u) const;
+  // The visible normals of the V-cavity microsurface built on this D (Heitz & d'Eon 2014, section 5.1): every
+  // facet wh is paired with its mirror image (−wh.x, −wh.y, wh.z) into a V, and G1(wo, wh) = min(1, 2 (n·wh)(n·wo) /
+  // (wo·wh)) is the masking of Torrance–Sparrow's and Cook–Torrance's V-groove G. The density
+  // D(wh) min(wo·wh, 2 (n·wh)(n·wo)) / (n·wo) integrates to 1 for every D symmetric under wh → mirror image (all
+  // three here): it samples the V-groove models exactly and, for Schlick's rational D, bounds the weight where
+  // D cos θ_h would not. The map from u is monotone in each coordinate, so stratification carries over.
+  Vec3 sample_wh_v_cavity(const Vec3& wo, Point2 u) const;
+  double pdf_wh_v_cavity(const Vec3& wo, const Vec3& wh) const;
+
  private:
   // Beckmann's normalised D.
   double D_beckmann(const Vec3& wh) const;
+  // The slope radius of unit roughness drawn from u for the D cos θ_h of GGX and Beckmann.
+  double slope_radius(double u) const;
+  // cos θ_h drawn from u for the D cos θ_h of Schlick's rational D.
+  double rational_cos_theta(double u) const;
 
   Distribution kind_;
   double alpha_x_, alpha_y_;

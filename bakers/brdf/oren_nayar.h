@@ -18,6 +18,7 @@ class OrenNayar final : public Bxdf {
   std::optional<BsdfSample> sample(const Vec3& wo, Point2 u, double uc) const override;
   double pdf(const Vec3& wo, const Vec3& wi) const override;
   std::string describe() const override;
+  bool isotropic() const override { return true; }
 
  private:
   Rgb albedo_;
@@ -36,6 +37,7 @@ class OrenNayarSimple final : public Bxdf {
   std::optional<BsdfSample> sample(const Vec3& wo, Point2 u, double uc) const override;
   double pdf(const Vec3& wo, const Vec3& wi) const override;
   std::string describe() const override;
+  bool isotropic() const override { return true; }
 
  private:
   Rgb albedo_;

@@ -52,9 +52,9 @@ SchlickSingle::~SchlickSingle() = default;
 
 Rgb SchlickSingle::eval(const Vec3& wo, const Vec3& wi) const { return impl_->model.eval(wo, wi); }
 
-std::optional<BsdfSample> SchlickSingle::sample(const Vec3& wo, Point2 u, double uc) const {
+std::optional<BsdfSample> SchlickSingle::sample(const Vec3& wo, Point2 u, double) const {
   if (!above_horizon(wo)) return std::nullopt;
-  const Vec3 wi = impl_->model.sample_direction(wo, u, uc);
+  const Vec3 wi = impl_->model.sample_direction(wo, u);
   return make_sample(wi, eval(wo, wi), pdf(wo, wi));  // fails below the horizon
 }
 
@@ -65,6 +65,8 @@ std::string SchlickSingle::describe() const { return "schlick(" + describe_layer
 // ---------------------------------------------------------------------------------------------------------------
 // f = f_top + T(wo) T(wi) f_bottom: light reaches the bottom through the top and leaves through it again; what the
 // top's underside reflects back down is neglected, so some energy is lost (measured in schlick_test).
+bool SchlickSingle::isotropic() const { return impl_->model.layer().p == 1.0; }
+
 struct SchlickDouble::Impl {
   Impl(const SchlickLayer& t, const SchlickLayer& b) : top(t), bottom(b) {}
   SchlickLayerModel top, bottom;
@@ -95,15 +97,16 @@ Rgb SchlickDouble::eval(const Vec3& wo, const Vec3& wi) const {
   return impl_->top.eval(wo, wi) + impl_->transmission(wo) * impl_->transmission(wi) * impl_->bottom.eval(wo, wi);
 }
 
-std::optional<BsdfSample> SchlickDouble::sample(const Vec3& wo, Point2 u, double uc) const {
+std::optional<BsdfSample> SchlickDouble::sample(const Vec3& wo, Point2 u, double) const {
   if (!above_horizon(wo)) return std::nullopt;
   const double pt = impl_->top_probability(wo);
-  // Reuse uc for the lobe choice inside the chosen layer, rescaled to [0, 1).
+  // The layer is chosen by u.x, rescaled to [0, 1) for the chosen layer (which splits it again between its lobes):
+  // stratification of u carries over to the choice (schlick_layer_model.h).
   Vec3 wi;
-  if (uc < pt) {
-    wi = impl_->top.sample_direction(wo, u, uc / pt);
+  if (u.x < pt) {
+    wi = impl_->top.sample_direction(wo, {std::fmin(u.x / pt, kOneMinusEpsilon), u.y});
   } else {
-    wi = impl_->bottom.sample_direction(wo, u, (uc - pt) / (1.0 - pt));
+    wi = impl_->bottom.sample_direction(wo, {std::fmin((u.x - pt) / (1.0 - pt), kOneMinusEpsilon), u.y});
   }
   return make_sample(wi, eval(wo, wi), pdf(wo, wi));  // fails below the horizon
 }
@@ -118,5 +121,7 @@ std::string SchlickDouble::describe() const {
   return "schlick-double(top: " + describe_layer(impl_->top.layer()) +
          "; bottom: " + describe_layer(impl_->bottom.layer()) + ")";
 }
+
+bool SchlickDouble::isotropic() const { return impl_->top.layer().p == 1.0 && impl_->bottom.layer().p == 1.0; }
 
 }  // namespace kiln::brdf

@@ -17,6 +17,7 @@ class SchlickSingle final : public Bxdf {
   std::optional<BsdfSample> sample(const Vec3& wo, Point2 u, double uc) const override;
   double pdf(const Vec3& wo, const Vec3& wi) const override;
   std::string describe() const override;
+  bool isotropic() const override;  // p = 1 (for the double layer: in both layers)
 
  private:
   struct Impl;
@@ -32,6 +33,7 @@ class SchlickDouble final : public Bxdf {
   std::optional<BsdfSample> sample(const Vec3& wo, Point2 u, double uc) const override;
   double pdf(const Vec3& wo, const Vec3& wi) const override;
   std::string describe() const override;
+  bool isotropic() const override;  // p = 1 (for the double layer: in both layers)
 
  private:
   struct Impl;

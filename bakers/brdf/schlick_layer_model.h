@@ -86,10 +86,14 @@ class SchlickLayerModel {
   }
 
   // wi by the model's mixture: with probability E(wo) the microfacet lobe (wi = reflect(wo, h)), otherwise a
-  // cosine-weighted direction; below the horizon when the reflection falls there (the sample then fails).
-  Vec3 sample_direction(const Vec3& wo, Point2 u, double uc) const {
-    if (uc < lobe_probability(wo)) return reflect(wo, sample_normal(u));
-    return sample_cosine_hemisphere(u);
+  // cosine-weighted direction; below the horizon when the reflection falls there (the sample then fails). The lobe
+  // is chosen by u.x itself, which is then rescaled to [0, 1) for the chosen lobe: a separate random number for the
+  // choice would not be stratified with u, and the two lobes' different directions made that choice the largest
+  // part of an albedo estimate's variance (3e-4 at 2^20 samples, against 1e-5 for one lobe alone).
+  Vec3 sample_direction(const Vec3& wo, Point2 u) const {
+    const double ps = lobe_probability(wo);
+    if (u.x < ps) return reflect(wo, sample_normal({std::fmin(u.x / ps, kOneMinusEpsilon), u.y}));
+    return sample_cosine_hemisphere({std::fmin((u.x - ps) / (1.0 - ps), kOneMinusEpsilon), u.y});
   }
 
   // A normal with density D(h) t: tan²θ_h = r ξ / (1 − ξ) (GGX with α² = r), φ_h exactly from A_n.

@@ -222,7 +222,7 @@ void compute_dfg_table(EnvironmentRun& run) {
   brdf::AlbedoOptions options;
   options.samples = in.dfg_samples;
   options.seed = in.seed;
-  run.dfg = compute_dfg(lobe_model(in.lobe), in.dfg_size, in.dfg_size, options);
+  run.dfg = compute_dfg(lobe_model(in.lobe, dfg_masking(in.lobe, in.dfg_masking)), in.dfg_size, in.dfg_size, options);
   run.result.samples += static_cast<uint64_t>(in.dfg_size) * in.dfg_size * in.dfg_samples;
   run.end_stage(0.85, "dfg");
 }
@@ -297,6 +297,10 @@ void encode_dfg(EnvironmentRun& run) {
   image.metadata["kiln:axes"] =
       "x: mu = n.v = (x + 0.5)/width; y: perceptual roughness (y + 0.5)/height, alpha = rho^2";
   image.metadata["kiln:lobe"] = to_string(run.in.lobe);
+  image.metadata["kiln:masking"] = brdf::to_string(dfg_masking(run.in.lobe, run.in.dfg_masking));
+  image.metadata["kiln:channel.scale"] = "scale: the factor on f0 (E ~= f0 * scale + bias)";
+  image.metadata["kiln:channel.bias"] = "bias: the term added";
+  image.metadata["kiln:channel.energy"] = "scale + bias: the directional albedo with F = 1";
   run.add_output("dfg.exr", "image/x-exr", "data", image::encode_exr(image));
 }
 
@@ -343,6 +347,9 @@ std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& in) {
     if (auto e = check_range("samples", in.samples, bounds::kEnvironmentSamples.real())) return e;
   }
   if (auto e = check_range("dfg_samples", in.dfg_samples, bounds::kDfgSamples.real())) return e;
+  if (in.dfg_masking) {
+    if (auto problem = dfg_masking_problem(in.lobe, *in.dfg_masking)) return InvalidInput("dfg_masking", *problem);
+  }
   if (auto e = check_range("target_error", in.target_error, bounds::kEnvironmentTargetError)) return e;
   if (in.constant) {
     if (auto e = bake::check_rgb("constant", *in.constant, bounds::kEnvironmentConstant)) return e;

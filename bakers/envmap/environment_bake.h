@@ -8,7 +8,7 @@
 //   specular_L{k}_{px,nx,py,ny,pz,nz}.exr   the same levels as EXR faces, RGB float
 //   irradiance_{px,...}.exr           the irradiance cube, by direct convolution (not from SH)
 //   sh.txt                            nine RGB irradiance coefficients, with the basis in a header line
-//   dfg.exr                           (μ, ρ) table: scale, bias, energy
+//   dfg.exr                           (μ, ρ) table: scale, bias, energy, with the masking it used (kiln:masking)
 //   preview.png                       (if asked) spheres at several roughnesses, display-transformed (preview.h)
 //   report.json                       samples (total, per level), time (total, per stage), estimated error per
 //                                     level, the plan (effects with enabled/forced/reason), conventions, colour
@@ -39,7 +39,7 @@
 
 namespace kiln::envmap {
 
-inline constexpr const char* kEnvironmentBakerVersion = "kiln-environment-1";
+inline constexpr const char* kEnvironmentBakerVersion = "kiln-environment-2";
 
 struct EnvironmentBakeInput {
   // Exactly one source: `constant`, else six `faces`, else `image`.
@@ -52,6 +52,9 @@ struct EnvironmentBakeInput {
   int levels = 0;            // mip levels; 0: every level down to 4×4
   int irradiance_size = 32;  // [1, 256]
   int dfg_size = 64;         // [2, 1024]
+  // The DFG table's masking: unset, the lobe's default (height-correlated Smith for ggx, beckmann and schlick; the
+  // V-groove G for cook_torrance, which takes no other); separable or height-correlated for the Smith lobes.
+  std::optional<brdf::Masking> dfg_masking;
   // Prefilter samples per texel: 0 = chosen per level to reach target_error (within [16, 65536]); else [4, 65536].
   int samples = 0;
   double target_error = 0.01;  // relative error per level the sample count aims at, [1e-4, 1]

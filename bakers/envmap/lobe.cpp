@@ -52,7 +52,23 @@ brdf::Distribution lobe_distribution(EnvLobe lobe) {
   return brdf::Distribution::ggx;
 }
 
-brdf::ModelSpec lobe_model(EnvLobe lobe) {
+brdf::Masking dfg_masking(EnvLobe lobe, std::optional<brdf::Masking> asked) {
+  if (lobe == EnvLobe::cook_torrance) return brdf::Masking::v_groove;
+  return asked.value_or(brdf::Masking::height_correlated);
+}
+
+std::optional<std::string> dfg_masking_problem(EnvLobe lobe, brdf::Masking asked) {
+  if (lobe == EnvLobe::cook_torrance) {
+    if (asked == brdf::Masking::v_groove) return std::nullopt;
+    return "cook_torrance's DFG table uses its own V-groove masking; " + brdf::to_string(asked) +
+           " applies to the ggx, beckmann and schlick lobes (leave it unset for cook_torrance)";
+  }
+  if (asked == brdf::Masking::separable || asked == brdf::Masking::height_correlated) return std::nullopt;
+  return "must be separable or height-correlated for the " + std::string(to_string(lobe)) + " lobe, got " +
+         brdf::to_string(asked);
+}
+
+brdf::ModelSpec lobe_model(EnvLobe lobe, brdf::Masking masking) {
   brdf::ModelSpec m;
   switch (lobe) {
     case EnvLobe::ggx:
@@ -69,8 +85,11 @@ brdf::ModelSpec lobe_model(EnvLobe lobe) {
       m.distribution = brdf::Distribution::schlick_beckmann;  // ... and Schlick's rational D
       break;
   }
+  m.masking = masking;
   return m;
 }
+
+brdf::ModelSpec lobe_model(EnvLobe lobe) { return lobe_model(lobe, dfg_masking(lobe)); }
 
 std::string lobe_description(EnvLobe lobe) {
   const char* d = lobe == EnvLobe::ggx       ? "GGX D"

@@ -37,8 +37,19 @@ std::string env_lobe_names();
 
 // The distribution of normals of the lobe (see above).
 brdf::Distribution lobe_distribution(EnvLobe lobe);
-// The BRDF model whose white (Fresnel-free) split-sum table dfg.exr holds; roughness set by lobe_at_roughness.
-brdf::ModelSpec lobe_model(EnvLobe lobe);
+// The masking of the lobe's DFG table (the prefiltered chain depends on D only). The Smith lobes (ggx, beckmann,
+// schlick) take separable or height-correlated Smith masking, height-correlated by default: it is the exact Smith
+// form for uncorrelated heights (Heitz 2014, eq 99), what Filament and Unreal ship, and what a material bake with
+// masking height-correlated tabulates; the separable form masks twice where the heights correlate and is up to 0.15
+// darker at grazing angles and high roughness. cook_torrance's masking is its V-groove G, not a choice.
+// `asked` unset gives the default.
+brdf::Masking dfg_masking(EnvLobe lobe, std::optional<brdf::Masking> asked = std::nullopt);
+// What is wrong with asking for `asked` with this lobe (the problem of an InvalidInput on dfg_masking), or nullopt.
+std::optional<std::string> dfg_masking_problem(EnvLobe lobe, brdf::Masking asked);
+// The BRDF model whose white (Fresnel-free) split-sum table dfg.exr holds, with the DFG masking `masking`
+// (dfg_masking()); roughness set by lobe_at_roughness.
+brdf::ModelSpec lobe_model(EnvLobe lobe, brdf::Masking masking);
+brdf::ModelSpec lobe_model(EnvLobe lobe);  // with dfg_masking(lobe)
 // α (or m) of perceptual roughness ρ: ρ² for every lobe.
 inline double lobe_alpha(double rho) { return rho * rho; }
 // One line for metadata and reports: the D, the mapping and the weighting.

@@ -14,31 +14,15 @@ namespace {
 
 // Any name works for the plugin lookup: with an IOProxy nothing touches the file system.
 constexpr const char* kVirtualName = "kiln-memory.exr";
-// EXR sorts channels by name; this attribute remembers the caller's order so that a round trip is exact.
-constexpr const char* kChannelOrderKey = "kiln:channel_order";
+// Written by kiln before channels were read by name: it listed the writer's order, which is not the order EXR stores
+// (sorted by name), so a reader going by position swapped channels. No longer written; refused in metadata and
+// dropped from files that still carry it.
+constexpr const char* kLegacyChannelOrderKey = "kiln:channel_order";
 // A header may claim any size; refuse to allocate more than this many floats (1 GiB) for one image.
 constexpr uint64_t kMaxDecodedValues = uint64_t{1} << 28;
 
 bool reserved_key(const std::string& key) {
-  return key == "compression" || key == kChannelOrderKey || key.rfind("oiio:", 0) == 0;
-}
-
-std::string join(const std::vector<std::string>& names) {
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ",") + n;
-  return out;
-}
-
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  size_t start = 0;
-  while (true) {
-    const size_t comma = s.find(',', start);
-    out.push_back(s.substr(start, comma - start));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  return out;
+  return key == "compression" || key == kLegacyChannelOrderKey || key.rfind("oiio:", 0) == 0;
 }
 
 void check_image(const FloatImage& image) {
@@ -76,32 +60,18 @@ void check_image(const FloatImage& image) {
   }
 }
 
-// Puts the channels back in the writer's order (`order`, as written by encode_exr) when the file says what it was
-// and it fits.
-void restore_channel_order(FloatImage& image, const std::string& order) {
-  if (order.empty()) return;
-  const std::vector<std::string> wanted = split(order);
-  std::vector<int> source;
-  for (const auto& name : wanted) {
-    const auto it = std::find(image.channel_names.begin(), image.channel_names.end(), name);
-    if (it == image.channel_names.end()) break;
-    source.push_back(static_cast<int>(it - image.channel_names.begin()));
-  }
-  if (source.size() != image.channel_names.size() ||
-      std::set<int>(source.begin(), source.end()).size() != source.size()) {
-    return;
-  }
-  std::vector<float> reordered(image.pixels.size());
-  const size_t n = static_cast<size_t>(image.width) * image.height;
-  const int c = image.channels;
-  for (size_t p = 0; p < n; ++p) {
-    for (int k = 0; k < c; ++k) reordered[p * c + k] = image.pixels[p * c + source[k]];
-  }
-  image.pixels = std::move(reordered);
-  image.channel_names = wanted;
-}
-
 }  // namespace
+
+int FloatImage::channel_index(const std::string& name) const {
+  const auto it = std::find(channel_names.begin(), channel_names.end(), name);
+  if (it == channel_names.end()) {
+    std::string there;
+    for (const auto& n : channel_names) there += (there.empty() ? "" : ", ") + n;
+    throw std::out_of_range("no channel '" + name +
+                            "' in this image; its channels are: " + (there.empty() ? "(unnamed)" : there));
+  }
+  return static_cast<int>(it - channel_names.begin());
+}
 
 std::string encode_exr(const FloatImage& image) {
   check_image(image);
@@ -112,7 +82,6 @@ std::string encode_exr(const FloatImage& image) {
   // image always gives the same bytes (the daemon addresses results by their digest).
   spec.attribute("DateTime", "");
   for (const auto& [key, value] : image.metadata) spec.attribute(key, value);
-  spec.attribute(kChannelOrderKey, join(spec.channelnames));
 
   return detail::write_to_memory(kVirtualName, spec, OIIO::TypeDesc::FLOAT, image.pixels.data(), "encode_exr", "EXR",
                                  "OpenEXR");
@@ -176,13 +145,10 @@ FloatImage decode_exr(const std::string& bytes) {
   image.pixels.resize(values);
   detail::read_pixels(*in, OIIO::TypeDesc::FLOAT, image.pixels.data(), "decode_exr", "EXR");
   image.channel_names = spec.channelnames;
-  std::string order;
   for (const auto& [name, value] : detail::string_attributes(spec)) {
-    if (name == kChannelOrderKey) order = value;
     if (reserved_key(name)) continue;
     image.metadata[name] = value;
   }
-  restore_channel_order(image, order);
   in->close();
   return image;
 }

@@ -52,7 +52,7 @@ namespace kiln::material {
 // --- The material bake. ----------------------------------------------------------------------------------------
 
 // Changes whenever the same input would give different outputs (part of the daemon's result-cache key).
-inline constexpr const char* kMaterialBakerVersion = "kiln-material-1";
+inline constexpr const char* kMaterialBakerVersion = "kiln-material-2";
 
 struct MaterialBakeInput {
   brdf::ModelSpec model;

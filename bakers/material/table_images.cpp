@@ -28,8 +28,12 @@ bake::BakeOutput albedo_image(const MaterialBakeResult& result, const std::strin
   }
   img.metadata["kiln:table"] = "directional albedo E(mu) = integral of f cos(theta_i) over the hemisphere";
   img.metadata["kiln:x_axis"] = "mu = cos(theta_o) = (x + 0.5) / " + std::to_string(n_mu);
-  img.metadata["kiln:channels"] =
-      "R,G,B: E(mu) as configured; err.*: standard errors; white: E(mu) with F = 1, white; white_err";
+  for (const char* c : {"R", "G", "B"}) {
+    img.metadata[std::string("kiln:channel.") + c] = std::string("E(mu) of the model as configured, channel ") + c;
+    img.metadata[std::string("kiln:channel.err.") + c] = std::string("standard error of ") + c;
+  }
+  img.metadata["kiln:channel.white"] = "E(mu) of the white, Fresnel-free form (the white furnace)";
+  img.metadata["kiln:channel.white_err"] = "standard error of white";
   img.metadata["kiln:model"] = result.description;
   img.metadata["kiln:average_albedo"] = rgb_list(result.average_albedo);
   img.metadata["kiln:settings"] = settings;
@@ -56,6 +60,10 @@ bake::BakeOutput split_sum_image(const MaterialBakeResult& result, brdf::Model m
     }
   }
   img.metadata["kiln:table"] = "split sum: E ~= f0 * scale + bias, white model without Fresnel";
+  img.metadata["kiln:channel.scale"] = "scale: the factor on f0";
+  img.metadata["kiln:channel.bias"] = "bias: the term added";
+  img.metadata["kiln:channel.scale_err"] = "standard error of scale";
+  img.metadata["kiln:channel.bias_err"] = "standard error of bias";
   img.metadata["kiln:x_axis"] = "mu = cos(theta_o) = (x + 0.5) / " + std::to_string(n_mu);
   img.metadata["kiln:y_axis"] = std::string(brdf::roughness_name(model)) + " = (y + 0.5) / " + std::to_string(n_r) +
                                 " * " + shortest_number(brdf::max_roughness(model)) +

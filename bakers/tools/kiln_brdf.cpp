@@ -86,10 +86,14 @@ Vec3 parse_direction(const std::string& flag, const std::string& text) {
   const std::vector<double> v = parse_list(flag, text);
   if (v.size() != 3) throw UsageError(flag + ": expected x,y,z, got '" + text + "'");
   const Vec3 d{v[0], v[1], v[2]};
-  const double len = length(d);
-  if (!std::isfinite(len) || len == 0.0)
-    throw UsageError(flag + ": must be a finite non-zero vector, got '" + text + "'");
-  return d / len;  // people type directions like 1,0,1; the library expects unit vectors
+  if (!is_finite(d)) throw UsageError(flag + ": must be a finite non-zero vector, got '" + text + "'");
+  // People type directions like 1,0,1; the library expects unit vectors. Scaling by the largest component first
+  // keeps the length computable: squaring 1e308 overflows and squaring 1e-320 underflows to 0, while the scaled
+  // vector has its largest component ±1 and a length in [1, √3].
+  const double largest = std::fmax(std::fabs(d.x), std::fmax(std::fabs(d.y), std::fabs(d.z)));
+  if (largest == 0.0) throw UsageError(flag + ": must be a finite non-zero vector, got '" + text + "'");
+  const Vec3 scaled = d / largest;
+  return scaled / length(scaled);
 }
 
 int parse_count(const std::string& flag, const std::string& text, int lo, int hi) {

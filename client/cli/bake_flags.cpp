@@ -308,6 +308,7 @@ std::string environment_flag_for(const std::vector<std::string>& parts) {
       {"irradiance_size", "--irradiance-size"},
       {"dfg_size", "--dfg-size"},
       {"dfg_samples", "--dfg-samples"},
+      {"dfg_masking", "--dfg-masking"},
       {"preview", "--no-preview"},
   };
   if (parts.size() == 2) return "";

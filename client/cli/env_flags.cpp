@@ -35,6 +35,8 @@ the bake:
   --irradiance-size N          irradiance cube face size, [1, 256]; default 32
   --dfg-size N                 DFG table resolution, [2, 1024]; default 64
   --dfg-samples N              samples per DFG entry, [16, 1048576]; default 1024
+  --dfg-masking separable|height-correlated   the DFG table's Smith masking (ggx, beckmann, schlick lobes);
+                               default height-correlated; cook-torrance uses its own V-groove G
   --samples N                  prefilter samples per texel, [4, 65536]; default: chosen per level for --target-error
   --target-error E             relative error per level the sample counts aim at, [0.0001, 1]; default 0.01
   --seed N                     random seed; the same spec and seed give the same bytes
@@ -50,9 +52,9 @@ example:
 namespace {
 
 // The flags that describe the job, in the order the default name lists them.
-const char* const kJobFlags[] = {
-    "--constant",        "--color-space", "--rotation",    "--intensity", "--lobe",         "--size", "--levels",
-    "--irradiance-size", "--dfg-size",    "--dfg-samples", "--samples",   "--target-error", "--seed"};
+const char* const kJobFlags[] = {"--constant",    "--color-space", "--rotation",        "--intensity", "--lobe",
+                                 "--size",        "--levels",      "--irradiance-size", "--dfg-size",  "--dfg-samples",
+                                 "--dfg-masking", "--samples",     "--target-error",    "--seed"};
 
 v1::EnvironmentLobe lobe_of(const std::string& flag_text) {
   const std::string text = hyphenated(flag_text);
@@ -64,6 +66,13 @@ v1::EnvironmentLobe lobe_of(const std::string& flag_text) {
     if (text == name) return lobe;
   }
   throw UsageError("--lobe: expected one of ggx, beckmann, cook-torrance, schlick, got '" + text + "'");
+}
+
+v1::Masking dfg_masking_of(const std::string& flag_text) {
+  const std::string text = hyphenated(flag_text);
+  if (text == "separable") return v1::MASKING_SEPARABLE;
+  if (text == "height-correlated") return v1::MASKING_HEIGHT_CORRELATED;
+  throw UsageError("--dfg-masking: expected separable or height-correlated, got '" + text + "'");
 }
 
 std::string default_name(const Flags& f, const std::vector<std::string>& files) {
@@ -129,6 +138,7 @@ void set_image_and_bake_settings(const Flags& f, v1::EnvironmentJob& env) {
   if (f.has("--irradiance-size")) env.set_irradiance_size(whole_flag(f, "--irradiance-size", bounds::kIrradianceSize));
   if (f.has("--dfg-size")) env.set_dfg_size(whole_flag(f, "--dfg-size", bounds::kDfgSize));
   if (f.has("--dfg-samples")) env.set_dfg_samples(whole_flag(f, "--dfg-samples", bounds::kDfgSamples));
+  if (auto v = f.get("--dfg-masking")) env.set_dfg_masking(dfg_masking_of(*v));
   if (f.has("--no-preview")) env.set_preview(false);
 }
 

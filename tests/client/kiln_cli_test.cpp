@@ -365,6 +365,15 @@ TEST(KilnCliBakeEnv, BadFlagsGetOneLineNamingTheFlag) {
   }
 }
 
+TEST(KilnCliBakeEnv, DfgMaskingFlag) {
+  EXPECT_EQ(env_from("sky.exr --dfg-masking separable").spec.environment().dfg_masking(), v1::MASKING_SEPARABLE);
+  EXPECT_EQ(env_from("sky.exr --dfg-masking height-correlated").spec.environment().dfg_masking(),
+            v1::MASKING_HEIGHT_CORRELATED);
+  EXPECT_EQ(env_from("sky.exr").spec.environment().dfg_masking(), v1::MASKING_DEFAULT);  // the server's default
+  EXPECT_EQ(env_usage_error("sky.exr --dfg-masking v-groove"),
+            "--dfg-masking: expected separable or height-correlated, got 'v-groove'");
+}
+
 TEST(KilnCliBakeEnv, ServerFieldsMapBackToFlags) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"job.environment.size", "--size"},
@@ -374,6 +383,7 @@ TEST(KilnCliBakeEnv, ServerFieldsMapBackToFlags) {
       {"job.environment.constant.g", "--constant"},
       {"job.environment.faces.digests[2].sha256", "--faces"},
       {"job.environment.dfg_samples", "--dfg-samples"},
+      {"job.environment.dfg_masking", "--dfg-masking"},
       {"job.environment.image", ""},  // the command's argument: `kiln bake env` names the file itself
       {"job.environment", ""},
   };

@@ -152,7 +152,7 @@ TEST(TranslateEnvironment, EveryFieldReachesTheBakersInput) {
       force_effects { key: "sun_light" value: false }
       environment { image { )") + kDigest + R"( } color_space: "lin_rec709" rotation_degrees: -90 intensity: 2.5
                     lobe: ENVIRONMENT_LOBE_BECKMANN size: 64 levels: 3 irradiance_size: 16 dfg_size: 32
-                    dfg_samples: 64 preview: false })"));
+                    dfg_samples: 64 preview: false dfg_masking: MASKING_SEPARABLE })"));
   EXPECT_STREQ(job_type(r), "environment");
   const envmap::EnvironmentBakeInput& in = r.environment();
   EXPECT_FALSE(in.constant.has_value());
@@ -169,6 +169,7 @@ TEST(TranslateEnvironment, EveryFieldReachesTheBakersInput) {
   EXPECT_EQ(in.irradiance_size, 16);
   EXPECT_EQ(in.dfg_size, 32);
   EXPECT_EQ(in.dfg_samples, 64);
+  EXPECT_EQ(in.dfg_masking, brdf::Masking::separable);
   EXPECT_FALSE(in.preview);
   EXPECT_EQ(in.samples, 256);
   EXPECT_EQ(in.target_error, 0.02);
@@ -189,6 +190,7 @@ TEST(TranslateEnvironment, DefaultsAreTheBakers) {
   EXPECT_EQ(r.environment().target_error, defaults.target_error);
   EXPECT_EQ(r.environment().preview, defaults.preview);
   EXPECT_EQ(r.environment().lobe, envmap::EnvLobe::ggx);
+  EXPECT_FALSE(r.environment().dfg_masking.has_value());  // the lobe's own: height-correlated for ggx
   const BakeRequest faces = translate(spec_from("environment { " + faces_text(6) + " }"));
   ASSERT_EQ(faces.inputs.size(), 6u);
   EXPECT_EQ(faces.inputs[5].field, "job.environment.faces.digests[5]");
@@ -199,7 +201,8 @@ TEST(TranslateEnvironment, SameBakeSameKeyAndEverySettingChangesIt) {
   // Defaults spelled out (levels 6 is every level of a 128 cube down to 4x4) or left out, and the name: one key.
   const auto a = translate(spec_from("name: \"a\" environment { " + image + " }"));
   const auto b = translate(spec_from("name: \"b\" environment { " + image +
-                                     " size: 128 levels: 6 lobe: ENVIRONMENT_LOBE_GGX intensity: 1 preview: true }"
+                                     " size: 128 levels: 6 lobe: ENVIRONMENT_LOBE_GGX intensity: 1 preview: true"
+                                     " dfg_masking: MASKING_HEIGHT_CORRELATED }"
                                      " quality { target_error: 0.01 }"));
   EXPECT_EQ(cache_key(a, baker_version(a)), cache_key(b, baker_version(b))) << canonical_text(a) << canonical_text(b);
   std::set<std::string> keys{cache_key(a, baker_version(a))};
@@ -221,6 +224,7 @@ TEST(TranslateEnvironment, SameBakeSameKeyAndEverySettingChangesIt) {
            "environment { " + image + " irradiance_size: 8 }",
            "environment { " + image + " dfg_size: 16 }",
            "environment { " + image + " dfg_samples: 32 }",
+           "environment { " + image + " dfg_masking: MASKING_SEPARABLE }",
            "environment { " + image + " preview: false }",
            "quality { samples: 64 } environment { " + image + " }",
            "quality { target_error: 0.05 } environment { " + image + " }",
@@ -274,6 +278,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadSpec{"environment { " IMAGE "intensity: 0 }", "job.environment.intensity", "must be in (0, 1e+06], got 0"},
         BadSpec{"environment { " IMAGE "intensity: -1 }", "job.environment.intensity", "got -1"},
         BadSpec{"environment { " IMAGE "lobe: 9 }", "job.environment.lobe", "unknown value 9"},
+        BadSpec{"environment { " IMAGE "dfg_masking: 9 }", "job.environment.dfg_masking", "unknown value 9"},
+        BadSpec{"environment { " IMAGE "dfg_masking: MASKING_V_GROOVE }", "job.environment.dfg_masking",
+                "must be separable or height-correlated for the ggx lobe, got v-groove"},
+        BadSpec{"environment { " IMAGE "lobe: ENVIRONMENT_LOBE_COOK_TORRANCE dfg_masking: MASKING_SEPARABLE }",
+                "job.environment.dfg_masking", "cook_torrance's DFG table uses its own V-groove masking"},
         BadSpec{"environment { " IMAGE "size: 100 }", "job.environment.size", "power of two"},
         BadSpec{"environment { " IMAGE "size: 2 }", "job.environment.size", "got 2"},
         BadSpec{"environment { " IMAGE "size: 4096 }", "job.environment.size", "got 4096"},

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "bakers/math/rng.h"
 
@@ -45,15 +47,42 @@ bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 
-TEST(Exr, RoundTripIsBitExactWithChannelOrderAndMetadata) {
+// One channel of an image as its own plane, found by name.
+std::vector<float> plane(const FloatImage& img, const std::string& name) {
+  const int c = img.channel_index(name);
+  std::vector<float> out;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) out.push_back(img.at(x, y, c));
+  return out;
+}
+
+// Channels are read back by name: every channel keeps its name and its bits, whatever position a reader gives it.
+TEST(Exr, RoundTripIsBitExactByChannelNameWithMetadata) {
   const FloatImage img = awkward_image();
   const FloatImage back = decode_exr(encode_exr(img));
   EXPECT_EQ(back.width, img.width);
   EXPECT_EQ(back.height, img.height);
-  EXPECT_EQ(back.channels, img.channels);
-  EXPECT_EQ(back.channel_names, img.channel_names);
-  EXPECT_TRUE(same_bits(back.pixels, img.pixels));
+  ASSERT_EQ(back.channels, img.channels);
+  for (const std::string& name : img.channel_names) {
+    EXPECT_TRUE(same_bits(plane(back, name), plane(img, name))) << name;
+  }
   EXPECT_EQ(back.metadata, img.metadata);
+}
+
+// What the file says is what it stores: no positional channel list (kiln:channel_order listed the writer's order,
+// scale first, while EXR stores bias first), and a reader that goes by position sees the channels sorted by name,
+// each under its own name, so reading by name is the only reading there is.
+TEST(Exr, MetadataDoesNotDescribeChannelsByPosition) {
+  const std::string bytes = encode_exr(awkward_image());
+  EXPECT_EQ(bytes.find("kiln:channel_order"), std::string::npos);
+  const FloatImage back = decode_exr(bytes);
+  EXPECT_EQ(back.channel_names, (std::vector<std::string>{"bias", "bias_err", "scale", "scale_err"}));
+  EXPECT_EQ(back.metadata.count("kiln:channel_order"), 0u);
+  EXPECT_THROW((void)back.channel_index("energy"), std::out_of_range);
+  // An older file's positional list is dropped when read, not passed on as if it were true.
+  FloatImage img = awkward_image();
+  img.metadata["kiln:channel_order"] = "scale,bias,scale_err,bias_err";
+  EXPECT_THROW(encode_exr(img), std::invalid_argument);
 }
 
 TEST(Exr, SingleRowAndSingleChannelImages) {

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <cmath>
@@ -225,25 +226,36 @@ TEST(MaterialBake, LambertTablesAreExactlyRho) {
   const image::FloatImage img = image::decode_exr(albedo->bytes);
   ASSERT_EQ(img.width, 16);
   ASSERT_EQ(img.height, 1);
-  ASSERT_EQ(img.channel_names,
-            (std::vector<std::string>{"R", "G", "B", "err.R", "err.G", "err.B", "white", "white_err"}));
+  // Read by name: the meaning of a channel is its name (and its kiln:channel.NAME description), not its position.
+  std::vector<std::string> names = img.channel_names;
+  std::sort(names.begin(), names.end());
+  ASSERT_EQ(names, (std::vector<std::string>{"B", "G", "R", "err.B", "err.G", "err.R", "white", "white_err"}));
+  for (const std::string& n : names) EXPECT_EQ(img.metadata.count("kiln:channel." + n), 1u) << n;
+  const int r_c = img.channel_index("R"), g_c = img.channel_index("G"), b_c = img.channel_index("B");
+  const int white_c = img.channel_index("white");
   for (int x = 0; x < img.width; ++x) {
     // Stored as float: the double estimate is within 1e-14 of ρ, far inside half a float ulp of these ρ (exact
     // binary fractions), so the texel is exactly float(ρ).
-    EXPECT_EQ(img.at(x, 0, 0), 0.25f);
-    EXPECT_EQ(img.at(x, 0, 1), 0.5f);
-    EXPECT_EQ(img.at(x, 0, 2), 0.75f);
-    EXPECT_EQ(img.at(x, 0, 6), 1.0f);
-    for (int c : {3, 4, 5, 7}) EXPECT_LT(img.at(x, 0, c), 1e-7f) << "error of a zero-variance estimate";
+    EXPECT_EQ(img.at(x, 0, r_c), 0.25f);
+    EXPECT_EQ(img.at(x, 0, g_c), 0.5f);
+    EXPECT_EQ(img.at(x, 0, b_c), 0.75f);
+    EXPECT_EQ(img.at(x, 0, white_c), 1.0f);
+    for (const char* e : {"err.R", "err.G", "err.B", "white_err"}) {
+      EXPECT_LT(img.at(x, 0, img.channel_index(e)), 1e-7f) << "error of a zero-variance estimate";
+    }
   }
   // A white Lambert's split sum: scale + bias = E = 1 exactly (each sample splits its weight 1 in two); rows equal.
   const image::FloatImage ss = image::decode_exr(find_output(r, "split_sum.exr")->bytes);
   ASSERT_EQ(ss.width, 16);
   ASSERT_EQ(ss.height, 4);
+  const int scale_c = ss.channel_index("scale"), bias_c = ss.channel_index("bias");
   for (int y = 0; y < ss.height; ++y) {
     for (int x = 0; x < ss.width; ++x) {
-      EXPECT_NEAR(ss.at(x, y, 0) + ss.at(x, y, 1), 1.0, 1e-6) << "float rounding of two numbers ≤ 1";
-      EXPECT_EQ(ss.at(x, y, 0), ss.at(x, 0, 0));
+      EXPECT_NEAR(ss.at(x, y, scale_c) + ss.at(x, y, bias_c), 1.0, 1e-6) << "float rounding of two numbers ≤ 1";
+      EXPECT_EQ(ss.at(x, y, scale_c), ss.at(x, 0, scale_c));
+      // The bake's own table, by name: scale is scale (the swap a positional reader made is caught here).
+      EXPECT_EQ(ss.at(x, y, scale_c), static_cast<float>(r.split_sum.at_scale(y, x)));
+      EXPECT_EQ(ss.at(x, y, bias_c), static_cast<float>(r.split_sum.at_bias(y, x)));
     }
   }
   EXPECT_TRUE(r.validation.energy.conserves_energy);
@@ -287,7 +299,7 @@ TEST(MaterialBake, GgxReachesTargetErrorAndAgreesWithIndependentEstimates) {
   // The EXR carries the same errors.
   const image::FloatImage img = image::decode_exr(find_output(r, "albedo.exr")->bytes);
   for (int x = 0; x < img.width; ++x)
-    for (int c : {3, 4, 5, 7}) EXPECT_LE(img.at(x, 0, c), 1e-3f);
+    for (const char* e : {"err.R", "err.G", "err.B", "white_err"}) EXPECT_LE(img.at(x, 0, img.channel_index(e)), 1e-3f);
 
   // Independent references: the library's estimators with other seeds and 2^18 samples (error ~2e-4).
   const auto bxdf = brdf::make_bxdf(in.model);

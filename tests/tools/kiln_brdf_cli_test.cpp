@@ -47,6 +47,31 @@ TEST(KilnBrdfCli, GgxAtNormalIncidenceMatchesClosedForm) {
   EXPECT_NEAR(first_number(r.out), 1.0 / (4.0 * kiln::kPi * 0.25), 1e-12);
 }
 
+// Directions are normalised by their largest component first: 1e308 squared overflows and 1e-320 squared
+// underflows, yet both scale to the same unit vectors as 1,0,1 and 0,0,1. The results must be identical bits: the
+// scaled vectors are (1, 0, 1) and (0, 0, 1) exactly (x/x = 1 for any finite non-zero x, denormals included).
+TEST(KilnBrdfCli, HugeAndTinyDirectionsNormaliseLikeOrdinaryOnes) {
+  const Result ordinary = run("eval --model ggx --alpha 0.5 --wo 0,0,1 --wi 1,0,1");
+  ASSERT_EQ(ordinary.status, 0) << ordinary.out;
+  for (const char* args : {"eval --model ggx --alpha 0.5 --wo 0,0,1e308 --wi 1e308,0,1e308",
+                           "eval --model ggx --alpha 0.5 --wo 0,0,1e-320 --wi 1e-320,0,1e-320",
+                           "eval --model ggx --alpha 0.5 --wo 0,0,1.7e308 --wi 1.7e308,0,1.7e308",
+                           "eval --model ggx --alpha 0.5 --wo -0,0,5e-324 --wi 1e-300,0,1e-300"}) {
+    const Result r = run(args);
+    ASSERT_EQ(r.status, 0) << args << ": " << r.out;
+    EXPECT_EQ(r.out, ordinary.out) << args;
+  }
+  // A mixed vector whose small components vanish next to the large one is still a direction: (1e308, 1e-320, 0)
+  // is the x axis to double precision; wi = x axis is on the horizon, so f = 0 (a valid answer, not an error).
+  const Result mixed = run("eval --model ggx --alpha 0.5 --wo 0,1e-320,1e308 --wi 1e308,1e-320,1e-300");
+  ASSERT_EQ(mixed.status, 0) << mixed.out;
+  EXPECT_EQ(first_number(mixed.out), 0.0) << mixed.out;
+  // Infinite or overflowing-to-infinity components are still refused.
+  const Result inf = run("eval --model ggx --wo 0,0,1e309 --wi 0,0,1");
+  EXPECT_NE(inf.status, 0);
+  EXPECT_NE(inf.out.find("--wo: must be a finite non-zero vector"), std::string::npos) << inf.out;
+}
+
 TEST(KilnBrdfCli, LambertAlbedoIsExactlyRho) {
   // Cosine sampling gives every sample the weight ρ exactly, so the estimate is ρ with zero spread.
   const Result r = run("albedo --model lambert --albedo 0.7 --mu 0.3 --samples 1024");

@@ -73,8 +73,9 @@ def environment_job(image=None, *, faces=None, constant=None, name="", samples=N
     Client.upload_file returns, a kiln.pb.Digest or (sha256, size)); `faces`, six such digests in the order
     +X, -X, +Y, -Y, +Z, -Z; `constant`, a radiance (a number, (r, g, b) or a kiln.pb.Color). The other keywords are
     EnvironmentJob's fields (kiln.proto): color_space, rotation_degrees, intensity, lobe ("ggx", "beckmann",
-    "cook_torrance", "schlick"), size, levels, irradiance_size, dfg_size, dfg_samples, preview. samples,
-    target_error and seed go into the job's quality. None leaves a field to its default.
+    "cook_torrance", "schlick"), size, levels, irradiance_size, dfg_size, dfg_samples, dfg_masking ("separable",
+    "height_correlated"; default height-correlated), preview. samples, target_error and seed go into the job's
+    quality. None leaves a field to its default.
 
         with kiln.Client(...) as c:
             job = kiln.environment_job(c.upload_file("sky.exr"), size=128, lobe="ggx")
