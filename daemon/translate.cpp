@@ -23,10 +23,12 @@ constexpr std::array<const char*, 3> kJobTypes = {"material", "environment", "li
 static_assert(std::variant_size_v<decltype(BakeRequest::input)> == kJobTypes.size());
 
 // The lightmap bake names the texture ("textures[I]") or the environment ("environment_image") whose bytes do not
-// decode, as the blob fields "job.lightmap.textures[I].image" and "job.lightmap.environment.image" hold them, and
-// no field for a scene with nothing to bake: the whole job's.
+// decode, as the blob fields "job.lightmap.textures[I].image" and "job.lightmap.environment.image" hold them; a time
+// limit that ran out during the set-up as the quality's field; and no field for a scene with nothing to bake: the
+// whole job's.
 InvalidField lightmap_input_error(const BakeRequest& r, const bake::InvalidInput& problem) {
   const std::string& field = problem.field();
+  if (field == "time_limit_seconds") return InvalidField("job.quality.time_limit_seconds", problem.problem());
   std::string part;
   if (field.rfind("textures[", 0) == 0) part = "." + field + ".";
   if (field == "environment_image") part = ".environment.";

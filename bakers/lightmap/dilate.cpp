@@ -8,7 +8,7 @@
 
 namespace kiln::lightmap {
 
-size_t dilate(image::FloatImage& image, const std::vector<uint8_t>& valid, int padding) {
+size_t dilate(image::FloatImage& image, const std::vector<uint8_t>& valid, int padding, const bake::StopCheck& stop) {
   const int w = image.width, h = image.height, channels = image.channels;
   const size_t texels = static_cast<size_t>(w) * h;
   if (valid.size() != texels) {
@@ -27,6 +27,7 @@ size_t dilate(image::FloatImage& image, const std::vector<uint8_t>& valid, int p
     fresh.clear();
     fresh_values.clear();
     for (int y = 0; y < h; ++y) {
+      if (y % 64 == 0) stop.check();  // 64 rows of an 8192-texel map: ~10 ms
       for (int x = 0; x < w; ++x) {
         if (ring[static_cast<size_t>(y) * w + x] >= 0) continue;
         std::fill(sum.begin(), sum.end(), 0.0);

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "bakers/bake/stop.h"
 #include "bakers/image/exr.h"
 
 namespace kiln::lightmap {
@@ -15,7 +16,9 @@ namespace kiln::lightmap {
 // result does not depend on the order of the sweep. Texels farther away, and the valid ones, are left as they are.
 // `valid` has width·height entries (non-zero: valid), row-major like the image; it is not changed (the validity map
 // is the one from before dilation). padding ≤ 0 changes nothing. Returns the number of texels filled.
-// Throws std::invalid_argument when `valid` does not match the image's size.
-size_t dilate(image::FloatImage& image, const std::vector<uint8_t>& valid, int padding);
+// Throws std::invalid_argument when `valid` does not match the image's size. Polls `stop` every few rows and throws
+// what its check() throws (the image is then partly dilated).
+size_t dilate(image::FloatImage& image, const std::vector<uint8_t>& valid, int padding,
+              const bake::StopCheck& stop = {});
 
 }  // namespace kiln::lightmap

@@ -1,5 +1,6 @@
 #include "bakers/lightmap/leaks.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -121,14 +122,22 @@ LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const L
   return resolve(sample, rays, options, probe_directions(options));
 }
 
-LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOptions& options) {
+LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOptions& options,
+                     const bake::StopCheck& stop) {
   check(options);
   LeakReport report;
   const size_t n = texels.samples.size();
-  std::vector<LeakResult> results(n);
+  std::vector<LeakResult> results;
+  bake::resize_polled(results, n, stop);
   const std::vector<Vec3> directions = probe_directions(options);
-  tbb::parallel_for(size_t{0}, n,
-                    [&](size_t j) { results[j] = resolve(texels.samples[j], rays, options, directions); });
+  // Polled every 256 samples (~10^4 rays, a few milliseconds): inside the body, since TBB's partitioner hands one
+  // body far more than the grain.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t j = range.begin(); j != range.end(); ++j) {
+      if ((j - range.begin()) % 256 == 0) stop.check();
+      results[j] = resolve(texels.samples[j], rays, options, directions);
+    }
+  });
 
   const size_t valid_before = texels.valid_count();
   std::vector<uint8_t> keep(n, 1);

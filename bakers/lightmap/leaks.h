@@ -29,6 +29,7 @@
 #include <limits>
 #include <optional>
 
+#include "bakers/bake/stop.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/math/vec3.h"
 
@@ -82,7 +83,9 @@ struct LeakReport {
 };
 
 // Applies resolve_leak to every sample (in parallel), moves the moved ones and drops the invalid ones
-// (LightmapTexels::retain). Deterministic.
-LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOptions& options);
+// (LightmapTexels::retain). Deterministic. Polls `stop` every few hundred samples and throws what its check() throws
+// (the texels are then left as they were).
+LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOptions& options,
+                     const bake::StopCheck& stop = {});
 
 }  // namespace kiln::lightmap

@@ -9,7 +9,9 @@
 
 #include <tbb/parallel_for.h>
 
+#include "bakers/bake/number_format.h"
 #include "bakers/bake/range_check.h"
+#include "bakers/bake/stop.h"
 #include "bakers/image/color.h"
 #include "bakers/image/texture_decode.h"
 #include "bakers/lightmap/adaptive_sampler.h"
@@ -40,12 +42,24 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 // tracer, the lights and the transport context refer to the checked scene and to each other.
 struct LightmapBakeRun {
   LightmapBakeRun(const LightmapBakeInput& input, const bake::BakeControl& bake_control)
-      : in(input), control(bake_control) {}
+      : in(input),
+        control(bake_control),
+        stop(control.cancel, deadline(input, t0)),
+        cancel_only(control.cancel, Clock::time_point::max()) {}
+
+  static Clock::time_point deadline(const LightmapBakeInput& in, Clock::time_point t0) {
+    if (!(in.time_limit_seconds > 0)) return Clock::time_point::max();
+    return t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(in.time_limit_seconds));
+  }
 
   const LightmapBakeInput& in;
   const bake::BakeControl& control;
   const Clock::time_point t0 = Clock::now();
-  double last_fraction = 0;  // the progress reported so far, which never decreases
+  // The set-up stages stop at a cancel or the time limit; writing the outputs only at a cancel (the time limit ends
+  // the sampling, whose result is then written).
+  const bake::StopCheck stop, cancel_only;
+  std::string stage = "scene";  // the set-up stage running, for the time limit's message
+  double last_fraction = 0;     // the progress reported so far, which never decreases
 
   scene::CheckedScene checked;  // the scene as baked: textures and environment decoded, then cleaned
   std::string color_space;      // the working space every output is in
@@ -134,8 +148,11 @@ void prepare_scene(LightmapBakeRun& run) {
   scene::Scene input = run.in.scene;
   decode_textures(run, input);
   run.color_space = image::ColorConfig::active().working_space();
+  run.stop.check();
   decode_environment(run, input);
+  run.stop.check();
   run.checked = scene::check_scene(input);
+  run.stop.check();
   for (const scene::Problem& p : run.checked.report.problems) {
     run.result.skipped.push_back(std::string(scene::to_string(p.kind)) + ": " + p.what + "; " + p.action);
   }
@@ -160,7 +177,11 @@ void plan_bake(LightmapBakeRun& run) {
 void prepare_transport(LightmapBakeRun& run) {
   const scene::Scene& s = run.scene();
   const plan::LightmapPlan& plan = run.plan;
-  run.tracer = std::make_unique<scene::Tracer>(s);
+  run.stage = "tracer";
+  scene::TracerOptions tracer_options;
+  tracer_options.stop = &run.stop;
+  run.tracer = std::make_unique<scene::Tracer>(s, tracer_options);
+  run.stage = "lights";
   scene::LightSamplingOptions light_options;
   light_options.point_lights = plan.point_lights;
   light_options.spot_lights = plan.spot_lights;
@@ -200,8 +221,10 @@ void rasterize_texels(LightmapBakeRun& run) {
     RasterOptions raster;
     raster.width = raster.height = it != in.resolutions.end() ? it->second : in.resolution;
     raster.bake_mask = &bake_mask;
-    LightmapTexels texels = rasterize_lightmap(run.scene(), name, raster);
-    const LeakReport leaks = fix_leaks(texels, query, LeakOptions{});
+    run.stage = "rasterization of lightmap '" + name + "'";
+    LightmapTexels texels = rasterize_lightmap(run.scene(), name, raster, run.stop);
+    run.stage = "leak probes of lightmap '" + name + "'";
+    const LeakReport leaks = fix_leaks(texels, query, LeakOptions{}, run.stop);
     run.result.rays += leaks.rays;
     run.result.probe_rays += leaks.rays;
     run.maps.push_back(make_lightmap_state(name, std::move(texels), leaks, in.ao, in.directional));
@@ -389,10 +412,12 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
   options.padding = in.padding;
   options.color_space = run.color_space;
   options.metric = in.error_metric;
+  options.stop = &run.cancel_only;
   for (bake::BakeOutput& o : encode_lightmap(m.image, options)) outputs.push_back(std::move(o));
   if (in.denoise) {
     const Clock::time_point t0 = Clock::now();
-    outputs.push_back(denoised_output(m, run.scene(), in.denoise_options, in.padding, run.color_space));
+    outputs.push_back(
+        denoised_output(m, run.scene(), in.denoise_options, in.padding, run.color_space, run.cancel_only));
     run.report.denoise_seconds += seconds_since(t0);
   }
   if (in.radiance) outputs.push_back(radiance_output(m, run.scene(), run.materials, run.color_space));
@@ -402,7 +427,7 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
     sh = sh_error(m);
     outputs.push_back(sh_output(m, *sh, run.color_space));
   }
-  if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space));
+  if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space, run.cancel_only));
   run.report.lightmaps.push_back({m.name, m.image.width(), m.image.error_summary(in.target_error, 0, in.error_metric),
                                   sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional, !m.traced.empty()))});
 }
@@ -421,8 +446,20 @@ void write_report(LightmapBakeRun& run) {
   run.result.outputs.push_back({"report.json", "application/json", "", report_json(run.result, report)});
 }
 
+// The time limit ran out before the first sample: there is nothing to write, and the same job would run out again.
+bake::InvalidInput out_of_time_in_set_up(const LightmapBakeRun& run) {
+  return bake::InvalidInput(
+      "time_limit_seconds",
+      "the limit of " + bake::format_number(run.in.time_limit_seconds) + " s ran out during the set-up (" + run.stage +
+          ", after " + bake::format_number(std::round(seconds_since(run.t0) * 100) / 100) +
+          " s), before any texel was sampled; raise it, or lower the resolution or the scene's size");
+}
+
 void write_outputs(LightmapBakeRun& run) {
-  for (const LightmapState& m : run.maps) write_lightmap(run, m);
+  for (const LightmapState& m : run.maps) {
+    run.cancel_only.check();
+    write_lightmap(run, m);
+  }
   run.result.seconds = seconds_since(run.t0);
   write_report(run);
   run.progress(1.0, "done", run.result.error_estimate);
@@ -461,10 +498,14 @@ std::optional<bake::InvalidInput> validate(const LightmapBakeInput& in) {
 LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const bake::BakeControl& control) {
   if (auto problem = validate(in)) throw *problem;
   LightmapBakeRun run(in, control);
-  prepare_scene(run);
-  plan_bake(run);
-  prepare_transport(run);
-  rasterize_texels(run);
+  try {
+    prepare_scene(run);
+    plan_bake(run);
+    prepare_transport(run);
+    rasterize_texels(run);
+  } catch (const bake::OutOfTime&) {
+    throw out_of_time_in_set_up(run);
+  }
   sample_adaptively(run);
   write_outputs(run);
   return std::move(run.result);

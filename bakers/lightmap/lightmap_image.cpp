@@ -174,14 +174,14 @@ LightmapImage::ErrorSummary LightmapImage::error_summary(double target, double f
   return s;
 }
 
-image::FloatImage LightmapImage::irradiance_image(int padding) const {
+image::FloatImage LightmapImage::irradiance_image(int padding, const bake::StopCheck& stop) const {
   image::FloatImage img = blank(*this, 3, {"R", "G", "B"});
   for (size_t t = 0; t < texel_count(); ++t) {
     if (!valid(t)) continue;
     const Rgb m = mean(t);
     for (int c = 0; c < 3; ++c) img.pixels[t * 3 + c] = to_float(m[c]);
   }
-  dilate(img, validity_, padding);
+  dilate(img, validity_, padding, stop);
   return img;
 }
 
@@ -219,7 +219,7 @@ std::vector<bake::BakeOutput> encode_lightmap(const LightmapImage& lm, const Lig
     img.metadata["kiln:uv_convention"] = kLightmapUvConvention;
   };
 
-  image::FloatImage irradiance = lm.irradiance_image(options.padding);
+  image::FloatImage irradiance = lm.irradiance_image(options.padding, options.stop ? *options.stop : bake::StopCheck{});
   common(irradiance, "irradiance", "W/m^2", options.color_space);
   irradiance.metadata["kiln:padding"] = std::to_string(options.padding);
 

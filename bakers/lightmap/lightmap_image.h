@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "bakers/bake/output.h"
+#include "bakers/bake/stop.h"
 #include "bakers/image/exr.h"
 #include "bakers/lightmap/error_metric.h"
 #include "bakers/lightmap/replica_sums.h"
@@ -103,7 +104,7 @@ class LightmapImage {
   // The resolved images. Irradiance: the means (invalid texels 0), then dilated by `padding` texels (dilate.h).
   // Validity: 1/0, before dilation. Error: relative_error (invalid 0, unestimated 1). One channel except irradiance.
   // Every value is finite (means beyond the float range are clamped to its largest value).
-  image::FloatImage irradiance_image(int padding) const;
+  image::FloatImage irradiance_image(int padding, const bake::StopCheck& stop = {}) const;
   image::FloatImage validity_image() const;
   image::FloatImage error_image(double floor = 0, ErrorMetric metric = ErrorMetric::texel) const;
 
@@ -131,6 +132,7 @@ struct LightmapOutputOptions {
   double error_floor = 0;                   // see LightmapImage; W·m⁻²
   ErrorMetric metric = ErrorMetric::texel;  // of the error image
   std::string color_space = "lin_rec709";   // the working space the irradiance is in (recorded in the metadata)
+  const bake::StopCheck* stop = nullptr;    // polled by the dilation (dilate.h); null: never stops
 };
 
 // The three files, named NAME_irradiance.exr, NAME_validity.exr, NAME_error.exr, as 32-bit float EXR (ZIP) with

@@ -109,7 +109,7 @@ std::string preview_png(const image::FloatImage& irradiance, const std::vector<u
 }  // namespace
 
 bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& scene, const DenoiseOptions& options,
-                                 int padding, const std::string& color_space) {
+                                 int padding, const std::string& color_space, const bake::StopCheck& stop) {
   const LightmapImage& img = m.image;
   std::vector<Rgb> mean(img.texel_count());
   std::vector<double> variance(img.texel_count(), 0.0);
@@ -124,7 +124,7 @@ bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& sce
   image::FloatImage out = texel_image(img, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
     for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(std::clamp(d.colour[t][c], -kMax, kMax));
   });
-  dilate(out, img.validity(), padding);
+  dilate(out, img.validity(), padding, stop);
   out.metadata["kiln:content"] = "irradiance, denoised by an " + describe(options);
   out.metadata["kiln:units"] = "W/m^2";
   out.metadata["kiln:colorspace"] = color_space;
@@ -205,9 +205,10 @@ bake::BakeOutput sh_output(const LightmapState& m, const ShError& error, const s
   return {m.name + "_sh.exr", "image/x-exr", color_space, image::encode_exr(sh)};
 }
 
-bake::BakeOutput preview_output(const LightmapState& m, int padding, const std::string& color_space) {
+bake::BakeOutput preview_output(const LightmapState& m, int padding, const std::string& color_space,
+                                const bake::StopCheck& stop) {
   return {m.name + "_preview.png", "image/png", "srgb_display",
-          preview_png(m.image.irradiance_image(padding), m.image.validity(), color_space, m.name)};
+          preview_png(m.image.irradiance_image(padding, stop), m.image.validity(), color_space, m.name)};
 }
 
 }  // namespace kiln::lightmap

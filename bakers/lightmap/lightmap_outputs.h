@@ -16,9 +16,10 @@ namespace kiln::lightmap {
 
 // NAME_irradiance_denoised.exr: the irradiance through the denoiser (denoise.h), guided by texel_guides(m, scene)
 // (`scene` the one the texels were rasterized from), each texel's variance (relative_error · luminance of the mean)²;
-// dilated by `padding` texels, with NAME_irradiance.exr's metadata and a kiln:content naming the filter.
+// dilated by `padding` texels (polling `stop`), with NAME_irradiance.exr's metadata and a kiln:content naming the
+// filter.
 bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& scene, const DenoiseOptions& options,
-                                 int padding, const std::string& color_space);
+                                 int padding, const std::string& color_space, const bake::StopCheck& stop = {});
 
 // NAME_radiance.exr: the irradiance times the texel's diffuse reflectance, over π.
 bake::BakeOutput radiance_output(const LightmapState& m, const scene::Scene& scene,
@@ -38,6 +39,7 @@ ShError sh_error(const LightmapState& m);
 bake::BakeOutput sh_output(const LightmapState& m, const ShError& error, const std::string& color_space);
 
 // NAME_preview.png: the irradiance, dilated by `padding` texels, through the display transform.
-bake::BakeOutput preview_output(const LightmapState& m, int padding, const std::string& color_space);
+bake::BakeOutput preview_output(const LightmapState& m, int padding, const std::string& color_space,
+                                const bake::StopCheck& stop = {});
 
 }  // namespace kiln::lightmap

@@ -219,8 +219,8 @@ Point2 vertex_mean(const Polygon& p) {
 
 class Rasterizer {
  public:
-  Rasterizer(const scene::Scene& scene, const RasterOptions& options)
-      : scene_(scene), w_(options.width), h_(options.height), k_(options.samples_per_axis) {}
+  Rasterizer(const scene::Scene& scene, const RasterOptions& options, const bake::StopCheck& stop)
+      : scene_(scene), w_(options.width), h_(options.height), k_(options.samples_per_axis), stop_(stop) {}
 
   void triangle(const InstanceJob& job, uint32_t t, BlockResult& out) const {
     RasterReport& report = out.report;
@@ -248,6 +248,8 @@ class Rasterizer {
     const auto world_index = static_cast<uint32_t>(out.triangles.size());
     bool covered_any = false;
     for (int y = r.y0; y <= r.y1; ++y) {
+      // A triangle may cover the whole map: polled every 16 rows (at most 16 · 16384 texels, milliseconds).
+      if ((y - r.y0) % 16 == 15) stop_.check();
       for (int x = r.x0; x <= r.x1; ++x) covered_any |= texel(x, y, uv, d, world_index, out.fragments);
     }
     if (covered_any) {
@@ -371,6 +373,7 @@ class Rasterizer {
 
   const scene::Scene& scene_;
   int w_, h_, k_;
+  const bake::StopCheck& stop_;
 };
 
 void merge(RasterReport& into, const RasterReport& from) {
@@ -446,11 +449,12 @@ std::vector<InstanceJob> instance_jobs(const scene::Scene& scene, const std::str
 // Rasterizes the global triangle sequence in fixed blocks, in parallel: concatenated in order, the blocks' results
 // do not depend on the thread count.
 std::vector<BlockResult> rasterize_blocks(const Rasterizer& rasterizer, const std::vector<InstanceJob>& jobs,
-                                          size_t total) {
+                                          size_t total, const bake::StopCheck& stop) {
   constexpr size_t kBlock = 2048;
   const size_t blocks = (total + kBlock - 1) / kBlock;
   std::vector<BlockResult> results(blocks);
   tbb::parallel_for(size_t{0}, blocks, [&](size_t block) {
+    stop.check();  // thrown out of parallel_for, which cancels the other blocks
     const size_t begin = block * kBlock, end = std::min(total, begin + kBlock);
     BlockResult& result = results[block];
     // The instance holding `begin`, then walk forward.
@@ -469,13 +473,17 @@ std::vector<BlockResult> rasterize_blocks(const Rasterizer& rasterizer, const st
 // Counting sort of the blocks' fragments by texel, stable (scene order within a texel), with out.first set; the
 // blocks' triangles are joined into `world` and the fragments renumbered to match. Merges the blocks' reports.
 std::vector<Fragment> sort_fragments(std::vector<BlockResult>& results, const std::string& name, LightmapTexels& out,
-                                     std::vector<WorldTriangle>& world) {
+                                     std::vector<WorldTriangle>& world, const bake::StopCheck& stop) {
+  // One block may hold every fragment of a map (a few big triangles): polled every 2^16 fragments.
+  constexpr size_t kPoll = size_t{1} << 16;
   const size_t texels = out.texel_count();
   std::vector<uint64_t> count(texels + 1, 0);
   uint64_t fragments = 0;
   for (BlockResult& r : results) {
     merge(out.report, r.report);
-    for (Fragment& f : r.fragments) {
+    for (size_t j = 0; j < r.fragments.size(); ++j) {
+      if (j % kPoll == 0) stop.check();
+      Fragment& f = r.fragments[j];
       ++count[f.texel + 1];
       f.world += static_cast<uint32_t>(world.size());
     }
@@ -490,10 +498,15 @@ std::vector<Fragment> sort_fragments(std::vector<BlockResult>& results, const st
   }
   for (size_t i = 0; i < texels; ++i) count[i + 1] += count[i];
   out.first.assign(count.begin(), count.end());
-  std::vector<Fragment> sorted(fragments);
+  std::vector<Fragment> sorted;
+  bake::resize_polled(sorted, fragments, stop);
   std::vector<uint64_t> cursor(count.begin(), count.end() - 1);
   for (BlockResult& r : results) {
-    for (const Fragment& f : r.fragments) sorted[cursor[f.texel]++] = f;
+    for (size_t j = 0; j < r.fragments.size(); ++j) {
+      if (j % kPoll == 0) stop.check();
+      const Fragment& f = r.fragments[j];
+      sorted[cursor[f.texel]++] = f;
+    }
     r.fragments = {};
   }
   return sorted;
@@ -580,24 +593,29 @@ std::vector<std::string> lightmap_names(const scene::Scene& scene) {
 size_t raster_bytes_per_fragment() { return sizeof(Fragment); }
 size_t raster_bytes_per_triangle() { return sizeof(WorldTriangle); }
 
-LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options) {
+LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options,
+                                  const bake::StopCheck& stop) {
   check_options(options);
   LightmapTexels out;
   out.width = options.width;
   out.height = options.height;
   size_t total = 0;
   const std::vector<InstanceJob> jobs = instance_jobs(scene, name, options, out.report, total);
-  std::vector<BlockResult> results = rasterize_blocks(Rasterizer(scene, options), jobs, total);
+  std::vector<BlockResult> results = rasterize_blocks(Rasterizer(scene, options, stop), jobs, total, stop);
   std::vector<WorldTriangle> world;
-  const std::vector<Fragment> sorted = sort_fragments(results, name, out, world);
+  stop.check();
+  const std::vector<Fragment> sorted = sort_fragments(results, name, out, world, stop);
+  stop.check();
   // The samples, each written once, in parallel.
-  out.samples.resize(sorted.size());
+  bake::resize_polled(out.samples, sorted.size(), stop);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, sorted.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t j = range.begin(); j != range.end(); ++j) {
+      if ((j - range.begin()) % 4096 == 0) stop.check();  // a body may get far more than the grain
       const Fragment& f = sorted[j];
       out.samples[j] = world[f.world].sample({1.0 - f.b1 - f.b2, f.b1, f.b2}, f.weight);
     }
   });
+  stop.check();
   out.report.overlapping_texels = overlapping_texels(out);
   return out;
 }

@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "bakers/bake/stop.h"
 #include "bakers/math/sampling.h"
 #include "bakers/math/vec3.h"
 #include "bakers/scene/ray_offset.h"
@@ -147,8 +148,10 @@ std::vector<std::string> lightmap_names(const scene::Scene& scene);
 
 // Rasterizes every baking instance whose lightmap (scene::resolved_lightmap_name) is `name`. Bad geometry is skipped
 // and reported, never fatal. Throws std::invalid_argument for options out of range (naming the field) or when the
-// sample count would exceed 2³² − 1 (lower the resolution or samples_per_axis). Uses all cores (TBB).
-LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options);
+// sample count would exceed 2³² − 1 (lower the resolution or samples_per_axis). Uses all cores (TBB). Polls `stop`
+// every block of triangles and samples and throws what its check() throws.
+LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options,
+                                  const bake::StopCheck& stop = {});
 
 // The transient memory of rasterize_lightmap beyond its result: each sample is first a compact fragment (held twice
 // while sorted by texel), and each triangle that covers a texel keeps its world-space vertices and normals until the

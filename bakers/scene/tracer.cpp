@@ -137,6 +137,7 @@ struct Tracer::Impl {
   std::vector<TriangleFacts> facts;
   std::vector<TriangleVertices> vertices;
   std::vector<MeshAttributes> meshes;
+  const bake::StopCheck* stop = nullptr;
   size_t triangles = 0;
   size_t side_bytes = 0;                 // the records and the copied UV attributes
   std::atomic<int64_t> embree_bytes{0};  // what Embree holds, from its memory monitor
@@ -145,6 +146,12 @@ struct Tracer::Impl {
   std::string error;  // Embree's last message, from its error callback
 
   // Embree calls this on the failing thread; C callbacks must not throw, so the message waits for check().
+  // Embree's build progress; false cancels the build (rtcCommitScene then reports RTC_ERROR_CANCELLED).
+  static bool on_progress(void* user, double /*fraction*/) {
+    const auto* self = static_cast<const Impl*>(user);
+    return !(self->stop && self->stop->requested());
+  }
+
   static void on_error(void* user, RTCError code, const char* message) {
     auto* self = static_cast<Impl*>(user);
     std::lock_guard<std::mutex> lock(self->error_mutex);
@@ -381,6 +388,7 @@ void Tracer::Impl::add_triangles(const Scene& input, size_t k, const float* vb, 
   const std::vector<Vec3> normals = world_normals(mesh, g.normal_matrix);
   const size_t first_triangle = records.size();
   for (size_t t = 0; t < nt; ++t) {
+    if (stop && t % 65536 == 65535) stop->check();
     const TriangleVertices tv = triangle_vertices(ib, t, normals);
     const TriangleRecord r = triangle_record(vb, tv.index, g.mirror);
     const Vec3 n{r.ng[0], r.ng[1], r.ng[2]};
@@ -402,7 +410,13 @@ void Tracer::Impl::add_triangles(const Scene& input, size_t k, const float* vb, 
 
 void Tracer::Impl::commit() {
   for (const MeshAttributes& m : meshes) side_bytes += (m.uv.size() + m.lightmap_uv.size()) * sizeof(Point2);
+  if (stop) rtcSetSceneProgressMonitorFunction(scene, &Impl::on_progress, this);
   rtcCommitScene(scene);
+  // A build cancelled by the progress monitor is a stop, not a failure of Embree's.
+  if (stop && stop->requested()) {
+    rtcGetDeviceError(device);  // clears RTC_ERROR_CANCELLED
+    stop->check();
+  }
   check("building the acceleration structure");
 }
 
@@ -410,10 +424,14 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
   require_clean_instances(scene);
   for (size_t m = 0; m < scene.meshes.size(); ++m) require_clean_mesh(scene.meshes[m], m);
   Impl& im = *impl_;
+  im.stop = options.stop;
   im.create_scene(options);
   im.meshes.resize(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m) im.meshes[m] = {scene.meshes[m].uv, scene.meshes[m].lightmap_uv};
-  for (size_t k = 0; k < scene.instances.size(); ++k) im.add_instance(scene, k);
+  for (size_t k = 0; k < scene.instances.size(); ++k) {
+    if (im.stop) im.stop->check();
+    im.add_instance(scene, k);
+  }
   im.commit();
 }
 

@@ -17,6 +17,7 @@
 #include <optional>
 #include <span>
 
+#include "bakers/bake/stop.h"
 #include "bakers/math/sampling.h"
 #include "bakers/math/vec3.h"
 #include "bakers/scene/ray_offset.h"
@@ -64,6 +65,9 @@ struct HitDetail {
 
 struct TracerOptions {
   bool robust = true;  // RTC_SCENE_FLAG_ROBUST (watertight); false trades that for ~speed
+  // Polled while the tracer copies the geometry (every 65536 triangles) and while Embree builds the BVH (its progress
+  // monitor, which cancels the build); the constructor then throws what stop->check() throws. Null: never stops.
+  const bake::StopCheck* stop = nullptr;
 };
 
 class Tracer {
