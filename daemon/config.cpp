@@ -3,6 +3,9 @@
 #include <google/protobuf/io/tokenizer.h>
 #include <google/protobuf/text_format.h>
 
+#include <unistd.h>
+
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -60,6 +63,23 @@ double parse_seconds(const std::string& flag, const std::string& text) {
   return v;
 }
 
+// A size in bytes, optionally with a binary suffix: "512M", "6G".
+uint64_t parse_bytes(const std::string& flag, const std::string& text) {
+  constexpr uint64_t kMax = uint64_t{1} << 50;
+  std::string digits = text;
+  int shift = 0;
+  if (!digits.empty()) {
+    const std::string units = "KMGT";
+    const auto u = units.find(static_cast<char>(std::toupper(static_cast<unsigned char>(digits.back()))));
+    if (u != std::string::npos) {
+      shift = 10 * static_cast<int>(u + 1);
+      digits.pop_back();
+    }
+  }
+  const uint64_t v = parse_unsigned(flag, digits, 0, kMax >> shift);
+  return v << shift;
+}
+
 struct Flag {
   const char* name;
   const char* field;  // the config file's field
@@ -94,6 +114,9 @@ const std::vector<Flag>& flags() {
        [](Config& c, const std::string& v) {
          c.store_limit_bytes = parse_unsigned("--store-limit-bytes", v, 0, uint64_t{1} << 50);
        }},
+      {"--memory-limit", "memory_limit_bytes",
+       "memory the running jobs' estimates may add up to, bytes or with K, M, G, T (x1024); 0 = 3/4 of the RAM",
+       [](Config& c, const std::string& v) { c.memory_limit_bytes = parse_bytes("--memory-limit", v); }},
       {"--max-connections", "max_connections", "connections that said hello, at once [1, 10000]",
        [](Config& c, const std::string& v) { c.max_connections = parse_unsigned("--max-connections", v, 1, 10000); }},
       {"--max-pre-hello-connections", "max_pre_hello_connections",
@@ -152,6 +175,7 @@ void load_config_file(const std::string& path, Config& config) {
   if (file.has_workers()) config.workers = file.workers();
   if (file.has_threads()) config.threads = file.threads();
   if (file.has_store_limit_bytes()) config.store_limit_bytes = file.store_limit_bytes();
+  if (file.has_memory_limit_bytes()) config.memory_limit_bytes = file.memory_limit_bytes();
   if (file.has_max_connections()) config.max_connections = file.max_connections();
   if (file.has_max_pre_hello_connections()) config.max_pre_hello_connections = file.max_pre_hello_connections();
   if (file.has_hello_deadline_seconds()) config.hello_deadline_seconds = file.hello_deadline_seconds();
@@ -267,6 +291,16 @@ std::string usage() {
   u += "\nThe second column is the config file's field. Logs go to stderr. SIGTERM or SIGINT stops accepting,\n"
        "lets running jobs finish within shutdown_grace_seconds, re-queues the rest and exits.\n";
   return u;
+}
+
+}  // namespace kiln::daemon
+
+namespace kiln::daemon {
+
+uint64_t default_memory_limit() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  if (pages <= 0 || page <= 0) return uint64_t{4} << 30;  // unknown: a size most build machines have
+  return static_cast<uint64_t>(pages) * static_cast<uint64_t>(page) / 4 * 3;
 }
 
 }  // namespace kiln::daemon

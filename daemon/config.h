@@ -23,6 +23,8 @@ struct Config {
   uint32_t workers = 1;
   uint32_t threads = 0;
   uint64_t store_limit_bytes = 0;
+  // Memory the running jobs' estimates may add up to; 0: default_memory_limit() (kilnd resolves it at start).
+  uint64_t memory_limit_bytes = 0;
   uint32_t max_connections = 64;              // connections that said hello
   uint32_t max_pre_hello_connections = 1024;  // connections that have not yet; the oldest dropped when full
   double hello_deadline_seconds = 5;          // from connecting to a successful hello
@@ -59,6 +61,9 @@ CommandLine parse_command_line(const std::vector<std::string>& args);
 // Checks ranges and combinations (TCP needs a token file; at least one listener; the TLS files go together).
 // Throws std::invalid_argument. Whether the TCP address is loopback is checked when it is resolved (server.cpp).
 void validate(const Config& config);
+
+// Three quarters of the machine's physical memory: room for the bakes and the daemon's own, under the kernel's.
+uint64_t default_memory_limit();
 
 // --help: every flag and its config-file field.
 std::string usage();

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "bakers/lightmap/memory_estimate.h"
 #include "daemon/log.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/store/job_db.h"
@@ -146,7 +147,10 @@ Service::Service(const Config& config, TokenSet tokens) : config_(config), token
     log_line("store " + config_.store,
              std::to_string(recovery.queued.size()) + " job(s) left unfinished by the previous run are queued again");
   }
-  workers_ = std::make_unique<Workers>(config_, *db_, *blobs_, *queue_);
+  if (config_.memory_limit_bytes == 0) config_.memory_limit_bytes = default_memory_limit();
+  memory_ = std::make_unique<MemoryBudget>(config_.memory_limit_bytes);
+  log_line("start", "memory limit for the running jobs: " + lightmap::format_bytes(config_.memory_limit_bytes));
+  workers_ = std::make_unique<Workers>(config_, *db_, *blobs_, *queue_, *memory_);
   workers_->start();
   sweeper_ = std::thread([this] { sweep_uploads(); });
 }
@@ -396,6 +400,15 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
       log_line("job " + out.job.id, "answered from the result cache (the result of job " + cached->id + ")");
       return;
     }
+  }
+  // Refused up front rather than run into the kernel's OOM killer; a cached result needed no memory, so it was
+  // served above whatever the job would need to bake.
+  if (bake.memory_bytes > config_.memory_limit_bytes) {
+    fail(v1::Error::RESOURCE_EXHAUSTED,
+         "the job would need about " + lightmap::format_bytes(bake.memory_bytes) + " of memory (" + bake.memory_note +
+             "), more than kilnd's memory limit of " + lightmap::format_bytes(config_.memory_limit_bytes) +
+             " (--memory-limit): lower this field, or bake in several jobs",
+         bake.memory_field);
   }
   if (queue_->size() >= config_.max_queued_jobs) {
     fail(v1::Error::RESOURCE_EXHAUSTED,

@@ -15,6 +15,7 @@
 #include "daemon/auth.h"
 #include "daemon/config.h"
 #include "daemon/hello_throttle.h"
+#include "daemon/memory_budget.h"
 #include "daemon/store/job_queue.h"
 
 namespace kiln::v1 {
@@ -101,6 +102,7 @@ class Service {
   std::unique_ptr<store::BlobStore> blobs_;
   std::unique_ptr<store::JobDb> db_;
   std::unique_ptr<store::JobQueue> queue_;
+  std::unique_ptr<MemoryBudget> memory_;  // before the workers, which hold reservations of it
   std::unique_ptr<Workers> workers_;
   std::mutex submit_mutex_;  // submits and retention do not interleave (see store::enforce_retention)
   std::atomic<bool> shutting_down_{false};

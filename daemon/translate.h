@@ -56,6 +56,12 @@ struct BakeRequest {
   // after overrides, textures, lights, environment source), part of the cache key with the settings' canonical text.
   std::string scene_hash;
   std::vector<BlobRef> inputs;  // the blobs the job reads, in the order of its fields
+  // What the bake will hold at its peak, estimated from the spec by the baker's own model (before anything is read
+  // or decoded); the field whose value drives the estimate most, which a refusal names; and what the estimate is
+  // made of, for people.
+  uint64_t memory_bytes = 0;
+  std::string memory_field;
+  std::string memory_note;
 
   // The input, for a request known to hold that type (std::bad_variant_access otherwise).
   kiln::material::MaterialBakeInput& material() { return std::get<kiln::material::MaterialBakeInput>(input); }

@@ -171,6 +171,13 @@ void translate_environment(const kiln::v1::JobSpec& spec, const store::BlobStore
   environment_quality(spec.quality(), in);
   in.force_effects = forced_effects(spec);
   validate_environment(e, r, in);
+  uint64_t encoded = 0;
+  for (const BlobRef& b : r.inputs) encoded += b.size;
+  const bool faces = r.inputs.size() > 1;
+  r.memory_bytes = envmap::estimate_environment_job_memory(in, encoded, faces);
+  r.memory_field = in.constant ? "job.environment.size" : faces ? "job.environment.faces" : "job.environment.image";
+  r.memory_note = "a " + std::to_string(in.size) + "^2 cube chain from " +
+                  (in.constant ? std::string("a constant") : std::to_string(encoded) + " encoded bytes");
 }
 
 void load_environment_inputs(BakeRequest& r, store::BlobStore& blobs) {

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "bakers/bake/number_format.h"
+#include "bakers/lightmap/memory_estimate.h"
 #include "daemon/mesh_blob_decode.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/translate_fields.h"
@@ -466,6 +467,65 @@ void check_total_input(const BakeRequest& r) {
   }
 }
 
+// The bake's peak memory by the baker's model (bakers/lightmap/memory_estimate.h), from the spec alone: a mesh's
+// triangles are bounded by its blob's size (each needs 12 bytes of indices), and every instance traces its mesh's.
+void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>& lightmap_names, BakeRequest& r) {
+  const lightmap::LightmapBakeInput& in = r.lightmap();
+  lightmap::LightmapJobSize size;
+  size.ao = in.ao;
+  size.directional = in.directional;
+  size.radiance = in.radiance;
+  size.denoise = in.denoise;
+  size.preview = in.preview;
+  std::vector<uint64_t> mesh_triangles(static_cast<size_t>(j.meshes_size()), 0);
+  for (int i = 0; i < j.meshes_size(); ++i) {
+    const uint64_t bytes = j.meshes(i).geometry().size();
+    mesh_triangles[i] = bytes > 20 ? (bytes - 20) / 12 : 0;
+    size.mesh_blob_bytes += bytes;
+  }
+  for (const scene::Instance& inst : in.scene.instances) {
+    if (inst.mesh >= 0 && static_cast<size_t>(inst.mesh) < mesh_triangles.size()) {
+      size.traced_triangles += mesh_triangles[inst.mesh];
+    }
+  }
+  for (int i = 0; i < j.textures_size(); ++i) size.texture_blob_bytes += j.textures(i).image().size();
+  if (j.has_environment() && j.environment().has_image()) size.environment_blob_bytes = j.environment().image().size();
+  // The largest lightmap, and the field that sets its resolution.
+  std::string largest_field = kPath + ".resolution";
+  uint64_t largest = 0, texels = 0;
+  for (const std::string& name : lightmap_names) {
+    const auto it = in.resolutions.find(name);
+    const uint64_t n = static_cast<uint64_t>(it == in.resolutions.end() ? in.resolution : it->second);
+    size.lightmap_texels.push_back(n * n);
+    texels += n * n;
+    if (n * n <= largest) continue;
+    largest = n * n;
+    largest_field = kPath + ".resolution";
+    for (int i = 0; i < j.lightmaps_size(); ++i) {
+      if (j.lightmaps(i).name() == name && j.lightmaps(i).has_resolution()) {
+        largest_field = at(kPath + ".lightmaps", i) + ".resolution";
+      }
+    }
+  }
+  const lightmap::LightmapMemoryEstimate e = lightmap::estimate_memory(size);
+  uint64_t texel_bytes = 0;
+  for (uint64_t b : e.lightmap_bytes) texel_bytes += b;
+  r.memory_bytes = e.total;
+  // The part that costs most names the field to lower.
+  if (texel_bytes >= e.scene_bytes && texel_bytes >= e.input_bytes) {
+    r.memory_field = largest_field;
+  } else if (e.scene_bytes >= e.input_bytes) {
+    r.memory_field = kPath + (j.instances_size() > 0 ? ".instances" : ".meshes");
+  } else {
+    r.memory_field = kPath + (size.texture_blob_bytes >= size.environment_blob_bytes ? ".textures" : ".environment");
+  }
+  r.memory_note =
+      std::to_string(lightmap_names.size()) + " lightmap(s) of " + std::to_string(texels) + " texels in all at about " +
+      std::to_string(static_cast<uint64_t>(e.bytes_per_texel)) + " bytes each (" + lightmap::format_bytes(texel_bytes) +
+      "), up to " + std::to_string(size.traced_triangles) + " traced triangles (" +
+      lightmap::format_bytes(e.scene_bytes) + " with the meshes), inputs " + lightmap::format_bytes(e.input_bytes);
+}
+
 // The baker's own validation is the backstop, and knows the effects its planner decides.
 void validate_lightmap(const lightmap::LightmapBakeInput& in) {
   if (auto problem = lightmap::validate(in)) {
@@ -523,6 +583,7 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
   check_total_input(r);
   validate_lightmap(in);
   r.scene_hash = scene_hash(j);
+  estimate_memory(j, lightmap_names, r);
 }
 
 void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs) {

@@ -49,6 +49,10 @@ void translate_material(const kiln::v1::JobSpec& spec, BakeRequest& r) {
   material_effects(spec, in);
   material_quality(spec.quality(), in);
   if (auto problem = material::validate(in)) throw baker_problem("job.material", *problem);
+  r.memory_bytes = material::estimate_material_memory(in);
+  r.memory_field = in.merl ? "job.material.merl" : "job.material.table_mu";
+  r.memory_note = "tables of " + std::to_string(in.table_mu) + " x " + std::to_string(in.table_roughness) +
+                  (in.merl ? " entries and a MERL table" : " entries");
 }
 
 std::string material_canonical_text(const BakeRequest& r) {

@@ -6,7 +6,9 @@
 #include <chrono>
 #include <iostream>
 
+#include "bakers/lightmap/memory_estimate.h"
 #include "daemon/log.h"
+#include "daemon/memory_budget.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/store/job_db.h"
 #include "daemon/store/job_queue.h"
@@ -25,8 +27,9 @@ struct Baked {
   std::vector<v1::PlanDecision> plan;
 };
 
-Workers::Workers(const Config& config, store::JobDb& db, store::BlobStore& blobs, store::JobQueue& queue)
-    : config_(config), db_(db), blobs_(blobs), queue_(queue) {
+Workers::Workers(const Config& config, store::JobDb& db, store::BlobStore& blobs, store::JobQueue& queue,
+                 MemoryBudget& memory)
+    : config_(config), db_(db), blobs_(blobs), queue_(queue), memory_(memory) {
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int total = config.threads == 0 ? cores : static_cast<int>(config.threads);
   // The baking threads are shared out among the jobs that run at once.
@@ -53,7 +56,7 @@ void Workers::run(std::stop_token stop) {
   while (!stop.stop_requested()) {
     std::optional<store::QueuedJob> job = queue_.pop(stop);
     if (!job) return;
-    run_one(job->id, job->cancel);
+    run_one(job->id, job->cancel, stop);
   }
 }
 
@@ -182,12 +185,25 @@ v1::JobResult job_result(const std::string& id, const store::JobRecord& record, 
 
 }  // namespace
 
-void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel) {
+void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel, std::stop_token stop) {
   const auto t0 = std::chrono::steady_clock::now();
+  // The request first: its memory estimate decides when the job may run.
+  BakeRequest request;
+  try {
+    const std::optional<store::JobRecord> queued = db_.get(id);
+    if (!queued) throw std::runtime_error("the job's record is gone from the database");
+    request = request_of(*queued);
+  } catch (const std::exception& e) {
+    record_failure(id, e.what());
+    return;
+  }
+  if (!wait_for_memory(id, request, *cancel, stop)) return;
+  const MemoryReservation reservation(memory_, request.memory_bytes);
   std::optional<store::JobRecord> record = start_running(id);
   if (!record) return;
   try {
-    const BakeRequest request = request_of(*record);
+    // Its blobs were checked at submit; load_inputs reads them now and says which is gone.
+    load_inputs(request, blobs_);
     const Baked baked = bake(id, request, cancel.get());
     record_success(id, *record, request, baked, t0);
   } catch (const bake::BakeCancelled&) {
@@ -195,6 +211,27 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
   } catch (const std::exception& e) {
     record_failure(id, e.what());
   }
+}
+
+bool Workers::wait_for_memory(const std::string& id, const BakeRequest& request, const std::atomic<bool>& cancel,
+                              std::stop_token stop) {
+  const auto give_up = [&] { return cancel.load() || stop.stop_requested() || queue_.is_shut_down(); };
+  if (memory_.reserve(request.memory_bytes, [&] { return true; })) return true;
+  const std::string why = "waiting for memory: it needs about " + lightmap::format_bytes(request.memory_bytes) +
+                          " and the running jobs hold " + lightmap::format_bytes(memory_.in_use()) + " of the " +
+                          lightmap::format_bytes(memory_.limit()) + " memory limit";
+  log_line("job " + id, why);
+  queue_.publish(id, store::Progress{store::JobState::queued, 0, {}, 0, {}, why});
+  if (memory_.reserve(request.memory_bytes, give_up)) return true;
+  if (cancel.load() && !stop.stop_requested() && !queue_.is_shut_down()) {
+    db_.mark_cancelled(id);
+    log_line("job " + id, "cancelled while waiting for memory");
+    queue_.finish(id, store::Progress{store::JobState::cancelled, 0, {}, 0, {}, "cancelled before it ran"});
+  } else {
+    log_line("job " + id, "still queued at the shutdown; it runs after the next start");
+    queue_.finish(id, store::Progress{store::JobState::queued, 0, {}, 0, {}, "queued until kilnd starts again"});
+  }
+  return false;
 }
 
 std::optional<store::JobRecord> Workers::start_running(const std::string& id) {
@@ -217,11 +254,8 @@ BakeRequest Workers::request_of(const store::JobRecord& record) {
   v1::JobSpec spec;
   if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
   // The database keeps the spec as the client sent it, not the translated request (a plain struct, which may hold
-  // the bytes of the job's blobs): so the worker translates it again, the same text giving the same request. Its
-  // blobs were checked at submit; load_inputs reads them now and says which is gone.
-  BakeRequest request = translate(spec);
-  load_inputs(request, blobs_);
-  return request;
+  // the bytes of the job's blobs): so the worker translates it again, the same text giving the same request.
+  return translate(spec);
 }
 
 Baked Workers::bake(const std::string& id, const BakeRequest& request, std::atomic<bool>* cancel) {

@@ -22,10 +22,14 @@ namespace kiln::daemon {
 
 struct BakeRequest;
 struct Baked;  // what a bake hands back to the worker (workers.cpp)
+class MemoryBudget;
 
 class Workers {
  public:
-  Workers(const Config& config, store::JobDb& db, store::BlobStore& blobs, store::JobQueue& queue);
+  // A job runs once its memory estimate fits in `memory` beside the running jobs'; until then it waits (still
+  // queued in the database, its watchers told why).
+  Workers(const Config& config, store::JobDb& db, store::BlobStore& blobs, store::JobQueue& queue,
+          MemoryBudget& memory);
   ~Workers();  // stop(), then join
 
   void start();
@@ -37,9 +41,14 @@ class Workers {
  private:
   void run(std::stop_token stop);
   // One job, from the queue to its end: running, baked, then succeeded, cancelled (or re-queued) or failed.
-  void run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel);
+  void run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel, std::stop_token stop);
+  // Waits until the request's memory estimate fits; false (the job's end recorded) if it was cancelled meanwhile or
+  // the daemon is stopping (the job then stays queued for the next start).
+  bool wait_for_memory(const std::string& id, const BakeRequest& request, const std::atomic<bool>& cancel,
+                       std::stop_token stop);
   // Marks the job running; nothing (and the queue told) if it was cancelled or removed meanwhile.
   std::optional<store::JobRecord> start_running(const std::string& id);
+  // The job's stored spec, translated again (its blobs are not read yet).
   BakeRequest request_of(const store::JobRecord& record);
   Baked bake(const std::string& id, const BakeRequest& request, std::atomic<bool>* cancel);
   void record_success(const std::string& id, const store::JobRecord& record, const BakeRequest& request,
@@ -51,6 +60,7 @@ class Workers {
   store::JobDb& db_;
   store::BlobStore& blobs_;
   store::JobQueue& queue_;
+  MemoryBudget& memory_;
   std::atomic<bool> requeue_{false};
   int threads_per_job_ = 1;
   std::vector<std::jthread> threads_;

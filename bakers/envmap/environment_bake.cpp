@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <utility>
 
@@ -388,6 +389,16 @@ uint64_t estimate_environment_memory(const EnvironmentBakeInput& in, int width, 
                        6.0 * in.irradiance_size * in.irradiance_size * sizeof(Rgb) * 2 +
                        double(in.dfg_size) * in.dfg_size * (sizeof(DfgEntry) + 12.0) + (1 << 20);
   return static_cast<uint64_t>(std::max({source, split, chain, output}) + small);
+}
+
+uint64_t estimate_environment_job_memory(const EnvironmentBakeInput& in, uint64_t encoded_bytes, bool faces) {
+  const double pixels = std::min<double>(static_cast<double>(encoded_bytes), double(uint64_t{1} << 26));
+  int width = 0, height = 0;
+  if (!in.constant && encoded_bytes > 0) {
+    width = static_cast<int>(std::ceil(faces ? std::sqrt(pixels / 6) : std::sqrt(2 * pixels)));
+    height = faces ? width : (width + 1) / 2;
+  }
+  return std::min(estimate_environment_memory(in, width, height, faces), kMaxEnvironmentMemory) + encoded_bytes;
 }
 
 EnvironmentBakeResult bake_environment(const EnvironmentBakeInput& in, const bake::BakeControl& control) {

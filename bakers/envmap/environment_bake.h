@@ -109,6 +109,11 @@ struct EnvironmentBakeResult {
 // (source_is_faces, W = H = M); a constant source has W = H = 0.
 uint64_t estimate_environment_memory(const EnvironmentBakeInput& input, int source_width, int source_height,
                                      bool source_is_faces);
+// The same before the source is read, from its encoded size alone (for a daemon's admission): the source taken as
+// one pixel per encoded byte (floats and 8-bit images alike compress to more than a byte a pixel), 2:1 (or six
+// square faces), the estimate held within kMaxEnvironmentMemory (the bake refuses more once it reads the headers),
+// plus the encoded bytes themselves.
+uint64_t estimate_environment_job_memory(const EnvironmentBakeInput& input, uint64_t encoded_bytes, bool faces);
 
 // nullopt if valid, else the first offending field and what is wrong with it.
 std::optional<bake::InvalidInput> validate(const EnvironmentBakeInput& input);

@@ -422,6 +422,13 @@ std::optional<bake::InvalidInput> validate(const MaterialBakeInput& in) {
   return std::nullopt;
 }
 
+uint64_t estimate_material_memory(const MaterialBakeInput& in) {
+  constexpr double kBytesPerEntry = 16 * sizeof(double);  // sums, square sums and counts per RGB entry, and the file
+  const double entries = static_cast<double>(in.table_mu) * (1.0 + static_cast<double>(in.table_roughness));
+  const double merl = in.merl ? 2.0 * 90 * 90 * 180 * 3 * sizeof(double) : 0.0;
+  return static_cast<uint64_t>(entries * kBytesPerEntry + merl) + (uint64_t{16} << 20);
+}
+
 MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::BakeControl& control) {
   if (auto error = validate(input)) throw *error;
   MaterialBakeRun run(input, control);

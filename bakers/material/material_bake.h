@@ -129,4 +129,9 @@ MaterialBakeResult bake_material(const MaterialBakeInput& input, const bake::Bak
 // nullopt if the input is valid, else the first offending field and what is wrong with it.
 std::optional<bake::InvalidInput> validate(const MaterialBakeInput& input);
 
+// The peak memory of a bake of `input`, for a daemon's admission: the tables (table_mu × table_roughness entries of
+// a few RGB sums each, and their EXR files), the MERL table when asked (90 × 90 × 180 RGB doubles, and its file),
+// and 16 MiB for the validation, the report and the code's own working set.
+uint64_t estimate_material_memory(const MaterialBakeInput& input);
+
 }  // namespace kiln::material

@@ -105,6 +105,7 @@ TEST(Config, ShippedConfigStatesTheDefaults) {
   EXPECT_EQ(shipped.frame_deadline_seconds, defaults.frame_deadline_seconds);
   EXPECT_EQ(shipped.max_crash_restarts, defaults.max_crash_restarts);
   EXPECT_EQ(shipped.partial_upload_max_age_seconds, defaults.partial_upload_max_age_seconds);
+  EXPECT_EQ(shipped.memory_limit_bytes, defaults.memory_limit_bytes);
 }
 
 TEST(Config, HeartbeatFromFileAndFlag) {
@@ -118,6 +119,18 @@ TEST(Config, CrashLoopGuardFromFileAndFlag) {
   EXPECT_EQ(parse_command_line({"--config", f}).config.max_crash_restarts, 5u);
   EXPECT_EQ(parse_command_line({"--config", f, "--max-crash-restarts", "0"}).config.max_crash_restarts, 0u);
   EXPECT_THROW(parse_command_line({"--max-crash-restarts", "-1"}), std::invalid_argument);
+}
+
+TEST(Config, MemoryLimitFromFileAndFlagWithBinarySuffixes) {
+  const std::string f = write_file("mem.conf", "memory_limit_bytes: 1048576\n");
+  EXPECT_EQ(parse_command_line({"--config", f}).config.memory_limit_bytes, uint64_t{1} << 20);
+  EXPECT_EQ(parse_command_line({"--config", f, "--memory-limit", "6G"}).config.memory_limit_bytes, uint64_t{6} << 30);
+  EXPECT_EQ(parse_command_line({"--memory-limit", "512m"}).config.memory_limit_bytes, uint64_t{512} << 20);
+  EXPECT_EQ(parse_command_line({"--memory-limit", "1000"}).config.memory_limit_bytes, 1000u);
+  EXPECT_THROW(parse_command_line({"--memory-limit", "6X"}), std::invalid_argument);
+  EXPECT_THROW(parse_command_line({"--memory-limit", "G"}), std::invalid_argument);
+  // The default is a share of this machine's memory, and some memory.
+  EXPECT_GT(default_memory_limit(), uint64_t{1} << 20);
 }
 
 TEST(Config, ConnectionBoundsFromFileAndFlag) {

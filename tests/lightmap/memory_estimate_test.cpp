@@ -1,0 +1,105 @@
+// The memory estimate of a lightmap job (memory_estimate.h) against what a bake really holds at its peak: the
+// estimate must be at least the measured peak (the daemon's admission relies on it: a job that fits is never killed
+// for memory) and not wildly above it (or jobs are refused that would fit). Each test runs in a process of its own
+// (ctest runs every test separately), so the process's peak resident size (VmHWM) less its size before the bake is
+// the bake's peak.
+#include "bakers/lightmap/memory_estimate.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "bakers/lightmap/lightmap_bake.h"
+#include "tests/support/test_scenes.h"
+
+namespace kiln::lightmap {
+namespace {
+
+// A field of /proc/self/status in kB, as bytes.
+uint64_t status_bytes(const std::string& key) {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.rfind(key + ":", 0) == 0) return std::stoull(line.substr(key.size() + 1)) * 1024;
+  }
+  return 0;
+}
+
+struct Measured {
+  uint64_t peak = 0;  // bytes above the process's size before the bake
+  LightmapMemoryEstimate estimate;
+  uint64_t tracer_bytes = 0;  // what the tracer holds once built (the report's tracer.memory_bytes)
+};
+
+Measured measure(const LightmapBakeInput& in, const LightmapJobSize& size) {
+  Measured m;
+  m.estimate = estimate_memory(size);
+  const uint64_t before = status_bytes("VmRSS");
+  const LightmapBakeResult r = bake_lightmaps(in);
+  m.peak = status_bytes("VmHWM") - before;
+  for (const bake::BakeOutput& o : r.outputs) {
+    if (o.name != "report.json") continue;
+    const size_t tracer = o.bytes.find("\"tracer\"");
+    const size_t bytes = o.bytes.find("\"memory_bytes\":", tracer);
+    if (tracer != std::string::npos && bytes != std::string::npos)
+      m.tracer_bytes = std::stoull(o.bytes.substr(bytes + 15));
+  }
+  return m;
+}
+
+// A floor of 512² texels, with the default outputs and with every output: the texels dominate.
+scene::Scene floor_scene() {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("grey", 0.5));
+  test::add_floor(s, 2.0, 0, 2);
+  s.environment.constant = Rgb{1.0};
+  return s;
+}
+
+void check_floor(bool every_output) {
+  LightmapBakeInput in = test::lightmap_input(floor_scene(), 512, 0.05);
+  in.max_samples = 16;
+  in.preview = true;
+  in.ao = in.directional = in.radiance = in.denoise = every_output;
+  LightmapJobSize size;
+  size.lightmap_texels = {512 * 512};
+  size.traced_triangles = 8;
+  size.ao = size.directional = size.radiance = size.denoise = every_output;
+  const Measured m = measure(in, size);
+  std::printf("512² floor, %s: measured peak %s, estimate %s (%.0f bytes per texel)\n",
+              every_output ? "every output" : "default outputs", format_bytes(m.peak).c_str(),
+              format_bytes(m.estimate.total).c_str(), m.estimate.bytes_per_texel);
+  EXPECT_GE(m.estimate.total, m.peak);
+  EXPECT_LE(m.estimate.total, 3 * m.peak) << "an estimate three times the peak refuses jobs that would fit";
+}
+
+TEST(MemoryEstimate, BoundsTheTexelsOfABigLightmapWithTheDefaultOutputs) { check_floor(false); }
+TEST(MemoryEstimate, BoundsTheTexelsOfABigLightmapWithEveryOutput) { check_floor(true); }
+
+// A sphere of 359 400 triangles on a small lightmap: the tracer dominates.
+TEST(MemoryEstimate, BoundsTheTracerOfABigMesh) {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("grey", 0.5));
+  test::add_sphere(s, "sphere", {0, 0, 0}, 1.0, 300, 0);
+  s.environment.constant = Rgb{1.0};
+  LightmapBakeInput in = test::lightmap_input(s, 16, 0.05);
+  in.max_samples = 16;
+  LightmapJobSize size;
+  size.lightmap_texels = {16 * 16};
+  for (const scene::Mesh& mesh : s.meshes) {
+    size.traced_triangles += mesh.indices.size() / 3;
+    // The KILNMSH1 blob: float positions, normals and both UV sets, the indices.
+    size.mesh_blob_bytes += 20 + mesh.positions.size() * 40 + mesh.indices.size() * 4;
+  }
+  const Measured m = measure(in, size);
+  std::printf("sphere of %llu triangles: measured peak %s (the tracer holds %s once built), estimate %s\n",
+              static_cast<unsigned long long>(size.traced_triangles), format_bytes(m.peak).c_str(),
+              format_bytes(m.tracer_bytes).c_str(), format_bytes(m.estimate.total).c_str());
+  EXPECT_GE(m.estimate.total, m.peak);
+  EXPECT_LE(m.estimate.total, 4 * m.peak);
+}
+
+}  // namespace
+}  // namespace kiln::lightmap
