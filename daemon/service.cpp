@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 
 #include "bakers/lightmap/memory_estimate.h"
@@ -198,6 +200,15 @@ void Service::shutdown(std::chrono::duration<double> grace) {
     for (const std::string& id : queue_->running_ids()) {
       if (auto flag = queue_->cancel_flag(id)) *flag = true;
     }
+    // The bakers poll their cancel flags often (the lightmap bake within a fraction of a second in every stage);
+    // should one not have stopped after kStopSeconds, its job is handed back to the queue in the database and kilnd
+    // exits without it, so that a shutdown never waits past its grace for more than that.
+    constexpr double kStopSeconds = 2;
+    const auto stop_deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(kStopSeconds);
+    while (queue_->running() > 0 && std::chrono::steady_clock::now() < stop_deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (queue_->running() > 0) abandon_running_jobs();
   }
   workers_->join();
   {
@@ -206,6 +217,20 @@ void Service::shutdown(std::chrono::duration<double> grace) {
   }
   sweep_wake_.notify_all();
   if (sweeper_.joinable()) sweeper_.join();
+}
+
+void Service::abandon_running_jobs() {
+  for (const std::string& id : queue_->running_ids()) {
+    try {
+      db_->mark_queued(id);
+      log_line("job " + id, "did not stop within 2 s of its cancel; re-queued for the next start");
+    } catch (const std::exception& e) {
+      log_line("job " + id, std::string("did not stop within 2 s of its cancel: ") + e.what());
+    }
+  }
+  log_line("shutdown", "done, without waiting for the jobs that did not stop");
+  std::fflush(nullptr);
+  std::_Exit(0);  // the worker threads still baking cannot be joined; the database is consistent as it stands
 }
 
 void Service::connection_error(v1::Response& response, int code, const std::string& message) {

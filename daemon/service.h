@@ -92,6 +92,9 @@ class Service {
   bool outputs_stored(const v1::JobResult& result, const std::string& job_id);
   // Evicts least recently used results past the store limit (under the submit lock).
   void enforce_retention();
+  // The last resort of a shutdown: re-queues in the database the jobs whose bakes did not stop at their cancel,
+  // and exits the process without joining their threads.
+  [[noreturn]] void abandon_running_jobs();
   // Deletes partial uploads older than partial_upload_max_age_seconds, logging what it removed.
   void remove_abandoned_uploads(const char* when);
   // The sweeper thread: remove_abandoned_uploads every quarter of the age (1 s to 1 h) until shutdown.
