@@ -265,6 +265,11 @@ void validate(const Config& c) {
     }
   }
   if (c.max_crash_restarts > 1000) throw std::invalid_argument("max_crash_restarts: must be in [0, 1000]");
+  // HelloReply's limits are never 0 (kiln.proto): a file cannot set what the flags' ranges refuse.
+  if (c.max_blob_bytes < 1) throw std::invalid_argument("max_blob_bytes: must be at least 1");
+  if (c.max_queued_jobs < 1 || c.max_queued_jobs > 1000000) {
+    throw std::invalid_argument("max_queued_jobs: must be in [1, 1000000]");
+  }
   if (c.heartbeat_seconds < 1 || c.heartbeat_seconds > 3600) {
     throw std::invalid_argument("heartbeat_seconds: must be in [1, 3600]");
   }

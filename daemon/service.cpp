@@ -300,16 +300,16 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
     fail(v1::Error::VERSION_MISMATCH,
          "this server speaks protocol version " + std::to_string(proto::kProtocolVersion) + ", the client " +
              std::to_string(h.protocol_version()) + "; upgrade the older side",
-         "hello.protocol_version");
+         "protocol_version");
   }
-  if (h.token().size() > kMaxTokenBytes) fail(v1::Error::INVALID_ARGUMENT, "at most 256 bytes", "hello.token");
-  if (h.client().size() > kMaxClientNameBytes) fail(v1::Error::INVALID_ARGUMENT, "at most 256 bytes", "hello.client");
+  if (h.token().size() > kMaxTokenBytes) fail(v1::Error::INVALID_ARGUMENT, "at most 256 bytes", "token");
+  if (h.client().size() > kMaxClientNameBytes) fail(v1::Error::INVALID_ARGUMENT, "at most 256 bytes", "client");
   if (!s.unix_socket && !tokens_.accepts(h.token())) {
     log_line("connection " + std::to_string(s.id) + " from " + s.peer, "refused: wrong or missing token");
     fail(v1::Error::UNAUTHENTICATED,
          "wrong or missing token: pass the token kilnd was given (--token-file or "
          "KILN_TOKEN)",
-         "hello.token");
+         "token");
   }
   s.authenticated = true;
   v1::HelloReply* r = resp.mutable_hello();
@@ -322,6 +322,9 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
   l->set_max_queued_jobs(config_.max_queued_jobs);
   l->set_max_query_digests(kMaxQueryDigests);
   l->set_heartbeat_seconds(config_.heartbeat_seconds);
+  l->set_frame_deadline_seconds(config_.frame_deadline_seconds);
+  l->set_idle_timeout_seconds(config_.idle_timeout_seconds);
+  l->set_memory_limit_bytes(config_.memory_limit_bytes);
   r->add_job_types("material");
   r->add_job_types("environment");
   r->add_job_types("lightmap");
@@ -335,13 +338,11 @@ std::chrono::milliseconds Service::hello_failed(const SessionInfo& s) {
 void Service::blob_query(const v1::Request& req, v1::Response& resp) {
   const auto& q = req.blob_query();
   if (q.digests_size() > static_cast<int>(kMaxQueryDigests)) {
-    fail(v1::Error::INVALID_ARGUMENT, "at most " + std::to_string(kMaxQueryDigests) + " digests per query",
-         "blob_query.digests");
+    fail(v1::Error::INVALID_ARGUMENT, "at most " + std::to_string(kMaxQueryDigests) + " digests per query", "digests");
   }
   auto* reply = resp.mutable_blob_query();
   for (int i = 0; i < q.digests_size(); ++i) {
-    const store::BlobId id =
-        checked_digest(q.digests(i), "blob_query.digests[" + std::to_string(i) + "]", config_.max_blob_bytes);
+    const store::BlobId id = checked_digest(q.digests(i), "digests[" + std::to_string(i) + "]", config_.max_blob_bytes);
     if (blobs_->contains(id)) continue;
     auto* m = reply->add_missing();
     *m->mutable_digest() = q.digests(i);
@@ -351,10 +352,10 @@ void Service::blob_query(const v1::Request& req, v1::Response& resp) {
 
 void Service::blob_put(const v1::Request& req, v1::Response& resp) {
   const auto& p = req.blob_put();
-  const store::BlobId id = checked_digest(p.digest(), "blob_put.digest", config_.max_blob_bytes);
+  const store::BlobId id = checked_digest(p.digest(), "digest", config_.max_blob_bytes);
   if (p.data().size() > config_.max_chunk_bytes) {
     fail(v1::Error::INVALID_ARGUMENT, "chunks are at most " + std::to_string(config_.max_chunk_bytes) + " bytes",
-         "blob_put.data");
+         "data");
   }
   auto* reply = resp.mutable_blob_put();
   if (blobs_->contains(id)) {
@@ -365,10 +366,10 @@ void Service::blob_put(const v1::Request& req, v1::Response& resp) {
   const uint64_t held = blobs_->received(id);
   if (p.offset() != held) {
     fail(v1::Error::FAILED_PRECONDITION,
-         "the server holds " + std::to_string(held) + " bytes of this blob; resume from there", "blob_put.offset");
+         "the server holds " + std::to_string(held) + " bytes of this blob; resume from there", "offset");
   }
   if (p.offset() + p.data().size() > id.size) {
-    fail(v1::Error::INVALID_ARGUMENT, "chunk runs past the blob's declared size", "blob_put.data");
+    fail(v1::Error::INVALID_ARGUMENT, "chunk runs past the blob's declared size", "data");
   }
   const uint64_t received = blobs_->append(id, p.offset(), p.data());
   reply->set_received(received);
@@ -476,7 +477,7 @@ void Service::enforce_retention() {
 
 void Service::watch(const v1::Request& req, v1::Response& resp,
                     const std::function<void(const v1::Response&)>& on_event, store::Subscription* handle) {
-  const std::string id = checked_job_id(req.watch().job_id(), "watch.job_id");
+  const std::string id = checked_job_id(req.watch().job_id(), "job_id");
   const uint64_t request_id = req.id();
   if (handle && on_event) {
     // The first callback runs inside subscribe(): it is the answer; later ones go to on_event.
@@ -506,15 +507,15 @@ void Service::watch(const v1::Request& req, v1::Response& resp,
   }
   // Not running or queued here: answer from the database with one final event.
   const auto record = db_->get(id);
-  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "watch.job_id");
+  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "job_id");
   *resp.mutable_event() = event_of(*record);
   resp.mutable_event()->set_final(true);
 }
 
 void Service::cancel(const v1::Request& req, v1::Response& resp) {
-  const std::string id = checked_job_id(req.cancel().job_id(), "cancel.job_id");
+  const std::string id = checked_job_id(req.cancel().job_id(), "job_id");
   const auto record = db_->get(id);
-  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "cancel.job_id");
+  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "job_id");
   switch (queue_->cancel(id)) {
     case store::CancelOutcome::removed_from_queue: {
       const store::JobRecord r = db_->mark_cancelled(id);
@@ -535,9 +536,9 @@ void Service::cancel(const v1::Request& req, v1::Response& resp) {
 }
 
 void Service::result(const v1::Request& req, v1::Response& resp) {
-  const std::string id = checked_job_id(req.get_result().job_id(), "get_result.job_id");
+  const std::string id = checked_job_id(req.get_result().job_id(), "job_id");
   const auto record = db_->get(id);
-  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "get_result.job_id");
+  if (!record) fail(v1::Error::NOT_FOUND, "no job " + id, "job_id");
   v1::JobResult* r = resp.mutable_result();
   if (record->state == store::JobState::succeeded) {
     const std::string& stored = record->result;
@@ -546,7 +547,7 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
            "the outputs of job " + id +
                " are gone from the store (evicted by its retention limit, or found damaged); "
                "submit the job again to bake them anew",
-           "get_result.job_id");
+           "job_id");
     }
     if (!r->ParseFromString(stored)) fail(v1::Error::DATA_LOSS, "the stored result of job " + id + " is unreadable");
     if (record->cache_source) r->mutable_report()->set_cache_hit(true);
@@ -571,12 +572,12 @@ void Service::result(const v1::Request& req, v1::Response& resp) {
 
 void Service::fetch(const v1::Request& req, v1::Response& resp) {
   const auto& f = req.fetch();
-  const store::BlobId id = checked_digest(f.digest(), "fetch.digest", config_.max_blob_bytes);
-  if (f.offset() > id.size) fail(v1::Error::INVALID_ARGUMENT, "past the end of the blob", "fetch.offset");
+  const store::BlobId id = checked_digest(f.digest(), "digest", config_.max_blob_bytes);
+  if (f.offset() > id.size) fail(v1::Error::INVALID_ARGUMENT, "past the end of the blob", "offset");
   if (f.length() > config_.max_chunk_bytes) {
-    fail(v1::Error::INVALID_ARGUMENT, "at most " + std::to_string(config_.max_chunk_bytes) + " bytes", "fetch.length");
+    fail(v1::Error::INVALID_ARGUMENT, "at most " + std::to_string(config_.max_chunk_bytes) + " bytes", "length");
   }
-  if (!blobs_->contains(id)) fail(v1::Error::NOT_FOUND, "no blob " + id.digest + " in the store", "fetch.digest");
+  if (!blobs_->contains(id)) fail(v1::Error::NOT_FOUND, "no blob " + id.digest + " in the store", "digest");
   const uint64_t length = f.length() == 0 ? config_.max_chunk_bytes : f.length();
   auto* reply = resp.mutable_fetch();
   reply->set_offset(f.offset());
@@ -618,7 +619,7 @@ void Service::list_jobs(const v1::Request& req, v1::Response& resp) {
     fail(v1::Error::INVALID_ARGUMENT,
          "must be in [" + std::to_string(bounds::kListJobsLimit.lo) + ", " + std::to_string(bounds::kListJobsLimit.hi) +
              "]",
-         "list_jobs.limit");
+         "limit");
   }
   std::optional<store::JobState> state;
   switch (l.state()) {
@@ -640,7 +641,7 @@ void Service::list_jobs(const v1::Request& req, v1::Response& resp) {
       state = store::JobState::cancelled;
       break;
     default:
-      fail(v1::Error::INVALID_ARGUMENT, "unknown state", "list_jobs.state");
+      fail(v1::Error::INVALID_ARGUMENT, "unknown state", "state");
   }
   auto* list = resp.mutable_jobs();
   for (const store::JobRecord& r : db_->list(l.limit() == 0 ? 100 : l.limit(), state)) {

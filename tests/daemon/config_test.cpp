@@ -129,6 +129,15 @@ TEST(Config, MemoryLimitFromFileAndFlagWithBinarySuffixes) {
   EXPECT_EQ(parse_command_line({"--memory-limit", "1000"}).config.memory_limit_bytes, 1000u);
   EXPECT_THROW(parse_command_line({"--memory-limit", "6X"}), std::invalid_argument);
   EXPECT_THROW(parse_command_line({"--memory-limit", "G"}), std::invalid_argument);
+  // Limits HelloReply promises are never 0, from a file either.
+  Config zero;
+  zero.token_file = "t";
+  EXPECT_NO_THROW(validate(zero));
+  zero.max_blob_bytes = 0;
+  EXPECT_THROW(validate(zero), std::invalid_argument);
+  zero.max_blob_bytes = 1;
+  zero.max_queued_jobs = 0;
+  EXPECT_THROW(validate(zero), std::invalid_argument);
   // The default is a share of this machine's memory, and some memory.
   EXPECT_GT(default_memory_limit(), uint64_t{1} << 20);
 }

@@ -236,7 +236,7 @@ class AgainstKilnd(unittest.TestCase):
                 with self.assertRaises(kiln.ServerError) as caught:
                     c.hello()
                 self.assertEqual(caught.exception.code, pb.Error.UNAUTHENTICATED, str(caught.exception))
-                self.assertEqual(caught.exception.field, "hello.token")
+                self.assertEqual(caught.exception.field, "token")
                 # Any request says hello first, and is refused the same way.
                 with self.assertRaises(kiln.ServerError) as caught:
                     c.status()
