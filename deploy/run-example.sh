@@ -22,14 +22,9 @@ kilnd_pid=$!
 stop_daemon() { kill -TERM "$kilnd_pid" 2>/dev/null && wait "$kilnd_pid" 2>/dev/null || true; }
 trap stop_daemon EXIT
 
-address=""
-for _ in $(seq 1 300); do
-  address=$(sed -n 's/^kilnd: listening on \(127\.0\.0\.1:[0-9]*\)$/\1/p' "$state/kilnd.out")
-  [ -n "$address" ] && break
-  kill -0 "$kilnd_pid" 2>/dev/null || { echo "kilnd did not start:"; cat "$state/kilnd.log"; exit 1; }
-  sleep 0.1
-done
-[ -n "$address" ] || { echo "kilnd did not start within 30 s:"; cat "$state/kilnd.log"; exit 1; }
+. "$top/deploy/kilnd_address.sh"
+address=$(kilnd_address "$state/kilnd.out" "$kilnd_pid") ||
+  { echo "kilnd did not start:"; cat "$state/kilnd.log"; exit 1; }
 echo "kiln: kilnd is listening on $address (store $state/store, log $state/kilnd.log)"
 
 status=0

@@ -67,14 +67,8 @@ token_file="$(sed -n 's/^token_file: "\(.*\)"$/\1/p' "$prefix/etc/kiln/kilnd.con
 "$prefix/bin/kilnd" --config "$prefix/etc/kiln/kilnd.conf" --listen 127.0.0.1:0 \
   > "$work/kilnd.out" 2> "$work/kilnd.log" &
 kilnd_pid=$!
-address=""
-for _ in $(seq 1 300); do
-  address=$(sed -n 's/^kilnd: listening on \(127\.0\.0\.1:[0-9]*\)$/\1/p' "$work/kilnd.out")
-  [ -n "$address" ] && break
-  kill -0 "$kilnd_pid" 2>/dev/null || fail "the installed kilnd did not start"
-  sleep 0.1
-done
-[ -n "$address" ] || fail "the installed kilnd did not listen within 30 s"
+. "$src/deploy/kilnd_address.sh"
+address=$(kilnd_address "$work/kilnd.out" "$kilnd_pid") || fail "the installed kilnd did not start (above)"
 ls "$prefix/var/lib/kiln/"*.sqlite > /dev/null 2>&1 || fail "kilnd made no store under $prefix/var/lib/kiln"
 
 step "baking the installed examples with the installed kiln"

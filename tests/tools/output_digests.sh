@@ -26,14 +26,9 @@ trap cleanup EXIT
 "$build/bin/kilnd" --listen 127.0.0.1:0 --store "$work/store" --token-file "$work/token" --workers 1 \
   > "$work/kilnd.out" 2> "$work/kilnd.log" &
 kilnd_pid=$!
-address=""
-for _ in $(seq 1 300); do
-  address=$(sed -n 's/^kilnd: listening on \(127\.0\.0\.1:[0-9]*\)$/\1/p' "$work/kilnd.out")
-  [ -n "$address" ] && break
-  kill -0 "$kilnd_pid" 2>/dev/null || { echo "kilnd did not start:" >&2; cat "$work/kilnd.log" >&2; exit 1; }
-  sleep 0.1
-done
-[ -n "$address" ] || { echo "kilnd did not start within 30 s" >&2; exit 1; }
+. "$top/deploy/kilnd_address.sh"
+address=$(kilnd_address "$work/kilnd.out" "$kilnd_pid") ||
+  { echo "kilnd did not start:" >&2; cat "$work/kilnd.log" >&2; exit 1; }
 kiln() {
   "$build/bin/kiln" --server "$address" --token-file "$work/token" "$@" > "$work/kiln.log" 2>&1 ||
     { echo "kiln $*: failed" >&2; cat "$work/kiln.log" >&2; return 1; }
