@@ -55,7 +55,6 @@ size_t mark_traced_texels(LightmapState& m) {
 class LightTracer::PendingDeposits {
  public:
   PendingDeposits() { pending_.reserve(kRun); }
-  ~PendingDeposits() { flush(); }
 
   void add(TexelSums* s, const Rgb& beta, double unit, int replica) {
     const Rgb q = beta * (1.0 / unit);
@@ -63,7 +62,7 @@ class LightTracer::PendingDeposits {
         {s, {std::llround(q.r), std::llround(q.g), std::llround(q.b)}, std::llround(luminance(q)), replica});
     if (pending_.size() == kRun) flush();
   }
-  // Deposits added into traced texels so far.
+  // Deposits added into traced texels so far (flush() first).
   uint64_t added() const { return added_; }
 
   void flush() {
