@@ -217,7 +217,7 @@ void rasterize_texels(LightmapBakeRun& run) {
   std::vector<std::vector<uint8_t>> bake_mask;
   for (const auto& t : run.checked.triangles) bake_mask.push_back(t.bake);
   for (const std::string& name : lightmap_names(run.scene())) {
-    const auto it = in.resolutions.find(name);
+    const auto it = in.resolutions.find(run.checked.input_lightmap_name(name));
     RasterOptions raster;
     raster.width = raster.height = it != in.resolutions.end() ? it->second : in.resolution;
     raster.bake_mask = &bake_mask;
@@ -428,7 +428,9 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
     outputs.push_back(sh_output(m, *sh, run.color_space));
   }
   if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space, run.cancel_only));
-  run.report.lightmaps.push_back({m.name, m.image.width(), m.image.error_summary(in.target_error, 0, in.error_metric),
+  const std::string& input_name = run.checked.input_lightmap_name(m.name);
+  run.report.lightmaps.push_back({m.name, input_name == m.name ? "" : input_name, m.image.width(),
+                                  m.image.error_summary(in.target_error, 0, in.error_metric),
                                   sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional, !m.traced.empty()))});
 }
 

@@ -2,7 +2,8 @@
 // request radiance, ambient occlusion and a directional term), a preview and a report out. Plain C++ types: the
 // daemon translates its messages into LightmapBakeInput.
 //
-// Outputs (names fixed), for each lightmap NAME (a mesh's name, or an atlas named by instances):
+// Outputs (names fixed), for each lightmap NAME (a mesh's name, or an atlas named by instances, made a safe and unique
+// file stem by the scene check: scene/lightmap_file_names.h):
 //   NAME_irradiance.exr   RGB float32, scene-linear, irradiance E in W·m⁻², dilated by `padding` texels
 //   NAME_validity.exr     1 valid, 0 invalid, before dilation
 //   NAME_error.exr        the estimated relative error per texel

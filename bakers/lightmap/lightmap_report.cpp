@@ -28,6 +28,7 @@ Json curve_json(const std::vector<ErrorPoint>& curve) {
 Json lightmap_json(const LightmapReportEntry& m) {
   Json j;
   j["name"] = m.name;
+  if (!m.input_name.empty()) j["input_name"] = m.input_name;
   j["resolution"] = m.resolution;
   j["valid_texels"] = m.error.valid;
   j["samples_per_texel_point"] = m.memory.samples_per_valid_texel;

@@ -21,7 +21,8 @@ namespace kiln::lightmap {
 
 // One lightmap's entry.
 struct LightmapReportEntry {
-  std::string name;
+  std::string name;        // the file stem of its outputs (scene/lightmap_file_names.h)
+  std::string input_name;  // the name the job gave it, when it differs from `name`
   int resolution = 0;
   LightmapImage::ErrorSummary error;
   std::optional<ShError> sh;  // when the SH output was asked for

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <utility>
 
+#include "bakers/scene/lightmap_file_names.h"
+
 namespace kiln::scene {
 namespace {
 
@@ -202,6 +204,8 @@ const char* to_string(ProblemKind kind) {
       return "bad_texture";
     case ProblemKind::bad_material_value:
       return "bad_material_value";
+    case ProblemKind::renamed_lightmap:
+      return "renamed_lightmap";
   }
   return "unknown";
 }
@@ -236,6 +240,11 @@ bool usable_transform(const Transform& t) {
   // shading) and the instance is flattened to (nearly) a plane or line: treated as singular.
   const double scale = length(c0) * length(c1) * length(c2);
   return std::isfinite(det) && std::isfinite(scale) && std::fabs(det) > 1e-12 * scale;
+}
+
+const std::string& CheckedScene::input_lightmap_name(const std::string& stem) const {
+  const auto it = renamed_lightmaps.find(stem);
+  return it == renamed_lightmaps.end() ? stem : it->second;
 }
 
 std::string resolved_lightmap_name(const Scene& scene, const Instance& instance) {
@@ -541,12 +550,26 @@ bool traceable_instance(SceneCheck& c, size_t ii) {
   return true;
 }
 
+// Each lightmap's name becomes its file stem; a change is reported once per lightmap, at its first instance.
+void name_lightmap_files(SceneCheck& c, LightmapFileNames& files, Instance& dst, size_t ii) {
+  const std::string name = dst.lightmap;
+  dst.lightmap = files.stem(name);
+  if (dst.lightmap == name || !c.out.renamed_lightmaps.emplace(dst.lightmap, name).second) return;
+  const bool unsafe = safe_file_stem(name) != name;
+  c.report.add(problem(Severity::warning, ProblemKind::renamed_lightmap, dst.mesh, static_cast<int>(ii), -1,
+                       "lightmap \"" + name + "\" (first named by instance " + std::to_string(ii) + ") " +
+                           (unsafe ? "is not a safe file name" : "has the file name of another lightmap"),
+                       "its files are named " + dst.lightmap + "_irradiance.exr and so on"));
+}
+
 void check_instances(SceneCheck& c) {
+  LightmapFileNames files;
   for (size_t ii = 0; ii < c.in.instances.size(); ++ii) {
     if (!traceable_instance(c, ii)) continue;
     const Instance& src = c.in.instances[ii];
     Instance dst = src;
     dst.lightmap = resolved_lightmap_name(c.in, src);
+    name_lightmap_files(c, files, dst, ii);
     if (dst.bake && !c.has_lightmap[src.mesh]) dst.bake = false;  // reported with the mesh
     if (dst.bake && !valid_scale_offset(src.lightmap_scale_offset)) {
       const auto& st = src.lightmap_scale_offset;

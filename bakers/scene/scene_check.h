@@ -23,14 +23,17 @@
 //   material texture index out of range      texture ignored                                bad_texture
 //   base colour not finite or outside [0,1]  NaN → 0, clamped to [0, 1]                     bad_material_value
 //   emission not finite or negative          any NaN/±Inf channel → black, negative → 0       bad_material_value
+//   lightmap name not a safe file name       its files get a safe, unique name (listed)      renamed_lightmap
+//     or the same file name as another's
 //
 // The cleaned scene keeps every mesh and every vertex (so vertex indices keep their meaning; non-finite positions,
 // which nothing references any more, become 0) but only the triangles that can be traced; `source_triangle` maps
 // them back to the input's triangle indices, which the report uses. Its instances are the ones that were not skipped,
-// each with its lightmap name resolved (never empty for an instance that bakes).
+// each with its lightmap name resolved (never empty for an instance that bakes) and made a safe file stem.
 #pragma once
 
 #include <array>
+#include <map>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -60,8 +63,9 @@ enum class ProblemKind {
   no_materials,
   bad_texture,
   bad_material_value,
+  renamed_lightmap,
 };
-inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::bad_material_value) + 1;
+inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::renamed_lightmap) + 1;
 const char* to_string(ProblemKind kind);
 const char* to_string(Severity severity);
 
@@ -102,7 +106,13 @@ struct CheckedScene {
   };
   std::vector<MeshTriangles> triangles;   // one per mesh
   std::vector<uint32_t> source_instance;  // per cleaned instance: its index in the input
+  // The cleaned instances name their lightmaps by file stem (lightmap_file_names.h); each lightmap whose name in the
+  // input differs from its stem, stem → input name.
+  std::map<std::string, std::string> renamed_lightmaps;
   SceneReport report;
+
+  // The name the input gave the lightmap a cleaned instance calls `stem` (what the job's per-lightmap settings use).
+  const std::string& input_lightmap_name(const std::string& stem) const;
 };
 
 // Never throws for bad data: everything wrong is in the report.

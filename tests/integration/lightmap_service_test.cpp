@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -129,6 +131,53 @@ TEST(LightmapService, KilnBakeLightmapWritesValidOutputsAndTheSecondRunIsACacheH
     for (float v : d_img.pixels) ASSERT_TRUE(std::isfinite(v) && v >= 0) << n << ": " << v;
   }
   EXPECT_NE(read(denoised / "report.json").find("\"denoised\": true"), std::string::npos);
+}
+
+// A glTF quad (mesh "quad", lightmap UVs in TEXCOORD_0) placed by two nodes named "Post/A" (the name a file may give
+// its nodes: not a file name) and lit by a constant sky through the CLI's --env-constant.
+fs::path quad_placed_twice(const fs::path& dir) {
+  const float positions[12] = {0, 0, 0, 1, 0, 0, 1, 0, -1, 0, 0, -1};
+  const float uvs[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+  const uint32_t indices[6] = {0, 1, 2, 0, 2, 3};
+  std::string bin(104, '\0');
+  std::memcpy(bin.data(), positions, 48);
+  std::memcpy(bin.data() + 48, uvs, 32);
+  std::memcpy(bin.data() + 80, indices, 24);
+  std::ofstream(dir / "twice.bin", std::ios::binary) << bin;
+  std::ofstream(dir / "twice.gltf") << R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "twice.bin", )"
+                                       R"("byteLength": 104}], "bufferViews": [{"buffer": 0, "byteLength": 48}, )"
+                                       R"({"buffer": 0, "byteOffset": 48, "byteLength": 32}, {"buffer": 0, )"
+                                       R"("byteOffset": 80, "byteLength": 24}], "accessors": [{"bufferView": 0, )"
+                                       R"("componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, -1], )"
+                                       R"("max": [1, 0, 0]}, {"bufferView": 1, "componentType": 5126, "count": 4, )"
+                                       R"("type": "VEC2"}, {"bufferView": 2, "componentType": 5125, "count": 6, )"
+                                       R"("type": "SCALAR"}], "meshes": [{"name": "quad", "primitives": [{)"
+                                       R"("attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2}]}], )"
+                                       R"("nodes": [{"name": "Post/A", "mesh": 0}, {"name": "Post/A", "mesh": 0, )"
+                                       R"("translation": [3, 0, 0]}], "scenes": [{"nodes": [0, 1]}], "scene": 0})";
+  return dir / "twice.gltf";
+}
+
+// A mesh placed by two nodes bakes into a lightmap per placement whose files have plain names, and the report maps
+// each lightmap's name in the job to the stem of its files (the client refused every output when the name held '/').
+TEST(LightmapService, AMeshPlacedTwiceBakesIntoTwoLightmapsWithPlainFileNames) {
+  Daemon d;
+  const fs::path scene = quad_placed_twice(d.dir()), out = d.dir() / "out";
+  const CliRun run = kiln(d, "bake lightmap " + scene.string() +
+                                 " --resolution 8 --target-error 0.2 --env-constant 1 --out " + out.string());
+  ASSERT_EQ(run.status, 0) << run.said;
+  for (const char* stem : {"quad@Post_A", "quad@Post_A#1"}) {
+    const std::string n = stem;
+    ASSERT_TRUE(fs::exists(out / (n + "_irradiance.exr"))) << n << "\n" << run.said;
+    const image::FloatImage e = image::decode_exr(read(out / (n + "_irradiance.exr")));
+    double sum = 0;
+    for (float v : e.pixels) sum += v;
+    EXPECT_GT(sum, 0) << n << ": the sky lights each placement";
+  }
+  const std::string report = read(out / "report.json");
+  EXPECT_NE(report.find(R"("input_name": "quad@Post/A")"), std::string::npos) << report;
+  EXPECT_NE(report.find(R"("input_name": "quad@Post/A#1")"), std::string::npos) << report;
+  EXPECT_NE(report.find("renamed_lightmap"), std::string::npos) << report;
 }
 #endif
 
