@@ -1,6 +1,7 @@
 #include "client/import/scene_import.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstring>
@@ -47,13 +48,53 @@ bool ends_with(const std::string& s, const std::string& tail) {
                                                [](char a, char b) { return std::tolower(a) == std::tolower(b); });
 }
 
-// What the glTF's JSON says that Assimp 5.2 does not pass on: KHR_materials_emissive_strength, and the lights'
-// `range`. Both by index: Assimp keeps glTF's material and light order (it appends its default material last), while
-// names need be neither present nor unique.
+// KHR_materials_specular and KHR_materials_ior of one glTF material, with the extensions' defaults.
+struct GltfSpecular {
+  double factor = 1;              // specularFactor
+  double color[3] = {1, 1, 1};    // specularColorFactor
+  double ior = 1.5;               // KHR_materials_ior
+  std::vector<std::string> unread_textures;  // the material's textures kiln does not read ("normalTexture", ...)
+};
+
+// What the glTF's JSON says that Assimp 5.2 does not pass on: KHR_materials_emissive_strength,
+// KHR_materials_specular, KHR_materials_ior, the lights' `range`, and which extensions and textures the file uses.
+// By index: Assimp keeps glTF's material and light order (it appends its default material last), while names need
+// be neither present nor unique.
 struct GltfExtras {
   std::map<unsigned, double> emissive_strength;  // material index → emissiveStrength
+  std::map<unsigned, GltfSpecular> specular;     // material index → its specular and ior extensions, textures
   std::map<unsigned, double> light_range;        // KHR_lights_punctual light index → range
+  std::vector<std::string> extensions_used;      // the file's extensionsUsed
 };
+
+// The textures of a glTF material that kiln's lightmap materials have no use for (the base colour's is read).
+std::vector<std::string> unread_textures(const boost::property_tree::ptree& material) {
+  static const char* const kPaths[] = {"normalTexture",
+                                       "occlusionTexture",
+                                       "emissiveTexture",
+                                       "pbrMetallicRoughness.metallicRoughnessTexture",
+                                       "extensions.KHR_materials_specular.specularTexture",
+                                       "extensions.KHR_materials_specular.specularColorTexture"};
+  std::vector<std::string> out;
+  for (const char* path : kPaths) {
+    if (material.get_child_optional(path)) out.push_back(path);
+  }
+  return out;
+}
+
+GltfSpecular gltf_specular(const boost::property_tree::ptree& material) {
+  GltfSpecular s;
+  s.factor = material.get("extensions.KHR_materials_specular.specularFactor", 1.0);
+  if (const auto color = material.get_child_optional("extensions.KHR_materials_specular.specularColorFactor")) {
+    int c = 0;
+    for (const auto& [key, v] : *color) {
+      if (c < 3) s.color[c++] = v.get_value<double>();
+    }
+  }
+  s.ior = material.get("extensions.KHR_materials_ior.ior", 1.5);
+  s.unread_textures = unread_textures(material);
+  return s;
+}
 
 GltfExtras gltf_extras(const std::string& path) {
   GltfExtras out;
@@ -81,8 +122,12 @@ GltfExtras gltf_extras(const std::string& path) {
         const auto strength =
             material.get_optional<double>("extensions.KHR_materials_emissive_strength.emissiveStrength");
         if (strength) out.emissive_strength[i] = *strength;
+        out.specular[i] = gltf_specular(material);
         ++i;
       }
+    }
+    if (const auto used = tree.get_child_optional("extensionsUsed")) {
+      for (const auto& [key, name] : *used) out.extensions_used.push_back(name.get_value<std::string>());
     }
     i = 0;
     if (const auto lights = tree.get_child_optional("extensions.KHR_lights_punctual.lights")) {
@@ -245,6 +290,26 @@ class Importer {
   void materials() {
     std::set<std::string> material_names;
     for (unsigned i = 0; i < scene_->mNumMaterials; ++i) material(i, material_names);
+    if (gltf_) report_unread_gltf();
+  }
+
+  // The glTF extensions and material textures whose content the job leaves out, one warning each.
+  void report_unread_gltf() {
+    static const std::set<std::string> kRead = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
+                                                "KHR_materials_specular", "KHR_materials_ior",
+                                                "KHR_mesh_quantization"};
+    for (const std::string& e : extras_.extensions_used) {
+      if (!kRead.count(e)) {
+        out_.warnings.push_back("glTF extension " + e + ": not read by kiln's importer; what it adds is dropped");
+      }
+    }
+    for (const auto& [texture, materials] : unread_textures_) {
+      std::string names;
+      for (size_t k = 0; k < materials.size() && k < 3; ++k) names += (k ? ", " : "") + materials[k];
+      if (materials.size() > 3) names += " and " + std::to_string(materials.size() - 3) + " more";
+      out_.warnings.push_back(texture + " of material" + (materials.size() > 1 ? "s " : " ") + names +
+                              ": not read (a lightmap material takes its base colour texture only); dropped");
+    }
   }
 
   // Material i: its name, base colour and texture, a GGX-over-Lambert BSDF, its emission and sidedness.
@@ -273,7 +338,11 @@ class Importer {
     const double r = clamp01(base.r), g = clamp01(base.g), b = clamp01(base.b);
     *out->mutable_base_color() = color(r, g, b);
     if (auto t = texture(m)) out->set_base_color_texture(*t);
-    set_bsdf(r, g, b, metallic, roughness, specular, shininess, out->mutable_bsdf());
+    if (gltf_) {
+      set_gltf_bsdf({r, g, b}, metallic, roughness, gltf_specular_of(i, out->name()), out->mutable_bsdf());
+    } else {
+      set_phong_bsdf(specular, shininess, out->mutable_bsdf());
+    }
 
     aiColor3D emissive(0, 0, 0);
     m->Get(AI_MATKEY_COLOR_EMISSIVE, emissive);
@@ -288,31 +357,54 @@ class Importer {
     if (m->Get(AI_MATKEY_TWOSIDED, two_sided) == AI_SUCCESS) out->set_two_sided(two_sided != 0);
   }
 
-  // GGX over Lambert: from glTF's metallic-roughness, or from the specular colour and shininess of OBJ and FBX.
-  void set_bsdf(double r, double g, double b, float metallic, float roughness, const aiColor3D& specular,
-                float shininess, v1::Layered* bsdf) {
+  // Material i's specular extensions (defaults if it has none), with a warning for what of them kiln cannot use.
+  GltfSpecular gltf_specular_of(unsigned i, const std::string& name) {
+    GltfSpecular s;
+    if (auto it = extras_.specular.find(i); it != extras_.specular.end()) s = it->second;
+    if (!(std::isfinite(s.ior) && s.ior >= 0)) {
+      out_.warnings.push_back("material " + name + ": KHR_materials_ior ior " + std::to_string(s.ior) +
+                              " is not a number >= 0; the default 1.5 used");
+      s.ior = 1.5;
+    }
+    for (const std::string& t : s.unread_textures) unread_textures_[t].push_back(name);
+    return s;
+  }
+
+  // GGX over Lambert from glTF's metallic-roughness, with KHR_materials_specular and KHR_materials_ior.
+  static void set_gltf_bsdf(const std::array<double, 3>& base, float metallic, float roughness,
+                            const GltfSpecular& spec, v1::Layered* bsdf) {
     bsdf->set_combine(v1::COMBINE_LAYERED);
-    v1::Lambert* diffuse = bsdf->mutable_diffuse()->mutable_lambert();
+    const double metal = clamp01(metallic);
+    *bsdf->mutable_diffuse()->mutable_lambert()->mutable_albedo() =
+        color(1 - metal, 1 - metal, 1 - metal);  // times base_color: glTF's c_diff
+    // The dielectric's f0 = min(((ior − 1)/(ior + 1))² · specularColorFactor, 1) · specularFactor (4 % with no
+    // extension: ior 1.5), then glTF's f0 = lerp(dielectric f0, base colour, metallic).
+    const double f0_ior = std::pow((spec.ior - 1) / (spec.ior + 1), 2);
+    double f0[3];
+    for (int c = 0; c < 3; ++c) {
+      const double dielectric = std::min(f0_ior * std::max(spec.color[c], 0.0), 1.0) * clamp01(spec.factor);
+      f0[c] = dielectric + (base[c] - dielectric) * metal;
+    }
+    // f0 = 0 (specularFactor or specularColorFactor 0 on a dielectric): no specular lobe at all, not a lobe of
+    // Schlick's grazing term alone.
+    if (std::max({f0[0], f0[1], f0[2]}) <= 0) return;
     v1::Microfacet* ggx = bsdf->mutable_specular()->mutable_ggx();
     ggx->set_fresnel(v1::FRESNEL_SCHLICK);
-    if (gltf_) {
-      const double metal = clamp01(metallic);
-      // α = roughness² (glTF's remapping); roughness < 0.03 is a mirror beyond the BRDF library's range.
-      const double a = std::max(clamp01(roughness), 0.03);
-      ggx->set_alpha(a * a);
-      // glTF's f0 = lerp(0.04, base colour, metallic): 4 % for dielectrics (η = 1.5), the base colour for metals.
-      *ggx->mutable_f0() = color(0.04 + (r - 0.04) * metal, 0.04 + (g - 0.04) * metal, 0.04 + (b - 0.04) * metal);
-      *diffuse->mutable_albedo() = color(1 - metal, 1 - metal, 1 - metal);  // times base_color: glTF's c_diff
-    } else {
-      *diffuse->mutable_albedo() = color(1, 1, 1);
-      if (std::max({specular.r, specular.g, specular.b}) > 0 && shininess > 0) {
-        ggx->set_alpha(std::clamp(std::sqrt(2.0 / (shininess + 2.0)), 0.001, 1.0));
-        *ggx->mutable_f0() = color(clamp01(specular.r), clamp01(specular.g), clamp01(specular.b));
-      } else {
-        ggx->set_alpha(1.0);
-        *ggx->mutable_f0() = color(0, 0, 0);  // no specular lobe
-      }
-    }
+    // α = roughness² (glTF's remapping); roughness < 0.03 is a mirror beyond the BRDF library's range.
+    const double a = std::max(clamp01(roughness), 0.03);
+    ggx->set_alpha(a * a);
+    *ggx->mutable_f0() = color(f0[0], f0[1], f0[2]);
+  }
+
+  // Lambert with, for a specular colour Ks and shininess Ns (OBJ, FBX), a GGX lobe of f0 = Ks and α = √(2/(Ns + 2)).
+  static void set_phong_bsdf(const aiColor3D& specular, float shininess, v1::Layered* bsdf) {
+    bsdf->set_combine(v1::COMBINE_LAYERED);
+    *bsdf->mutable_diffuse()->mutable_lambert()->mutable_albedo() = color(1, 1, 1);
+    if (!(std::max({specular.r, specular.g, specular.b}) > 0 && shininess > 0)) return;  // no specular lobe
+    v1::Microfacet* ggx = bsdf->mutable_specular()->mutable_ggx();
+    ggx->set_fresnel(v1::FRESNEL_SCHLICK);
+    ggx->set_alpha(std::clamp(std::sqrt(2.0 / (shininess + 2.0)), 0.001, 1.0));
+    *ggx->mutable_f0() = color(clamp01(specular.r), clamp01(specular.g), clamp01(specular.b));
   }
 
   void meshes() {
@@ -422,14 +514,25 @@ class Importer {
       }
       const std::string lightmap = source_mesh_name(node, ai_mesh);
       if (uses_[ai_mesh] > 1) {
-        // Shared geometry in several places: each placement needs its own texels.
-        inst->set_lightmap(wire_name(std::string(node->mName.C_Str()) + "/" + lightmap));
+        // Shared geometry in several places: each placement needs its own texels, in a lightmap named
+        // MESH@NODE (made unique: node names need not be).
+        inst->set_lightmap(placement_lightmap(node, lightmap));
       } else {
         inst->set_lightmap(wire_name(lightmap));
       }
       if (!has_lightmap_uv_[mesh]) inst->set_bake(false);
     }
     for (unsigned c = 0; c < node->mNumChildren; ++c) instances(node->mChildren[c], world);
+  }
+
+  // The lightmap of the pieces of mesh `lightmap` that `node` places, when other nodes place that mesh too.
+  std::string placement_lightmap(const aiNode* node, const std::string& lightmap) {
+    const auto key = std::make_pair(node, lightmap);
+    if (auto it = placement_names_.find(key); it != placement_names_.end()) return it->second;
+    const std::string node_name = node->mName.length ? node->mName.C_Str() : "node";
+    const std::string name = unique_name(placement_lightmaps_, lightmap + "@" + node_name);
+    placement_names_.emplace(key, name);
+    return name;
   }
 
   // Assimp names a light after the node that places it: that node's world transform (identity if none does).
@@ -518,6 +621,9 @@ class Importer {
   ImportedScene out_;
   GltfExtras extras_;
   std::map<std::string, uint32_t> textures_;
+  std::map<std::string, std::vector<std::string>> unread_textures_;  // glTF texture kind → materials that have one
+  std::set<std::string> placement_lightmaps_;  // lightmap names given to placements of shared meshes
+  std::map<std::pair<const aiNode*, std::string>, std::string> placement_names_;  // (node, mesh) → its lightmap
   std::vector<int> mesh_index_;                            // aiMesh → job mesh, -1 if dropped
   std::vector<bool> has_lightmap_uv_;                      // job mesh
   std::map<unsigned, int> uses_;                           // aiMesh → nodes referring to it

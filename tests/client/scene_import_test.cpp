@@ -16,9 +16,11 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "bakers/image/png.h"
+#include "bakers/scene/scene_check.h"
 #include "client/import/mesh_blob.h"
 #include "client/import/scene_import.h"
 #include "daemon/mesh_blob_decode.h"
@@ -196,6 +198,7 @@ struct GltfScene {
   std::vector<int> roots;              // the scene's root nodes
   std::string bin;                     // extra buffer bytes (after the quad's 104)
   std::vector<std::string> extra_views;
+  std::string extensions_used = R"(["KHR_lights_punctual", "KHR_materials_emissive_strength"])";
 
   // An image stored in the buffer: its bufferView's index, for {"bufferView": i, "mimeType": "image/png"}.
   int add_buffer_image(const std::string& bytes) {
@@ -247,7 +250,7 @@ struct GltfScene {
     for (int r : roots) root_list.push_back(std::to_string(r));
     std::ostringstream json;
     json << R"({"asset": {"version": "2.0"},)"
-         << R"("extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],)"
+         << "\"extensionsUsed\": " << extensions_used << ","
          << "\"buffers\": [{\"uri\": \"" << name << ".bin\", \"byteLength\": " << buffer.size() << "}],"
          << "\"bufferViews\": " << list(views) << ","
          << R"("accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",)"
@@ -524,6 +527,105 @@ TEST(SceneImport, GltfEmissiveMaterialsTakeTheirStrengthByIndex) {
   EXPECT_EQ(j.materials(1).name(), "lamp");
   EXPECT_EQ(j.materials(2).name(), "lamp#1");  // kiln wants material names unique
   EXPECT_NO_THROW(translated(j));
+}
+
+TEST(SceneImport, GltfMeshPlacedByTwoNodesGetsALightmapOfItsOwnPerNode) {
+  test::TempDir dir("kiln-import");
+  GltfScene g;
+  g.materials = {R"({"name": "m"})"};
+  // Two nodes of one name placing mesh 0: each placement needs its own texels and a name that is a file name.
+  g.nodes = {R"({"name": "Post/A", "mesh": 0})", R"({"name": "Post/A", "mesh": 0, "translation": [3, 0, 0]})",
+             R"({"name": "Other", "mesh": 0, "translation": [6, 0, 0]})"};
+  g.roots = {0, 1, 2};
+  const client::ImportedScene s = client::import_scene(g.write(dir.path(), "twice").string());
+  ASSERT_EQ(s.job.instances_size(), 3);
+  EXPECT_EQ(s.job.instances(0).lightmap(), "quad0@Post/A");
+  EXPECT_EQ(s.job.instances(1).lightmap(), "quad0@Post/A#1");
+  EXPECT_EQ(s.job.instances(2).lightmap(), "quad0@Other");
+  EXPECT_EQ(s.job.instances(0).mesh(), s.job.instances(1).mesh());
+  // kilnd's scene check turns each into a plain file name of its own.
+  const daemon::BakeRequest r = translated(s.job);
+  const auto* in = std::get_if<lightmap::LightmapBakeInput>(&r.input);
+  ASSERT_NE(in, nullptr);
+  const scene::CheckedScene checked = scene::check_scene(in->scene);
+  std::set<std::string> stems;
+  for (const scene::Instance& i : checked.scene.instances) {
+    EXPECT_EQ(i.lightmap.find('/'), std::string::npos) << i.lightmap;
+    stems.insert(i.lightmap);
+  }
+  EXPECT_EQ(stems, (std::set<std::string>{"quad0@Post_A", "quad0@Post_A#1", "quad0@Other"}));
+}
+
+TEST(SceneImport, GltfSpecularAndIorExtensionsSetTheDielectricF0) {
+  test::TempDir dir("kiln-import");
+  GltfScene g;
+  g.extensions_used = R"(["KHR_materials_specular", "KHR_materials_ior"])";
+  const std::string dielectric = R"("pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0})";
+  g.materials = {
+      // specularColorFactor 0: no specular lobe at all (today's glTF exporters write this for matte surfaces)
+      R"({"name": "matte", )" + dielectric + R"(, "extensions": {"KHR_materials_specular": )"
+                                             R"({"specularColorFactor": [0, 0, 0]}}})",
+      R"({"name": "weak", )" + dielectric + R"(, "extensions": {"KHR_materials_specular": )"
+                                            R"({"specularFactor": 0, "specularColorFactor": [1, 1, 1]}}})",
+      // f0 = 0.04 · (1, 0.5, 0.25) · 0.5
+      R"({"name": "tinted", )" + dielectric + R"(, "extensions": {"KHR_materials_specular": )"
+                                              R"({"specularFactor": 0.5, "specularColorFactor": [1, 0.5, 0.25]}}})",
+      // ior 2: ((2 − 1)/(2 + 1))² = 1/9, times the colour; 20/9 is clamped to 1
+      R"({"name": "dense", )" + dielectric + R"(, "extensions": {"KHR_materials_ior": {"ior": 2}, )"
+                                             R"("KHR_materials_specular": {"specularColorFactor": [20, 1, 0.5]}}})",
+      // a half-metal over a matte dielectric: f0 = lerp(0, base, 0.5) = base / 2
+      R"({"name": "half_metal", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.6, 0.4, 1], )"
+      R"("metallicFactor": 0.5}, "extensions": {"KHR_materials_specular": {"specularColorFactor": [0, 0, 0]}}})",
+      R"({"name": "plain", )" + dielectric + "}"};
+  g.place_each_mesh();
+  const client::ImportedScene s = client::import_scene(g.write(dir.path(), "specular").string());
+  EXPECT_FALSE(material_named(s.job, "matte").bsdf().has_specular());
+  EXPECT_FALSE(material_named(s.job, "weak").bsdf().has_specular());
+  const double expected[4][3] = {
+      {0.04 * 0.5, 0.04 * 0.25, 0.04 * 0.125}, {1.0, 1.0 / 9, 0.5 / 9}, {0.4, 0.3, 0.2}, {0.04, 0.04, 0.04}};
+  const char* names[4] = {"tinted", "dense", "half_metal", "plain"};
+  for (int k = 0; k < 4; ++k) {
+    SCOPED_TRACE(names[k]);
+    const v1::SceneMaterial& m = material_named(s.job, names[k]);
+    ASSERT_TRUE(m.bsdf().specular().has_ggx());
+    const v1::Color& f0 = m.bsdf().specular().ggx().f0();
+    EXPECT_NEAR(f0.r(), expected[k][0], kFloat32);
+    EXPECT_NEAR(f0.g(), expected[k][1], kFloat32);
+    EXPECT_NEAR(f0.b(), expected[k][2], kFloat32);
+  }
+  // The diffuse lobe is glTF's c_diff whatever the specular extension says.
+  EXPECT_NEAR(material_named(s.job, "matte").bsdf().diffuse().lambert().albedo().r(), 1.0, kFloat32);
+  EXPECT_NO_THROW(translated(s.job));
+}
+
+TEST(SceneImport, GltfExtensionsAndTexturesKilnDoesNotReadAreWarnings) {
+  test::TempDir dir("kiln-import");
+  GltfScene g;
+  g.extensions_used = R"(["KHR_materials_clearcoat", "KHR_materials_specular", "KHR_texture_transform"])";
+  g.images = {R"({"uri": "n.png"})"};
+  g.materials = {R"({"name": "a", "normalTexture": {"index": 0}, "occlusionTexture": {"index": 0}})",
+                 R"({"name": "b", "normalTexture": {"index": 0}})"};
+  g.place_each_mesh();
+  std::ofstream(dir.path() / "n.png", std::ios::binary) << solid_png(1, 1, 128, 128, 255);
+  const client::ImportedScene s = client::import_scene(g.write(dir.path(), "unread").string());
+  EXPECT_TRUE(has_warning(s, "KHR_materials_clearcoat: not read"));
+  EXPECT_TRUE(has_warning(s, "KHR_texture_transform: not read"));
+  EXPECT_FALSE(has_warning(s, "KHR_materials_specular"));  // read
+  EXPECT_TRUE(has_warning(s, "normalTexture of materials a, b"));
+  EXPECT_TRUE(has_warning(s, "occlusionTexture of material a"));
+}
+
+TEST(SceneImport, ObjWithoutSpecularHasNoSpecularLobe) {
+  test::TempDir dir("kiln-import");
+  std::ofstream(dir.path() / "m.mtl") << "newmtl matte\nKd 0.5 0.5 0.5\nnewmtl shiny\nKd 0.5 0.5 0.5\nKs 0.2 0.2 0.2\n"
+                                         "Ns 100\n";
+  std::ofstream(dir.path() / "m.obj") << "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+                                         "vt 0 1\no a\nusemtl matte\nf 1/1 2/2 3/3\no b\nusemtl shiny\nf 1/1 3/3 4/4\n";
+  const client::ImportedScene s = client::import_scene((dir.path() / "m.obj").string());
+  // Schlick's term with f0 = 0 is not nothing: it reflects at grazing angles. A matte OBJ material has no lobe.
+  EXPECT_FALSE(material_named(s.job, "matte").bsdf().has_specular());
+  ASSERT_TRUE(material_named(s.job, "shiny").bsdf().specular().has_ggx());
+  EXPECT_NEAR(material_named(s.job, "shiny").bsdf().specular().ggx().f0().r(), 0.2, kFloat32);
 }
 
 // A quaternion (x, y, z, w) as glTF writes it, for a rotation by `angle` about a unit axis.
