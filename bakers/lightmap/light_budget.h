@@ -16,7 +16,7 @@
 // For one kind of texel the traced part gives c/N = τ² / (1 + √(T b v / (a c))): the rays take the larger share of τ²
 // the cheaper they are; texels that light tracing serves badly (small ones, dark ones) cost more rays than they save
 // and gather, as they would without it.
-#pragma once #pragma once
+#pragma once
 
 #include <algorithm>
 #include <cstddef>
