@@ -14,6 +14,7 @@
 #include <random>
 #include <tuple>
 
+#include "daemon/store/crash_point.h"
 #include "daemon/store/sha256.h"
 
 namespace fs = std::filesystem;
@@ -270,6 +271,7 @@ uint64_t BlobStore::append(const BlobId& id, uint64_t offset, std::string_view d
                                    std::to_string(offset + written) + ")");
   }
   if (file.close() != 0) throw_errno(errno, "cannot write " + part.string());
+  crash_point("blob.append");
   return offset + data.size();
 }
 
@@ -282,6 +284,7 @@ void BlobStore::install(const fs::path& from, const BlobId& id) {
   if (::rename(from.c_str(), target.c_str()) != 0)
     throw_errno(errno, "cannot move " + from.string() + " into place as " + target.string());
   fsync_dir(shard);
+  crash_point("blob.installed");
 }
 
 void BlobStore::complete(const BlobId& id) {
@@ -321,6 +324,7 @@ void BlobStore::complete(const BlobId& id) {
     Fd file(fd);
     fsync_or_throw(fd, part);
   }
+  crash_point("blob.complete");
   install(part, id);
 }
 
@@ -364,6 +368,7 @@ BlobId BlobStore::put(std::string_view bytes) {
     pwrite_all(fd, bytes, 0, tmp, nullptr);
     fsync_or_throw(fd, tmp);
     if (file.close() != 0) throw_errno(errno, "cannot write " + tmp.string());
+    crash_point("blob.put");
     install(tmp, id);
   } catch (...) {
     std::error_code ec;

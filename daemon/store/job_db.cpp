@@ -11,6 +11,7 @@
 #include <ctime>
 #include <random>
 
+#include "daemon/store/crash_point.h"
 #include "daemon/store/sqlite.h"
 
 namespace fs = std::filesystem;
@@ -385,6 +386,7 @@ InsertOutcome JobDb::insert(const NewJob& job) {
   }
   auto rec = get_locked(db, file_, id);
   t.commit();
+  crash_point("job.inserted");
   return {std::move(*rec), true};
 }
 
@@ -436,22 +438,26 @@ JobRecord transition(sqlite3* db, const fs::path& file, std::string_view id, std
 
 JobRecord JobDb::mark_running(std::string_view id) {
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::queued}, JobState::running, [&] {
+  JobRecord rec = transition(impl_->db, file_, id, {JobState::queued}, JobState::running, [&] {
     Stmt s(impl_->db, file_, "UPDATE jobs SET state = 'running', started = ?2, attempts = attempts + 1 WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).run();
   });
+  crash_point("job.running");
+  return rec;
 }
 
 JobRecord JobDb::mark_succeeded(std::string_view id, std::string_view result,
                                 const std::vector<std::string>& output_digests) {
   check_digests(output_digests, "output_digests");
   std::lock_guard lock(mu_);
-  return transition(impl_->db, file_, id, {JobState::running}, JobState::succeeded, [&] {
+  JobRecord rec = transition(impl_->db, file_, id, {JobState::running}, JobState::succeeded, [&] {
     Stmt s(impl_->db, file_,
            "UPDATE jobs SET state = 'succeeded', finished = ?2, last_used = ?2, result = ?3, output_digests = ?4, "
            "error = '' WHERE id = ?1");
     s.bind(1, id).bind(2, unix_now()).bind_blob(3, result).bind(4, join_digests(output_digests)).run();
   });
+  crash_point("job.succeeded");
+  return rec;
 }
 
 JobRecord JobDb::mark_failed(std::string_view id, std::string_view error) {

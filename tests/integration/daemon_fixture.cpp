@@ -16,7 +16,7 @@
 
 namespace kiln::test {
 
-Daemon::Daemon(std::vector<std::string> extra_flags, std::filesystem::path dir) {
+Daemon::Daemon(std::vector<std::string> extra_flags, std::filesystem::path dir, std::vector<std::string> environment) {
   if (dir.empty()) {
     std::random_device rd;
     dir =
@@ -45,6 +45,7 @@ Daemon::Daemon(std::vector<std::string> extra_flags, std::filesystem::path dir) 
   if (pid_ == 0) {
     const std::string out_s = out.string(), err_s = (dir_ / "kilnd.log").string();
     if (!freopen(out_s.c_str(), "w", stdout) || !freopen(err_s.c_str(), "a", stderr)) _exit(127);
+    for (std::string& e : environment) ::putenv(e.data());
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -91,6 +92,20 @@ void Daemon::kill9() {
   int status = 0;
   ::waitpid(pid_, &status, 0);
   pid_ = -1;
+}
+
+bool Daemon::wait_for_crash(double seconds) {
+  if (pid_ <= 0) return false;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;) {
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+      pid_ = -1;
+      return WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL;
+    }
+    if (std::chrono::steady_clock::now() >= until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
 }
 
 int Daemon::terminate() {

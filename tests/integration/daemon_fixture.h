@@ -12,8 +12,10 @@ namespace kiln::test {
 class Daemon {
  public:
   // Starts kilnd with a fresh store under a new temporary folder (or `store_dir` to reuse one), extra flags
-  // appended. Waits until it prints where it listens. Throws std::runtime_error if it does not start.
-  explicit Daemon(std::vector<std::string> extra_flags = {}, std::filesystem::path dir = {});
+  // appended, and `environment` ("NAME=value") added to its environment. Waits until it prints where it listens.
+  // Throws std::runtime_error if it does not start.
+  explicit Daemon(std::vector<std::string> extra_flags = {}, std::filesystem::path dir = {},
+                  std::vector<std::string> environment = {});
   ~Daemon();  // SIGTERM, wait; the folder is removed unless keep() was called
 
   std::string tcp() const { return "127.0.0.1:" + std::to_string(port_); }
@@ -24,6 +26,8 @@ class Daemon {
   std::string log() const;  // what kilnd wrote to stderr so far
 
   void kill9();     // SIGKILL, as a crash
+  // Waits up to `seconds` for kilnd to exit by itself (a crash point, crash_point.h); true if it did, by SIGKILL.
+  bool wait_for_crash(double seconds);
   int terminate();  // SIGTERM and wait; the exit status
   void keep() { keep_ = true; }
 
