@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <utility>
@@ -404,10 +405,28 @@ void sample_adaptively(LightmapBakeRun& run) {
 
 // ---- 6. Outputs ----
 
-// One lightmap's images, in a fixed order, and its entry in the report.
+// Hands an output to the caller's sink, or keeps it in the result when there is none (bake::BakeControl).
+class OutputStream {
+ public:
+  OutputStream(const bake::BakeControl& control, std::vector<bake::BakeOutput>& kept)
+      : sink_(control.output_sink), kept_(kept) {}
+  void push_back(bake::BakeOutput&& o) {
+    if (sink_) {
+      sink_(std::move(o));
+    } else {
+      kept_.push_back(std::move(o));
+    }
+  }
+
+ private:
+  const std::function<void(bake::BakeOutput&&)>& sink_;
+  std::vector<bake::BakeOutput>& kept_;
+};
+
+// One lightmap's images, in a fixed order, and its entry in the report; each image leaves as soon as it is encoded.
 void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
   const LightmapBakeInput& in = run.in;
-  std::vector<bake::BakeOutput>& outputs = run.result.outputs;
+  OutputStream outputs(run.control, run.result.outputs);
   LightmapOutputOptions options;
   options.padding = in.padding;
   options.color_space = run.color_space;
@@ -443,7 +462,8 @@ void write_report(LightmapBakeRun& run) {
   report.tracer_bytes = run.tracer->memory_bytes();
   report.scene_problems = run.checked.report.total();
   report.denoise = run.in.denoise ? &run.in.denoise_options : nullptr;
-  run.result.outputs.push_back({"report.json", "application/json", "", report_json(run.result, report)});
+  OutputStream(run.control, run.result.outputs).push_back(
+      {"report.json", "application/json", "", report_json(run.result, report)});
 }
 
 // The time limit ran out before the first sample: there is nothing to write, and the same job would run out again.

@@ -98,6 +98,8 @@ struct LightTracingStats {
 };
 
 struct LightmapBakeResult {
+  // In the order of the table above: each lightmap's images, lightmap by lightmap, then report.json. Empty when the
+  // control's output_sink took them, one by one as each was encoded.
   std::vector<bake::BakeOutput> outputs;
   std::vector<plan::Decision> plan;
   std::vector<ErrorPoint> curve;
