@@ -23,8 +23,10 @@
 #include "bakers/lightmap/lightmap_image.h"
 #include "bakers/lightmap/lightmap_outputs.h"
 #include "bakers/lightmap/lightmap_report.h"
+#include "bakers/lightmap/lightmap_results.h"
 #include "bakers/lightmap/lightmap_state.h"
 #include "bakers/lightmap/memory.h"
+#include "bakers/lightmap/texel_guides.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/lightmap/tracer_query.h"
 #include "bakers/plan/lightmap_plan.h"
@@ -423,8 +425,19 @@ class OutputStream {
   std::vector<bake::BakeOutput>& kept_;
 };
 
+// The per-texel results a page keeps for the outputs asked for.
+ResultChannels result_channels(const LightmapBakeInput& in) {
+  ResultChannels c;
+  c.ao = in.ao;
+  c.directional = in.directional;
+  c.radiance = in.radiance;
+  c.guides = in.denoise;
+  return c;
+}
+
 // One lightmap's images, in a fixed order, and its entry in the report; each image leaves as soon as it is encoded.
-void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
+void write_lightmap(LightmapBakeRun& run, const LightmapResults& r, const LeakReport& leaks,
+                    const LightmapMemory& memory) {
   const LightmapBakeInput& in = run.in;
   OutputStream outputs(run.control, run.result.outputs);
   LightmapOutputOptions options;
@@ -432,23 +445,22 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
   options.color_space = run.color_space;
   options.metric = in.error_metric;
   options.stop = &run.cancel_only;
-  for (bake::BakeOutput& o : encode_lightmap(m.image, options)) outputs.push_back(std::move(o));
+  for (bake::BakeOutput& o : encode_lightmap(r, options)) outputs.push_back(std::move(o));
   if (in.denoise) {
     const Clock::time_point t0 = Clock::now();
-    outputs.push_back(
-        denoised_output(m, run.scene(), in.denoise_options, in.padding, run.color_space, run.cancel_only));
+    outputs.push_back(denoised_output(r, in.denoise_options, in.padding, run.color_space, run.cancel_only));
     run.report.denoise_seconds += seconds_since(t0);
   }
-  if (in.radiance) outputs.push_back(radiance_output(m, run.scene(), run.materials, run.color_space));
-  if (in.ao) outputs.push_back(ao_output(m, run.ctx.ao_distance));
+  if (in.radiance) outputs.push_back(radiance_output(r, run.color_space));
+  if (in.ao) outputs.push_back(ao_output(r, run.ctx.ao_distance));
   std::optional<ShError> sh;
   if (in.directional) {
-    sh = sh_error(m);
-    outputs.push_back(sh_output(m, *sh, run.color_space));
+    sh = sh_error(r);
+    outputs.push_back(sh_output(r, *sh, run.color_space));
   }
-  if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space, run.cancel_only));
-  run.report.lightmaps.push_back({m.name, m.image.width(), m.image.error_summary(in.target_error, 0, in.error_metric),
-                                  sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional, !m.traced.empty()))});
+  if (in.preview) outputs.push_back(preview_output(r, in.padding, run.color_space, run.cancel_only));
+  run.report.lightmaps.push_back(
+      {r.name(), r.width(), r.error_summary(in.target_error, 0, in.error_metric), sh, leaks, memory});
 }
 
 void write_report(LightmapBakeRun& run) {
@@ -478,7 +490,12 @@ bake::InvalidInput out_of_time_in_set_up(const LightmapBakeRun& run) {
 void write_outputs(LightmapBakeRun& run) {
   for (const LightmapState& m : run.maps) {
     run.cancel_only.check();
-    write_lightmap(run, m);
+    ChartIds charts(run.scene());
+    const Clock::time_point t0 = Clock::now();
+    const LightmapResults r = collect_results(m, result_channels(run.in), {&run.scene(), &run.materials, &charts});
+    if (run.in.denoise) run.report.denoise_seconds += seconds_since(t0);  // the guides, mostly
+    write_lightmap(run, r, m.leaks,
+                   lightmap_memory(m.texels, lightmap_state_bytes(run.in.ao, run.in.directional, !m.traced.empty())));
   }
   run.result.seconds = seconds_since(run.t0);
   write_report(run);
