@@ -116,7 +116,7 @@ double relative_error_of(double se, double mean_y, ErrorMetric metric, double br
   return se / denominator;
 }
 
-double LightmapImage::brightness() const { return mean_brightness(*this); }
+double LightmapImage::brightness() const { return mean_brightness(*this, prior_luminance_, prior_texels_); }
 
 double LightmapImage::error(size_t texel, ErrorMetric metric, double brightness, double floor) const {
   return relative(texel, standard_error(texel), metric, brightness, floor);

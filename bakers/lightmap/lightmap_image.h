@@ -103,6 +103,14 @@ class LightmapImage {
   };
   ErrorSummary error_summary(double target, double floor = 0, ErrorMetric metric = ErrorMetric::texel) const;
 
+  // The lightmap metric's brightness counts, beside this image's texels, `texels` others whose mean luminances sum to
+  // `luminance_sum`: the tiles of the page sampled before this one (a tiled bake samples a page a tile at a time,
+  // and a tile's brightness alone would set its target by the wrong scale).
+  void set_brightness_prior(double luminance_sum, size_t texels) {
+    prior_luminance_ = luminance_sum;
+    prior_texels_ = texels;
+  }
+
   // Memory held per texel: sum (3 doubles), replica sums (with the counts), validity (byte).
   static constexpr size_t kBytesPerTexel = 3 * sizeof(double) + sizeof(ReplicaSums) + sizeof(uint8_t);
   // And with a traced term: its mean and replicas' luminances.
@@ -117,6 +125,8 @@ class LightmapImage {
   // Light tracing's term, allocated at the first set_traced.
   std::vector<Rgb> traced_;
   std::vector<std::array<float, kReplicas>> traced_y_;
+  double prior_luminance_ = 0;
+  size_t prior_texels_ = 0;
 
   ReplicaSums with_traced(size_t texel) const;
   Rgb gathered_mean(size_t texel) const;
@@ -131,7 +141,7 @@ double relative_error_of(double standard_error, double mean_luminance, ErrorMetr
                          double floor);
 
 // The mean luminance of the valid texels with estimates, counting `prior_texels` others of luminance sum
-// `prior_luminance`; 0 if none.
+// `prior_luminance` (LightmapImage::set_brightness_prior); 0 if none.
 template <class T>
 double mean_brightness(const T& texels, double prior_luminance = 0, size_t prior_texels = 0) {
   double sum = 0;
