@@ -271,7 +271,11 @@ BakeRequest Workers::request_of(const store::JobRecord& record) {
   if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
   // The database keeps the spec as the client sent it, not the translated request (a plain struct, which may hold
   // the bytes of the job's blobs): so the worker translates it again, the same text giving the same request.
-  return translate(spec);
+  BakeRequest request = translate(spec);
+  // The same tiles as at submit: the limit is kilnd's, which a restart may have changed (the job then bakes under
+  // the new one).
+  fit_memory_limit(request, memory_.limit());
+  return request;
 }
 
 Baked Workers::bake(const std::string& id, const BakeRequest& request, std::atomic<bool>* cancel) {
