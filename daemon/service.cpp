@@ -392,7 +392,9 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
     fail(v1::Error::INVALID_ARGUMENT, "at most 128 bytes", "idempotency_key");
   }
   // Throws InvalidField with the path; input blobs must be stored already. Their bytes are read by the worker.
-  const BakeRequest bake = translate(sub.job(), blobs_.get());
+  BakeRequest bake = translate(sub.job(), blobs_.get());
+  // Under kilnd's memory limit too: a lightmap job that would not fit whole bakes in tiles (part of its key).
+  fit_memory_limit(bake, config_.memory_limit_bytes);
   const std::string key = cache_key(bake, baker_version(bake));
 
   std::lock_guard lock(submit_mutex_);

@@ -3,6 +3,7 @@
 // translated in its own file (translate_material.cpp, translate_environment.cpp, translate_lightmap.cpp).
 #include "daemon/translate.h"
 
+#include <algorithm>
 #include <array>
 
 #include "daemon/translate_fields.h"
@@ -96,6 +97,13 @@ std::string canonical_text(const BakeRequest& r) {
   if (std::holds_alternative<envmap::EnvironmentBakeInput>(r.input)) return detail::environment_canonical_text(r);
   if (std::holds_alternative<lightmap::LightmapBakeInput>(r.input)) return detail::lightmap_canonical_text(r);
   return detail::material_canonical_text(r);
+}
+
+void fit_memory_limit(BakeRequest& r, uint64_t server_limit) {
+  if (!std::holds_alternative<lightmap::LightmapBakeInput>(r.input) || !r.lightmap_memory) return;
+  const uint64_t own = r.lightmap().memory_limit_bytes;
+  const uint64_t limit = own == 0 || server_limit == 0 ? std::max(own, server_limit) : std::min(own, server_limit);
+  detail::plan_lightmap_memory(r, limit);
 }
 
 std::string cache_key(const BakeRequest& request, const std::string& baker_version) {

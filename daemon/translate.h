@@ -4,6 +4,7 @@
 #pragma once
 
 #include <stdexcept>
+#include <optional>
 #include <string>
 
 #include <cstdint>
@@ -12,6 +13,7 @@
 
 #include "bakers/envmap/environment_bake.h"
 #include "bakers/lightmap/lightmap_bake.h"
+#include "bakers/lightmap/memory_estimate.h"
 #include "bakers/material/material_bake.h"
 
 namespace kiln::v1 {
@@ -44,6 +46,15 @@ struct BlobRef {
 // The largest input blob a job may refer to (an environment image or face): decoding needs it whole in memory.
 inline constexpr uint64_t kMaxInputBlobBytes = uint64_t{512} << 20;
 
+// What a lightmap job's memory estimate is made of (bakers/lightmap/memory_estimate.h), and the fields a refusal
+// names for each part.
+struct LightmapMemoryBasis {
+  lightmap::LightmapJobSize size;
+  std::string texel_field, scene_field, input_field;
+  size_t lightmaps = 0;
+  uint64_t texels = 0;
+};
+
 // The bake a job spec asks for: the input of one of the three bakers.
 struct BakeRequest {
   std::string name;  // the spec's name, for people
@@ -62,6 +73,8 @@ struct BakeRequest {
   uint64_t memory_bytes = 0;
   std::string memory_field;
   std::string memory_note;
+  // Lightmap jobs: what their estimate is made from, to plan it again under kilnd's limit (fit_memory_limit).
+  std::optional<LightmapMemoryBasis> lightmap_memory;
 
   // The input, for a request known to hold that type (std::bad_variant_access otherwise).
   kiln::material::MaterialBakeInput& material() { return std::get<kiln::material::MaterialBakeInput>(input); }
@@ -105,6 +118,12 @@ const char* baker_version(const BakeRequest& request);
 // The canonical text of a translated request: every setting, defaults applied, numbers in round-trip precision,
 // the name left out. Two specs that ask for the same bake have the same text.
 std::string canonical_text(const BakeRequest& request);
+
+// Plans the request's memory under kilnd's limit: a lightmap job bakes under the smaller of its own
+// memory_limit_bytes and `server_limit`, untiled when its estimate fits that and in tiles otherwise
+// (lightmap::plan_memory), which sets its input's tile size and the request's estimate. Call it after translate() and
+// before cache_key() (the tile size is part of the key). Other jobs are left as they are.
+void fit_memory_limit(BakeRequest& request, uint64_t server_limit);
 
 // The result-cache key: SHA-256 of the canonical text and the baker version.
 std::string cache_key(const BakeRequest& request, const std::string& baker_version);

@@ -62,5 +62,7 @@ std::string environment_canonical_text(const BakeRequest& r);
 void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs, BakeRequest& r);
 void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs);
 std::string lightmap_canonical_text(const BakeRequest& r);
+// The lightmap job's estimate and tiles under `limit` (0: none), from r.lightmap_memory.
+void plan_lightmap_memory(BakeRequest& r, uint64_t limit);
 
 }  // namespace kiln::daemon::detail

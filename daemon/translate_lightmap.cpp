@@ -29,7 +29,10 @@ constexpr int kMaxMaterials = 65536;
 constexpr int kMaxTextures = 4096;
 constexpr int kMaxLights = 65536;
 constexpr int kMaxLightmapSettings = 65536;
-constexpr uint64_t kMaxTotalTexels = uint64_t{1} << 24;  // 4096² texels: ~1 GiB of per-texel state in the baker
+// 16 pages of 4096²: a bake that does not fit its memory limit whole samples them a tile at a time, holding ~40
+// bytes a texel of the page being baked (bakers/lightmap/lightmap_results.h).
+constexpr uint64_t kMaxTotalTexels = uint64_t{1} << 28;
+constexpr uint64_t kMinMemoryLimit = uint64_t{1} << 26, kMaxMemoryLimit = uint64_t{1} << 50;
 constexpr double kMaxCoordinate = 1e9;                   // beyond it float32 geometry has no precision left
 constexpr bounds::Range kCoordinate{-kMaxCoordinate, kMaxCoordinate};
 constexpr double kMaxLightColor = 1e12;
@@ -411,7 +414,7 @@ void check_texels(const std::set<std::string>& lightmap_names, const lightmap::L
     throw InvalidField(kPath + ".resolution", std::to_string(lightmap_names.size()) + " lightmaps of " +
                                                   std::to_string(texels) + " texels in all; at most " +
                                                   std::to_string(kMaxTotalTexels) +
-                                                  " (4096 x 4096): lower the resolution or bake in several jobs");
+                                                  " (16 x 4096 x 4096): lower the resolution or bake in several jobs");
   }
 }
 
@@ -438,6 +441,14 @@ void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& 
   in.preview = !j.has_preview() || j.preview();
   in.denoise = j.denoise();
   in.error_metric = error_metric(j.error_metric());
+  if (j.has_memory_limit_bytes()) {
+    const uint64_t limit = j.memory_limit_bytes();
+    if (limit < kMinMemoryLimit || limit > kMaxMemoryLimit) {
+      throw InvalidField(kPath + ".memory_limit_bytes", "must be in [2^26, 2^50] bytes (64 MiB to 1 PiB), got " +
+                                                            std::to_string(limit));
+    }
+    in.memory_limit_bytes = limit;
+  }
 }
 
 void lightmap_quality(const kiln::v1::Quality& q, lightmap::LightmapBakeInput& in) {
@@ -477,6 +488,7 @@ void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>
   size.radiance = in.radiance;
   size.denoise = in.denoise;
   size.preview = in.preview;
+  size.streamed = true;  // the worker stores each output as the bake hands it over (daemon/workers.cpp)
   std::vector<uint64_t> mesh_triangles(static_cast<size_t>(j.meshes_size()), 0);
   for (int i = 0; i < j.meshes_size(); ++i) {
     const uint64_t bytes = j.meshes(i).geometry().size();
@@ -507,7 +519,29 @@ void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>
       }
     }
   }
-  const lightmap::LightmapMemoryEstimate e = lightmap::estimate_memory(size);
+  LightmapMemoryBasis basis;
+  basis.size = size;
+  basis.texel_field = largest_field;
+  basis.scene_field = kPath + (j.instances_size() > 0 ? ".instances" : ".meshes");
+  basis.input_field = kPath + (size.texture_blob_bytes >= size.environment_blob_bytes ? ".textures" : ".environment");
+  basis.lightmaps = lightmap_names.size();
+  basis.texels = texels;
+  r.lightmap_memory = basis;
+  plan_lightmap_memory(r, in.memory_limit_bytes);
+}
+
+}  // namespace
+
+void plan_lightmap_memory(BakeRequest& r, uint64_t limit) {
+  lightmap::LightmapBakeInput& in = r.lightmap();
+  const LightmapMemoryBasis& basis = *r.lightmap_memory;
+  const lightmap::LightmapJobSize& size = basis.size;
+  const lightmap::LightmapMemoryEstimate e = lightmap::plan_memory(size, limit);
+  // The bake runs in exactly the tiles the estimate was made for.
+  in.memory_limit_bytes = limit;
+  in.tile_size = e.tile_size;
+  const std::string& largest_field = basis.texel_field;
+  const uint64_t texels = basis.texels;
   uint64_t texel_bytes = 0;
   for (uint64_t b : e.lightmap_bytes) texel_bytes += b;
   r.memory_bytes = e.total;
@@ -515,16 +549,23 @@ void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>
   if (texel_bytes >= e.scene_bytes && texel_bytes >= e.input_bytes) {
     r.memory_field = largest_field;
   } else if (e.scene_bytes >= e.input_bytes) {
-    r.memory_field = kPath + (j.instances_size() > 0 ? ".instances" : ".meshes");
+    r.memory_field = basis.scene_field;
   } else {
-    r.memory_field = kPath + (size.texture_blob_bytes >= size.environment_blob_bytes ? ".textures" : ".environment");
+    r.memory_field = basis.input_field;
   }
-  r.memory_note =
-      std::to_string(lightmap_names.size()) + " lightmap(s) of " + std::to_string(texels) + " texels in all at about " +
-      std::to_string(static_cast<uint64_t>(e.bytes_per_texel)) + " bytes each (" + lightmap::format_bytes(texel_bytes) +
-      "), up to " + std::to_string(size.traced_triangles) + " traced triangles (" +
-      lightmap::format_bytes(e.scene_bytes) + " with the meshes), inputs " + lightmap::format_bytes(e.input_bytes);
+  const std::string tiles =
+      e.tile_size > 0 ? " in tiles of " + std::to_string(e.tile_size) + "x" + std::to_string(e.tile_size) + " (" +
+                            std::to_string(static_cast<uint64_t>(e.bytes_per_texel_in_flight)) +
+                            " bytes a texel in flight, " +
+                            std::to_string(static_cast<uint64_t>(e.results_bytes_per_texel)) + " a texel of a page)"
+                      : " at about " + std::to_string(static_cast<uint64_t>(e.bytes_per_texel)) + " bytes each";
+  r.memory_note = std::to_string(basis.lightmaps) + " lightmap(s) of " + std::to_string(texels) + " texels in all" +
+                  tiles + " (" + lightmap::format_bytes(texel_bytes) + "), up to " +
+                  std::to_string(size.traced_triangles) + " traced triangles (" + lightmap::format_bytes(e.scene_bytes) +
+                  " with the meshes), inputs " + lightmap::format_bytes(e.input_bytes);
 }
+
+namespace {
 
 // The baker's own validation is the backstop, and knows the effects its planner decides.
 void validate_lightmap(const lightmap::LightmapBakeInput& in) {
@@ -619,6 +660,9 @@ std::string lightmap_canonical_text(const BakeRequest& r) {
   o << "\nradiance=" << in.radiance << "\nao=" << in.ao << "\ndirectional=" << in.directional
     << "\npreview=" << in.preview << "\ndenoise=" << in.denoise
     << "\nerror_metric=" << lightmap::to_string(in.error_metric) << "\n";
+  // Tiles change the bytes (not the answer beyond the noise): a tiled bake is another result. Untiled bakes keep the
+  // key they had before tiles existed.
+  if (in.tile_size > 0) o << "tile_size=" << in.tile_size << "\n";
   return o.str();
 }
 

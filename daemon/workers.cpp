@@ -17,9 +17,16 @@
 
 namespace kiln::daemon {
 
+// An output as the worker keeps it once its bytes are in the blob store.
+struct StoredOutput {
+  std::string name, media_type, color_space;
+  store::BlobId blob;
+  std::string report_json;  // the bytes of report.json, which the JobResult carries too; empty for the others
+};
+
 // What any bake hands back to the worker.
 struct Baked {
-  std::vector<bake::BakeOutput> outputs;
+  std::vector<StoredOutput> outputs;
   uint64_t samples = 0;
   uint64_t rays = 0;
   double seconds = 0;
@@ -62,8 +69,7 @@ void Workers::run(std::stop_token stop) {
 
 namespace {
 
-std::string describe_output(const bake::BakeOutput& o) {
-  const std::string& n = o.name;
+std::string describe_output(const std::string& n) {
   if (n == "albedo.exr") return "directional albedo E(mu) with standard errors, and the white-furnace E";
   if (n == "split_sum.exr") return "split-sum scale and bias on f0 over (mu, roughness), with standard errors";
   if (n == "brdf.merl") return "the BRDF tabulated in the MERL binary layout (90 x 90 x 180 x RGB doubles)";
@@ -98,10 +104,17 @@ void add_decision(Baked& b, const std::string& effect, bool enabled, bool forced
   d.set_reason(reason);
 }
 
+// The bakers that return their outputs: each goes to the control's sink after the bake, as a streaming bake's would
+// during it.
+void stream_returned(std::vector<bake::BakeOutput>& outputs, const bake::BakeControl& control) {
+  for (bake::BakeOutput& o : outputs) control.output_sink(std::move(o));
+  outputs.clear();
+}
+
 Baked run_baker(const BakeRequest&, const material::MaterialBakeInput& in, const bake::BakeControl& control) {
   material::MaterialBakeResult r = material::bake_material(in, control);
   Baked b;
-  b.outputs = std::move(r.outputs);
+  stream_returned(r.outputs, control);
   b.samples = r.samples + r.validation_samples;
   b.seconds = r.seconds;
   b.error_estimate = r.max_error_estimate;
@@ -128,7 +141,7 @@ auto blaming_input(const BakeRequest& request, Bake&& bake) {
 Baked run_baker(const BakeRequest& request, const envmap::EnvironmentBakeInput& in, const bake::BakeControl& control) {
   envmap::EnvironmentBakeResult r = blaming_input(request, [&] { return envmap::bake_environment(in, control); });
   Baked b;
-  b.outputs = std::move(r.outputs);
+  stream_returned(r.outputs, control);
   b.samples = r.samples;
   b.seconds = r.seconds;
   for (double e : r.level_error) b.error_estimate = std::max(b.error_estimate, e);
@@ -145,9 +158,10 @@ Baked run_baker(const BakeRequest& request, const envmap::EnvironmentBakeInput& 
 
 Baked run_baker(const BakeRequest& request, const lightmap::LightmapBakeInput& in, const bake::BakeControl& control) {
   // The baker's contract (lightmap_bake.h): undecodable textures or environment, a scene with nothing to bake.
+  // It streams: each page's images reach the store as soon as they are encoded (control.output_sink).
   lightmap::LightmapBakeResult r = blaming_input(request, [&] { return lightmap::bake_lightmaps(in, control); });
   Baked b;
-  b.outputs = std::move(r.outputs);
+  stream_returned(r.outputs, control);
   b.samples = r.samples;
   b.rays = r.rays;
   b.seconds = r.seconds;
@@ -165,13 +179,15 @@ v1::JobResult job_result(const std::string& id, const store::JobRecord& record, 
   result.set_name(record.name);
   result.set_submitted_unix(record.submitted);
   result.set_finished_unix(store::unix_now());
-  for (const bake::BakeOutput& o : baked.outputs) {
+  for (const StoredOutput& o : baked.outputs) {
     v1::Output* out = result.add_outputs();
     out->set_name(o.name);
     out->set_media_type(o.media_type);
     out->set_color_space(o.color_space);
-    out->set_description(describe_output(o));
-    if (o.name == "report.json") result.mutable_report()->set_json(o.bytes);
+    out->set_description(describe_output(o.name));
+    out->mutable_digest()->set_sha256(o.blob.digest);
+    out->mutable_digest()->set_size(o.blob.size);
+    if (o.name == "report.json") result.mutable_report()->set_json(o.report_json);
   }
   v1::BakeReport* report = result.mutable_report();
   report->set_samples(baked.samples);
@@ -255,7 +271,11 @@ BakeRequest Workers::request_of(const store::JobRecord& record) {
   if (!spec.ParseFromString(record.spec)) throw std::runtime_error("the stored job spec is unreadable");
   // The database keeps the spec as the client sent it, not the translated request (a plain struct, which may hold
   // the bytes of the job's blobs): so the worker translates it again, the same text giving the same request.
-  return translate(spec);
+  BakeRequest request = translate(spec);
+  // The same tiles as at submit: the limit is kilnd's, which a restart may have changed (the job then bakes under
+  // the new one).
+  fit_memory_limit(request, memory_.limit());
+  return request;
 }
 
 Baked Workers::bake(const std::string& id, const BakeRequest& request, std::atomic<bool>* cancel) {
@@ -272,10 +292,20 @@ Baked Workers::bake(const std::string& id, const BakeRequest& request, std::atom
     if (p.error_estimate > 0) progress.error_estimate = p.error_estimate;
     queue_.publish(id, progress);
   };
+  // Every output goes into the blob store as soon as the bake hands it over, and only its digest stays: a bake of
+  // many lightmap pages never holds all their images. A bake that then fails or is cancelled leaves its stored
+  // outputs unreferenced, for retention to evict.
+  std::vector<StoredOutput> stored;
+  control.output_sink = [&](bake::BakeOutput&& o) {
+    StoredOutput s{o.name, o.media_type, o.color_space, blobs_.put(o.bytes), {}};
+    if (o.name == "report.json") s.report_json = std::move(o.bytes);
+    stored.push_back(std::move(s));
+  };
   Baked baked;
   tbb::task_arena arena(threads_per_job_);
   arena.execute(
       [&] { baked = std::visit([&](const auto& in) { return run_baker(request, in, control); }, request.input); });
+  baked.outputs = std::move(stored);
   return baked;
 }
 
@@ -283,12 +313,7 @@ void Workers::record_success(const std::string& id, const store::JobRecord& reco
                              const Baked& baked, std::chrono::steady_clock::time_point t0) {
   v1::JobResult result = job_result(id, record, request, baked);
   std::vector<std::string> digests;
-  for (std::size_t i = 0; i < baked.outputs.size(); ++i) {
-    const store::BlobId blob = blobs_.put(baked.outputs[i].bytes);
-    digests.push_back(blob.digest);
-    result.mutable_outputs(static_cast<int>(i))->mutable_digest()->set_sha256(blob.digest);
-    result.mutable_outputs(static_cast<int>(i))->mutable_digest()->set_size(blob.size);
-  }
+  for (const StoredOutput& o : baked.outputs) digests.push_back(o.blob.digest);
   std::string bytes;
   result.SerializeToString(&bytes);
   db_.mark_succeeded(id, bytes, digests);

@@ -239,7 +239,8 @@ Partial estimate_item(const LightmapState& m, const WorkItem& item, const Transp
                       const TransportContext* direct_ctx, const SamplingOptions& o, PassCounts& counts) {
   const bool traced = direct_ctx && !m.traced.empty() && m.traced[item.texel];
   const TransportContext& ctx = traced ? *direct_ctx : full_ctx;
-  const uint64_t texel_seed = mix_seeds(mix_seeds(o.seed, item.map), item.texel);
+  // By the texel's page and its place there (LightmapState::page_texel), not its index in this pass's states.
+  const uint64_t texel_seed = mix_seeds(mix_seeds(o.seed, m.page), m.page_texel(item.texel));
   Pcg32 rng(mix_seeds(texel_seed, item.first));
   Partial p;
   const uint64_t rays_before = counts.rays;

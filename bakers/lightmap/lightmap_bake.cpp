@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <utility>
@@ -22,8 +23,11 @@
 #include "bakers/lightmap/lightmap_image.h"
 #include "bakers/lightmap/lightmap_outputs.h"
 #include "bakers/lightmap/lightmap_report.h"
+#include "bakers/lightmap/lightmap_results.h"
 #include "bakers/lightmap/lightmap_state.h"
 #include "bakers/lightmap/memory.h"
+#include "bakers/lightmap/memory_estimate.h"
+#include "bakers/lightmap/texel_guides.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/lightmap/tracer_query.h"
 #include "bakers/plan/lightmap_plan.h"
@@ -73,6 +77,7 @@ struct LightmapBakeRun {
   TransportContext direct_ctx;
   std::unique_ptr<LightTracer> light_tracer;
   std::vector<LightmapState> maps;
+  LightmapMemoryEstimate memory;  // as planned: untiled, or the tile size (memory.tile_size)
   uint64_t dropped = 0;  // estimates dropped over all passes
   LightmapBakeResult result;
   LightmapReport report;
@@ -159,7 +164,57 @@ void prepare_scene(LightmapBakeRun& run) {
   run.progress(0.01, "scene", -1);
 }
 
-// ---- 2. The plan ----
+// ---- 2. Memory: whole pages, or tiles (memory_estimate.h) ----
+
+// The texels on a side of lightmap `name` (a file stem of the checked scene; the job's settings use its input name).
+int lightmap_resolution(const LightmapBakeRun& run, const std::string& name) {
+  const auto it = run.in.resolutions.find(run.checked.input_lightmap_name(name));
+  return it != run.in.resolutions.end() ? it->second : run.in.resolution;
+}
+
+// What the estimate needs to know of the bake, from its input and the checked scene: the same model the daemon
+// applies to the spec (daemon/translate_lightmap.cpp), with the meshes' sizes as their blobs would have them.
+LightmapJobSize job_size(const LightmapBakeRun& run) {
+  const LightmapBakeInput& in = run.in;
+  const scene::Scene& s = run.scene();
+  LightmapJobSize size;
+  size.ao = in.ao;
+  size.directional = in.directional;
+  size.radiance = in.radiance;
+  size.denoise = in.denoise;
+  size.preview = in.preview;
+  size.streamed = static_cast<bool>(run.control.output_sink);
+  for (const std::string& name : lightmap_names(s)) {
+    const auto side = static_cast<uint64_t>(lightmap_resolution(run, name));
+    size.lightmap_texels.push_back(side * side);
+  }
+  for (const scene::Instance& inst : s.instances) {
+    if (inst.mesh >= 0 && static_cast<size_t>(inst.mesh) < s.meshes.size()) {
+      size.traced_triangles += s.meshes[inst.mesh].indices.size() / 3;
+    }
+  }
+  // KILNMSH1 (daemon/mesh_blob_decode.h): float positions, normals and UVs, 12 bytes of indices a triangle.
+  for (const scene::Mesh& m : s.meshes) {
+    size.mesh_blob_bytes += 20 + 12 * (m.positions.size() + m.normals.size()) +
+                            8 * (m.uv.size() + m.lightmap_uv.size()) + 4 * m.indices.size();
+  }
+  for (const EncodedTexture& t : in.textures) size.texture_blob_bytes += t.bytes.size();
+  size.environment_blob_bytes = in.environment_image.size();
+  return size;
+}
+
+void plan_memory(LightmapBakeRun& run) {
+  const LightmapJobSize size = job_size(run);
+  run.memory = run.in.tile_size > 0 ? estimate_memory(size, run.in.tile_size)
+                                    : plan_memory(size, run.in.memory_limit_bytes);
+  LightmapBakeResult::Memory& m = run.result.memory;
+  m.limit_bytes = run.in.memory_limit_bytes;
+  m.estimate_bytes = run.memory.total;
+  m.tile_size = run.memory.tile_size;
+  m.bytes_per_texel_held = run.memory.bytes_per_texel_in_flight;
+}
+
+// ---- 2b. The plan ----
 
 void plan_bake(LightmapBakeRun& run) {
   plan::LightmapPlanOptions options;
@@ -168,6 +223,7 @@ void plan_bake(LightmapBakeRun& run) {
   options.force_effects = run.in.force_effects;
   options.directional = run.in.directional;
   options.per_texel_error = run.in.error_metric == ErrorMetric::texel;
+  options.tiled = run.memory.tile_size > 0;
   run.plan = run.in.full_simulation ? plan::full_plan(run.scene(), options) : plan::plan_lightmap(run.scene(), options);
   run.result.plan = run.plan.decisions;
 }
@@ -217,9 +273,8 @@ void rasterize_texels(LightmapBakeRun& run) {
   std::vector<std::vector<uint8_t>> bake_mask;
   for (const auto& t : run.checked.triangles) bake_mask.push_back(t.bake);
   for (const std::string& name : lightmap_names(run.scene())) {
-    const auto it = in.resolutions.find(run.checked.input_lightmap_name(name));
     RasterOptions raster;
-    raster.width = raster.height = it != in.resolutions.end() ? it->second : in.resolution;
+    raster.width = raster.height = lightmap_resolution(run, name);
     raster.bake_mask = &bake_mask;
     run.stage = "rasterization of lightmap '" + name + "'";
     LightmapTexels texels = rasterize_lightmap(run.scene(), name, raster, run.stop);
@@ -228,6 +283,7 @@ void rasterize_texels(LightmapBakeRun& run) {
     run.result.rays += leaks.rays;
     run.result.probe_rays += leaks.rays;
     run.maps.push_back(make_lightmap_state(name, std::move(texels), leaks, in.ao, in.directional));
+    run.maps.back().page = static_cast<uint32_t>(run.maps.size() - 1);
     run.check_cancel();
   }
   if (run.maps.empty()) {
@@ -256,24 +312,44 @@ SamplingOptions sampling_options(const LightmapBakeRun& run) {
   return o;
 }
 
-// After a pass: the error over every valid texel of every lightmap, a point of the curve and the progress.
-void record_pass(LightmapBakeRun& run, uint64_t pass) {
-  std::vector<LightmapImage::ErrorSummary> summaries(run.maps.size());
-  tbb::parallel_for(size_t{0}, run.maps.size(), [&](size_t mi) {
-    summaries[mi] = run.maps[mi].image.error_summary(run.in.target_error, 0, run.in.error_metric);
-  });
+// The error over every valid texel of `maps`: RMS over those with an estimate, how many those are, how many are
+// still above the target, of how many valid.
+struct ErrorTotals {
   double sum_sq = 0;
   size_t estimated = 0, above = 0, valid = 0;
-  for (const LightmapImage::ErrorSummary& e : summaries) {
+
+  void add(const LightmapImage::ErrorSummary& e) {
     sum_sq += e.rms * e.rms * static_cast<double>(e.estimated);
     estimated += e.estimated;
     above += e.above_target;
     valid += e.valid;
   }
-  const double rms = estimated ? std::sqrt(sum_sq / static_cast<double>(estimated)) : -1;
+  void add(const ErrorTotals& o) {
+    sum_sq += o.sum_sq;
+    estimated += o.estimated;
+    above += o.above;
+    valid += o.valid;
+  }
+  double rms() const { return estimated ? std::sqrt(sum_sq / static_cast<double>(estimated)) : -1; }
+  double done() const { return valid ? 1.0 - static_cast<double>(above) / static_cast<double>(valid) : 1.0; }
+};
+
+ErrorTotals error_totals(const LightmapBakeRun& run, const std::vector<LightmapState>& maps) {
+  std::vector<LightmapImage::ErrorSummary> summaries(maps.size());
+  tbb::parallel_for(size_t{0}, maps.size(), [&](size_t mi) {
+    summaries[mi] = maps[mi].image.error_summary(run.in.target_error, 0, run.in.error_metric);
+  });
+  ErrorTotals totals;
+  for (const LightmapImage::ErrorSummary& e : summaries) totals.add(e);
+  return totals;
+}
+
+// After a pass: the error over every valid texel of every lightmap, a point of the curve and the progress.
+void record_pass(LightmapBakeRun& run, uint64_t pass) {
+  const ErrorTotals totals = error_totals(run, run.maps);
+  const double rms = totals.rms();
   run.result.curve.push_back({seconds_since(run.t0), run.result.samples, rms});
-  const double done = valid ? 1.0 - static_cast<double>(above) / static_cast<double>(valid) : 1.0;
-  run.progress(0.05 + 0.9 * done, "pass " + std::to_string(pass + 1), rms);
+  run.progress(0.05 + 0.9 * totals.done(), "pass " + std::to_string(pass + 1), rms);
 }
 
 // ---- 5a. Light tracing (light_tracing.h) ----
@@ -379,15 +455,16 @@ void trace_light(LightmapBakeRun& run, const SamplingOptions& o, const GatherCos
   stats.seconds += seconds_since(t0);
 }
 
-void sample_adaptively(LightmapBakeRun& run) {
-  const SamplingOptions options = sampling_options(run);
+// Passes over `maps` until every texel is done or the options' deadline; `after_pass` follows each. Light tracing
+// (when `tracing`) after the first pass.
+void run_passes(LightmapBakeRun& run, std::vector<LightmapState>& maps, const SamplingOptions& options, bool tracing,
+                const std::function<void(uint64_t)>& after_pass) {
   LightmapBakeResult& result = run.result;
-  const bool tracing = prepare_light_tracing(run);
   for (uint64_t pass = 0;; ++pass) {
-    const std::vector<TexelBatch> batches = schedule_pass(run.maps, options);
+    const std::vector<TexelBatch> batches = schedule_pass(maps, options);
     if (batches.empty()) break;
     const PassCounts counts =
-        run_pass(run.maps, batches, run.ctx, options, run.control, tracing ? &run.direct_ctx : nullptr);
+        run_pass(maps, batches, run.ctx, options, run.control, tracing ? &run.direct_ctx : nullptr);
     run.check_cancel();
     // After the first pass the texels have a brightness to measure light tracing's error against.
     if (tracing && pass == 0) trace_light(run, options, gather_costs(counts));
@@ -396,42 +473,76 @@ void sample_adaptively(LightmapBakeRun& run) {
     result.samples += counts.paths;
     result.general_vertices += counts.general_vertices;
     run.dropped += counts.dropped;
-    record_pass(run, pass);
+    after_pass(pass);
     if (counts.out_of_time || Clock::now() >= options.deadline) break;
   }
+}
+
+void sample_adaptively(LightmapBakeRun& run) {
+  const SamplingOptions options = sampling_options(run);
+  const bool tracing = prepare_light_tracing(run);
+  run_passes(run, run.maps, options, tracing, [&](uint64_t pass) { record_pass(run, pass); });
+  LightmapBakeResult& result = run.result;
   result.error_estimate = result.curve.empty() ? 0 : std::max(0.0, result.curve.back().error);
 }
 
 // ---- 6. Outputs ----
 
-// One lightmap's images, in a fixed order, and its entry in the report.
-void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
+// Hands an output to the caller's sink, or keeps it in the result when there is none (bake::BakeControl).
+class OutputStream {
+ public:
+  OutputStream(const bake::BakeControl& control, std::vector<bake::BakeOutput>& kept)
+      : sink_(control.output_sink), kept_(kept) {}
+  void push_back(bake::BakeOutput&& o) {
+    if (sink_) {
+      sink_(std::move(o));
+    } else {
+      kept_.push_back(std::move(o));
+    }
+  }
+
+ private:
+  const std::function<void(bake::BakeOutput&&)>& sink_;
+  std::vector<bake::BakeOutput>& kept_;
+};
+
+// The per-texel results a page keeps for the outputs asked for.
+ResultChannels result_channels(const LightmapBakeInput& in) {
+  ResultChannels c;
+  c.ao = in.ao;
+  c.directional = in.directional;
+  c.radiance = in.radiance;
+  c.guides = in.denoise;
+  return c;
+}
+
+// One lightmap's images, in a fixed order, and its entry in the report; each image leaves as soon as it is encoded.
+void write_lightmap(LightmapBakeRun& run, const LightmapResults& r, const LeakReport& leaks,
+                    const LightmapMemory& memory) {
   const LightmapBakeInput& in = run.in;
-  std::vector<bake::BakeOutput>& outputs = run.result.outputs;
+  OutputStream outputs(run.control, run.result.outputs);
   LightmapOutputOptions options;
   options.padding = in.padding;
   options.color_space = run.color_space;
   options.metric = in.error_metric;
   options.stop = &run.cancel_only;
-  for (bake::BakeOutput& o : encode_lightmap(m.image, options)) outputs.push_back(std::move(o));
+  for (bake::BakeOutput& o : encode_lightmap(r, options)) outputs.push_back(std::move(o));
   if (in.denoise) {
     const Clock::time_point t0 = Clock::now();
-    outputs.push_back(
-        denoised_output(m, run.scene(), in.denoise_options, in.padding, run.color_space, run.cancel_only));
+    outputs.push_back(denoised_output(r, in.denoise_options, in.padding, run.color_space, run.cancel_only));
     run.report.denoise_seconds += seconds_since(t0);
   }
-  if (in.radiance) outputs.push_back(radiance_output(m, run.scene(), run.materials, run.color_space));
-  if (in.ao) outputs.push_back(ao_output(m, run.ctx.ao_distance));
+  if (in.radiance) outputs.push_back(radiance_output(r, run.color_space));
+  if (in.ao) outputs.push_back(ao_output(r, run.ctx.ao_distance));
   std::optional<ShError> sh;
   if (in.directional) {
-    sh = sh_error(m);
-    outputs.push_back(sh_output(m, *sh, run.color_space));
+    sh = sh_error(r);
+    outputs.push_back(sh_output(r, *sh, run.color_space));
   }
-  if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space, run.cancel_only));
-  const std::string& input_name = run.checked.input_lightmap_name(m.name);
-  run.report.lightmaps.push_back({m.name, input_name == m.name ? "" : input_name, m.image.width(),
-                                  m.image.error_summary(in.target_error, 0, in.error_metric),
-                                  sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional, !m.traced.empty()))});
+  if (in.preview) outputs.push_back(preview_output(r, in.padding, run.color_space, run.cancel_only));
+  const std::string& input_name = run.checked.input_lightmap_name(r.name());
+  run.report.lightmaps.push_back({r.name(), input_name == r.name() ? "" : input_name, r.width(),
+                                  r.error_summary(in.target_error, 0, in.error_metric), sh, leaks, memory});
 }
 
 void write_report(LightmapBakeRun& run) {
@@ -445,7 +556,8 @@ void write_report(LightmapBakeRun& run) {
   report.tracer_bytes = run.tracer->memory_bytes();
   report.scene_problems = run.checked.report.total();
   report.denoise = run.in.denoise ? &run.in.denoise_options : nullptr;
-  run.result.outputs.push_back({"report.json", "application/json", "", report_json(run.result, report)});
+  OutputStream(run.control, run.result.outputs).push_back(
+      {"report.json", "application/json", "", report_json(run.result, report)});
 }
 
 // The time limit ran out before the first sample: there is nothing to write, and the same job would run out again.
@@ -458,13 +570,211 @@ bake::InvalidInput out_of_time_in_set_up(const LightmapBakeRun& run) {
 }
 
 void write_outputs(LightmapBakeRun& run) {
+  std::vector<LightmapMemory> memory;
+  uint64_t held = 0;
   for (const LightmapState& m : run.maps) {
+    memory.push_back(lightmap_memory(m.texels, lightmap_state_bytes(run.in.ao, run.in.directional, !m.traced.empty())));
+    held += memory.back().total_bytes;
+  }
+  for (size_t i = 0; i < run.maps.size(); ++i) {
+    const LightmapState& m = run.maps[i];
     run.cancel_only.check();
-    write_lightmap(run, m);
+    ChartIds charts(run.scene());
+    const Clock::time_point t0 = Clock::now();
+    const LightmapResults r = collect_results(m, result_channels(run.in), {&run.scene(), &run.materials, &charts});
+    if (run.in.denoise) run.report.denoise_seconds += seconds_since(t0);  // the guides, mostly
+    run.result.memory.held_peak_bytes = std::max<uint64_t>(
+        run.result.memory.held_peak_bytes, held + r.texel_count() * LightmapResults::bytes_per_texel(r.channels()));
+    write_lightmap(run, r, m.leaks, memory[i]);
   }
   run.result.seconds = seconds_since(run.t0);
   write_report(run);
   run.progress(1.0, "done", run.result.error_estimate);
+}
+
+
+// ---- Tiled: a page a tile at a time (memory_estimate.h's plan) ----
+
+// One page of a tiled bake: its size and its tiles' bins of triangles.
+struct TiledPage {
+  std::string name;
+  int size = 0;
+  TileBins bins;
+};
+
+std::vector<TiledPage> bin_pages(LightmapBakeRun& run, const std::vector<std::vector<uint8_t>>& bake_mask) {
+  std::vector<TiledPage> pages;
+  for (const std::string& name : lightmap_names(run.scene())) {
+    TiledPage page;
+    page.name = name;
+    page.size = lightmap_resolution(run, name);
+    RasterOptions raster;
+    raster.width = raster.height = page.size;
+    raster.bake_mask = &bake_mask;
+    run.stage = "binning the triangles of lightmap '" + name + "' into tiles";
+    page.bins = bin_triangles(run.scene(), name, raster, run.memory.tile_size, run.stop);
+    pages.push_back(std::move(page));
+  }
+  if (pages.empty()) {
+    throw bake::InvalidInput("",
+                             "nothing to bake: no instance has a lightmap (meshes need lightmap UVs, TEXCOORD_1 "
+                             "or TEXCOORD_0, and instances with bake set); " +
+                                 run.checked.report.summary());
+  }
+  return pages;
+}
+
+// The deadline of a tile that covers `share` of the `remaining` UV area of the tiles not yet sampled: the time left
+// in proportion, so that every texel gets about the time an untiled bake's passes would give it (an equal share
+// per tile would starve dense tiles and leave sparse ones time they cannot use). Time a tile leaves unused (its
+// texels met the target) goes to the tiles after it.
+Clock::time_point tile_deadline(Clock::time_point deadline, double share, double remaining) {
+  if (deadline == Clock::time_point::max()) return deadline;
+  const Clock::time_point now = Clock::now();
+  if (now >= deadline || !(remaining > 0)) return deadline;
+  const double fraction = std::clamp(share / remaining, 0.0, 1.0);
+  return now + std::chrono::duration_cast<Clock::duration>((deadline - now) * fraction);
+}
+
+// The sum of the luminances of the tile's valid texels with estimates, and how many: the brightness prior of the
+// page's next tiles (LightmapImage::set_brightness_prior).
+std::pair<double, size_t> luminance_sum(const LightmapImage& img) {
+  double sum = 0;
+  size_t n = 0;
+  for (size_t t = 0; t < img.texel_count(); ++t) {
+    if (!img.valid(t) || img.count(t) == 0) continue;
+    sum += luminance(img.mean(t));
+    ++n;
+  }
+  return {sum, n};
+}
+
+// Rasterizes a tile and resolves its leaks; false (texels rasterized, leaks not probed) when the time limit ran out
+// first, after which nothing but a cancel stops the tile.
+bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOptions& raster, const TracerRayQuery& query,
+                 LightmapTexels& texels, LeakReport& leaks) {
+  try {
+    run.stage = "rasterization of lightmap '" + page.name + "'";
+    texels = rasterize_lightmap(run.scene(), page.name, raster, run.stop);
+    run.stage = "leak probes of lightmap '" + page.name + "'";
+    leaks = fix_leaks(texels, query, LeakOptions{}, run.stop);
+    return true;
+  } catch (const bake::OutOfTime&) {
+    if (run.result.samples == 0) throw;  // before the first sample: the set-up ran out (out_of_time_in_set_up)
+  }
+  texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
+  leaks = LeakReport{};
+  return false;
+}
+
+void bake_tiles(LightmapBakeRun& run) {
+  const LightmapBakeInput& in = run.in;
+  LightmapBakeResult& result = run.result;
+  std::vector<std::vector<uint8_t>> bake_mask;
+  for (const auto& t : run.checked.triangles) bake_mask.push_back(t.bake);
+  std::vector<TiledPage> pages;
+  try {
+    pages = bin_pages(run, bake_mask);
+  } catch (const bake::OutOfTime&) {
+    throw out_of_time_in_set_up(run);
+  }
+  double remaining = 0;
+  for (const TiledPage& p : pages) {
+    for (double c : p.bins.coverage) remaining += c;
+  }
+  const double total_coverage = remaining;
+  run.progress(0.05, "tiles", -1);
+  const TracerRayQuery query(*run.tracer, run.scene(), in.ray_log);
+  const SamplingOptions options = sampling_options(run);
+  const BakeStateBytes state_bytes = lightmap_state_bytes(in.ao, in.directional, false);
+  ErrorTotals done;  // over the tiles sampled so far, each as it ended
+  for (size_t pi = 0; pi < pages.size(); ++pi) {
+    TiledPage& page = pages[pi];
+    LightmapResults results(page.name, page.size, page.size, result_channels(in));
+    const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
+    ChartIds charts(run.scene());
+    LeakReport leaks;
+    size_t samples = 0, valid = 0;
+    uint64_t page_held = 0;
+    std::pair<double, size_t> prior{0.0, 0};
+    for (size_t k = 0; k < page.bins.tile_count(); ++k) {
+      if (page.bins.triangles[k].empty()) continue;  // no triangle: every texel stays invalid
+      RasterOptions raster;
+      raster.width = raster.height = page.size;
+      raster.bake_mask = &bake_mask;
+      raster.window = page.bins.window(k);
+      raster.triangles = &page.bins.triangles[k];
+      LightmapTexels texels;
+      LeakReport tile_leaks;
+      bool sample = false;
+      try {
+        sample = Clock::now() < options.deadline && tile_texels(run, page, raster, query, texels, tile_leaks);
+        if (!sample && texels.width == 0) {
+          texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
+        }
+      } catch (const bake::OutOfTime&) {
+        throw out_of_time_in_set_up(run);
+      }
+      run.check_cancel();
+      result.rays += tile_leaks.rays;
+      result.probe_rays += tile_leaks.rays;
+      leaks.samples += tile_leaks.samples;
+      leaks.moved += tile_leaks.moved;
+      leaks.invalidated += tile_leaks.invalidated;
+      leaks.texels_invalidated += tile_leaks.texels_invalidated;
+      leaks.rays += tile_leaks.rays;
+      samples += texels.samples.size();
+      valid += texels.valid_count();
+      std::vector<LightmapState> tile;
+      tile.push_back(make_lightmap_state(page.name, std::move(texels), tile_leaks, in.ao, in.directional));
+      LightmapState& m = tile.front();
+      m.page = static_cast<uint32_t>(pi);
+      m.x0 = raster.window.x0;
+      m.y0 = raster.window.y0;
+      m.page_width = page.size;
+      m.image.set_brightness_prior(prior.first, prior.second);
+      const uint64_t tile_held = lightmap_memory(m.texels, state_bytes).total_bytes;
+      page_held = std::max(page_held, tile_held + results_bytes);
+      ++result.memory.tiles;
+      const double share = page.bins.coverage[k];
+      if (sample) {
+        SamplingOptions o = options;
+        o.deadline = tile_deadline(options.deadline, share, remaining);
+        const double before = (total_coverage - remaining) / std::max(total_coverage, 1e-300);
+        const double weight = share / std::max(total_coverage, 1e-300);
+        run_passes(run, tile, o, false, [&](uint64_t pass) {
+          const ErrorTotals e = error_totals(run, tile);
+          run.progress(0.05 + 0.9 * (before + weight * e.done()),
+                       "tile " + std::to_string(result.memory.tiles) + ", pass " + std::to_string(pass + 1), e.rms());
+        });
+        done.add(error_totals(run, tile));
+        result.curve.push_back({seconds_since(run.t0), result.samples, done.rms()});
+      } else {
+        ++result.memory.tiles_unsampled;
+      }
+      remaining -= share;
+      const std::pair<double, size_t> lum = luminance_sum(m.image);
+      prior = {prior.first + lum.first, prior.second + lum.second};
+      collect_results(m, m.x0, m.y0, {&run.scene(), &run.materials, &charts}, results);
+      run.check_cancel();
+    }
+    page.bins = TileBins{};
+    result.memory.held_peak_bytes = std::max(result.memory.held_peak_bytes, page_held);
+    run.cancel_only.check();
+    LightmapMemory memory = lightmap_memory(results.texel_count(), samples, valid, state_bytes);
+    memory.total_bytes = page_held;
+    write_lightmap(run, results, leaks, memory);
+  }
+  // The last point: over every texel of every page, under each page's final brightness.
+  ErrorTotals final_totals;
+  for (const LightmapReportEntry& e : run.report.lightmaps) final_totals.add(e.error);
+  if (final_totals.estimated > 0) {
+    result.curve.push_back({seconds_since(run.t0), result.samples, final_totals.rms()});
+  }
+  result.error_estimate = result.curve.empty() ? 0 : std::max(0.0, result.curve.back().error);
+  result.seconds = seconds_since(run.t0);
+  write_report(run);
+  run.progress(1.0, "done", result.error_estimate);
 }
 
 }  // namespace
@@ -487,6 +797,10 @@ std::optional<bake::InvalidInput> validate(const LightmapBakeInput& in) {
   const bounds::Range time_limit{0, bounds::kLightmapTimeLimitSeconds.hi};
   if (auto e = check_range("time_limit_seconds", in.time_limit_seconds, time_limit)) return e;
   if (auto e = check_range("max_bounces", in.max_bounces, bounds::kMaxBounces.real())) return e;
+  if (in.tile_size != 0) {
+    const bounds::Range tile{static_cast<double>(kMinTileSize), 16384};
+    if (auto e = check_range("tile_size", in.tile_size, tile)) return e;
+  }
   if (!in.textures.empty() && !in.scene.textures.empty()) {
     return InvalidInput("textures", "give textures either decoded in the scene or encoded, not both");
   }
@@ -502,14 +816,19 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const bake::BakeC
   LightmapBakeRun run(in, control);
   try {
     prepare_scene(run);
+    plan_memory(run);
     plan_bake(run);
     prepare_transport(run);
-    rasterize_texels(run);
+    if (run.memory.tile_size == 0) rasterize_texels(run);
   } catch (const bake::OutOfTime&) {
     throw out_of_time_in_set_up(run);
   }
-  sample_adaptively(run);
-  write_outputs(run);
+  if (run.memory.tile_size > 0) {
+    bake_tiles(run);
+  } else {
+    sample_adaptively(run);
+    write_outputs(run);
+  }
   return std::move(run.result);
 }
 

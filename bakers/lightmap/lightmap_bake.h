@@ -16,6 +16,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -75,12 +76,22 @@ struct LightmapBakeInput {
   // The denoiser's settings: benchmarks tune them; a job always has the defaults (so they are not in the cache key).
   DenoiseOptions denoise_options;
 
+  // The peak memory the bake may hold, in bytes (0: no limit). A bake whose estimate (memory_estimate.h, the model
+  // the daemon checks jobs against) exceeds it samples each page a tile at a time, in the largest tiles that fit
+  // (plan_memory), holding only a tile's sampling state and a page's results (lightmap_results.h); light tracing is
+  // then off. Tiles give the same answer as a whole page within the noise, not the same bytes.
+  uint64_t memory_limit_bytes = 0;
+  // Tests and benchmarks only, not part of a job: tiles of this many texels on a side whatever the memory limit
+  // says, [kMinTileSize, 16384]; 0: as the memory limit decides.
+  int tile_size = 0;
+
   // Benchmarks only, not part of a job (the service never sets it, and it is not in the cache key): receives the
   // rays the transport and the leak probes trace (ray_log.h).
   RayLog* ray_log = nullptr;
 };
 
-// One point of the error-versus-time curve: after a pass, the estimate over all valid texels.
+// One point of the error-versus-time curve: after a pass, the estimate over all valid texels; in a tiled bake after a
+// tile, over the valid texels of the tiles done so far (the last point: over every texel of every page).
 struct ErrorPoint {
   double seconds = 0;
   uint64_t samples = 0;
@@ -99,6 +110,8 @@ struct LightTracingStats {
 };
 
 struct LightmapBakeResult {
+  // In the order of the table above: each lightmap's images, lightmap by lightmap, then report.json. Empty when the
+  // control's output_sink took them, one by one as each was encoded.
   std::vector<bake::BakeOutput> outputs;
   std::vector<plan::Decision> plan;
   std::vector<ErrorPoint> curve;
@@ -111,6 +124,17 @@ struct LightmapBakeResult {
   double seconds = 0;
   double error_estimate = 0;  // the last point of the curve
   LightTracingStats light_tracing;
+  // How the bake held its memory (memory_estimate.h): untiled or in tiles, the estimate it planned by, and the peak
+  // of what it held in its texel state and page results (the tracer and scene aside).
+  struct Memory {
+    uint64_t limit_bytes = 0;       // the input's memory_limit_bytes
+    uint64_t estimate_bytes = 0;    // the estimate of the bake as it ran
+    int tile_size = 0;              // 0: untiled
+    uint64_t tiles = 0;             // tiles baked (with texels), over every page
+    uint64_t tiles_unsampled = 0;   // of them, reached after the time limit: rasterized for validity, not sampled
+    uint64_t held_peak_bytes = 0;   // the largest texel state and page results held at once
+    double bytes_per_texel_held = 0;  // of the texels in flight: their sampling state and sample points
+  } memory;
   std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people
 };
 

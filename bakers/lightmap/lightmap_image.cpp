@@ -7,28 +7,10 @@
 
 #include "bakers/bake/number_format.h"
 #include "bakers/lightmap/dilate.h"
+#include "bakers/lightmap/lightmap_results.h"
 #include "bakers/scene/lights.h"
 
 namespace kiln::lightmap {
-namespace {
-
-// Doubles beyond the float range would become infinities in the file.
-float to_float(double v) {
-  constexpr double kMax = std::numeric_limits<float>::max();
-  return static_cast<float>(std::clamp(v, -kMax, kMax));
-}
-
-image::FloatImage blank(const LightmapImage& lm, int channels, std::vector<std::string> names) {
-  image::FloatImage img;
-  img.width = lm.width();
-  img.height = lm.height();
-  img.channels = channels;
-  img.channel_names = std::move(names);
-  img.pixels.assign(lm.texel_count() * channels, 0.0f);
-  return img;
-}
-
-}  // namespace
 
 LightmapImage::LightmapImage(std::string name, int width, int height, std::vector<uint8_t> validity)
     : name_(std::move(name)), width_(width), height_(height), validity_(std::move(validity)) {
@@ -125,26 +107,8 @@ double LightmapImage::traced_standard_error(size_t texel) const {
   return replica_standard_error(s);
 }
 
-double LightmapImage::brightness() const {
-  double sum = 0;
-  size_t texels = 0;
-  for (size_t t = 0; t < texel_count(); ++t) {
-    const uint32_t n = count(t);
-    if (!valid(t) || n == 0) continue;
-    sum += luminance(mean(t));
-    ++texels;
-  }
-  return texels > 0 ? sum / texels : 0.0;
-}
-
-double LightmapImage::error(size_t texel, ErrorMetric metric, double brightness, double floor) const {
-  return relative(texel, standard_error(texel), metric, brightness, floor);
-}
-
-double LightmapImage::relative(size_t texel, double se, ErrorMetric metric, double brightness, double floor) const {
-  if (!valid(texel)) return 0;
+double relative_error_of(double se, double mean_y, ErrorMetric metric, double brightness, double floor) {
   if (!std::isfinite(se)) return std::numeric_limits<double>::infinity();
-  const double mean_y = luminance(mean(texel));
   const double denominator = std::max(metric == ErrorMetric::texel ? mean_y : brightness, floor);
   // Texel metric, all estimates 0 (non-negative ones with a zero mean): no light reaches the texel, and that is
   // exact. Lightmap metric, a black lightmap: the same for every texel.
@@ -152,56 +116,26 @@ double LightmapImage::relative(size_t texel, double se, ErrorMetric metric, doub
   return se / denominator;
 }
 
+double LightmapImage::brightness() const { return mean_brightness(*this, prior_luminance_, prior_texels_); }
+
+double LightmapImage::error(size_t texel, ErrorMetric metric, double brightness, double floor) const {
+  return relative(texel, standard_error(texel), metric, brightness, floor);
+}
+
+double LightmapImage::relative(size_t texel, double se, ErrorMetric metric, double brightness, double floor) const {
+  if (!valid(texel)) return 0;
+  return relative_error_of(se, luminance(mean(texel)), metric, brightness, floor);
+}
+
 LightmapImage::ErrorSummary LightmapImage::error_summary(double target, double floor, ErrorMetric metric) const {
-  ErrorSummary s;
-  s.brightness = brightness();
-  double sum_sq = 0;
-  for (size_t t = 0; t < texel_count(); ++t) {
-    s.estimates += count(t);
-    if (!valid(t)) continue;
-    ++s.valid;
-    const double e = error(t, metric, s.brightness, floor);
-    if (!std::isfinite(e)) {
-      ++s.above_target;
-      continue;
-    }
-    ++s.estimated;
-    sum_sq += e * e;
-    s.max = std::max(s.max, e);
-    if (e > target) ++s.above_target;
-  }
-  s.rms = s.estimated > 0 ? std::sqrt(sum_sq / s.estimated) : 0;
-  return s;
-}
-
-image::FloatImage LightmapImage::irradiance_image(int padding, const bake::StopCheck& stop) const {
-  image::FloatImage img = blank(*this, 3, {"R", "G", "B"});
-  for (size_t t = 0; t < texel_count(); ++t) {
-    if (!valid(t)) continue;
-    const Rgb m = mean(t);
-    for (int c = 0; c < 3; ++c) img.pixels[t * 3 + c] = to_float(m[c]);
-  }
-  dilate(img, validity_, padding, stop);
-  return img;
-}
-
-image::FloatImage LightmapImage::validity_image() const {
-  image::FloatImage img = blank(*this, 1, {"Y"});
-  for (size_t t = 0; t < texel_count(); ++t) img.pixels[t] = valid(t) ? 1.0f : 0.0f;
-  return img;
-}
-
-image::FloatImage LightmapImage::error_image(double floor, ErrorMetric metric) const {
-  image::FloatImage img = blank(*this, 1, {"Y"});
-  const double b = metric == ErrorMetric::lightmap ? brightness() : 0.0;
-  for (size_t t = 0; t < texel_count(); ++t) {
-    const double e = error(t, metric, b, floor);
-    img.pixels[t] = std::isfinite(e) ? to_float(e) : 1.0f;  // no estimate yet: reported as 100 %
-  }
-  return img;
+  return summarize_errors(*this, brightness(), target, floor, metric);
 }
 
 std::vector<bake::BakeOutput> encode_lightmap(const LightmapImage& lm, const LightmapOutputOptions& options) {
+  return encode_lightmap(results_of(lm), options);
+}
+
+std::vector<bake::BakeOutput> encode_lightmap(const LightmapResults& lm, const LightmapOutputOptions& options) {
   if (options.padding < 0 || options.padding > 64) {
     throw std::invalid_argument("lightmap '" + lm.name() + "': padding must be in [0, 64] texels, got " +
                                 std::to_string(options.padding));

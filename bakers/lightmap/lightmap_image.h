@@ -14,7 +14,9 @@
 // Texel layout and UV convention as in texels.h (row-major, top row first).
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -101,12 +103,13 @@ class LightmapImage {
   };
   ErrorSummary error_summary(double target, double floor = 0, ErrorMetric metric = ErrorMetric::texel) const;
 
-  // The resolved images. Irradiance: the means (invalid texels 0), then dilated by `padding` texels (dilate.h).
-  // Validity: 1/0, before dilation. Error: relative_error (invalid 0, unestimated 1). One channel except irradiance.
-  // Every value is finite (means beyond the float range are clamped to its largest value).
-  image::FloatImage irradiance_image(int padding, const bake::StopCheck& stop = {}) const;
-  image::FloatImage validity_image() const;
-  image::FloatImage error_image(double floor = 0, ErrorMetric metric = ErrorMetric::texel) const;
+  // The lightmap metric's brightness counts, beside this image's texels, `texels` others whose mean luminances sum to
+  // `luminance_sum`: the tiles of the page sampled before this one (a tiled bake samples a page a tile at a time,
+  // and a tile's brightness alone would set its target by the wrong scale).
+  void set_brightness_prior(double luminance_sum, size_t texels) {
+    prior_luminance_ = luminance_sum;
+    prior_texels_ = texels;
+  }
 
   // Memory held per texel: sum (3 doubles), replica sums (with the counts), validity (byte).
   static constexpr size_t kBytesPerTexel = 3 * sizeof(double) + sizeof(ReplicaSums) + sizeof(uint8_t);
@@ -122,10 +125,60 @@ class LightmapImage {
   // Light tracing's term, allocated at the first set_traced.
   std::vector<Rgb> traced_;
   std::vector<std::array<float, kReplicas>> traced_y_;
+  double prior_luminance_ = 0;
+  size_t prior_texels_ = 0;
 
   ReplicaSums with_traced(size_t texel) const;
   Rgb gathered_mean(size_t texel) const;
 };
+
+// What LightmapImage and LightmapResults (lightmap_results.h) read alike, over any T with texel_count(), valid(t),
+// count(t), mean(t) and standard_error(t).
+
+// A standard error under `metric`, as LightmapImage::relative says: s / max(Ȳ or the brightness, floor); +∞ for
+// an infinite s; 0 when that denominator is 0.
+double relative_error_of(double standard_error, double mean_luminance, ErrorMetric metric, double brightness,
+                         double floor);
+
+// The mean luminance of the valid texels with estimates, counting `prior_texels` others of luminance sum
+// `prior_luminance` (LightmapImage::set_brightness_prior); 0 if none.
+template <class T>
+double mean_brightness(const T& texels, double prior_luminance = 0, size_t prior_texels = 0) {
+  double sum = 0;
+  size_t n = 0;
+  for (size_t t = 0; t < texels.texel_count(); ++t) {
+    if (!texels.valid(t) || texels.count(t) == 0) continue;
+    sum += luminance(texels.mean(t));
+    ++n;
+  }
+  sum += prior_luminance;
+  n += prior_texels;
+  return n > 0 ? sum / n : 0.0;
+}
+
+template <class T>
+LightmapImage::ErrorSummary summarize_errors(const T& texels, double brightness, double target, double floor,
+                                             ErrorMetric metric) {
+  LightmapImage::ErrorSummary s;
+  s.brightness = brightness;
+  double sum_sq = 0;
+  for (size_t t = 0; t < texels.texel_count(); ++t) {
+    s.estimates += texels.count(t);
+    if (!texels.valid(t)) continue;
+    ++s.valid;
+    const double e = relative_error_of(texels.standard_error(t), luminance(texels.mean(t)), metric, brightness, floor);
+    if (!std::isfinite(e)) {
+      ++s.above_target;
+      continue;
+    }
+    ++s.estimated;
+    sum_sq += e * e;
+    s.max = std::max(s.max, e);
+    if (e > target) ++s.above_target;
+  }
+  s.rms = s.estimated > 0 ? std::sqrt(sum_sq / s.estimated) : 0;
+  return s;
+}
 
 struct LightmapOutputOptions {
   int padding = 2;                          // texels of dilation in NAME_irradiance.exr, [0, 64]
@@ -140,5 +193,7 @@ struct LightmapOutputOptions {
 // and kiln:padding / kiln:error_floor / kiln:error_metric / kiln:brightness where they apply. Throws
 // std::invalid_argument for a padding out of range or a negative or non-finite floor.
 std::vector<bake::BakeOutput> encode_lightmap(const LightmapImage& image, const LightmapOutputOptions& options);
+class LightmapResults;
+std::vector<bake::BakeOutput> encode_lightmap(const LightmapResults& results, const LightmapOutputOptions& options);
 
 }  // namespace kiln::lightmap

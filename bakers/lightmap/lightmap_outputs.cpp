@@ -4,6 +4,8 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
+#include <stdexcept>
 
 #include "bakers/bake/number_format.h"
 #include "bakers/image/color.h"
@@ -56,16 +58,16 @@ Rgb reflectance(const scene::Scene& s, const std::vector<ShadingMaterial>& mater
   return albedo / (4.0 * kDirections);
 }
 
-image::FloatImage texel_image(const LightmapImage& img, int channels, const std::vector<std::string>& names,
+image::FloatImage texel_image(const LightmapResults& r, int channels, const std::vector<std::string>& names,
                               const std::function<void(size_t, float*)>& fill) {
   image::FloatImage out;
-  out.width = img.width();
-  out.height = img.height();
+  out.width = r.width();
+  out.height = r.height();
   out.channels = channels;
   out.channel_names = names;
   out.pixels.assign(static_cast<size_t>(out.width) * out.height * channels, 0.0f);
-  for (size_t t = 0; t < img.texel_count(); ++t) {
-    if (img.valid(t)) fill(t, &out.pixels[t * channels]);
+  for (size_t t = 0; t < r.texel_count(); ++t) {
+    if (r.valid(t)) fill(t, &out.pixels[t * channels]);
   }
   return out;
 }
@@ -108,72 +110,108 @@ std::string preview_png(const image::FloatImage& irradiance, const std::vector<u
 
 }  // namespace
 
-bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& scene, const DenoiseOptions& options,
-                                 int padding, const std::string& color_space, const bake::StopCheck& stop) {
+void collect_results(const LightmapState& m, int x0, int y0, const ResultsContext& context, LightmapResults& out) {
   const LightmapImage& img = m.image;
-  std::vector<Rgb> mean(img.texel_count());
-  std::vector<double> variance(img.texel_count(), 0.0);
-  for (size_t t = 0; t < img.texel_count(); ++t) {
-    if (!img.valid(t)) continue;
-    mean[t] = img.mean(t);
-    const double standard_error = img.standard_error(t);  // ∞ while a replica has no estimate
+  const int w = img.width(), h = img.height();
+  if (x0 < 0 || y0 < 0 || x0 + w > out.width() || y0 + h > out.height()) {
+    throw std::invalid_argument("lightmap '" + out.name() + "': a " + std::to_string(w) + "x" + std::to_string(h) +
+                                " tile at " + std::to_string(x0) + "," + std::to_string(y0) + " is not inside the " +
+                                std::to_string(out.width()) + "x" + std::to_string(out.height()) + " page");
+  }
+  const ResultChannels& c = out.channels();
+  std::optional<TexelGuides> guides;
+  if (c.guides) guides = texel_guides(m, *context.scene, *context.charts);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t t = static_cast<size_t>(y) * w + x;
+      const size_t p = static_cast<size_t>(y0 + y) * out.width() + (x0 + x);
+      out.set(p, img.valid(t), img.mean(t), img.standard_error(t), img.count(t));
+      if (!img.valid(t)) continue;
+      const uint32_t n = img.count(t);
+      if (c.ao) out.ao[p] = n ? static_cast<float>(m.ao_sum[t].r / n) : 0.0f;
+      if (c.directional) {
+        for (int k = 0; k < 4; ++k) {
+          for (int ch = 0; ch < 3; ++ch) out.sh[p][3 * k + ch] = n ? static_cast<float>(m.sh_sum[t][k][ch] / n) : 0.0f;
+        }
+        out.sh_error[p] = sh_relative_error(m.sh_sum[t], m.sh_y2[t], n);
+      }
+      if (c.radiance) {
+        Rgb rho;
+        double weight = 0;
+        for (const TexelSample& ts : m.texels.at(t)) {
+          rho += reflectance(*context.scene, *context.materials, ts) * ts.weight;
+          weight += ts.weight;
+        }
+        const Rgb L = img.mean(t) * (weight > 0 ? rho / weight : Rgb{}) / kPi;
+        out.radiance[p] = {static_cast<float>(L.r), static_cast<float>(L.g), static_cast<float>(L.b)};
+      }
+      if (guides) {
+        out.guides.valid[p] = 1;
+        out.guides.position[p] = guides->position[t];
+        out.guides.normal[p] = guides->normal[t];
+        out.guides.texel_size[p] = guides->texel_size[t];
+        out.guides.chart[p] = guides->chart[t];
+      }
+    }
+  }
+}
+
+LightmapResults collect_results(const LightmapState& m, const ResultChannels& channels, const ResultsContext& context) {
+  LightmapResults r(m.name, m.image.width(), m.image.height(), channels);
+  collect_results(m, 0, 0, context, r);
+  return r;
+}
+
+bake::BakeOutput denoised_output(const LightmapResults& r, const DenoiseOptions& options, int padding,
+                                 const std::string& color_space, const bake::StopCheck& stop) {
+  std::vector<Rgb> mean(r.texel_count());
+  std::vector<double> variance(r.texel_count(), 0.0);
+  for (size_t t = 0; t < r.texel_count(); ++t) {
+    if (!r.valid(t)) continue;
+    mean[t] = r.mean(t);
+    const double standard_error = r.standard_error(t);  // ∞ while a replica has no estimate
     variance[t] = standard_error * standard_error;
   }
-  const DenoiseResult d = denoise(mean, variance, texel_guides(m, scene), options);
+  const DenoiseResult d = denoise(mean, variance, r.guides, options);
   constexpr double kMax = std::numeric_limits<float>::max();  // beyond it, an infinity in the file
-  image::FloatImage out = texel_image(img, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
+  image::FloatImage out = texel_image(r, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
     for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(std::clamp(d.colour[t][c], -kMax, kMax));
   });
-  dilate(out, img.validity(), padding, stop);
+  dilate(out, r.validity(), padding, stop);
   out.metadata["kiln:content"] = "irradiance, denoised by an " + describe(options);
   out.metadata["kiln:units"] = "W/m^2";
   out.metadata["kiln:colorspace"] = color_space;
-  out.metadata["kiln:lightmap"] = m.name;
-  out.metadata["kiln:resolution"] = std::to_string(img.width()) + "x" + std::to_string(img.height());
+  out.metadata["kiln:lightmap"] = r.name();
+  out.metadata["kiln:resolution"] = std::to_string(r.width()) + "x" + std::to_string(r.height());
   out.metadata["kiln:uv_convention"] = kLightmapUvConvention;
   out.metadata["kiln:padding"] = std::to_string(padding);
-  return {m.name + "_irradiance_denoised.exr", "image/x-exr", "scene_linear", image::encode_exr(out)};
+  return {r.name() + "_irradiance_denoised.exr", "image/x-exr", "scene_linear", image::encode_exr(out)};
 }
 
-bake::BakeOutput radiance_output(const LightmapState& m, const scene::Scene& scene,
-                                 const std::vector<ShadingMaterial>& materials, const std::string& color_space) {
-  const LightmapImage& img = m.image;
-  image::FloatImage rad = texel_image(img, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
-    Rgb rho;
-    double w = 0;
-    for (const TexelSample& ts : m.texels.at(t)) {
-      rho += reflectance(scene, materials, ts) * ts.weight;
-      w += ts.weight;
-    }
-    const Rgb L = img.mean(t) * (w > 0 ? rho / w : Rgb{}) / kPi;
-    px[0] = static_cast<float>(L.r);
-    px[1] = static_cast<float>(L.g);
-    px[2] = static_cast<float>(L.b);
+bake::BakeOutput radiance_output(const LightmapResults& r, const std::string& color_space) {
+  image::FloatImage rad = texel_image(r, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
+    for (int c = 0; c < 3; ++c) px[c] = r.radiance[t][c];
   });
   rad.metadata["kiln:content"] = "baked diffuse radiance rho*E/pi, W/(m^2 sr)";
-  rad.metadata["kiln:lightmap"] = m.name;
-  return {m.name + "_radiance.exr", "image/x-exr", color_space, image::encode_exr(rad)};
+  rad.metadata["kiln:lightmap"] = r.name();
+  return {r.name() + "_radiance.exr", "image/x-exr", color_space, image::encode_exr(rad)};
 }
 
-bake::BakeOutput ao_output(const LightmapState& m, double ao_distance) {
-  const LightmapImage& img = m.image;
-  image::FloatImage ao = texel_image(img, 1, {"Y"}, [&](size_t t, float* px) {
-    px[0] = img.count(t) ? static_cast<float>(m.ao_sum[t].r / img.count(t)) : 0.0f;
-  });
+bake::BakeOutput ao_output(const LightmapResults& r, double ao_distance) {
+  image::FloatImage ao = texel_image(r, 1, {"Y"}, [&](size_t t, float* px) { px[0] = r.ao[t]; });
   ao.metadata["kiln:content"] =
       "ambient occlusion: cosine-weighted fraction of rays unoccluded within " + format_number(ao_distance);
-  ao.metadata["kiln:lightmap"] = m.name;
-  return {m.name + "_ao.exr", "image/x-exr", "data", image::encode_exr(ao)};
+  ao.metadata["kiln:lightmap"] = r.name();
+  return {r.name() + "_ao.exr", "image/x-exr", "data", image::encode_exr(ao)};
 }
 
-ShError sh_error(const LightmapState& m) {
-  const LightmapImage& img = m.image;
+ShError sh_error(const LightmapResults& r) {
   ShError error;
   double sum_sq = 0;
   size_t estimated = 0;
-  for (size_t t = 0; t < img.texel_count(); ++t) {
-    if (!img.valid(t)) continue;
-    const double e = sh_relative_error(m.sh_sum[t], m.sh_y2[t], img.count(t));
+  for (size_t t = 0; t < r.texel_count(); ++t) {
+    if (!r.valid(t)) continue;
+    const double e = r.sh_error[t];
     if (!std::isfinite(e)) continue;
     sum_sq += e * e;
     error.max = std::max(error.max, e);
@@ -183,32 +221,26 @@ ShError sh_error(const LightmapState& m) {
   return error;
 }
 
-bake::BakeOutput sh_output(const LightmapState& m, const ShError& error, const std::string& color_space) {
-  const LightmapImage& img = m.image;
+bake::BakeOutput sh_output(const LightmapResults& r, const ShError& error, const std::string& color_space) {
   image::FloatImage sh = texel_image(
-      img, 12,
+      r, 12,
       {"L00.R", "L00.G", "L00.B", "L1m1.R", "L1m1.G", "L1m1.B", "L10.R", "L10.G", "L10.B", "L11.R", "L11.G", "L11.B"},
-      [&](size_t t, float* px) {
-        const double n = img.count(t);
-        for (int c = 0; c < 4; ++c) {
-          for (int k = 0; k < 3; ++k) px[3 * c + k] = n ? static_cast<float>(m.sh_sum[t][c][k] / n) : 0.0f;
-        }
-      });
+      [&](size_t t, float* px) { std::copy(r.sh[t].begin(), r.sh[t].end(), px); });
   sh.metadata["kiln:content"] =
       "order-1 SH of incoming radiance L(w), world axes: L00 (Y00 = 0.282095), L1m1 (0.488603 y), L10 "
       "(0.488603 z), L11 (0.488603 x)";
-  sh.metadata["kiln:lightmap"] = m.name;
+  sh.metadata["kiln:lightmap"] = r.name();
   sh.metadata["kiln:error_rms"] = format_number(error.rms);
   sh.metadata["kiln:error"] =
       "estimated relative standard error per texel: of L00, and of the L1 vector relative to sqrt(3) L00, the "
       "larger; RMS over valid texels in kiln:error_rms, also in report.json";
-  return {m.name + "_sh.exr", "image/x-exr", color_space, image::encode_exr(sh)};
+  return {r.name() + "_sh.exr", "image/x-exr", color_space, image::encode_exr(sh)};
 }
 
-bake::BakeOutput preview_output(const LightmapState& m, int padding, const std::string& color_space,
+bake::BakeOutput preview_output(const LightmapResults& r, int padding, const std::string& color_space,
                                 const bake::StopCheck& stop) {
-  return {m.name + "_preview.png", "image/png", "srgb_display",
-          preview_png(m.image.irradiance_image(padding, stop), m.image.validity(), color_space, m.name)};
+  return {r.name() + "_preview.png", "image/png", "srgb_display",
+          preview_png(r.irradiance_image(padding, stop), r.validity(), color_space, r.name())};
 }
 
 }  // namespace kiln::lightmap

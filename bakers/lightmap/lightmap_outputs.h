@@ -1,6 +1,7 @@
 // The per-lightmap outputs beside the irradiance, validity and error images (lightmap_image.h): the denoised
 // irradiance, the diffuse radiance ρE/π, ambient occlusion, order-1 SH of incoming radiance, and the preview PNG. File
-// names, channels and metadata as listed in lightmap_bake.h.
+// names, channels and metadata as listed in lightmap_bake.h. They are made from a page's results
+// (lightmap_results.h), which collect_results fills from the sampling state, a tile or the whole page at a time.
 #pragma once
 
 #include <string>
@@ -9,37 +10,52 @@
 #include "bakers/bake/output.h"
 #include "bakers/lightmap/denoise.h"
 #include "bakers/lightmap/integrator.h"
+#include "bakers/lightmap/lightmap_results.h"
 #include "bakers/lightmap/lightmap_state.h"
+#include "bakers/lightmap/texel_guides.h"
 #include "bakers/scene/scene.h"
 
 namespace kiln::lightmap {
 
-// NAME_irradiance_denoised.exr: the irradiance through the denoiser (denoise.h), guided by texel_guides(m, scene)
-// (`scene` the one the texels were rasterized from), each texel's variance (relative_error · luminance of the mean)²;
-// dilated by `padding` texels (polling `stop`), with NAME_irradiance.exr's metadata and a kiln:content naming the
-// filter.
-bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& scene, const DenoiseOptions& options,
-                                 int padding, const std::string& color_space, const bake::StopCheck& stop = {});
+// What collect_results needs beside the state: the scene the texels were rasterized from and its shading materials
+// (for the radiance's reflectance), and the page's chart numbering (for the denoiser's guides), shared by its tiles.
+struct ResultsContext {
+  const scene::Scene* scene = nullptr;
+  const std::vector<ShadingMaterial>* materials = nullptr;
+  ChartIds* charts = nullptr;  // needed when out.channels().guides
+};
+
+// Copies the results of `m`, whose texel (0, 0) is texel (x0, y0) of the page `out` (0, 0 for a whole page), into
+// `out`: each texel's mean, error and count, and the channels `out` keeps.
+void collect_results(const LightmapState& m, int x0, int y0, const ResultsContext& context, LightmapResults& out);
+
+// The results of a whole page's state.
+LightmapResults collect_results(const LightmapState& m, const ResultChannels& channels, const ResultsContext& context);
+
+// NAME_irradiance_denoised.exr: the irradiance through the denoiser (denoise.h), guided by the page's guides, each
+// texel's variance (its standard error squared); dilated by `padding` texels (polling `stop`), with
+// NAME_irradiance.exr's metadata and a kiln:content naming the filter.
+bake::BakeOutput denoised_output(const LightmapResults& r, const DenoiseOptions& options, int padding,
+                                 const std::string& color_space, const bake::StopCheck& stop = {});
 
 // NAME_radiance.exr: the irradiance times the texel's diffuse reflectance, over π.
-bake::BakeOutput radiance_output(const LightmapState& m, const scene::Scene& scene,
-                                 const std::vector<ShadingMaterial>& materials, const std::string& color_space);
+bake::BakeOutput radiance_output(const LightmapResults& r, const std::string& color_space);
 
 // NAME_ao.exr: the mean AO estimate per texel; `ao_distance` is the distance that counts as unoccluded.
-bake::BakeOutput ao_output(const LightmapState& m, double ao_distance);
+bake::BakeOutput ao_output(const LightmapResults& r, double ao_distance);
 
 // The estimated relative error of the SH over the valid texels that have one: RMS (−1: none) and largest.
 struct ShError {
   double rms = -1;
   double max = 0;
 };
-ShError sh_error(const LightmapState& m);
+ShError sh_error(const LightmapResults& r);
 
 // NAME_sh.exr: the mean SH coefficients per texel, with `error` in its metadata.
-bake::BakeOutput sh_output(const LightmapState& m, const ShError& error, const std::string& color_space);
+bake::BakeOutput sh_output(const LightmapResults& r, const ShError& error, const std::string& color_space);
 
 // NAME_preview.png: the irradiance, dilated by `padding` texels, through the display transform.
-bake::BakeOutput preview_output(const LightmapState& m, int padding, const std::string& color_space,
+bake::BakeOutput preview_output(const LightmapResults& r, int padding, const std::string& color_space,
                                 const bake::StopCheck& stop = {});
 
 }  // namespace kiln::lightmap

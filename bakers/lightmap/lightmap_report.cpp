@@ -79,6 +79,17 @@ Json light_tracing_json(const LightTracingStats& s) {
           {"seconds", s.seconds}};
 }
 
+Json memory_json(const LightmapBakeResult::Memory& m) {
+  return {{"limit_bytes", m.limit_bytes},
+          {"estimate_bytes", m.estimate_bytes},
+          {"tiled", m.tile_size > 0},
+          {"tile_size", m.tile_size},
+          {"tiles", m.tiles},
+          {"tiles_unsampled", m.tiles_unsampled},
+          {"held_peak_bytes", m.held_peak_bytes},
+          {"bytes_per_texel_held", m.bytes_per_texel_held}};
+}
+
 }  // namespace
 
 std::string report_json(const LightmapBakeResult& result, const LightmapReport& report) {
@@ -105,6 +116,7 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["light_tracing"] = light_tracing_json(result.light_tracing);
   j["denoise"] = denoise_json(report);
   j["tracer"] = tracer_json(report);
+  j["memory"] = memory_json(result.memory);
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
   return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";

@@ -27,8 +27,8 @@ LightmapState make_lightmap_state(std::string name, LightmapTexels texels, const
                                   bool directional) {
   std::vector<uint8_t> validity = texels.validity();
   const int width = texels.width, height = texels.height;
-  LightmapState m{
-      name, std::move(texels), {}, LightmapImage(name, width, height, std::move(validity)), leaks, {}, {}, {}, {}};
+  LightmapState m{name,   std::move(texels), {}, LightmapImage(name, width, height, std::move(validity)), leaks, {}, {},
+                  {},     {},                {}};
   m.attempts.assign(m.texels.texel_count(), 0);
   m.receivers.reserve(m.texels.samples.size());
   for (const TexelSample& t : m.texels.samples) m.receivers.push_back(receiver(t));

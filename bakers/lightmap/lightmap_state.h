@@ -30,6 +30,18 @@ struct LightmapState {
   // Per texel, 1 where light tracing brings the indirect light and the texel's own paths gather only direct light
   // (light_tracing.h); empty when light tracing is off.
   std::vector<uint8_t> traced;
+  // Where these texels are in their page, for the seeds of their estimates (adaptive_sampler.h), so that a texel
+  // draws the same sequences whether its page is baked whole or in tiles: the page's index among the bake's
+  // lightmaps, and for a tile its texel (0, 0) in the page and the page's width (0: the state is the whole page).
+  uint32_t page = 0;
+  int x0 = 0, y0 = 0, page_width = 0;
+
+  // The index in the page of texel t of this state.
+  size_t page_texel(size_t t) const {
+    if (page_width == 0) return t;
+    const size_t w = static_cast<size_t>(image.width());
+    return (static_cast<size_t>(y0) + t / w) * static_cast<size_t>(page_width) + static_cast<size_t>(x0) + t % w;
+  }
 };
 
 // A lightmap ready to sample: its texels after leak handling, each sample's receiver, an empty image of its valid

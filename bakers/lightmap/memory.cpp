@@ -7,15 +7,18 @@
 namespace kiln::lightmap {
 
 LightmapMemory lightmap_memory(const LightmapTexels& texels, const BakeStateBytes& bake) {
+  return lightmap_memory(texels.texel_count(), texels.samples.size(), texels.valid_count(), bake);
+}
+
+LightmapMemory lightmap_memory(size_t texels, size_t samples, size_t valid, const BakeStateBytes& bake) {
   LightmapMemory m;
   m.bytes_per_sample = sizeof(TexelSample) + bake.per_sample;
   m.bytes_per_texel = sizeof(uint32_t) + LightmapImage::kBytesPerTexel + bake.per_texel;
   m.bytes_per_triangle = 0;
   m.peak_bytes_per_triangle = raster_bytes_per_triangle();
   m.peak_bytes_per_sample = 2 * raster_bytes_per_fragment() + sizeof(TexelSample);
-  const size_t valid = texels.valid_count();
-  m.samples_per_valid_texel = valid > 0 ? static_cast<double>(texels.samples.size()) / valid : 0.0;
-  m.total_bytes = texels.texel_count() * m.bytes_per_texel + texels.samples.size() * m.bytes_per_sample;
+  m.samples_per_valid_texel = valid > 0 ? static_cast<double>(samples) / valid : 0.0;
+  m.total_bytes = texels * m.bytes_per_texel + samples * m.bytes_per_sample;
   return m;
 }
 

@@ -30,5 +30,7 @@ struct LightmapMemory {
 };
 
 LightmapMemory lightmap_memory(const LightmapTexels& texels, const BakeStateBytes& bake = {});
+// The same figures for `texels` texels holding `samples` sample points, `valid` of the texels valid.
+LightmapMemory lightmap_memory(size_t texels, size_t samples, size_t valid, const BakeStateBytes& bake = {});
 
 }  // namespace kiln::lightmap

@@ -1,10 +1,12 @@
 #include "bakers/lightmap/memory_estimate.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 #include "bakers/lightmap/leaks.h"
 #include "bakers/lightmap/lightmap_image.h"
+#include "bakers/lightmap/lightmap_results.h"
 #include "bakers/lightmap/lightmap_state.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/math/rgb.h"
@@ -22,6 +24,10 @@ constexpr double kSamplesPerTexel = 5;
 // float vertex and index buffers, its own records), and the bake peaked at 840 to 1 070 bytes a triangle in all over
 // several runs, the builder's temporaries making most of the difference.
 constexpr double kTracerPerTriangle = 1000;
+
+// A tiled page bins its triangles by tile: 4 bytes a triangle in each tile it overlaps (about two, for triangles of a
+// few texels near tile borders), and the bins' growth.
+constexpr double kBinBytesPerTriangle = 16;
 
 // A decoded mesh holds its vertices in double: about twice the bytes of the float blob; the bake holds the input,
 // a copy it cleans and the cleaned scene while the scene is checked.
@@ -46,33 +52,90 @@ double output_channels(const LightmapJobSize& job) {
 
 }  // namespace
 
-LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job) {
+LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size) {
   LightmapMemoryEstimate e;
-  // With light tracing's sums and terms: the plan may trace light, which the spec does not say.
-  const BakeStateBytes state = lightmap_state_bytes(job.ao, job.directional, /*traced=*/true);
+  e.tile_size = tile_size;
+  // With light tracing's sums and terms when untiled: the plan may trace light, which the spec does not say.
+  const BakeStateBytes state = lightmap_state_bytes(job.ao, job.directional, /*traced=*/tile_size == 0);
   const double per_sample = sizeof(TexelSample) + state.per_sample;
   const double per_texel_held =
       sizeof(uint32_t) + LightmapImage::kBytesPerTexel + state.per_texel + kSamplesPerTexel * per_sample;
   const double per_texel_outputs = output_channels(job) * kOutputBytesPerChannel;
-  // The set-up's transient for one lightmap at a time: the fragments, twice while sorted, or the leak results.
+  ResultChannels channels;
+  channels.ao = job.ao;
+  channels.directional = job.directional;
+  channels.radiance = job.radiance;
+  channels.guides = job.denoise;
+  e.results_bytes_per_texel = static_cast<double>(LightmapResults::bytes_per_texel(channels));
+  // The set-up's transient for one lightmap (or tile) at a time: the fragments, twice while sorted, or the leak
+  // results.
   const double per_texel_transient =
       kSamplesPerTexel * std::max<double>(2.0 * raster_bytes_per_fragment(), sizeof(LeakResult) + 1);
-  e.bytes_per_texel = per_texel_held + per_texel_outputs;
-  uint64_t largest = 0;
+  e.bytes_per_texel_in_flight = per_texel_held + per_texel_transient;
+  uint64_t largest = 0, all = 0;
   for (uint64_t texels : job.lightmap_texels) {
-    e.lightmap_bytes.push_back(static_cast<uint64_t>(e.bytes_per_texel * static_cast<double>(texels)));
     largest = std::max(largest, texels);
+    all += texels;
   }
+  // One page's results while it is written, and the outputs held: one page's when they stream, every page's
+  // otherwise (counted per lightmap below when untiled).
+  const double page_bytes = (e.results_bytes_per_texel + (job.streamed ? per_texel_outputs : 0.0)) *
+                            static_cast<double>(largest);
+  const bool all_outputs_here = !job.streamed && tile_size > 0;
+  const uint64_t outputs_held =
+      static_cast<uint64_t>(all_outputs_here ? per_texel_outputs * static_cast<double>(all) : 0.0);
   // While a lightmap is rasterized, each covering triangle also has a world-space copy.
   e.bytes_per_triangle = kTracerPerTriangle + static_cast<double>(raster_bytes_per_triangle());
-  e.scene_bytes = static_cast<uint64_t>(e.bytes_per_triangle * static_cast<double>(job.traced_triangles) +
+  double triangle_bytes = e.bytes_per_triangle;
+  if (tile_size > 0) triangle_bytes += kBinBytesPerTriangle;
+  e.scene_bytes = static_cast<uint64_t>(triangle_bytes * static_cast<double>(job.traced_triangles) +
                                         kMeshCopies * static_cast<double>(job.mesh_blob_bytes));
   const double encoded = static_cast<double>(job.texture_blob_bytes + job.environment_blob_bytes);
   e.input_bytes =
       static_cast<uint64_t>(static_cast<double>(job.mesh_blob_bytes) + encoded + kDecodedBytesPerEncodedByte * encoded);
-  e.total = e.scene_bytes + e.input_bytes + static_cast<uint64_t>(per_texel_transient * static_cast<double>(largest));
-  for (uint64_t b : e.lightmap_bytes) e.total += b;
+  e.total = e.scene_bytes + e.input_bytes + static_cast<uint64_t>(page_bytes) + outputs_held;
+  if (tile_size == 0) {
+    e.bytes_per_texel = per_texel_held + (job.streamed ? 0.0 : per_texel_outputs);
+    for (uint64_t texels : job.lightmap_texels) {
+      e.lightmap_bytes.push_back(static_cast<uint64_t>(e.bytes_per_texel * static_cast<double>(texels)));
+    }
+    e.total += static_cast<uint64_t>(per_texel_transient * static_cast<double>(largest));
+    for (uint64_t b : e.lightmap_bytes) e.total += b;
+    return e;
+  }
+  // Tiled: one tile's state in flight (and its set-up transient), the largest tile of any page.
+  const uint64_t side = static_cast<uint64_t>(tile_size);
+  uint64_t tile_texels = 0;
+  for (uint64_t texels : job.lightmap_texels) {
+    const auto page_side = static_cast<uint64_t>(std::ceil(std::sqrt(static_cast<double>(texels))));
+    const uint64_t per_side = (page_side + side - 1) / side;
+    e.tiles += per_side * per_side;
+    tile_texels = std::max(tile_texels, std::min(texels, side * side));
+  }
+  e.bytes_per_texel = e.bytes_per_texel_in_flight;
+  for (uint64_t texels : job.lightmap_texels) {
+    // What a page costs while it bakes: a tile in flight and the page's results.
+    e.lightmap_bytes.push_back(static_cast<uint64_t>(e.bytes_per_texel_in_flight *
+                                                         static_cast<double>(std::min(texels, tile_texels)) +
+                                                     e.results_bytes_per_texel * static_cast<double>(texels)));
+  }
+  e.total += static_cast<uint64_t>(e.bytes_per_texel_in_flight * static_cast<double>(tile_texels));
   return e;
+}
+
+LightmapMemoryEstimate plan_memory(const LightmapJobSize& job, uint64_t limit_bytes) {
+  LightmapMemoryEstimate whole = estimate_memory(job, 0);
+  if (limit_bytes == 0 || whole.total <= limit_bytes) return whole;
+  uint64_t largest = 0;
+  for (uint64_t texels : job.lightmap_texels) largest = std::max(largest, texels);
+  const auto page_side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(largest))));
+  int side = kMinTileSize;
+  while (side < page_side && side < 16384) side *= 2;
+  for (; side >= kMinTileSize; side /= 2) {
+    LightmapMemoryEstimate tiled = estimate_memory(job, side);
+    if (tiled.total <= limit_bytes || side == kMinTileSize) return tiled;
+  }
+  return estimate_memory(job, kMinTileSize);
 }
 
 std::string format_bytes(uint64_t bytes) {

@@ -4,10 +4,16 @@
 // their estimates fits (so a job that fits is never killed by the kernel for memory).
 //
 // The model, every figure from the sizes of the structures the bake allocates (memory_estimate.cpp):
-//  - per texel of each lightmap (every texel counted, as if the charts covered the whole map): its sample points
-//    (samples_per_texel of them) and the bake's state, held to the end; while that lightmap is rasterized and probed
-//    for leaks, the fragments (twice, while sorted) and the leak results; and its output images, raw and encoded,
-//    which the bake holds until it returns.
+//  - untiled (tile_size 0), per texel of each lightmap (every texel counted, as if the charts covered the whole
+//    map): its sample points (samples_per_texel of them) and the bake's state, held to the end; while that lightmap
+//    is rasterized and probed for leaks, the fragments (twice, while sorted) and the leak results; then one page's
+//    results (lightmap_results.h) at a time while the pages are written; and the output images, raw and encoded:
+//    one page's when the outputs stream (bake::BakeControl::output_sink), else every page's, which the bake then
+//    holds until it returns.
+//  - tiled (tile_size > 0: a page is sampled a tile of tile_size² texels at a time, lightmap_bake.cpp): the state and
+//    the set-up's transient of one tile, the results of one page, the outputs as above, and the tiles' bins of
+//    triangles. Light tracing is off in a tiled bake (its sums would be held for every texel), so its bytes are not
+//    counted there.
 //  - per traced triangle: Embree's BVH, vertex and index buffers and the tracer's own records, at the peak of the
 //    BVH build, and a world-space copy while the triangle is rasterized.
 //  - the input blobs as bytes, the meshes decoded (in double precision, in up to three copies while the scene is
@@ -29,6 +35,7 @@ struct LightmapJobSize {
   uint64_t texture_blob_bytes = 0;        // the encoded textures
   uint64_t environment_blob_bytes = 0;    // the encoded environment image
   bool ao = false, directional = false, radiance = false, denoise = false, preview = true;
+  bool streamed = false;  // the outputs go to a sink page by page (the daemon) rather than back with the result
 };
 
 struct LightmapMemoryEstimate {
@@ -36,11 +43,22 @@ struct LightmapMemoryEstimate {
   uint64_t scene_bytes = 0;              // the meshes decoded and the tracer
   uint64_t input_bytes = 0;              // the blobs and the decoded textures and environment
   uint64_t total = 0;                    // the peak: the sum of the above and the largest set-up transient
-  double bytes_per_texel = 0;            // of a lightmap, with the outputs asked for
+  double bytes_per_texel = 0;            // of a lightmap, with the outputs asked for (untiled)
   double bytes_per_triangle = 0;         // traced
+  int tile_size = 0;                     // 0: untiled
+  uint64_t tiles = 0;                    // over all pages, when tiled
+  double bytes_per_texel_in_flight = 0;  // the sampling state of a texel being sampled, set-up transient included
+  double results_bytes_per_texel = 0;    // what a page keeps per texel once sampled (lightmap_results.h)
 };
 
-LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job);
+// The estimate of the bake untiled (tile_size 0) or in tiles of tile_size² texels.
+LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size = 0);
+
+// The estimate of the bake as it will run under a memory limit (0: none): untiled when that fits the limit, else in
+// the largest power-of-two tiles (at most the largest page's side, at least kMinTileSize) that fit, else in the
+// smallest, whose estimate then exceeds the limit (the daemon refuses such a job; a bake run anyway takes it).
+LightmapMemoryEstimate plan_memory(const LightmapJobSize& job, uint64_t limit_bytes);
+inline constexpr int kMinTileSize = 16;
 
 // "1.5 GiB" and the like, for messages.
 std::string format_bytes(uint64_t bytes);

@@ -58,22 +58,6 @@ std::vector<UvEdge> uv_edges(const scene::Mesh& mesh) {
   return edges;
 }
 
-// The dense chart of every sample's triangle, per instance: (instance, chart of its mesh) numbered in order of first
-// appearance among the samples.
-std::vector<uint32_t> sample_charts(const LightmapTexels& texels, const scene::Scene& scene) {
-  std::unordered_map<uint32_t, std::vector<uint32_t>> mesh_charts;
-  std::unordered_map<uint64_t, uint32_t> dense;
-  std::vector<uint32_t> charts(texels.samples.size());
-  for (size_t j = 0; j < texels.samples.size(); ++j) {
-    const TriangleRef& tri = texels.samples[j].triangle;
-    auto it = mesh_charts.find(tri.mesh);
-    if (it == mesh_charts.end()) it = mesh_charts.emplace(tri.mesh, uv_charts(scene.meshes.at(tri.mesh))).first;
-    const uint64_t key = (static_cast<uint64_t>(tri.instance) << 32) | it->second.at(tri.triangle);
-    charts[j] = dense.emplace(key, static_cast<uint32_t>(dense.size())).first->second;
-  }
-  return charts;
-}
-
 }  // namespace
 
 std::vector<uint32_t> uv_charts(const scene::Mesh& mesh) {
@@ -97,7 +81,19 @@ std::vector<uint32_t> uv_charts(const scene::Mesh& mesh) {
   return chart;
 }
 
+uint32_t ChartIds::of(const TriangleRef& tri) {
+  auto it = mesh_charts_.find(tri.mesh);
+  if (it == mesh_charts_.end()) it = mesh_charts_.emplace(tri.mesh, uv_charts(scene_.meshes.at(tri.mesh))).first;
+  const uint64_t key = (static_cast<uint64_t>(tri.instance) << 32) | it->second.at(tri.triangle);
+  return dense_.emplace(key, static_cast<uint32_t>(dense_.size())).first->second;
+}
+
 TexelGuides texel_guides(const LightmapState& m, const scene::Scene& scene) {
+  ChartIds charts(scene);
+  return texel_guides(m, scene, charts);
+}
+
+TexelGuides texel_guides(const LightmapState& m, const scene::Scene&, ChartIds& chart_ids) {
   const LightmapTexels& tx = m.texels;
   const size_t n = tx.texel_count();
   TexelGuides g;
@@ -108,7 +104,9 @@ TexelGuides texel_guides(const LightmapState& m, const scene::Scene& scene) {
   g.normal.assign(n, Vec3{});
   g.texel_size.assign(n, 0.0);
   g.chart.assign(n, 0);
-  const std::vector<uint32_t> charts = sample_charts(tx, scene);
+  // Numbered in sample order, every sample's (not only the valid texels'), as the page's first appearance.
+  std::vector<uint32_t> charts(tx.samples.size());
+  for (size_t j = 0; j < tx.samples.size(); ++j) charts[j] = chart_ids.of(tx.samples[j].triangle);
   for (size_t t = 0; t < n; ++t) {
     if (!g.valid[t]) continue;
     double w = 0, size = 0, heaviest = -1;

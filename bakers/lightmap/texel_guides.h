@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "bakers/lightmap/denoise.h"
@@ -21,8 +22,23 @@ namespace kiln::lightmap {
 // with an index out of range, or a UV that is not finite, shares no edge (it is a chart of its own).
 std::vector<uint32_t> uv_charts(const scene::Mesh& mesh);
 
+// The charts of the texels of one page, numbered densely in order of first appearance: shared by the page's tiles
+// (a tiled bake makes the guides a tile at a time), so that a chart has one number over the whole page.
+class ChartIds {
+ public:
+  explicit ChartIds(const scene::Scene& scene) : scene_(scene) {}
+  // The chart of a sample point's triangle.
+  uint32_t of(const TriangleRef& triangle);
+
+ private:
+  const scene::Scene& scene_;
+  std::unordered_map<uint32_t, std::vector<uint32_t>> mesh_charts_;  // uv_charts per mesh
+  std::unordered_map<uint64_t, uint32_t> dense_;                      // (instance, chart of its mesh) → number
+};
+
 // The guides of `m`, whose texels were rasterized from `scene` (the checked scene the bake traced), with the texel
-// validity of m.image.
+// validity of m.image; charts numbered by `charts` (which must be of the same scene).
 TexelGuides texel_guides(const LightmapState& m, const scene::Scene& scene);
+TexelGuides texel_guides(const LightmapState& m, const scene::Scene& scene, ChartIds& charts);
 
 }  // namespace kiln::lightmap

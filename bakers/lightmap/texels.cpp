@@ -220,7 +220,17 @@ Point2 vertex_mean(const Polygon& p) {
 class Rasterizer {
  public:
   Rasterizer(const scene::Scene& scene, const RasterOptions& options, const bake::StopCheck& stop)
-      : scene_(scene), w_(options.width), h_(options.height), k_(options.samples_per_axis), stop_(stop) {}
+      : scene_(scene),
+        w_(options.width),
+        h_(options.height),
+        k_(options.samples_per_axis),
+        window_(whole_or(options.window, options.width, options.height)),
+        stop_(stop) {}
+
+  static RasterOptions::Window whole_or(const RasterOptions::Window& w, int width, int height) {
+    if (w.width > 0 && w.height > 0) return w;
+    return {0, 0, width, height};
+  }
 
   void triangle(const InstanceJob& job, uint32_t t, BlockResult& out) const {
     RasterReport& report = out.report;
@@ -244,7 +254,11 @@ class Rasterizer {
         break;
       }
     }
-    const TexelRange r = texel_range(uv, w_, h_);
+    TexelRange r = texel_range(uv, w_, h_);
+    r.x0 = std::max(r.x0, window_.x0);
+    r.y0 = std::max(r.y0, window_.y0);
+    r.x1 = std::min(r.x1, window_.x0 + window_.width - 1);
+    r.y1 = std::min(r.y1, window_.y0 + window_.height - 1);
     const auto world_index = static_cast<uint32_t>(out.triangles.size());
     bool covered_any = false;
     for (int y = r.y0; y <= r.y1; ++y) {
@@ -338,7 +352,8 @@ class Rasterizer {
       covered = area(clipped);
       if (!(covered > kMinCoverage)) return false;
     }
-    const uint32_t texel = static_cast<uint32_t>(static_cast<size_t>(y) * w_ + x);
+    const uint32_t texel =
+        static_cast<uint32_t>(static_cast<size_t>(y - window_.y0) * window_.width + (x - window_.x0));
     const auto emit = [&](const std::array<double, 3>& b_raw, double weight) {
       const std::array<double, 3> bary = clamp_barycentric(b_raw);
       out.push_back({texel, world_index, bary[1], bary[2], weight});
@@ -373,6 +388,7 @@ class Rasterizer {
 
   const scene::Scene& scene_;
   int w_, h_, k_;
+  RasterOptions::Window window_;  // the texels made, in the map's texel coordinates
   const bake::StopCheck& stop_;
 };
 
@@ -397,6 +413,13 @@ void check_options(const RasterOptions& o) {
   range("width", o.width, 1, 16384);
   range("height", o.height, 1, 16384);
   range("samples_per_axis", o.samples_per_axis, 1, 16);
+  const RasterOptions::Window& w = o.window;
+  if (w.width > 0 || w.height > 0) {
+    range("window.x0", w.x0, 0, o.width - 1);
+    range("window.y0", w.y0, 0, o.height - 1);
+    range("window.width", w.width, 1, o.width - w.x0);
+    range("window.height", w.height, 1, o.height - w.y0);
+  }
 }
 
 // The instances of lightmap `name`, and their triangles as one global sequence of `total`; instances that cannot
@@ -449,20 +472,25 @@ std::vector<InstanceJob> instance_jobs(const scene::Scene& scene, const std::str
 // Rasterizes the global triangle sequence in fixed blocks, in parallel: concatenated in order, the blocks' results
 // do not depend on the thread count.
 std::vector<BlockResult> rasterize_blocks(const Rasterizer& rasterizer, const std::vector<InstanceJob>& jobs,
-                                          size_t total, const bake::StopCheck& stop) {
+                                          size_t total, const std::vector<uint32_t>* subset,
+                                          const bake::StopCheck& stop) {
   constexpr size_t kBlock = 2048;
+  if (subset) total = subset->size();
   const size_t blocks = (total + kBlock - 1) / kBlock;
   std::vector<BlockResult> results(blocks);
   tbb::parallel_for(size_t{0}, blocks, [&](size_t block) {
     stop.check();  // thrown out of parallel_for, which cancels the other blocks
     const size_t begin = block * kBlock, end = std::min(total, begin + kBlock);
     BlockResult& result = results[block];
-    // The instance holding `begin`, then walk forward.
-    size_t j =
-        static_cast<size_t>(std::upper_bound(jobs.begin(), jobs.end(), begin,
-                                             [](size_t g, const InstanceJob& job) { return g < job.first_triangle; }) -
-                            jobs.begin() - 1);
-    for (size_t g = begin; g < end; ++g) {
+    const auto global = [&](size_t i) -> size_t { return subset ? (*subset)[i] : i; };
+    // The instance holding the block's first triangle, then walk forward (the subset is ascending).
+    size_t j = static_cast<size_t>(std::upper_bound(jobs.begin(), jobs.end(), global(begin),
+                                                    [](size_t g, const InstanceJob& job) {
+                                                      return g < job.first_triangle;
+                                                    }) -
+                                   jobs.begin() - 1);
+    for (size_t i = begin; i < end; ++i) {
+      const size_t g = global(i);
       while (g >= jobs[j].first_triangle + jobs[j].triangles) ++j;
       rasterizer.triangle(jobs[j], static_cast<uint32_t>(g - jobs[j].first_triangle), result);
     }
@@ -590,6 +618,80 @@ std::vector<std::string> lightmap_names(const scene::Scene& scene) {
   return names;
 }
 
+RasterOptions::Window TileBins::window(size_t tile) const {
+  const int tx = static_cast<int>(tile % static_cast<size_t>(tiles_x)), ty = static_cast<int>(tile / tiles_x);
+  const int x0 = tx * tile_size, y0 = ty * tile_size;
+  return {x0, y0, std::min(tile_size, width - x0), std::min(tile_size, height - y0)};
+}
+
+TileBins bin_triangles(const scene::Scene& scene, const std::string& name, const RasterOptions& options, int tile_size,
+                       const bake::StopCheck& stop) {
+  RasterOptions whole = options;
+  whole.window = {};
+  check_options(whole);
+  if (tile_size < 1 || tile_size > 16384) {
+    throw std::invalid_argument("lightmap tiles: tile_size must be in [1, 16384], got " + std::to_string(tile_size));
+  }
+  TileBins bins;
+  bins.width = options.width;
+  bins.height = options.height;
+  bins.tile_size = tile_size;
+  bins.tiles_x = (options.width + tile_size - 1) / tile_size;
+  bins.tiles_y = (options.height + tile_size - 1) / tile_size;
+  const size_t tiles = static_cast<size_t>(bins.tiles_x) * bins.tiles_y;
+  bins.triangles.resize(tiles);
+  bins.coverage.assign(tiles, 0.0);
+  RasterReport ignored;
+  size_t total = 0;
+  const std::vector<InstanceJob> jobs = instance_jobs(scene, name, options, ignored, total);
+  if (total > std::numeric_limits<uint32_t>::max()) {
+    throw std::invalid_argument("lightmap '" + name + "': " + std::to_string(total) +
+                                " triangles exceed the 2^32 - 1 a tiled page can bin");
+  }
+  const double w = options.width, h = options.height;
+  for (const InstanceJob& job : jobs) {
+    const scene::Mesh& mesh = scene.meshes[job.mesh];
+    for (size_t t = 0; t < job.triangles; ++t) {
+      if (t % 4096 == 4095) stop.check();
+      const auto g = static_cast<uint32_t>(job.first_triangle + t);
+      if (job.mask && t < job.mask->size() && !(*job.mask)[t]) continue;
+      std::array<Point2, 3> uv;
+      bool usable = true;
+      for (int i = 0; i < 3 && usable; ++i) {
+        const uint32_t index = mesh.indices[3 * t + i];
+        usable = index < mesh.lightmap_uv.size();
+        if (!usable) break;
+        const Point2 l = mesh.lightmap_uv[index];
+        const auto& so = job.scale_offset;
+        uv[i] = {(so[0] * l.x + so[2]) * w, (so[1] * l.y + so[3]) * h};
+        usable = finite(uv[i]);
+      }
+      const TexelRange r = usable ? texel_range(uv, options.width, options.height) : TexelRange{0, 0, -1, -1};
+      if (r.x0 > r.x1 || r.y0 > r.y1) {
+        // Unusable, or outside the map: rasterizing it in one tile reports it once.
+        bins.triangles[0].push_back(g);
+        continue;
+      }
+      for (int ty = r.y0 / tile_size; ty <= r.y1 / tile_size; ++ty) {
+        for (int tx = r.x0 / tile_size; tx <= r.x1 / tile_size; ++tx) {
+          const size_t tile = static_cast<size_t>(ty) * bins.tiles_x + tx;
+          bins.triangles[tile].push_back(g);
+          // The triangle clipped to the tile's square, in texels.
+          Polygon p, q;
+          p.v[0] = uv[0], p.v[1] = uv[1], p.v[2] = uv[2], p.n = 3;
+          const double x0 = tx * tile_size, y0 = ty * tile_size;
+          clip_half_plane<0>(p, q, x0, +1.0), std::swap(p, q);
+          if (p.n > 0) clip_half_plane<0>(p, q, std::min(w, x0 + tile_size), -1.0), std::swap(p, q);
+          if (p.n > 0) clip_half_plane<1>(p, q, y0, +1.0), std::swap(p, q);
+          if (p.n > 0) clip_half_plane<1>(p, q, std::min(h, y0 + tile_size), -1.0), std::swap(p, q);
+          if (p.n > 0) bins.coverage[tile] += area(p);
+        }
+      }
+    }
+  }
+  return bins;
+}
+
 size_t raster_bytes_per_fragment() { return sizeof(Fragment); }
 size_t raster_bytes_per_triangle() { return sizeof(WorldTriangle); }
 
@@ -597,11 +699,17 @@ LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& 
                                   const bake::StopCheck& stop) {
   check_options(options);
   LightmapTexels out;
-  out.width = options.width;
-  out.height = options.height;
+  const RasterOptions::Window window = Rasterizer::whole_or(options.window, options.width, options.height);
+  out.width = window.width;
+  out.height = window.height;
   size_t total = 0;
   const std::vector<InstanceJob> jobs = instance_jobs(scene, name, options, out.report, total);
-  std::vector<BlockResult> results = rasterize_blocks(Rasterizer(scene, options, stop), jobs, total, stop);
+  if (options.triangles && !options.triangles->empty() && options.triangles->back() >= total) {
+    throw std::invalid_argument("lightmap '" + name + "': triangle " + std::to_string(options.triangles->back()) +
+                                " of a tile's bin is beyond the map's " + std::to_string(total) + " triangles");
+  }
+  std::vector<BlockResult> results =
+      rasterize_blocks(Rasterizer(scene, options, stop), jobs, total, options.triangles, stop);
   std::vector<WorldTriangle> world;
   stop.check();
   const std::vector<Fragment> sorted = sort_fragments(results, name, out, world, stop);

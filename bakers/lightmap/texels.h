@@ -84,6 +84,27 @@ struct RasterOptions {
   // scene::CheckedScene::triangles[m].bake, so that triangles the scene check marked "traced, not baked" (UVs outside
   // [0, 1]) are not baked. Null, or a mesh without an entry: every triangle.
   const std::vector<std::vector<uint8_t>>* bake_mask = nullptr;
+  // Optional: rasterize only this window of the W×H map (a tile of a page): the result is window-sized, its texel
+  // (0, 0) being texel (x0, y0) of the map. Width or height 0: the whole map.
+  struct Window {
+    int x0 = 0, y0 = 0, width = 0, height = 0;
+  } window;
+  // Optional: only these triangles, by their index in the sequence of the map's instances' triangles (instances in
+  // scene order, each its mesh's triangles in order), ascending: a tile's bin (TileBins), so that a tile does not
+  // walk every triangle of its page. Null: every triangle.
+  const std::vector<uint32_t>* triangles = nullptr;
+};
+
+// A page cut into square tiles of `tile_size` texels (the last row and column smaller), row-major, and per tile the
+// triangles whose UV bounds overlap it and the UV area they cover in it (texels; overlapping charts count twice),
+// for dividing a time limit among the tiles before any is rasterized.
+struct TileBins {
+  int width = 0, height = 0, tile_size = 0, tiles_x = 0, tiles_y = 0;
+  std::vector<std::vector<uint32_t>> triangles;
+  std::vector<double> coverage;
+
+  size_t tile_count() const { return triangles.size(); }
+  RasterOptions::Window window(size_t tile) const;
 };
 
 // Why a triangle (or all triangles of an instance) produced no texels.
@@ -152,6 +173,12 @@ std::vector<std::string> lightmap_names(const scene::Scene& scene);
 // every block of triangles and samples and throws what its check() throws.
 LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options,
                                   const bake::StopCheck& stop = {});
+
+// The tiles of lightmap `name` rasterized at options' size, tile_size texels on a side, [1, 16384]. Triangles
+// without finite UVs or with indices out of range go to the first tile, where rasterization reports them. Throws
+// std::invalid_argument when the triangles number more than 2^32 − 1. Polls `stop`.
+TileBins bin_triangles(const scene::Scene& scene, const std::string& name, const RasterOptions& options, int tile_size,
+                       const bake::StopCheck& stop = {});
 
 // The transient memory of rasterize_lightmap beyond its result: each sample is first a compact fragment (held twice
 // while sorted by texel), and each triangle that covers a texel keeps its world-space vertices and normals until the

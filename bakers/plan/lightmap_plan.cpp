@@ -391,6 +391,10 @@ std::string light_tracing_obstacle(const Planning& s) {
     return "the texel error metric asks every texel, however dark, for the same relative error, which rays from the "
            "lights cannot aim at";
   }
+  if (s.options.tiled) {
+    return "the bake is tiled to fit its memory limit, and rays from the lights deposit into every texel of every "
+           "page, whose sums (128 bytes a texel) it would have to hold all at once";
+  }
   return "";
 }
 

@@ -29,6 +29,9 @@ struct LightmapPlanOptions {
   // every texel.
   bool directional = false;
   bool per_texel_error = false;
+  // The bake samples its pages a tile at a time to fit its memory limit (lightmap_bake.h): light tracing, which
+  // deposits into any texel of any page, would need its sums for every texel at once.
+  bool tiled = false;
 };
 
 // What the planner found out about one material of the scene.

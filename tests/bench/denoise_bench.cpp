@@ -167,7 +167,9 @@ FilterTime filter_seconds(const scene::Scene& box, int resolution, const Denoise
     denoise(colour, variance, guides, options);
     time.filter += seconds_since(t0);
     t0 = Clock::now();
-    denoised_output(m, box, options, 4, "lin_rec709");
+    ChartIds charts(box);
+    const LightmapResults results = collect_results(m, ResultChannels{false, false, false, true}, {&box, nullptr, &charts});
+    denoised_output(results, options, 4, "lin_rec709");
     time.output += seconds_since(t0);
   }
   return time;

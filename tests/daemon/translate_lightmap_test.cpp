@@ -320,7 +320,16 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
       {"job.lightmap.environment.constant.r",
        [&](v1::JobSpec& s) { set(lm(s)->mutable_environment()->mutable_constant(), 2e6, 0, 0); }},
       {"job.lightmap.resolution", [&](v1::JobSpec& s) { lm(s)->set_resolution(3); }},
-      {"job.lightmap.resolution", [&](v1::JobSpec& s) { lm(s)->set_resolution(8192); }},  // 2 x 8192² > 2^24 texels
+      {"job.lightmap.resolution",
+       [&](v1::JobSpec& s) {  // at least 5 lightmaps of 8192²: more than 2^28 texels
+         lm(s)->set_resolution(8192);
+         for (int i = 0; i < 5; ++i) {
+           v1::Instance* inst = lm(s)->add_instances();
+           inst->set_mesh(0);
+           inst->set_lightmap("page" + std::to_string(i));
+         }
+       }},
+      {"job.lightmap.memory_limit_bytes", [&](v1::JobSpec& s) { lm(s)->set_memory_limit_bytes(1000); }},
       {"job.lightmap.lightmaps[0].resolution",
        [&](v1::JobSpec& s) { lm(s)->mutable_lightmaps(0)->set_resolution(9000); }},
       {"job.lightmap.lightmaps[0].name", [&](v1::JobSpec& s) { lm(s)->mutable_lightmaps(0)->set_name("nowhere"); }},
@@ -496,6 +505,39 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
     EXPECT_NE(cache_key(translate(changed), lightmap::kLightmapBakerVersion), key) << "change " << i;
   }
   EXPECT_NE(cache_key(translate(base), "kiln-lightmap-0"), key);
+}
+
+}  // namespace
+}  // namespace kiln::daemon
+
+namespace kiln::daemon {
+namespace {
+
+// A memory limit below a job's whole estimate, the job's own or kilnd's, bakes it in tiles whose estimate fits the
+// limit; the tile size is part of the cache key, and without a limit nothing changes.
+TEST(TranslateLightmap, AMemoryLimitBelowTheEstimateBakesInTiles) {
+  v1::JobSpec spec = full_job();
+  spec.mutable_lightmap()->set_resolution(1024);  // texels dominate the estimate
+  BakeRequest whole = translate(spec);
+  const std::string whole_key = cache_key(whole, baker_version(whole));
+  fit_memory_limit(whole, 0);
+  EXPECT_EQ(whole.lightmap().tile_size, 0);
+  EXPECT_EQ(cache_key(whole, baker_version(whole)), whole_key);
+  const uint64_t limit = whole.memory_bytes / 4;
+
+  BakeRequest by_kilnd = translate(spec);
+  fit_memory_limit(by_kilnd, limit);
+  EXPECT_GE(by_kilnd.lightmap().tile_size, lightmap::kMinTileSize);
+  EXPECT_LE(by_kilnd.memory_bytes, limit);
+  EXPECT_EQ(by_kilnd.lightmap().memory_limit_bytes, limit);
+  EXPECT_NE(cache_key(by_kilnd, baker_version(by_kilnd)), whole_key);
+  EXPECT_NE(by_kilnd.memory_note.find("in tiles of"), std::string::npos) << by_kilnd.memory_note;
+
+  spec.mutable_lightmap()->set_memory_limit_bytes(limit);
+  BakeRequest by_job = translate(spec);
+  EXPECT_EQ(by_job.lightmap().tile_size, by_kilnd.lightmap().tile_size) << "the job's own limit plans the same";
+  fit_memory_limit(by_job, whole.memory_bytes * 2);  // kilnd's roomier limit does not lift the job's
+  EXPECT_EQ(by_job.lightmap().tile_size, by_kilnd.lightmap().tile_size);
 }
 
 }  // namespace

@@ -57,12 +57,13 @@ v1::JobSpec quad_job(const v1::Digest& mesh, int resolution, const std::string& 
 }
 
 // The daemon's estimate of quad_job, by the bakers' model with the shape the translation gives it (one lightmap,
-// the blob's bound on triangles, the preview on).
+// the blob's bound on triangles, the preview on, the outputs streamed), untiled.
 uint64_t quad_estimate(int resolution, uint64_t blob_bytes) {
   lightmap::LightmapJobSize size;
   size.lightmap_texels = {static_cast<uint64_t>(resolution) * resolution};
   size.traced_triangles = (blob_bytes - 20) / 12;
   size.mesh_blob_bytes = blob_bytes;
+  size.streamed = true;  // kilnd stores each output as the bake hands it over
   return lightmap::estimate_memory(size).total;
 }
 

@@ -128,5 +128,47 @@ TEST(BakeStop, ACancelDuringTheSetUpEndsTheBakeWithinASecond) {
   std::printf("1024² floor, cancelled 0.5 s into the set-up: ended %.3f s after the cancel\n", after);
 }
 
+// A tiled bake (LightmapBakeInput::tile_size) shares its time limit among the tiles: it ends within about the
+// limit, every tile it could not reach still has its texels' validity (only sampling is skipped), and the report
+// says how many tiles were left unsampled. 1.5 s of slack: the tile that runs when the limit is reached finishes its
+// rasterization (a few ms) and the pages are still written (dilation, encoding: ~0.3 s for two 256² pages).
+TEST(BakeStop, ATiledBakeKeepsItsTimeLimit) {
+  LightmapBakeInput in = test::lightmap_input(floor_scene(), 256, 0.0005);
+  in.tile_size = 32;
+  in.max_samples = 1 << 20;
+  in.time_limit_seconds = 1.5;
+  const Clock::time_point t0 = Clock::now();
+  const LightmapBakeResult r = bake_lightmaps(in);
+  const double seconds = seconds_since(t0);
+  EXPECT_LT(seconds, in.time_limit_seconds + 1.5);
+  EXPECT_GT(r.samples, 0u);
+  EXPECT_EQ(r.memory.tiles, 64u);
+  const image::FloatImage valid = test::exr_output(r, "floor_validity.exr");
+  for (float v : valid.pixels) ASSERT_EQ(v, 1.0f) << "the floor covers every texel, sampled or not";
+  std::printf("256² floor in 32² tiles, time limit 1.5 s: ended after %.2f s, %llu of 64 tiles unsampled\n", seconds,
+              static_cast<unsigned long long>(r.memory.tiles_unsampled));
+}
+
+TEST(BakeStop, ACancelStopsATiledBake) {
+  LightmapBakeInput in = test::lightmap_input(floor_scene(), 256, 0.0005);
+  in.tile_size = 32;
+  in.max_samples = 1 << 20;
+  std::atomic<bool> cancel{false};
+  bake::BakeControl control;
+  control.cancel = &cancel;
+  Clock::time_point cancelled_at;
+  std::thread canceller([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(700));
+    cancelled_at = Clock::now();
+    cancel = true;
+  });
+  EXPECT_THROW(bake_lightmaps(in, control), bake::BakeCancelled);
+  const Clock::time_point ended = Clock::now();
+  canceller.join();
+  const double after = std::chrono::duration<double>(ended - cancelled_at).count();
+  EXPECT_LT(after, 1.0);
+  std::printf("256² floor in 32² tiles, cancelled after 0.7 s: ended %.3f s after the cancel\n", after);
+}
+
 }  // namespace
 }  // namespace kiln::lightmap
