@@ -223,6 +223,7 @@ void rasterize_texels(LightmapBakeRun& run) {
     raster.bake_mask = &bake_mask;
     run.stage = "rasterization of lightmap '" + name + "'";
     LightmapTexels texels = rasterize_lightmap(run.scene(), name, raster, run.stop);
+    match_tracer_offsets(texels, *run.tracer);
     run.stage = "leak probes of lightmap '" + name + "'";
     const LeakReport leaks = fix_leaks(texels, query, LeakOptions{}, run.stop);
     run.result.rays += leaks.rays;

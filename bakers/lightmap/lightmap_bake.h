@@ -32,7 +32,7 @@ namespace kiln::lightmap {
 
 class RayLog;
 
-inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-7";
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-8";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
 struct EncodedTexture {
