@@ -16,6 +16,7 @@
 #include "bakers/image/texture_decode.h"
 #include "bakers/lightmap/adaptive_sampler.h"
 #include "bakers/lightmap/integrator.h"
+#include "bakers/lightmap/leak_scope.h"
 #include "bakers/lightmap/leaks.h"
 #include "bakers/lightmap/light_budget.h"
 #include "bakers/lightmap/light_tracing.h"
@@ -213,6 +214,9 @@ void prepare_transport(LightmapBakeRun& run) {
 void rasterize_texels(LightmapBakeRun& run) {
   const LightmapBakeInput& in = run.in;
   const TracerRayQuery query(*run.tracer, run.scene(), in.ray_log);
+  run.stage = "leak scope";
+  const LeakScope scope(run.scene(), LeakScopeOptions{}, run.stop);
+  run.report.leak_scope = scope.summary();
   // Triangles the scene check keeps for tracing but not for baking (UVs outside [0, 1], zero UV area).
   std::vector<std::vector<uint8_t>> bake_mask;
   for (const auto& t : run.checked.triangles) bake_mask.push_back(t.bake);
@@ -225,7 +229,8 @@ void rasterize_texels(LightmapBakeRun& run) {
     LightmapTexels texels = rasterize_lightmap(run.scene(), name, raster, run.stop);
     match_tracer_offsets(texels, *run.tracer);
     run.stage = "leak probes of lightmap '" + name + "'";
-    const LeakReport leaks = fix_leaks(texels, query, LeakOptions{}, run.stop);
+    const std::vector<uint8_t> probe = scope.probe_mask(texels.samples, run.stop);
+    const LeakReport leaks = fix_leaks(texels, query, LeakOptions{}, run.stop, &probe);
     run.result.rays += leaks.rays;
     run.result.probe_rays += leaks.rays;
     run.maps.push_back(make_lightmap_state(name, std::move(texels), leaks, in.ao, in.directional));

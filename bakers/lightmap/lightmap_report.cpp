@@ -39,7 +39,9 @@ Json lightmap_json(const LightmapReportEntry& m) {
     j["sh_error_rms"] = m.sh->rms;
     j["sh_error_max"] = m.sh->max;
   }
-  j["leaks"] = {{"moved", m.leaks.moved},
+  j["leaks"] = {{"probed", m.leaks.samples - m.leaks.pruned},
+                {"pruned", m.leaks.pruned},
+                {"moved", m.leaks.moved},
                 {"invalidated", m.leaks.invalidated},
                 {"texels_invalidated", m.leaks.texels_invalidated}};
   j["memory_bytes"] = m.memory.total_bytes;
@@ -104,6 +106,13 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["light_tracing"] = light_tracing_json(result.light_tracing);
   j["denoise"] = denoise_json(report);
   j["tracer"] = tracer_json(report);
+  const LeakScopeSummary& ls = report.leak_scope;
+  j["leak_scope"] = {{"convex_meshes", ls.convex_meshes},
+                     {"height_field_meshes", ls.height_field_meshes},
+                     {"probed_meshes", ls.probed_meshes},
+                     {"chunks", ls.chunks},
+                     {"rule", "probed only near other instances (3 texels of their chunks' boxes) or on meshes that "
+                              "can hide their own points (neither convex nor a height field)"}};
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
   return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bakers/lightmap/denoise.h"
+#include "bakers/lightmap/leak_scope.h"
 #include "bakers/lightmap/leaks.h"
 #include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/lightmap/lightmap_image.h"
@@ -39,6 +40,7 @@ struct LightmapReport {
   std::vector<LightmapReportEntry> lightmaps;
   size_t tracer_triangles = 0;
   size_t tracer_bytes = 0;
+  LeakScopeSummary leak_scope;  // which meshes could hide their own points, and the proximity test's size
   int64_t scene_problems = 0;               // all of them; result.skipped lists the ones that are listed
   const DenoiseOptions* denoise = nullptr;  // the denoiser's settings when NAME_irradiance_denoised.exr was asked for
   double denoise_seconds = 0;               // its guides and filter, over every lightmap
