@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -25,6 +26,7 @@
 #include "bakers/lightmap/lightmap_report.h"
 #include "bakers/lightmap/lightmap_state.h"
 #include "bakers/lightmap/memory.h"
+#include "bakers/lightmap/stage_timer.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/lightmap/tracer_query.h"
 #include "bakers/plan/lightmap_plan.h"
@@ -181,8 +183,12 @@ void prepare_transport(LightmapBakeRun& run) {
   run.stage = "tracer";
   scene::TracerOptions tracer_options;
   tracer_options.stop = &run.stop;
-  run.tracer = std::make_unique<scene::Tracer>(s, tracer_options);
+  {
+    const StageTimer timer(run.report.stages, "tracer");
+    run.tracer = std::make_unique<scene::Tracer>(s, tracer_options);
+  }
   run.stage = "lights";
+  const StageTimer timer(run.report.stages, "lights");
   scene::LightSamplingOptions light_options;
   light_options.point_lights = plan.point_lights;
   light_options.spot_lights = plan.spot_lights;
@@ -214,9 +220,11 @@ void prepare_transport(LightmapBakeRun& run) {
 void rasterize_texels(LightmapBakeRun& run) {
   const LightmapBakeInput& in = run.in;
   const TracerRayQuery query(*run.tracer, run.scene(), in.ray_log);
+  std::optional<StageTimer> timer(std::in_place, run.report.stages, "leak_scope");
   run.stage = "leak scope";
   const LeakScope scope(run.scene(), LeakScopeOptions{}, run.stop);
   run.report.leak_scope = scope.summary();
+  timer.reset();
   // Triangles the scene check keeps for tracing but not for baking (UVs outside [0, 1], zero UV area).
   std::vector<std::vector<uint8_t>> bake_mask;
   for (const auto& t : run.checked.triangles) bake_mask.push_back(t.bake);
@@ -226,11 +234,14 @@ void rasterize_texels(LightmapBakeRun& run) {
     raster.width = raster.height = it != in.resolutions.end() ? it->second : in.resolution;
     raster.bake_mask = &bake_mask;
     run.stage = "rasterization of lightmap '" + name + "'";
+    timer.emplace(run.report.stages, "rasterization");
     LightmapTexels texels = rasterize_lightmap(run.scene(), name, raster, run.stop);
     match_tracer_offsets(texels, *run.tracer);
     run.stage = "leak probes of lightmap '" + name + "'";
+    timer.emplace(run.report.stages, "leak_probes");
     const std::vector<uint8_t> probe = scope.probe_mask(texels.samples, run.stop);
     const LeakReport leaks = fix_leaks(texels, query, LeakOptions{}, run.stop, &probe);
+    timer.reset();
     run.result.rays += leaks.rays;
     run.result.probe_rays += leaks.rays;
     run.maps.push_back(make_lightmap_state(name, std::move(texels), leaks, in.ao, in.directional));
@@ -388,7 +399,9 @@ void trace_light(LightmapBakeRun& run, const SamplingOptions& o, const GatherCos
 void sample_adaptively(LightmapBakeRun& run) {
   const SamplingOptions options = sampling_options(run);
   LightmapBakeResult& result = run.result;
+  std::optional<StageTimer> timer(std::in_place, run.report.stages, "light_tracing_setup");
   const bool tracing = prepare_light_tracing(run);
+  timer.emplace(run.report.stages, "passes");
   for (uint64_t pass = 0;; ++pass) {
     const std::vector<TexelBatch> batches = schedule_pass(run.maps, options);
     if (batches.empty()) break;
@@ -405,7 +418,9 @@ void sample_adaptively(LightmapBakeRun& run) {
     record_pass(run, pass);
     if (counts.out_of_time || Clock::now() >= options.deadline) break;
   }
-  result.error_estimate = result.curve.empty() ? 0 : std::max(0.0, result.curve.back().error);
+  // Unknown (−1) unless the last pass measured some texel's error: a bake the time limit ended before its first
+  // sample has no error to report, and 0 would claim a perfect one.
+  result.error_estimate = result.curve.empty() ? -1.0 : std::max(-1.0, result.curve.back().error);
 }
 
 // ---- 6. Outputs ----
@@ -446,6 +461,8 @@ void write_report(LightmapBakeRun& run) {
   report.color_space = run.color_space;
   report.plan = &run.plan;
   report.tracer_triangles = run.tracer->triangle_count();
+  report.tracer_stored_triangles = run.tracer->stored_triangle_count();
+  report.tracer_instances = run.tracer->instanced_instance_count();
   report.tracer_bytes = run.tracer->memory_bytes();
   report.scene_problems = run.checked.report.total();
   report.denoise = run.in.denoise ? &run.in.denoise_options : nullptr;
@@ -462,9 +479,12 @@ bake::InvalidInput out_of_time_in_set_up(const LightmapBakeRun& run) {
 }
 
 void write_outputs(LightmapBakeRun& run) {
-  for (const LightmapState& m : run.maps) {
-    run.cancel_only.check();
-    write_lightmap(run, m);
+  {
+    const StageTimer timer(run.report.stages, "outputs");
+    for (const LightmapState& m : run.maps) {
+      run.cancel_only.check();
+      write_lightmap(run, m);
+    }
   }
   run.result.seconds = seconds_since(run.t0);
   write_report(run);
@@ -505,8 +525,14 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const bake::BakeC
   if (auto problem = validate(in)) throw *problem;
   LightmapBakeRun run(in, control);
   try {
-    prepare_scene(run);
-    plan_bake(run);
+    {
+      const StageTimer timer(run.report.stages, "scene");
+      prepare_scene(run);
+    }
+    {
+      const StageTimer timer(run.report.stages, "plan");
+      plan_bake(run);
+    }
     prepare_transport(run);
     rasterize_texels(run);
   } catch (const bake::OutOfTime&) {

@@ -108,7 +108,9 @@ struct LightmapBakeResult {
   // shaded in closed Lambertian form (integrator.h), which is what pruning a glossy lobe buys.
   uint64_t general_vertices = 0;
   double seconds = 0;
-  double error_estimate = 0;  // the last point of the curve
+  // The last point of the curve; −1 (unknown) when no texel has an estimate of its error, as when the time limit
+  // ended the bake before its first sample: never 0 for want of samples.
+  double error_estimate = -1;
   LightTracingStats light_tracing;
   std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people
 };

@@ -53,8 +53,19 @@ Json tracer_json(const LightmapReport& report) {
   const double per_triangle =
       report.tracer_triangles ? static_cast<double>(report.tracer_bytes) / report.tracer_triangles : 0.0;
   return {{"triangles", report.tracer_triangles},
+          {"stored_triangles", report.tracer_stored_triangles},
+          {"instanced_instances", report.tracer_instances},
           {"memory_bytes", report.tracer_bytes},
           {"bytes_per_triangle", per_triangle}};
+}
+
+// Each stage's seconds and share of the bake's.
+Json stages_json(const std::vector<StageTime>& stages, double total) {
+  Json out = Json::array();
+  for (const StageTime& s : stages) {
+    out.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"fraction", total > 0 ? s.seconds / total : 0.0}});
+  }
+  return out;
 }
 
 Json denoise_json(const LightmapReport& report) {
@@ -93,13 +104,21 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["mrays_per_second"] = result.rays / std::max(result.seconds, 1e-9) / 1e6;
   j["target_error"] = report.target_error;
   j["error_metric"] = to_string(report.error_metric);
-  j["error_estimate"] = result.error_estimate;
+  if (result.error_estimate >= 0) {
+    j["error_estimate"] = result.error_estimate;
+  } else {
+    j["error_estimate"] = nullptr;
+    j["error_estimate_unknown"] = result.samples == 0
+                                      ? "no texel was sampled (the time limit ran out before the first sample)"
+                                      : "no texel has two estimates to measure its error from";
+  }
   j["dropped_samples"] = report.dropped_samples;
   j["color_space"] = report.color_space;
   j["units"] = "irradiance W/m^2";
   j["plan"] = plan_json(report.plan->decisions);
   j["bounces"] = report.plan->bounces;
   j["albedo_max"] = report.plan->albedo_max;
+  j["stages"] = stages_json(report.stages, result.seconds);
   j["curve"] = curve_json(result.curve);
   j["lightmaps"] = Json::array();
   for (const LightmapReportEntry& m : report.lightmaps) j["lightmaps"].push_back(lightmap_json(m));
