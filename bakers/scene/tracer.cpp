@@ -641,8 +641,9 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
     if (!scene.meshes[inst.mesh].indices.empty()) ++uses[inst.mesh];
   im.share.resize(nm);
   for (size_t m = 0; m < nm; ++m) {
+    const size_t copies = uses[m] > 1 ? (uses[m] - 1) * (scene.meshes[m].indices.size() / 3) : 0;
     im.share[m] = options.instancing == Instancing::all      ? uses[m] > 0
-                  : options.instancing == Instancing::shared ? uses[m] > 1
+                  : options.instancing == Instancing::shared ? copies >= kInstancingMinCopies
                                                              : false;
   }
   im.mesh_scenes.assign(nm, nullptr);

@@ -5,7 +5,7 @@
 //     vertices transformed to world space in double and rounded to float once. One level of BVH traces faster than
 //     two (no per-instance ray transform, no overlapping instance boxes for the SAH to work around), and the float
 //     error of a hit is that of one float triangle in world space, which ray_offset.h bounds exactly.
-//   - Instanced: a mesh used by several instances is one BVH of its own (its vertices rounded to float in object
+//   - Instanced: a mesh used by several instances (enough to matter: Instancing::shared) is one BVH of its own (its vertices rounded to float in object
 //     space), and each instance is an Embree instance geometry (RTC_GEOMETRY_TYPE_INSTANCE) of it with the instance's
 //     transform rounded to float: a level of 10,000 instances of a few hundred meshes holds each mesh once. Embree
 //     transforms the ray into object space in float, so the offset of a hit (Hit::offset) adds a bound on that
@@ -71,10 +71,16 @@ struct HitDetail {
 
 // Which meshes go to Embree once, as instances of one BVH (above).
 enum class Instancing {
-  shared,  // meshes used by two or more instances (the default: single-use meshes trace faster flattened)
+  // Meshes used by several instances whose copies would hold at least kInstancingMinCopies triangles beyond the
+  // first (the default). Two-level traversal costs rays ~20-30 % where they meet instances (tracer_bench's room),
+  // which buys little when the copies are small; a single-use mesh is always flattened.
+  shared,
   none,    // every instance flattened (the world-space copy of each mesh per instance)
   all,     // every mesh, even one used once (for measurements)
 };
+
+// Instancing::shared's threshold: triangles × (instances − 1) of a mesh, ~1 MB of flattened copies.
+inline constexpr size_t kInstancingMinCopies = 4096;
 
 struct TracerOptions {
   bool robust = true;  // RTC_SCENE_FLAG_ROBUST (watertight); false trades that for ~speed

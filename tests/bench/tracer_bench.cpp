@@ -4,9 +4,10 @@
 // threads. Counters: Mrays/s, rays per wall-clock second; Mrays/cpu_s, rays per CPU-second of the process (all its
 // threads), the figure to trust on a shared machine. This is the baseline the lightmap benchmark's ray throughput is
 // compared against (use the same workload, tests/bench/ray_workload.h).
-// Geometry (scene::Instancing): "robust" and "fast" trace the default, the room's two blocks (one mesh) as Embree
-// instances and the single-use room and sphere flattened; "robust_flat" flattens every instance, "robust_all" makes
-// every mesh an instance (what the default would cost if single-use meshes were instanced too).
+// Geometry (scene::Instancing): "robust" and "fast" trace the default (here every instance flattened: the room's two
+// blocks share a mesh, but one copy of 192 triangles is below kInstancingMinCopies); "robust_flat" flattens every
+// instance whatever the scene; "robust_all" makes every mesh an Embree instance of its own BVH (two-level traversal
+// everywhere: what instancing costs a ray).
 //
 //   tracer_bench [--benchmark_filter=...] [Google Benchmark flags]
 #include <benchmark/benchmark.h>

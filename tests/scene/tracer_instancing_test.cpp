@@ -47,7 +47,11 @@ Transform rotation(const Vec3& a, double angle) {
 }
 
 TEST(TracerInstancing, OnlySharedMeshesAreInstancedByDefault) {
-  const Scene room = box_room(8, 2, 12, 24);  // the block mesh (2) has two instances, the room and sphere one each
+  // The block mesh (2) has two instances, the room and the sphere one each. Small copies stay flattened: the blocks
+  // of 6·2·4² = 192 triangles are instanced only from 4096 / 192 + 1 = 23 instances on.
+  const Scene small = box_room(8, 4, 12, 24);
+  EXPECT_EQ(traced(small, Instancing::shared).instanced_instance_count(), 0u);
+  const Scene room = box_room(8, 27, 12, 24);  // blocks of 6·2·27² = 8748 triangles: one copy is enough
   const Tracer shared = traced(room, Instancing::shared);
   EXPECT_FALSE(shared.instanced(0));
   EXPECT_FALSE(shared.instanced(1));
@@ -146,7 +150,7 @@ TEST(TracerInstancing, NoSelfIntersectionOnTransformedInstancesAtAnyScale) {
       s.instances.push_back(test::instance(0, t));
       centres.push_back(centre);
     }
-    const Tracer tracer = traced(s, Instancing::shared);
+    const Tracer tracer = traced(s, Instancing::all);
     ASSERT_EQ(tracer.instanced_instance_count(), 8u);
     Pcg32 rng(11);
     int64_t primaries = 0, out_own = 0, in_self = 0, in_missed = 0;
