@@ -4,12 +4,13 @@
 //
 // A probe finds a leak when the point's rays see mostly back faces: the point lies inside or behind geometry. The
 // back faces are either its own instance's or another instance's:
-//   - Another instance J can put a point p inside or behind it only where p lies in or near J: within
-//     `margin_texels` texel sizes of it (the probe moves a point at most move_distance_texels = 2 texels; the
-//     default 3 adds a texel for the texel's own extent). "Near" is tested against the boxes of chunks of
-//     `chunk_triangles` consecutive triangles of J (in world space), so a point on a large terrain is probed near
-//     the rocks on it but not everywhere in the terrain's box. Back faces of J farther away are J's open side seen
-//     from afar, which a probe would wrongly take for a leak.
+//   - Another instance J can put a point p inside or behind it only where p lies in or near J: a point outside the
+//     box of a closed mesh is outside the mesh and sees its front faces; an open surface (a one-sided wall) seen
+//     from behind hides the points just behind it, within `margin_texels` texel sizes (a texel straddling it).
+//     Back faces of J farther away are J's open side seen from afar, which a probe would wrongly take for a leak.
+//     "Near" is tested against the boxes of chunks of `chunk_triangles` consecutive triangles of J (in world
+//     space), so a point on a large terrain is probed near the rocks on it but not everywhere in the terrain's
+//     box, and a rock's top is not probed for the terrain under it.
 //   - Its own instance cannot show a point back faces (of the point's hemisphere, where the probe looks) when its
 //     mesh is
 //       convex: every triangle has the whole mesh on or behind its plane (a plane, a box, a cylinder), so every ray
@@ -38,8 +39,8 @@
 namespace kiln::lightmap {
 
 struct LeakScopeOptions {
-  double margin_texels = 3.0;  // > 0
-  int chunk_triangles = 64;    // ≥ 1
+  double margin_texels = 1.0;  // > 0
+  int chunk_triangles = 16;    // ≥ 1
 };
 
 // How the meshes of the scene's instances were judged.

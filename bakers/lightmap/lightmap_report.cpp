@@ -130,7 +130,7 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
                      {"height_field_meshes", ls.height_field_meshes},
                      {"probed_meshes", ls.probed_meshes},
                      {"chunks", ls.chunks},
-                     {"rule", "probed only near other instances (3 texels of their chunks' boxes) or on meshes that "
+                     {"rule", "probed only near other instances (a texel of their chunks' boxes) or on meshes that "
                               "can hide their own points (neither convex nor a height field)"}};
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
