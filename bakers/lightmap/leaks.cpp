@@ -123,10 +123,13 @@ LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const L
 }
 
 LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOptions& options,
-                     const bake::StopCheck& stop) {
+                     const bake::StopCheck& stop, const std::vector<uint8_t>* probe) {
   check(options);
   LeakReport report;
   const size_t n = texels.samples.size();
+  if (probe && probe->size() != n)
+    throw std::invalid_argument("leak handling: a probe mask of " + std::to_string(probe->size()) + " entries for " +
+                                std::to_string(n) + " samples");
   std::vector<LeakResult> results;
   bake::resize_polled(results, n, stop);
   const std::vector<Vec3> directions = probe_directions(options);
@@ -135,6 +138,10 @@ LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOpt
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t j = range.begin(); j != range.end(); ++j) {
       if ((j - range.begin()) % 256 == 0) stop.check();
+      if (probe && !(*probe)[j]) {
+        results[j].position = texels.samples[j].position;  // clear, no ray
+        continue;
+      }
       results[j] = resolve(texels.samples[j], rays, options, directions);
     }
   });
@@ -157,6 +164,7 @@ LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOpt
     }
   }
   report.samples = n;
+  if (probe) report.pruned = static_cast<size_t>(std::count(probe->begin(), probe->end(), uint8_t{0}));
   for (size_t t = 0; t < texels.texel_count(); ++t) {
     bool fixed = false;
     for (uint32_t j = texels.first[t]; j < texels.first[t + 1]; ++j) {

@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <vector>
 
 #include "bakers/bake/stop.h"
 #include "bakers/lightmap/texels.h"
@@ -76,6 +77,7 @@ LeakResult resolve_leak(const TexelSample& sample, const RayQuery& rays, const L
 
 struct LeakReport {
   size_t samples = 0;  // checked
+  size_t pruned = 0;   // of them, clear without a probe: nothing near could hide them (leak_scope.h)
   size_t moved = 0;
   size_t invalidated = 0;         // samples dropped
   size_t texels_invalidated = 0;  // valid texels left without samples
@@ -83,9 +85,10 @@ struct LeakReport {
 };
 
 // Applies resolve_leak to every sample (in parallel), moves the moved ones and drops the invalid ones
-// (LightmapTexels::retain). Deterministic. Polls `stop` every few hundred samples and throws what its check() throws
-// (the texels are then left as they were).
+// (LightmapTexels::retain). `probe`, if given, has one entry per sample: samples with 0 are clear without a probe
+// (LeakScope::probe_mask says which cannot leak). Deterministic. Polls `stop` every few hundred samples and throws
+// what its check() throws (the texels are then left as they were).
 LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOptions& options,
-                     const bake::StopCheck& stop = {});
+                     const bake::StopCheck& stop = {}, const std::vector<uint8_t>* probe = nullptr);
 
 }  // namespace kiln::lightmap

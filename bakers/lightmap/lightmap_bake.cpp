@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -17,6 +18,7 @@
 #include "bakers/image/texture_decode.h"
 #include "bakers/lightmap/adaptive_sampler.h"
 #include "bakers/lightmap/integrator.h"
+#include "bakers/lightmap/leak_scope.h"
 #include "bakers/lightmap/leaks.h"
 #include "bakers/lightmap/light_budget.h"
 #include "bakers/lightmap/light_tracing.h"
@@ -28,6 +30,7 @@
 #include "bakers/lightmap/memory.h"
 #include "bakers/lightmap/memory_estimate.h"
 #include "bakers/lightmap/texel_guides.h"
+#include "bakers/lightmap/stage_timer.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/lightmap/tracer_query.h"
 #include "bakers/plan/lightmap_plan.h"
@@ -236,8 +239,12 @@ void prepare_transport(LightmapBakeRun& run) {
   run.stage = "tracer";
   scene::TracerOptions tracer_options;
   tracer_options.stop = &run.stop;
-  run.tracer = std::make_unique<scene::Tracer>(s, tracer_options);
+  {
+    const StageTimer timer(run.report.stages, "tracer");
+    run.tracer = std::make_unique<scene::Tracer>(s, tracer_options);
+  }
   run.stage = "lights";
+  const StageTimer timer(run.report.stages, "lights");
   scene::LightSamplingOptions light_options;
   light_options.point_lights = plan.point_lights;
   light_options.spot_lights = plan.spot_lights;
@@ -269,6 +276,11 @@ void prepare_transport(LightmapBakeRun& run) {
 void rasterize_texels(LightmapBakeRun& run) {
   const LightmapBakeInput& in = run.in;
   const TracerRayQuery query(*run.tracer, run.scene(), in.ray_log);
+  std::optional<StageTimer> timer(std::in_place, run.report.stages, "leak_scope");
+  run.stage = "leak scope";
+  const LeakScope scope(run.scene(), LeakScopeOptions{}, run.stop);
+  run.report.leak_scope = scope.summary();
+  timer.reset();
   // Triangles the scene check keeps for tracing but not for baking (UVs outside [0, 1], zero UV area).
   std::vector<std::vector<uint8_t>> bake_mask;
   for (const auto& t : run.checked.triangles) bake_mask.push_back(t.bake);
@@ -277,9 +289,14 @@ void rasterize_texels(LightmapBakeRun& run) {
     raster.width = raster.height = lightmap_resolution(run, name);
     raster.bake_mask = &bake_mask;
     run.stage = "rasterization of lightmap '" + name + "'";
+    timer.emplace(run.report.stages, "rasterization");
     LightmapTexels texels = rasterize_lightmap(run.scene(), name, raster, run.stop);
+    match_tracer_offsets(texels, *run.tracer);
     run.stage = "leak probes of lightmap '" + name + "'";
-    const LeakReport leaks = fix_leaks(texels, query, LeakOptions{}, run.stop);
+    timer.emplace(run.report.stages, "leak_probes");
+    const std::vector<uint8_t> probe = scope.probe_mask(texels.samples, run.stop);
+    const LeakReport leaks = fix_leaks(texels, query, LeakOptions{}, run.stop, &probe);
+    timer.reset();
     run.result.rays += leaks.rays;
     run.result.probe_rays += leaks.rays;
     run.maps.push_back(make_lightmap_state(name, std::move(texels), leaks, in.ao, in.directional));
@@ -480,10 +497,14 @@ void run_passes(LightmapBakeRun& run, std::vector<LightmapState>& maps, const Sa
 
 void sample_adaptively(LightmapBakeRun& run) {
   const SamplingOptions options = sampling_options(run);
+  std::optional<StageTimer> timer(std::in_place, run.report.stages, "light_tracing_setup");
   const bool tracing = prepare_light_tracing(run);
+  timer.emplace(run.report.stages, "passes");
   run_passes(run, run.maps, options, tracing, [&](uint64_t pass) { record_pass(run, pass); });
   LightmapBakeResult& result = run.result;
-  result.error_estimate = result.curve.empty() ? 0 : std::max(0.0, result.curve.back().error);
+  // Unknown (−1) unless the last pass measured some texel's error: a bake the time limit ended before its first
+  // sample has no error to report, and 0 would claim a perfect one.
+  result.error_estimate = result.curve.empty() ? -1.0 : std::max(-1.0, result.curve.back().error);
 }
 
 // ---- 6. Outputs ----
@@ -553,6 +574,8 @@ void write_report(LightmapBakeRun& run) {
   report.color_space = run.color_space;
   report.plan = &run.plan;
   report.tracer_triangles = run.tracer->triangle_count();
+  report.tracer_stored_triangles = run.tracer->stored_triangle_count();
+  report.tracer_instances = run.tracer->instanced_instance_count();
   report.tracer_bytes = run.tracer->memory_bytes();
   report.scene_problems = run.checked.report.total();
   report.denoise = run.in.denoise ? &run.in.denoise_options : nullptr;
@@ -576,6 +599,7 @@ void write_outputs(LightmapBakeRun& run) {
     memory.push_back(lightmap_memory(m.texels, lightmap_state_bytes(run.in.ao, run.in.directional, !m.traced.empty())));
     held += memory.back().total_bytes;
   }
+  const StageTimer timer(run.report.stages, "outputs");
   for (size_t i = 0; i < run.maps.size(); ++i) {
     const LightmapState& m = run.maps[i];
     run.cancel_only.check();
@@ -652,17 +676,20 @@ std::pair<double, size_t> luminance_sum(const LightmapImage& img) {
 // Rasterizes a tile and resolves its leaks; false (texels rasterized, leaks not probed) when the time limit ran out
 // first, after which nothing but a cancel stops the tile.
 bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOptions& raster, const TracerRayQuery& query,
-                 LightmapTexels& texels, LeakReport& leaks) {
+                 const LeakScope& scope, LightmapTexels& texels, LeakReport& leaks) {
   try {
     run.stage = "rasterization of lightmap '" + page.name + "'";
     texels = rasterize_lightmap(run.scene(), page.name, raster, run.stop);
+    match_tracer_offsets(texels, *run.tracer);
     run.stage = "leak probes of lightmap '" + page.name + "'";
-    leaks = fix_leaks(texels, query, LeakOptions{}, run.stop);
+    const std::vector<uint8_t> probe = scope.probe_mask(texels.samples, run.stop);
+    leaks = fix_leaks(texels, query, LeakOptions{}, run.stop, &probe);
     return true;
   } catch (const bake::OutOfTime&) {
     if (run.result.samples == 0) throw;  // before the first sample: the set-up ran out (out_of_time_in_set_up)
   }
   texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
+  match_tracer_offsets(texels, *run.tracer);
   leaks = LeakReport{};
   return false;
 }
@@ -673,8 +700,13 @@ void bake_tiles(LightmapBakeRun& run) {
   std::vector<std::vector<uint8_t>> bake_mask;
   for (const auto& t : run.checked.triangles) bake_mask.push_back(t.bake);
   std::vector<TiledPage> pages;
+  std::optional<LeakScope> scope;
   try {
     pages = bin_pages(run, bake_mask);
+    const StageTimer timer(run.report.stages, "leak_scope");
+    run.stage = "leak scope";
+    scope.emplace(run.scene(), LeakScopeOptions{}, run.stop);
+    run.report.leak_scope = scope->summary();
   } catch (const bake::OutOfTime&) {
     throw out_of_time_in_set_up(run);
   }
@@ -708,9 +740,10 @@ void bake_tiles(LightmapBakeRun& run) {
       LeakReport tile_leaks;
       bool sample = false;
       try {
-        sample = Clock::now() < options.deadline && tile_texels(run, page, raster, query, texels, tile_leaks);
+        sample = Clock::now() < options.deadline && tile_texels(run, page, raster, query, *scope, texels, tile_leaks);
         if (!sample && texels.width == 0) {
           texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
+          match_tracer_offsets(texels, *run.tracer);
         }
       } catch (const bake::OutOfTime&) {
         throw out_of_time_in_set_up(run);
@@ -771,7 +804,8 @@ void bake_tiles(LightmapBakeRun& run) {
   if (final_totals.estimated > 0) {
     result.curve.push_back({seconds_since(run.t0), result.samples, final_totals.rms()});
   }
-  result.error_estimate = result.curve.empty() ? 0 : std::max(0.0, result.curve.back().error);
+  // Unknown (−1) when no tile was sampled, as in sample_adaptively.
+  result.error_estimate = result.curve.empty() ? -1.0 : std::max(-1.0, result.curve.back().error);
   result.seconds = seconds_since(run.t0);
   write_report(run);
   run.progress(1.0, "done", result.error_estimate);
@@ -815,9 +849,15 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const bake::BakeC
   if (auto problem = validate(in)) throw *problem;
   LightmapBakeRun run(in, control);
   try {
-    prepare_scene(run);
-    plan_memory(run);
-    plan_bake(run);
+    {
+      const StageTimer timer(run.report.stages, "scene");
+      prepare_scene(run);
+    }
+    {
+      const StageTimer timer(run.report.stages, "plan");
+      plan_memory(run);
+      plan_bake(run);
+    }
     prepare_transport(run);
     if (run.memory.tile_size == 0) rasterize_texels(run);
   } catch (const bake::OutOfTime&) {

@@ -34,7 +34,7 @@ namespace kiln::lightmap {
 
 class RayLog;
 
-inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-7";
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-8";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
 struct EncodedTexture {
@@ -122,7 +122,9 @@ struct LightmapBakeResult {
   // shaded in closed Lambertian form (integrator.h), which is what pruning a glossy lobe buys.
   uint64_t general_vertices = 0;
   double seconds = 0;
-  double error_estimate = 0;  // the last point of the curve
+  // The last point of the curve; −1 (unknown) when no texel has an estimate of its error, as when the time limit
+  // ended the bake before its first sample: never 0 for want of samples.
+  double error_estimate = -1;
   LightTracingStats light_tracing;
   // How the bake held its memory (memory_estimate.h): untiled or in tiles, the estimate it planned by, and the peak
   // of what it held in its texel state and page results (the tracer and scene aside).

@@ -40,7 +40,9 @@ Json lightmap_json(const LightmapReportEntry& m) {
     j["sh_error_rms"] = m.sh->rms;
     j["sh_error_max"] = m.sh->max;
   }
-  j["leaks"] = {{"moved", m.leaks.moved},
+  j["leaks"] = {{"probed", m.leaks.samples - m.leaks.pruned},
+                {"pruned", m.leaks.pruned},
+                {"moved", m.leaks.moved},
                 {"invalidated", m.leaks.invalidated},
                 {"texels_invalidated", m.leaks.texels_invalidated}};
   j["memory_bytes"] = m.memory.total_bytes;
@@ -52,8 +54,19 @@ Json tracer_json(const LightmapReport& report) {
   const double per_triangle =
       report.tracer_triangles ? static_cast<double>(report.tracer_bytes) / report.tracer_triangles : 0.0;
   return {{"triangles", report.tracer_triangles},
+          {"stored_triangles", report.tracer_stored_triangles},
+          {"instanced_instances", report.tracer_instances},
           {"memory_bytes", report.tracer_bytes},
           {"bytes_per_triangle", per_triangle}};
+}
+
+// Each stage's seconds and share of the bake's.
+Json stages_json(const std::vector<StageTime>& stages, double total) {
+  Json out = Json::array();
+  for (const StageTime& s : stages) {
+    out.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"fraction", total > 0 ? s.seconds / total : 0.0}});
+  }
+  return out;
 }
 
 Json denoise_json(const LightmapReport& report) {
@@ -103,13 +116,21 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["mrays_per_second"] = result.rays / std::max(result.seconds, 1e-9) / 1e6;
   j["target_error"] = report.target_error;
   j["error_metric"] = to_string(report.error_metric);
-  j["error_estimate"] = result.error_estimate;
+  if (result.error_estimate >= 0) {
+    j["error_estimate"] = result.error_estimate;
+  } else {
+    j["error_estimate"] = nullptr;
+    j["error_estimate_unknown"] = result.samples == 0
+                                      ? "no texel was sampled (the time limit ran out before the first sample)"
+                                      : "no texel has two estimates to measure its error from";
+  }
   j["dropped_samples"] = report.dropped_samples;
   j["color_space"] = report.color_space;
   j["units"] = "irradiance W/m^2";
   j["plan"] = plan_json(report.plan->decisions);
   j["bounces"] = report.plan->bounces;
   j["albedo_max"] = report.plan->albedo_max;
+  j["stages"] = stages_json(report.stages, result.seconds);
   j["curve"] = curve_json(result.curve);
   j["lightmaps"] = Json::array();
   for (const LightmapReportEntry& m : report.lightmaps) j["lightmaps"].push_back(lightmap_json(m));
@@ -117,6 +138,13 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["denoise"] = denoise_json(report);
   j["tracer"] = tracer_json(report);
   j["memory"] = memory_json(result.memory);
+  const LeakScopeSummary& ls = report.leak_scope;
+  j["leak_scope"] = {{"convex_meshes", ls.convex_meshes},
+                     {"height_field_meshes", ls.height_field_meshes},
+                     {"probed_meshes", ls.probed_meshes},
+                     {"chunks", ls.chunks},
+                     {"rule", "probed only near other instances (a texel of their chunks' boxes) or on meshes that "
+                              "can hide their own points (neither convex nor a height field)"}};
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
   return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";

@@ -1,6 +1,6 @@
-// report.json of the lightmap bake: the plan, the samples and rays, the time, the error estimate and its curve over
-// the passes, per lightmap its texels, error, leaks and memory, whether it was denoised and how, the tracer's size and
-// the scene's problems.
+// report.json of the lightmap bake: the plan, the samples and rays, the time and each stage's share of it, the error
+// estimate (null when unknown: no texel was sampled) and its curve over the passes, per lightmap its texels, error,
+// leaks and memory, whether it was denoised and how, the tracer's size and the scene's problems.
 #pragma once
 
 #include <cstddef>
@@ -10,11 +10,13 @@
 #include <vector>
 
 #include "bakers/lightmap/denoise.h"
+#include "bakers/lightmap/leak_scope.h"
 #include "bakers/lightmap/leaks.h"
 #include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/lightmap/lightmap_image.h"
 #include "bakers/lightmap/lightmap_outputs.h"
 #include "bakers/lightmap/memory.h"
+#include "bakers/lightmap/stage_timer.h"
 #include "bakers/plan/lightmap_plan.h"
 
 namespace kiln::lightmap {
@@ -38,8 +40,12 @@ struct LightmapReport {
   std::string color_space;
   const plan::LightmapPlan* plan = nullptr;
   std::vector<LightmapReportEntry> lightmaps;
-  size_t tracer_triangles = 0;
+  size_t tracer_triangles = 0;         // traced, in world space
+  size_t tracer_stored_triangles = 0;  // held: an instanced mesh's once (scene::Tracer::stored_triangle_count)
+  size_t tracer_instances = 0;         // traced as Embree instances of a shared mesh
   size_t tracer_bytes = 0;
+  std::vector<StageTime> stages;
+  LeakScopeSummary leak_scope;    // which meshes could hide their own points, and the proximity test's size  // in the order they ran, each with its wall-clock seconds
   int64_t scene_problems = 0;               // all of them; result.skipped lists the ones that are listed
   const DenoiseOptions* denoise = nullptr;  // the denoiser's settings when NAME_irradiance_denoised.exr was asked for
   double denoise_seconds = 0;               // its guides and filter, over every lightmap

@@ -1,5 +1,8 @@
 #include "bakers/lightmap/tracer_query.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace kiln::lightmap {
 
 bool TracerRayQuery::two_sided(int instance, int triangle) const {
@@ -17,6 +20,17 @@ std::optional<HitInfo> TracerRayQuery::intersect(const Vec3& origin, const Vec3&
   // Only a back-face hit needs its normal (leaks.h pushes points through that face): complete just those.
   const scene::Hit hit = tracer_.complete(ray, *id);
   return HitInfo{hit.t, false, hit.ng};
+}
+
+void match_tracer_offsets(LightmapTexels& texels, const scene::Tracer& tracer) {
+  for (TexelSample& s : texels.samples) {
+    const int instance = static_cast<int>(s.triangle.instance);
+    if (!tracer.instanced(instance)) continue;
+    const double offset = tracer.ray_offset(instance, static_cast<int>(s.triangle.triangle));
+    float f = static_cast<float>(offset);
+    if (static_cast<double>(f) < offset) f = std::nextafter(f, INFINITY);  // never below the bound
+    s.ray_offset = std::max(s.ray_offset, f);
+  }
 }
 
 }  // namespace kiln::lightmap

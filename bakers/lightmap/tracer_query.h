@@ -1,4 +1,5 @@
-// Leak handling's ray query (leaks.h) answered by the Embree tracer (bakers/scene/tracer.h).
+// Leak handling's ray query (leaks.h) answered by the Embree tracer (bakers/scene/tracer.h), and the samples' ray
+// offsets matched to the tracer's.
 #pragma once
 
 #include "bakers/lightmap/leaks.h"
@@ -25,5 +26,10 @@ class TracerRayQuery final : public RayQuery {
   const scene::Scene& scene_;
   RayLog* log_;
 };
+
+// Raises the ray offset of the samples on instanced instances (scene::Tracer::instanced) to the tracer's bound
+// there (Tracer::ray_offset), which also covers Embree's float ray transform; rasterization computes the flattened
+// bound, the same as the tracer's for flattened instances, which are left as they are.
+void match_tracer_offsets(LightmapTexels& texels, const scene::Tracer& tracer);
 
 }  // namespace kiln::lightmap

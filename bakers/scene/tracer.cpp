@@ -90,14 +90,30 @@ struct TriangleVertices {
 // rounding, and stays far below any deliberate smoothing (a normal turned by 1e-3 rad already shades visibly).
 constexpr double kFlatNormal = 8 * 0x1.0p-24;
 
-// One Embree geometry: an instance's triangles in world space.
+// One top-level Embree geometry: an instance's triangles in world space (flattened), or an Embree instance of its
+// mesh's BVH (instanced).
 struct Geometry {
   int instance = 0, mesh = 0;
   const MeshAttributes* source = nullptr;
-  double normal_matrix[9];  // the inverse transpose of the instance's 3×3 part, row-major
+  size_t count = 0;         // its triangles
+  size_t first = 0;         // where its triangles start in the record arrays (an instanced mesh's: shared)
+  bool instanced = false;   // the records are in object space; to_world maps them to world space
+  double normal_matrix[9];  // the inverse transpose of the instance's 3×3 part, row-major (of to_world if instanced)
   double mirror = 1;        // sign of its determinant: −1 flips the winding's normal back outwards
   std::array<double, 4> lightmap_st{1, 1, 0, 0};
+  // Instanced only: the transform Embree holds (the instance's, rounded to float; row-major 3×4, exact in double),
+  // what the float ray transform adds to a hit's offset (instance_offset), and ‖M‖∞ (for a zero-normal triangle).
+  double to_world[12];
+  double offset_extra = 0;
+  double scale = 1;
 };
+
+// An instanced triangle's normal in world space, not normalised: M⁻ᵀ times an object-space normal n.
+Vec3 world_normal(const Geometry& g, const double (&n)[3]) {
+  const double* M = g.normal_matrix;
+  return {M[0] * n[0] + M[1] * n[1] + M[2] * n[2], M[3] * n[0] + M[4] * n[1] + M[5] * n[2],
+          M[6] * n[0] + M[7] * n[1] + M[8] * n[2]};
+}
 
 Vec3 vertex(const float* vertices, uint32_t i) {
   const float* v = vertices + 3 * static_cast<size_t>(i);
@@ -131,14 +147,23 @@ void init_ray_hit(RTCRayHit& rh, const Ray& ray) {
 struct Tracer::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
-  std::vector<Geometry> geometries;  // by Embree geometry ID
-  std::vector<size_t> first;         // by Embree geometry ID: where its triangles start in the three arrays below
+  std::vector<Geometry> geometries;  // by top-level Embree geometry ID
+  std::vector<int> geometry_of;      // by scene instance: its top-level geometry ID, −1 without triangles
+  // By mesh, for instanced meshes: its BVH (null until an instance needs it) and where its object-space records
+  // start.
+  std::vector<uint8_t> share;  // by mesh: instanced
+  std::vector<RTCScene> mesh_scenes;
+  std::vector<size_t> mesh_first;
+  std::vector<double> mesh_extent;  // its largest float object coordinate (instance_offset)
+  RTCSceneFlags scene_flags = RTC_SCENE_FLAG_NONE;
   std::vector<TriangleRecord> records;
   std::vector<TriangleFacts> facts;
   std::vector<TriangleVertices> vertices;
   std::vector<MeshAttributes> meshes;
   const bake::StopCheck* stop = nullptr;
-  size_t triangles = 0;
+  size_t triangles = 0;          // traced, in world space
+  size_t stored_triangles = 0;   // held in the records
+  size_t instanced_instances = 0, instanced_meshes = 0;
   size_t side_bytes = 0;                 // the records and the copied UV attributes
   std::atomic<int64_t> embree_bytes{0};  // what Embree holds, from its memory monitor
   Vec3 lower{INFINITY, INFINITY, INFINITY}, upper{-INFINITY, -INFINITY, -INFINITY};
@@ -175,18 +200,34 @@ struct Tracer::Impl {
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
+    for (RTCScene s : mesh_scenes)
+      if (s) rtcReleaseScene(s);
     if (device) rtcReleaseDevice(device);
   }
 
   // Building, in this order: the constructor's stages.
   void create_scene(const TracerOptions& options);
   void add_instance(const Scene& input, size_t k);
+  void add_instanced(const Scene& input, size_t k);
   void commit();
+  void commit_scene(RTCScene s, const char* doing);
+  void push_records(const Mesh& mesh, const float* vb, const uint32_t* ib, double mirror,
+                    const std::vector<Vec3>& normals);
   // Of add_instance.
   void write_world_vertices(const Scene& input, size_t k, RTCGeometry geom, float* vb);
   void add_triangles(const Scene& input, size_t k, const float* vb, const uint32_t* ib, unsigned id);
+  // Of add_instanced.
+  void build_mesh_scene(const Scene& input, size_t k);
+  void instance_bounds(const Scene& input, size_t k, const double (&m)[12]);
+  void set_geometry(unsigned id, Geometry g);
 
-  size_t triangle(unsigned geom_id, unsigned prim_id) const { return first[geom_id] + prim_id; }
+  size_t triangle(unsigned geom_id, unsigned prim_id) const { return geometries[geom_id].first + prim_id; }
+  // The top-level geometry a hit belongs to: the instance geometry for a hit inside an instanced mesh.
+  static unsigned top_geometry(const RTCHit& hit) {
+    return hit.instID[0] != RTC_INVALID_GEOMETRY_ID ? hit.instID[0] : hit.geomID;
+  }
+  // The offset of a hit on triangle record i of geometry g (Hit::offset).
+  double offset_of(const Geometry& g, size_t i) const;
   HitId id_of(const RTCRayHit& rh) const;  // of a hit
   // Inline: it follows every closest-hit query.
   [[gnu::always_inline]] inline void complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float u,
@@ -306,6 +347,37 @@ bool interpolates_normals(const std::vector<Vec3>& normals, const uint32_t (&ind
   return interpolate;
 }
 
+// ‖A‖∞ of a row-major 3×3 matrix (`stride` between rows: 4 for a 3×4 transform), and of its transpose.
+double norm_inf(const double* a, int stride) {
+  double n = 0;
+  for (int r = 0; r < 3; ++r)
+    n = std::max(n, std::fabs(a[r * stride]) + std::fabs(a[r * stride + 1]) + std::fabs(a[r * stride + 2]));
+  return n;
+}
+double norm_inf_transposed(const double (&a)[9]) {
+  double n = 0;
+  for (int c = 0; c < 3; ++c) n = std::max(n, std::fabs(a[c]) + std::fabs(a[3 + c]) + std::fabs(a[6 + c]));
+  return n;
+}
+
+// What Embree's float instancing can add to the self-intersection offset of a hit on an instanced mesh, in world
+// units. Embree traces an instance by transforming the ray into object space with the inverse of the float transform
+// M (inverted in float at commit) and testing the object-space float triangles. Against the world surface we hold
+// (M applied in double to the float object vertices) that adds, per coordinate and mapped back to world space by M:
+// the rounding of M's float inverse (a few ε·κ(M) relative), the float transform of the origin (γ_3·κ(M) of the
+// origin's and the translation's magnitudes), and the difference between our double and Embree's float world
+// geometry (ε·‖M‖ of the object coordinates and ε of the translation). Each is at most ~4·ε·κ(M)·S with
+// S = ‖M‖∞·(largest object coordinate) + ‖t‖∞ bounding the coordinates involved (the origin sits within a lift of
+// the surface), κ(M) = ‖M‖∞‖M⁻¹‖∞ (1 for a rotation); 16·ε·κ(M)·S covers their sum with room to spare. For a
+// level 500 m across that is ~0.5 mm, far below a texel, where the flattened bound (ray_offset.cpp) gives ~0.1 mm.
+// The offset along the ray's direction does not enter: the triangle test's sign decides from Ng·(v0 − O) alone.
+double instance_offset(const Geometry& g, double object_extent) {
+  const double scale = norm_inf(g.to_world, 4);
+  const double kappa = scale * norm_inf_transposed(g.normal_matrix);  // M⁻¹ = (M⁻ᵀ)ᵀ
+  const double translation = std::max({std::fabs(g.to_world[3]), std::fabs(g.to_world[7]), std::fabs(g.to_world[11])});
+  return 16 * 0x1.0p-24 * kappa * (scale * object_extent + translation);
+}
+
 }  // namespace
 
 void Tracer::Impl::create_scene(const TracerOptions& options) {
@@ -316,7 +388,8 @@ void Tracer::Impl::create_scene(const TracerOptions& options) {
   rtcSetDeviceErrorFunction(device, &Impl::on_error, this);
   rtcSetDeviceMemoryMonitorFunction(device, &Impl::on_memory, this);
   scene = rtcNewScene(device);
-  rtcSetSceneFlags(scene, options.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+  scene_flags = options.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE;
+  rtcSetSceneFlags(scene, scene_flags);
   rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
   check("creating the scene");
 }
@@ -327,6 +400,10 @@ void Tracer::Impl::add_instance(const Scene& input, size_t k) {
   const Mesh& mesh = input.meshes[inst.mesh];
   const size_t nt = mesh.indices.size() / 3, nv = mesh.positions.size();
   if (nt == 0) return;
+  if (share[inst.mesh]) {
+    add_instanced(input, k);
+    return;
+  }
   RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
   rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
   auto* vb = static_cast<float*>(
@@ -374,23 +451,15 @@ void Tracer::Impl::write_world_vertices(const Scene& input, size_t k, RTCGeometr
   }
 }
 
-// The records of instance k's triangles, traced as Embree geometry `id` from the buffers `vb` and `ib`.
-void Tracer::Impl::add_triangles(const Scene& input, size_t k, const float* vb, const uint32_t* ib, unsigned id) {
-  const Instance& inst = input.instances[k];
-  const Mesh& mesh = input.meshes[inst.mesh];
+// The records of a mesh's triangles from the float vertices `vb` and indices `ib` Embree traces (world space for a
+// flattened instance, object space for an instanced mesh), `normals` in the same space.
+void Tracer::Impl::push_records(const Mesh& mesh, const float* vb, const uint32_t* ib, double mirror,
+                                const std::vector<Vec3>& normals) {
   const size_t nt = mesh.indices.size() / 3;
-  Geometry g;
-  g.instance = static_cast<int>(k);
-  g.mesh = inst.mesh;
-  g.source = &meshes[inst.mesh];
-  g.mirror = inverse_transpose(inst.to_world, g.normal_matrix);
-  g.lightmap_st = inst.lightmap_scale_offset;
-  const std::vector<Vec3> normals = world_normals(mesh, g.normal_matrix);
-  const size_t first_triangle = records.size();
   for (size_t t = 0; t < nt; ++t) {
     if (stop && t % 65536 == 65535) stop->check();
     const TriangleVertices tv = triangle_vertices(ib, t, normals);
-    const TriangleRecord r = triangle_record(vb, tv.index, g.mirror);
+    const TriangleRecord r = triangle_record(vb, tv.index, mirror);
     const Vec3 n{r.ng[0], r.ng[1], r.ng[2]};
     TriangleFacts f{};
     f.zero_normal = n.x == 0.0 && n.y == 0.0 && n.z == 0.0;
@@ -401,23 +470,160 @@ void Tracer::Impl::add_triangles(const Scene& input, size_t k, const float* vb, 
     vertices.push_back(tv);
   }
   side_bytes += nt * (sizeof(TriangleRecord) + sizeof(TriangleFacts) + sizeof(TriangleVertices));
-  if (geometries.size() <= id) geometries.resize(id + 1);
-  if (first.size() <= id) first.resize(id + 1);
-  first[id] = first_triangle;
-  geometries[id] = std::move(g);
-  triangles += nt;
+  stored_triangles += nt;
 }
 
-void Tracer::Impl::commit() {
-  for (const MeshAttributes& m : meshes) side_bytes += (m.uv.size() + m.lightmap_uv.size()) * sizeof(Point2);
-  if (stop) rtcSetSceneProgressMonitorFunction(scene, &Impl::on_progress, this);
-  rtcCommitScene(scene);
+void Tracer::Impl::set_geometry(unsigned id, Geometry g) {
+  if (geometries.size() <= id) geometries.resize(id + 1);
+  geometry_of[g.instance] = static_cast<int>(id);
+  triangles += g.count;
+  geometries[id] = std::move(g);
+}
+
+// The records of instance k's triangles, traced as Embree geometry `id` from the buffers `vb` and `ib`.
+void Tracer::Impl::add_triangles(const Scene& input, size_t k, const float* vb, const uint32_t* ib, unsigned id) {
+  const Instance& inst = input.instances[k];
+  const Mesh& mesh = input.meshes[inst.mesh];
+  Geometry g;
+  g.instance = static_cast<int>(k);
+  g.mesh = inst.mesh;
+  g.source = &meshes[inst.mesh];
+  g.count = mesh.indices.size() / 3;
+  g.first = records.size();
+  g.mirror = inverse_transpose(inst.to_world, g.normal_matrix);
+  g.lightmap_st = inst.lightmap_scale_offset;
+  push_records(mesh, vb, ib, g.mirror, world_normals(mesh, g.normal_matrix));
+  set_geometry(id, std::move(g));
+}
+
+// Commits a scene (the top level or a mesh's), cancelled by the stop through Embree's progress monitor.
+void Tracer::Impl::commit_scene(RTCScene s, const char* doing) {
+  if (stop) rtcSetSceneProgressMonitorFunction(s, &Impl::on_progress, this);
+  rtcCommitScene(s);
   // A build cancelled by the progress monitor is a stop, not a failure of Embree's.
   if (stop && stop->requested()) {
     rtcGetDeviceError(device);  // clears RTC_ERROR_CANCELLED
     stop->check();
   }
-  check("building the acceleration structure");
+  check(doing);
+}
+
+// The BVH of instance k's mesh in object space (its vertices rounded to float), and its records, for every instance
+// of the mesh.
+void Tracer::Impl::build_mesh_scene(const Scene& input, size_t k) {
+  const int m = input.instances[k].mesh;
+  const Mesh& mesh = input.meshes[m];
+  const size_t nt = mesh.indices.size() / 3, nv = mesh.positions.size();
+  RTCScene ms = rtcNewScene(device);
+  mesh_scenes[m] = ms;  // released with the tracer
+  rtcSetSceneFlags(ms, scene_flags);
+  rtcSetSceneBuildQuality(ms, RTC_BUILD_QUALITY_HIGH);
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
+  auto* vb = static_cast<float*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+  auto* ib = static_cast<uint32_t*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
+  if (!vb || !ib) {
+    rtcReleaseGeometry(geom);
+    check("allocating the geometry buffers");
+    throw std::runtime_error("Embree returned no geometry buffer for " + where(input, k, m));
+  }
+  std::vector<uint8_t> used(nv, 0);
+  for (uint32_t i : mesh.indices) used[i] = 1;
+  double extent = 0;
+  for (size_t v = 0; v < nv; ++v) {
+    const Vec3& p = mesh.positions[used[v] ? v : mesh.indices[0]];
+    const float f[3] = {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
+    if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
+      rtcReleaseGeometry(geom);
+      throw std::invalid_argument("tracer: mesh " + std::to_string(m) + " '" + mesh.name + "': vertex " +
+                                  std::to_string(v) + " is beyond single precision; scale the scene down");
+    }
+    std::copy(f, f + 3, vb + 3 * v);
+    extent = std::max({extent, std::fabs(double(f[0])), std::fabs(double(f[1])), std::fabs(double(f[2]))});
+  }
+  std::copy(mesh.indices.begin(), mesh.indices.end(), ib);
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(ms, geom);
+  rtcReleaseGeometry(geom);
+  check("adding a mesh's geometry");
+  mesh_first[m] = records.size();
+  mesh_extent[m] = extent;
+  const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  push_records(mesh, vb, ib, 1.0, world_normals(mesh, identity));
+  ++instanced_meshes;
+  commit_scene(ms, "building a mesh's acceleration structure");
+}
+
+// Widens the bounds by instance k's float world vertices under its float transform `m`; throws for a vertex beyond
+// float range.
+void Tracer::Impl::instance_bounds(const Scene& input, size_t k, const double (&m)[12]) {
+  const Instance& inst = input.instances[k];
+  const Mesh& mesh = input.meshes[inst.mesh];
+  std::vector<uint8_t> used(mesh.positions.size(), 0);
+  for (uint32_t i : mesh.indices) used[i] = 1;
+  for (size_t v = 0; v < used.size(); ++v) {
+    if (!used[v]) continue;
+    const Vec3& p = mesh.positions[v];
+    const double x = static_cast<float>(p.x), y = static_cast<float>(p.y), z = static_cast<float>(p.z);
+    const double w[3] = {m[0] * x + m[1] * y + m[2] * z + m[3], m[4] * x + m[5] * y + m[6] * z + m[7],
+                         m[8] * x + m[9] * y + m[10] * z + m[11]};
+    const float f[3] = {static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])};
+    if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2]))
+      throw std::invalid_argument("tracer: " + where(input, k, inst.mesh) + ": vertex " + std::to_string(v) +
+                                  " lands at (" + std::to_string(w[0]) + ", " + std::to_string(w[1]) + ", " +
+                                  std::to_string(w[2]) + ") in world space, beyond single precision; scale the scene down");
+    lower = {std::min(lower.x, double(f[0])), std::min(lower.y, double(f[1])), std::min(lower.z, double(f[2]))};
+    upper = {std::max(upper.x, double(f[0])), std::max(upper.y, double(f[1])), std::max(upper.z, double(f[2]))};
+  }
+}
+
+// Instance k as an Embree instance of its mesh's BVH (built by its first instance).
+void Tracer::Impl::add_instanced(const Scene& input, size_t k) {
+  const Instance& inst = input.instances[k];
+  const int m = inst.mesh;
+  if (!mesh_scenes[m]) build_mesh_scene(input, k);
+  Geometry g;
+  g.instance = static_cast<int>(k);
+  g.mesh = m;
+  g.source = &meshes[m];
+  g.count = input.meshes[m].indices.size() / 3;
+  g.first = mesh_first[m];
+  g.instanced = true;
+  Transform rounded;
+  float xfm[12];
+  for (int i = 0; i < 12; ++i) {
+    xfm[i] = static_cast<float>(inst.to_world.m[i]);
+    g.to_world[i] = rounded.m[i] = xfm[i];
+  }
+  g.mirror = inverse_transpose(rounded, g.normal_matrix);
+  bool finite = true;
+  for (int i = 0; i < 12; ++i) finite = finite && std::isfinite(xfm[i]);
+  for (double e : g.normal_matrix) finite = finite && std::isfinite(e);
+  if (!finite)
+    throw std::invalid_argument("tracer: " + where(input, k, m) +
+                                " has a transform that is singular or beyond single precision once rounded to float; "
+                                "scale the scene down");
+  g.lightmap_st = inst.lightmap_scale_offset;
+  g.scale = norm_inf(g.to_world, 4);
+  g.offset_extra = instance_offset(g, mesh_extent[m]);
+  instance_bounds(input, k, g.to_world);
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
+  rtcSetGeometryInstancedScene(geom, mesh_scenes[m]);
+  rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, xfm);
+  rtcCommitGeometry(geom);
+  const unsigned id = rtcAttachGeometry(scene, geom);
+  rtcReleaseGeometry(geom);  // the scene holds it
+  check("adding an instance");
+  ++instanced_instances;
+  set_geometry(id, std::move(g));
+}
+
+void Tracer::Impl::commit() {
+  for (const MeshAttributes& m : meshes) side_bytes += (m.uv.size() + m.lightmap_uv.size()) * sizeof(Point2);
+  side_bytes += geometries.size() * sizeof(Geometry) + geometry_of.size() * sizeof(int);
+  commit_scene(scene, "building the acceleration structure");
 }
 
 Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::make_unique<Impl>()) {
@@ -426,8 +632,24 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
   Impl& im = *impl_;
   im.stop = options.stop;
   im.create_scene(options);
-  im.meshes.resize(scene.meshes.size());
-  for (size_t m = 0; m < scene.meshes.size(); ++m) im.meshes[m] = {scene.meshes[m].uv, scene.meshes[m].lightmap_uv};
+  const size_t nm = scene.meshes.size();
+  im.meshes.resize(nm);
+  for (size_t m = 0; m < nm; ++m) im.meshes[m] = {scene.meshes[m].uv, scene.meshes[m].lightmap_uv};
+  // Which meshes are instanced (TracerOptions::instancing): by the instances that trace them.
+  std::vector<size_t> uses(nm, 0);
+  for (const Instance& inst : scene.instances)
+    if (!scene.meshes[inst.mesh].indices.empty()) ++uses[inst.mesh];
+  im.share.resize(nm);
+  for (size_t m = 0; m < nm; ++m) {
+    const size_t copies = uses[m] > 1 ? (uses[m] - 1) * (scene.meshes[m].indices.size() / 3) : 0;
+    im.share[m] = options.instancing == Instancing::all      ? uses[m] > 0
+                  : options.instancing == Instancing::shared ? copies >= kInstancingMinCopies
+                                                             : false;
+  }
+  im.mesh_scenes.assign(nm, nullptr);
+  im.mesh_first.assign(nm, 0);
+  im.mesh_extent.assign(nm, 0);
+  im.geometry_of.assign(scene.instances.size(), -1);
   for (size_t k = 0; k < scene.instances.size(); ++k) {
     if (im.stop) im.stop->check();
     im.add_instance(scene, k);
@@ -440,11 +662,40 @@ Tracer::Tracer(Tracer&&) noexcept = default;
 Tracer& Tracer::operator=(Tracer&&) noexcept = default;
 
 size_t Tracer::triangle_count() const { return impl_->triangles; }
+size_t Tracer::stored_triangle_count() const { return impl_->stored_triangles; }
+size_t Tracer::instanced_instance_count() const { return impl_->instanced_instances; }
+size_t Tracer::instanced_mesh_count() const { return impl_->instanced_meshes; }
+
+bool Tracer::instanced(int instance) const {
+  const auto& of = impl_->geometry_of;
+  return instance >= 0 && static_cast<size_t>(instance) < of.size() && of[instance] >= 0 &&
+         impl_->geometries[of[instance]].instanced;
+}
+
+double Tracer::ray_offset(int instance, int triangle) const {
+  const auto& of = impl_->geometry_of;
+  if (instance < 0 || static_cast<size_t>(instance) >= of.size() || of[instance] < 0)
+    throw std::out_of_range("tracer: instance " + std::to_string(instance) + " has no triangles traced");
+  const Geometry& g = impl_->geometries[of[instance]];
+  if (triangle < 0 || static_cast<size_t>(triangle) >= g.count)
+    throw std::out_of_range("tracer: triangle " + std::to_string(triangle) + " of instance " +
+                            std::to_string(instance) + " out of range for " + std::to_string(g.count));
+  return impl_->offset_of(g, g.first + static_cast<size_t>(triangle));
+}
 size_t Tracer::memory_bytes() const {
   return static_cast<size_t>(std::max<int64_t>(0, impl_->embree_bytes.load())) + impl_->side_bytes;
 }
 Vec3 Tracer::bounds_lower() const { return impl_->lower; }
 Vec3 Tracer::bounds_upper() const { return impl_->upper; }
+
+double Tracer::Impl::offset_of(const Geometry& g, size_t i) const {
+  const TriangleRecord& r = records[i];
+  if (!g.instanced) return r.offset;
+  // The object-space lift h_o is h_o / |M⁻ᵀ n_o| in world space (a world displacement h·n_w moves h·|M⁻ᵀ n_o| along
+  // n_o), plus what the float ray transform adds (instance_offset). A zero normal cannot be hit: ‖M‖ bounds it.
+  if (facts[i].zero_normal) return r.offset * g.scale + g.offset_extra;
+  return r.offset / length(world_normal(g, r.ng)) + g.offset_extra;
+}
 
 inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned prim_id, float t, float hu, float hv,
                                    HitDetail detail, Hit& h) const {
@@ -461,15 +712,37 @@ inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned pr
   h.v = hv;
   const double w = 1.0 - h.u - h.v;
   auto point = [&](const float(&q)[3][3], int c) { return q[0][c] * w + q[1][c] * h.u + q[2][c] * h.v; };
-  h.p = {point(r.p, 0), point(r.p, 1), point(r.p, 2)};
-  // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
-  // anyway (stored as zero), face the ray.
-  h.ng = f.zero_normal ? -normalize(ray.direction) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
+  if (!g.instanced) {
+    h.p = {point(r.p, 0), point(r.p, 1), point(r.p, 2)};
+    // Embree cannot hit a triangle whose float normal is zero (its determinant is 0); if the double one underflows
+    // anyway (stored as zero), face the ray.
+    h.ng = f.zero_normal ? -normalize(ray.direction) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
+    h.offset = r.offset;
+  } else {
+    // The object-space point and normals through the instance's (float) transform, in double.
+    const double* m = g.to_world;
+    const Vec3 q{point(r.p, 0), point(r.p, 1), point(r.p, 2)};
+    h.p = {m[0] * q.x + m[1] * q.y + m[2] * q.z + m[3], m[4] * q.x + m[5] * q.y + m[6] * q.z + m[7],
+           m[8] * q.x + m[9] * q.y + m[10] * q.z + m[11]};
+    if (f.zero_normal) {
+      h.ng = -normalize(ray.direction);
+      h.offset = r.offset * g.scale + g.offset_extra;
+    } else {
+      const Vec3 n = world_normal(g, r.ng);
+      const double len = length(n);
+      h.ng = n * (1.0 / len);
+      h.offset = r.offset / len + g.offset_extra;
+    }
+  }
   h.front_face = dot(ray.direction, h.ng) < 0;
   h.ns = h.ng;
   if (f.interpolate_normals) {
     const TriangleVertices& tv = vertices[i];
-    const Vec3 nw{point(tv.n, 0), point(tv.n, 1), point(tv.n, 2)};
+    Vec3 nw{point(tv.n, 0), point(tv.n, 1), point(tv.n, 2)};
+    if (g.instanced) {
+      const double o[3] = {nw.x, nw.y, nw.z};
+      nw = world_normal(g, o);
+    }
     const double nl = length(nw);
     // Opposite vertex normals can interpolate to zero inside the triangle: the geometric normal stands in.
     if (nl > 0 && std::isfinite(nl)) h.ns = nw * ((dot(nw, h.ng) < 0 ? -1.0 : 1.0) / nl);
@@ -490,7 +763,6 @@ inline void Tracer::Impl::complete(const Ray& ray, unsigned geom_id, unsigned pr
       h.uv = {a.x * w + b.x * h.u + d.x * h.v, a.y * w + b.y * h.u + d.y * h.v};
     }
   }
-  h.offset = r.offset;
 }
 
 namespace {
@@ -503,7 +775,7 @@ bool intersect1(RTCScene scene, const Ray& ray, RTCRayHit& rh) {
   return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
 }
 
-// `r`: the record of the triangle hit, `g` its geometry.
+// `r`: the record of the triangle hit, `g` its (top-level) geometry.
 HitId make_id(const RTCRayHit& rh, const TriangleRecord& r, const Geometry& g) {
   HitId id;
   id.t = rh.ray.tfar;
@@ -512,28 +784,30 @@ HitId make_id(const RTCRayHit& rh, const TriangleRecord& r, const Geometry& g) {
   id.u = rh.hit.u;
   id.v = rh.hit.v;
   // Embree's Ng is (p1 − p0) × (p2 − p0) up to Embree's sign convention, which we do not rely on: ours, stored.
-  const double* ng = r.ng;
-  id.front_face = ng[0] * rh.ray.dir_x + ng[1] * rh.ray.dir_y + ng[2] * rh.ray.dir_z < 0;
+  // An instanced triangle's: M⁻ᵀ times the object normal points the same way as its world normal.
+  const Vec3 ng = g.instanced ? world_normal(g, r.ng) : Vec3{r.ng[0], r.ng[1], r.ng[2]};
+  id.front_face = ng.x * rh.ray.dir_x + ng.y * rh.ray.dir_y + ng.z * rh.ray.dir_z < 0;
   return id;
 }
 }  // namespace
 
 HitId Tracer::Impl::id_of(const RTCRayHit& rh) const {
-  return make_id(rh, records[triangle(rh.hit.geomID, rh.hit.primID)], geometries[rh.hit.geomID]);
+  const unsigned top = top_geometry(rh.hit);
+  return make_id(rh, records[triangle(top, rh.hit.primID)], geometries[top]);
 }
 
 std::optional<Hit> Tracer::intersect(const Ray& ray, HitDetail detail) const {
   RTCRayHit rh;
   if (!intersect1(impl_->scene, ray, rh)) return std::nullopt;
   Hit h;
-  impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail, h);
+  impl_->complete(ray, Impl::top_geometry(rh.hit), rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail, h);
   return h;
 }
 
 bool Tracer::intersect(const Ray& ray, Hit& out, HitDetail detail) const {
   RTCRayHit rh;
   if (!intersect1(impl_->scene, ray, rh)) return false;
-  impl_->complete(ray, rh.hit.geomID, rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail, out);
+  impl_->complete(ray, Impl::top_geometry(rh.hit), rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v, detail, out);
   return true;
 }
 
@@ -544,14 +818,11 @@ std::optional<HitId> Tracer::intersect_id(const Ray& ray) const {
 }
 
 Hit Tracer::complete(const Ray& ray, const HitId& id) const {
-  // Geometry IDs follow the instances that have triangles, in order; find the one of this instance.
-  const auto& gs = impl_->geometries;
-  const auto it = std::lower_bound(gs.begin(), gs.end(), id.instance,
-                                   [](const Geometry& g, int instance) { return g.instance < instance; });
-  if (it == gs.end() || it->instance != id.instance)
+  const auto& of = impl_->geometry_of;
+  if (id.instance < 0 || static_cast<size_t>(id.instance) >= of.size() || of[id.instance] < 0)
     throw std::invalid_argument("tracer: HitId of instance " + std::to_string(id.instance) + " which has no triangles");
   Hit h;
-  impl_->complete(ray, static_cast<unsigned>(it - gs.begin()), static_cast<unsigned>(id.triangle),
+  impl_->complete(ray, static_cast<unsigned>(of[id.instance]), static_cast<unsigned>(id.triangle),
                   static_cast<float>(id.t), static_cast<float>(id.u), static_cast<float>(id.v), HitDetail{}, h);
   return h;
 }

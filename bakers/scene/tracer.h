@@ -1,15 +1,21 @@
 // Ray tracing a cleaned scene (scene_check.h) with Embree. Embree stays behind this header (pimpl).
 //
-// Geometry: one Embree triangle geometry per instance, its vertices transformed to world space in double and rounded
-// to float once, in a single-level BVH built with RTC_BUILD_QUALITY_HIGH. Flattening instead of Embree's instancing
-// because (1) lightmap scenes are mostly unique geometry, so instancing saves little memory, (2) one level of BVH
-// traces faster than two (no per-instance ray transform, no overlapping instance boxes for the SAH to work around),
-// and (3) the float error of a hit is then that of one float triangle in world space, which ray_offset.h bounds
-// exactly; with instancing the ray is transformed in float too and the bound would have to include that.
-// RTC_SCENE_FLAG_ROBUST by default: watertight edges, so light does not leak through the seams of closed rooms.
+// Geometry, two ways (TracerOptions::instancing):
+//   - Flattened: an instance whose mesh no other instance uses is one Embree triangle geometry of its own, its
+//     vertices transformed to world space in double and rounded to float once. One level of BVH traces faster than
+//     two (no per-instance ray transform, no overlapping instance boxes for the SAH to work around), and the float
+//     error of a hit is that of one float triangle in world space, which ray_offset.h bounds exactly.
+//   - Instanced: a mesh used by several instances (enough to matter: Instancing::shared) is one BVH of its own (its vertices rounded to float in object
+//     space), and each instance is an Embree instance geometry (RTC_GEOMETRY_TYPE_INSTANCE) of it with the instance's
+//     transform rounded to float: a level of 10,000 instances of a few hundred meshes holds each mesh once. Embree
+//     transforms the ray into object space in float, so the offset of a hit (Hit::offset) adds a bound on that
+//     transform's error to the object-space bound (tracer.cpp, instance_offset); hit points, normals and offsets are
+//     otherwise computed in double in world space as for flattened geometry.
+// Both in a single top-level BVH built with RTC_BUILD_QUALITY_HIGH. RTC_SCENE_FLAG_ROBUST by default: watertight
+// edges, so light does not leak through the seams of closed rooms.
 //
 // Thread safety: every query is const and uses its own RTCIntersectContext; any number of threads may trace at once.
-// The Tracer keeps what it needs (world-space float vertices, indices, normals, UVs): the Scene may go away.
+// The Tracer keeps what it needs (float vertices, indices, normals, UVs, transforms): the Scene may go away.
 #pragma once
 
 #include <cstdint>
@@ -63,8 +69,22 @@ struct HitDetail {
   bool uv = true;
 };
 
+// Which meshes go to Embree once, as instances of one BVH (above).
+enum class Instancing {
+  // Meshes used by several instances whose copies would hold at least kInstancingMinCopies triangles beyond the
+  // first (the default). Two-level traversal costs rays ~20-30 % where they meet instances (tracer_bench's room),
+  // which buys little when the copies are small; a single-use mesh is always flattened.
+  shared,
+  none,    // every instance flattened (the world-space copy of each mesh per instance)
+  all,     // every mesh, even one used once (for measurements)
+};
+
+// Instancing::shared's threshold: triangles × (instances − 1) of a mesh, ~1 MB of flattened copies.
+inline constexpr size_t kInstancingMinCopies = 4096;
+
 struct TracerOptions {
   bool robust = true;  // RTC_SCENE_FLAG_ROBUST (watertight); false trades that for ~speed
+  Instancing instancing = Instancing::shared;
   // Polled while the tracer copies the geometry (every 65536 triangles) and while Embree builds the BVH (its progress
   // monitor, which cancels the build); the constructor then throws what stop->check() throws. Null: never stops.
   const bake::StopCheck* stop = nullptr;
@@ -97,9 +117,23 @@ class Tracer {
   // The full hit record for a HitId of the ray it came from.
   Hit complete(const Ray& ray, const HitId& id) const;
 
+  // The lift off instance `instance`'s triangle `triangle` that clears the tracer's float error there: what a Hit on
+  // it reports as `offset`. For a flattened instance it equals self_intersection_offset of its float world vertices;
+  // for an instanced one it also covers Embree's float ray transform. Throws std::out_of_range for a triangle the
+  // tracer does not hold.
+  double ray_offset(int instance, int triangle) const;
+  // Whether instance `instance` is traced as an Embree instance (false: flattened, or no triangles).
+  bool instanced(int instance) const;
+
+  // Triangles traced, in world space: every instance's (instanced ones counted once per instance).
   size_t triangle_count() const;
-  // Memory the tracer holds: Embree's (its BVH and vertex and index buffers, from its memory monitor) and the
-  // tracer's own per-triangle and per-vertex arrays.
+  // Triangles held: those of flattened instances, and each instanced mesh's once.
+  size_t stored_triangle_count() const;
+  // Instances traced as Embree instances, and the meshes they share.
+  size_t instanced_instance_count() const;
+  size_t instanced_mesh_count() const;
+  // Memory the tracer holds: Embree's (its BVHs, an instanced mesh's once, vertex and index buffers and instance
+  // geometries, from its memory monitor) and the tracer's own per-triangle, per-vertex and per-instance arrays.
   size_t memory_bytes() const;
   // World-space bounds of everything traced (empty: lower > upper).
   Vec3 bounds_lower() const;

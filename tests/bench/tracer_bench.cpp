@@ -4,6 +4,10 @@
 // threads. Counters: Mrays/s, rays per wall-clock second; Mrays/cpu_s, rays per CPU-second of the process (all its
 // threads), the figure to trust on a shared machine. This is the baseline the lightmap benchmark's ray throughput is
 // compared against (use the same workload, tests/bench/ray_workload.h).
+// Geometry (scene::Instancing): "robust" and "fast" trace the default (here every instance flattened: the room's two
+// blocks share a mesh, but one copy of 192 triangles is below kInstancingMinCopies); "robust_flat" flattens every
+// instance whatever the scene; "robust_all" makes every mesh an Embree instance of its own BVH (two-level traversal
+// everywhere: what instancing costs a ray).
 //
 //   tracer_bench [--benchmark_filter=...] [Google Benchmark flags]
 #include <benchmark/benchmark.h>
@@ -14,6 +18,7 @@
 #include <ctime>
 #include <memory>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "bakers/scene/scene_check.h"
@@ -29,15 +34,33 @@ constexpr size_t kRays = 1 << 18;  // per iteration: enough to average over the 
 struct Fixture {
   Tracer tracer;
   std::vector<Ray> closest, occlusion;
-  explicit Fixture(bool robust)
-      : tracer(check_scene(test::box_room()).scene, TracerOptions{.robust = robust}),
+  Fixture(bool robust, Instancing instancing)
+      : tracer(check_scene(test::box_room()).scene, TracerOptions{.robust = robust, .instancing = instancing}),
         closest(bench::incoherent_rays(tracer.bounds_lower(), tracer.bounds_upper(), kRays, false, 1)),
         occlusion(bench::incoherent_rays(tracer.bounds_lower(), tracer.bounds_upper(), kRays, true, 2)) {}
 };
 
-const Fixture& fixture(bool robust) {
-  static const Fixture robust_fixture(true), fast_fixture(false);
-  return robust ? robust_fixture : fast_fixture;
+enum class Geometry { robust, fast, robust_flat, robust_all };
+
+const Fixture& fixture(Geometry g) {
+  switch (g) {
+    case Geometry::fast: {
+      static const Fixture f(false, Instancing::shared);
+      return f;
+    }
+    case Geometry::robust_flat: {
+      static const Fixture f(true, Instancing::none);
+      return f;
+    }
+    case Geometry::robust_all: {
+      static const Fixture f(true, Instancing::all);
+      return f;
+    }
+    case Geometry::robust:
+      break;
+  }
+  static const Fixture f(true, Instancing::shared);
+  return f;
 }
 
 double process_cpu_seconds() {
@@ -49,9 +72,9 @@ double process_cpu_seconds() {
 enum class Query { closest_id, closest_full, occluded, closest_stream, occluded_stream };
 
 // One iteration traces all kRays rays, split over `threads` TBB workers in chunks of 1024.
-void trace(benchmark::State& state, Query query, bool robust) {
+void trace(benchmark::State& state, Query query, Geometry geometry) {
   const int threads = static_cast<int>(state.range(0));
-  const Fixture& f = fixture(robust);
+  const Fixture& f = fixture(geometry);
   const bool occ = query == Query::occluded || query == Query::occluded_stream;
   const std::vector<Ray>& rays = occ ? f.occlusion : f.closest;
   tbb::task_arena arena(threads);
@@ -95,6 +118,7 @@ void trace(benchmark::State& state, Query query, bool robust) {
   state.counters["Mrays/cpu_s"] = static_cast<double>(rays.size()) * state.iterations() * 1e-6 / cpu_seconds;
   state.counters["hit_fraction"] = static_cast<double>(hit_count) / rays.size();
   state.counters["triangles"] = static_cast<double>(f.tracer.triangle_count());
+  state.counters["memory_MB"] = static_cast<double>(f.tracer.memory_bytes()) / 1048576.0;
 }
 
 void register_all() {
@@ -107,10 +131,14 @@ void register_all() {
                            {"occluded", Query::occluded},
                            {"closest_id_stream", Query::closest_stream},
                            {"occluded_stream", Query::occluded_stream}};
-  for (const bool robust : {true, false})
+  const std::pair<Geometry, const char*> geometries[] = {{Geometry::robust, "/robust"},
+                                                         {Geometry::fast, "/fast"},
+                                                         {Geometry::robust_flat, "/robust_flat"},
+                                                         {Geometry::robust_all, "/robust_all"}};
+  for (const auto& [geometry, suffix] : geometries)
     for (const Entry& e : entries)
-      benchmark::RegisterBenchmark((std::string("tracer/") + e.name + (robust ? "/robust" : "/fast")).c_str(),
-                                   [q = e.query, robust](benchmark::State& s) { trace(s, q, robust); })
+      benchmark::RegisterBenchmark((std::string("tracer/") + e.name + suffix).c_str(),
+                                   [q = e.query, g = geometry](benchmark::State& s) { trace(s, q, g); })
           ->ArgName("threads")
           ->Arg(1)
           ->Arg(2)

@@ -1,0 +1,81 @@
+// Which sample points can leak (leaks.h), decided from the scene's geometry before any probe ray, so that the probes
+// (rings × sectors rays a point) go only where they can find something: on a lone terrain they found nothing, and
+// cost a 1 M-triangle terrain at 1024² its whole 30 s time limit.
+//
+// A probe finds a leak when the point's rays see mostly back faces: the point lies inside or behind geometry. The
+// back faces are either its own instance's or another instance's:
+//   - Another instance J can put a point p inside or behind it only where p lies in or near J: a point outside the
+//     box of a closed mesh is outside the mesh and sees its front faces; an open surface (a one-sided wall) seen
+//     from behind hides the points just behind it, within `margin_texels` texel sizes (a texel straddling it).
+//     Back faces of J farther away are J's open side seen from afar, which a probe would wrongly take for a leak.
+//     "Near" is tested against the boxes of chunks of `chunk_triangles` consecutive triangles of J (in world
+//     space), so a point on a large terrain is probed near the rocks on it but not everywhere in the terrain's
+//     box, and a rock's top is not probed for the terrain under it.
+//   - Its own instance cannot show a point back faces (of the point's hemisphere, where the probe looks) when its
+//     mesh is
+//       convex: every triangle has the whole mesh on or behind its plane (a plane, a box, a cylinder), so every ray
+//       leaving a triangle to its front stays in front of the mesh; or
+//       a height field: some direction d has n·d > 0 for every triangle normal n, the triangles' projections along
+//       d do not overlap (a terrain), and triangles that meet have normals less than 90° apart; a point lifted off
+//       the surface along its triangle's normal is then above the surface (in front of every neighbour's plane too),
+//       and a ray from there must cross the surface downwards, through a front face, before it could reach the
+//       underside. (A valley sharper than 90° puts a point on its crease, lifted along one side's normal, behind the
+//       other side: probed.)
+//     Both are properties of the mesh under any affine transform with the same winding, so they are decided once
+//     per mesh in object space. Any other mesh (a building whose floor runs under its walls) is probed everywhere.
+// A point neither near another instance nor on a mesh that can hide it is clear without a probe.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "bakers/bake/stop.h"
+#include "bakers/lightmap/texels.h"
+#include "bakers/math/vec3.h"
+#include "bakers/scene/scene.h"
+
+namespace kiln::lightmap {
+
+struct LeakScopeOptions {
+  double margin_texels = 1.0;  // > 0
+  int chunk_triangles = 16;    // ≥ 1
+};
+
+// How the meshes of the scene's instances were judged.
+struct LeakScopeSummary {
+  size_t convex_meshes = 0;        // cannot hide their own points: convex
+  size_t height_field_meshes = 0;  // cannot hide their own points: a height field
+  size_t probed_meshes = 0;        // may hide their own points: probed everywhere
+  size_t chunks = 0;               // boxes the proximity test holds
+};
+
+class LeakScope {
+ public:
+  // Polls `stop` and throws what its check() throws. The scene must be clean (scene::check_scene's output).
+  LeakScope(const scene::Scene& scene, const LeakScopeOptions& options = {}, const bake::StopCheck& stop = {});
+
+  // Per sample: 1 where it may leak and must be probed, 0 where it cannot (above). Parallel, deterministic.
+  std::vector<uint8_t> probe_mask(std::span<const TexelSample> samples, const bake::StopCheck& stop = {}) const;
+
+  // Whether mesh m can show its own points back faces (neither convex nor a height field).
+  bool self_hiding(int mesh) const { return self_hiding_[static_cast<size_t>(mesh)] != 0; }
+  const LeakScopeSummary& summary() const { return summary_; }
+
+ private:
+  struct Chunk {
+    Vec3 lower, upper;
+    uint32_t instance;
+  };
+  LeakScopeOptions options_;
+  std::vector<uint8_t> self_hiding_;  // by mesh
+  std::vector<Chunk> chunks_;
+  LeakScopeSummary summary_;
+};
+
+// Exposed for tests: the two mesh properties above (object space, clean mesh).
+bool is_convex_mesh(const scene::Mesh& mesh);
+bool is_height_field(const scene::Mesh& mesh);
+
+}  // namespace kiln::lightmap
