@@ -24,6 +24,7 @@
 #include "bakers/lightmap/lightmap_report.h"
 #include "bakers/lightmap/lightmap_state.h"
 #include "bakers/lightmap/memory.h"
+#include "bakers/lightmap/seams.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/lightmap/tracer_query.h"
 #include "bakers/plan/lightmap_plan.h"
@@ -413,23 +414,33 @@ void write_lightmap(LightmapBakeRun& run, const LightmapState& m) {
   options.color_space = run.color_space;
   options.metric = in.error_metric;
   options.stop = &run.cancel_only;
+  std::optional<LightmapSeams> seams;
+  if (in.stitch_seams) {
+    seams.emplace(run.checked, m.name, m.image.width(), m.image.height(), m.image.validity());
+    options.finish = seams->finish(true);
+  }
+  const ImageFinish stitch = seams ? seams->finish(false) : ImageFinish{};
   for (bake::BakeOutput& o : encode_lightmap(m.image, options)) outputs.push_back(std::move(o));
   if (in.denoise) {
     const Clock::time_point t0 = Clock::now();
     outputs.push_back(
-        denoised_output(m, run.scene(), in.denoise_options, in.padding, run.color_space, run.cancel_only));
+        denoised_output(m, run.scene(), in.denoise_options, in.padding, run.color_space, run.cancel_only, stitch));
     run.report.denoise_seconds += seconds_since(t0);
   }
-  if (in.radiance) outputs.push_back(radiance_output(m, run.scene(), run.materials, run.color_space));
-  if (in.ao) outputs.push_back(ao_output(m, run.ctx.ao_distance));
+  if (in.radiance) {
+    outputs.push_back(
+        radiance_output(m, run.scene(), run.materials, run.color_space, in.padding, run.cancel_only, stitch));
+  }
+  if (in.ao) outputs.push_back(ao_output(m, run.ctx.ao_distance, in.padding, run.cancel_only, stitch));
   std::optional<ShError> sh;
   if (in.directional) {
     sh = sh_error(m);
     outputs.push_back(sh_output(m, *sh, run.color_space));
   }
-  if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space, run.cancel_only));
+  if (in.preview) outputs.push_back(preview_output(m, in.padding, run.color_space, run.cancel_only, stitch));
   run.report.lightmaps.push_back({m.name, m.image.width(), m.image.error_summary(in.target_error, 0, in.error_metric),
-                                  sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional, !m.traced.empty()))});
+                                  sh, m.leaks, lightmap_memory(m.texels, lightmap_state_bytes(in.ao, in.directional, !m.traced.empty())),
+                                  seams ? std::optional(seams->report()) : std::nullopt});
 }
 
 void write_report(LightmapBakeRun& run) {

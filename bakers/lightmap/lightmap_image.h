@@ -16,6 +16,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -127,12 +128,16 @@ class LightmapImage {
   Rgb gathered_mean(size_t texel) const;
 };
 
+// What an output does to its image after dilation and before encoding (seam stitching, seams.h); empty: nothing.
+using ImageFinish = std::function<void(image::FloatImage&)>;
+
 struct LightmapOutputOptions {
   int padding = 2;                          // texels of dilation in NAME_irradiance.exr, [0, 64]
   double error_floor = 0;                   // see LightmapImage; W·m⁻²
   ErrorMetric metric = ErrorMetric::texel;  // of the error image
   std::string color_space = "lin_rec709";   // the working space the irradiance is in (recorded in the metadata)
   const bake::StopCheck* stop = nullptr;    // polled by the dilation (dilate.h); null: never stops
+  ImageFinish finish;                       // applied to NAME_irradiance.exr after its dilation
 };
 
 // The three files, named NAME_irradiance.exr, NAME_validity.exr, NAME_error.exr, as 32-bit float EXR (ZIP) with

@@ -109,7 +109,8 @@ std::string preview_png(const image::FloatImage& irradiance, const std::vector<u
 }  // namespace
 
 bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& scene, const DenoiseOptions& options,
-                                 int padding, const std::string& color_space, const bake::StopCheck& stop) {
+                                 int padding, const std::string& color_space, const bake::StopCheck& stop,
+                                 const ImageFinish& finish) {
   const LightmapImage& img = m.image;
   std::vector<Rgb> mean(img.texel_count());
   std::vector<double> variance(img.texel_count(), 0.0);
@@ -125,6 +126,7 @@ bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& sce
     for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(std::clamp(d.colour[t][c], -kMax, kMax));
   });
   dilate(out, img.validity(), padding, stop);
+  if (finish) finish(out);
   out.metadata["kiln:content"] = "irradiance, denoised by an " + describe(options);
   out.metadata["kiln:units"] = "W/m^2";
   out.metadata["kiln:colorspace"] = color_space;
@@ -136,7 +138,8 @@ bake::BakeOutput denoised_output(const LightmapState& m, const scene::Scene& sce
 }
 
 bake::BakeOutput radiance_output(const LightmapState& m, const scene::Scene& scene,
-                                 const std::vector<ShadingMaterial>& materials, const std::string& color_space) {
+                                 const std::vector<ShadingMaterial>& materials, const std::string& color_space,
+                                 int padding, const bake::StopCheck& stop, const ImageFinish& finish) {
   const LightmapImage& img = m.image;
   image::FloatImage rad = texel_image(img, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
     Rgb rho;
@@ -150,19 +153,26 @@ bake::BakeOutput radiance_output(const LightmapState& m, const scene::Scene& sce
     px[1] = static_cast<float>(L.g);
     px[2] = static_cast<float>(L.b);
   });
+  dilate(rad, img.validity(), padding, stop);
+  if (finish) finish(rad);
   rad.metadata["kiln:content"] = "baked diffuse radiance rho*E/pi, W/(m^2 sr)";
   rad.metadata["kiln:lightmap"] = m.name;
+  rad.metadata["kiln:padding"] = std::to_string(padding);
   return {m.name + "_radiance.exr", "image/x-exr", color_space, image::encode_exr(rad)};
 }
 
-bake::BakeOutput ao_output(const LightmapState& m, double ao_distance) {
+bake::BakeOutput ao_output(const LightmapState& m, double ao_distance, int padding, const bake::StopCheck& stop,
+                           const ImageFinish& finish) {
   const LightmapImage& img = m.image;
   image::FloatImage ao = texel_image(img, 1, {"Y"}, [&](size_t t, float* px) {
     px[0] = img.count(t) ? static_cast<float>(m.ao_sum[t].r / img.count(t)) : 0.0f;
   });
+  dilate(ao, img.validity(), padding, stop);
+  if (finish) finish(ao);
   ao.metadata["kiln:content"] =
       "ambient occlusion: cosine-weighted fraction of rays unoccluded within " + format_number(ao_distance);
   ao.metadata["kiln:lightmap"] = m.name;
+  ao.metadata["kiln:padding"] = std::to_string(padding);
   return {m.name + "_ao.exr", "image/x-exr", "data", image::encode_exr(ao)};
 }
 
@@ -206,9 +216,11 @@ bake::BakeOutput sh_output(const LightmapState& m, const ShError& error, const s
 }
 
 bake::BakeOutput preview_output(const LightmapState& m, int padding, const std::string& color_space,
-                                const bake::StopCheck& stop) {
+                                const bake::StopCheck& stop, const ImageFinish& finish) {
+  image::FloatImage irradiance = m.image.irradiance_image(padding, stop);
+  if (finish) finish(irradiance);
   return {m.name + "_preview.png", "image/png", "srgb_display",
-          preview_png(m.image.irradiance_image(padding, stop), m.image.validity(), color_space, m.name)};
+          preview_png(irradiance, m.image.validity(), color_space, m.name)};
 }
 
 }  // namespace kiln::lightmap

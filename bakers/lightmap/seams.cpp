@@ -274,6 +274,13 @@ SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int wi
   return out;
 }
 
+SeamSearch find_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height) {
+  std::vector<std::vector<uint8_t>> mask;
+  mask.reserve(checked.triangles.size());
+  for (const auto& t : checked.triangles) mask.push_back(t.bake);
+  return find_seams(checked.scene, name, width, height, &mask);
+}
+
 SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height, const std::vector<uint8_t>& validity,
                            const StitchOptions& options)
     : width_(width), height_(height), validity_(validity), options_(options) {
@@ -420,10 +427,11 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
   };
   std::vector<double> x0(n), b(n), d(n), r(n), z(n), p(n), q(n);
   for (int c = 0; c < ch && n > 0; ++c) {
-    bool finite_values = true;
+    bool finite_values = true, non_negative = true;
     for (size_t u = 0; u < n; ++u) {
       x0[u] = image.pixels[static_cast<size_t>(texels_[u]) * ch + c];
       finite_values = finite_values && std::isfinite(x0[u]);
+      non_negative = non_negative && x0[u] >= 0;
     }
     if (!finite_values) {
       ++s.channels_skipped;
@@ -474,7 +482,10 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
     for (size_t u = 0; u < n; ++u) {
       const double v = x0[u] + d[u];
       if (!std::isfinite(v)) continue;  // cannot happen for finite inputs; never write a NaN
-      image.pixels[static_cast<size_t>(texels_[u]) * ch + c] = static_cast<float>(std::clamp(v, -kMax, kMax));
+      // Irradiance, radiance and AO are never negative; the fit can overshoot below 0 beside a dark texel (a chart
+      // in shadow against a lit one), and then stops at 0.
+      const double lo = non_negative ? 0.0 : -kMax;
+      image.pixels[static_cast<size_t>(texels_[u]) * ch + c] = static_cast<float>(std::clamp(v, lo, kMax));
     }
   }
   for (size_t u = 0; u < n; ++u) {
@@ -484,6 +495,49 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
   mismatch(image, scale, s.mismatch_after, s.rms_after);
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
+}
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The seams as the stitcher takes them, with the search's counts noted in `report` on the way.
+std::vector<Seam> found_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height,
+                              SeamReport& report) {
+  SeamSearch found = find_seams(checked, name, width, height);
+  report.seams = found.seams.size();
+  report.non_manifold = found.non_manifold;
+  report.left_out = found.degenerate + found.outside;
+  return std::move(found.seams);
+}
+
+}  // namespace
+
+LightmapSeams::LightmapSeams(const scene::CheckedScene& checked, const std::string& name, int width, int height,
+                             const std::vector<uint8_t>& validity, const StitchOptions& options)
+    : stitcher_([&] {
+        const auto t0 = std::chrono::steady_clock::now();
+        std::vector<Seam> seams = found_seams(checked, name, width, height, report_);
+        SeamStitcher s(seams, width, height, validity, options);
+        report_.seconds += seconds_since(t0);
+        return s;
+      }()) {
+  report_.samples = stitcher_.samples();
+}
+
+void LightmapSeams::stitch(image::FloatImage& image, bool irradiance) {
+  const StitchStats s = stitcher_.stitch(image);
+  report_.seconds += s.seconds;
+  if (!irradiance) return;
+  report_.texels_changed = s.texels_changed;
+  report_.mismatch_before = s.mismatch_before;
+  report_.mismatch_after = s.mismatch_after;
+  report_.rms_before = s.rms_before;
+  report_.rms_after = s.rms_after;
+  report_.iterations = s.iterations;
+  report_.converged = s.converged;
 }
 
 }  // namespace kiln::lightmap

@@ -31,9 +31,11 @@
 #include <vector>
 
 #include "bakers/image/exr.h"
+#include "bakers/lightmap/lightmap_image.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/math/sampling.h"
 #include "bakers/scene/scene.h"
+#include "bakers/scene/scene_check.h"
 
 namespace kiln::lightmap {
 
@@ -68,8 +70,11 @@ struct SeamSearch {
 SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int width, int height,
                       const std::vector<std::vector<uint8_t>>* bake_mask = nullptr);
 
+// The same for the scene as the bake has it: the cleaned scene, and its triangles marked "traced, not baked" left out.
+SeamSearch find_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height);
+
 struct StitchOptions {
-  double seam_weight = 100;     // w_seam, per lookup pair
+  double seam_weight = 1000;    // w_seam, per lookup pair
   double valid_weight = 1;      // c_i of a texel with samples
   double dilated_weight = 0.01;  // c_i of a texel without (dilated or empty)
   int max_iterations = 2000;    // of conjugate gradients, per channel
@@ -135,6 +140,38 @@ class SeamStitcher {
   void build_matrix();
   // The largest and RMS |lookup A − lookup B| over `scale`, over the lookup pairs and channels.
   void mismatch(const image::FloatImage& image, double scale, double& largest, double& rms) const;
+};
+
+// One lightmap's seams in report.json: what was found, and what stitching did to NAME_irradiance.exr.
+struct SeamReport {
+  size_t seams = 0;           // seam edges stitched
+  size_t non_manifold = 0;    // world edges on more than two triangles
+  size_t left_out = 0;        // seams not stitched: no length in UV on a side, or an end outside the lightmap
+  size_t samples = 0;         // lookup pairs along them
+  size_t texels_changed = 0;  // of NAME_irradiance.exr
+  double mismatch_before = 0, mismatch_after = 0;  // largest, relative (StitchStats)
+  double rms_before = 0, rms_after = 0;
+  int iterations = 0;
+  bool converged = true;
+  double seconds = 0;  // finding the seams, building the system and stitching every image of the lightmap
+};
+
+// The seams of one lightmap of a bake, found once, stitching each of its images (irradiance, denoised, radiance, AO,
+// preview) through finish() after their dilation.
+class LightmapSeams {
+ public:
+  LightmapSeams(const scene::CheckedScene& checked, const std::string& name, int width, int height,
+                const std::vector<uint8_t>& validity, const StitchOptions& options = {});
+  // Stitches an image in place; `irradiance` says it is NAME_irradiance.exr, whose figures go in the report.
+  void stitch(image::FloatImage& image, bool irradiance);
+  ImageFinish finish(bool irradiance) {
+    return [this, irradiance](image::FloatImage& image) { stitch(image, irradiance); };
+  }
+  const SeamReport& report() const { return report_; }
+
+ private:
+  SeamReport report_;  // before stitcher_: its construction fills the search's counts
+  SeamStitcher stitcher_;
 };
 
 }  // namespace kiln::lightmap

@@ -13,7 +13,10 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "bakers/lightmap/dilate.h"
+#include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/math/rgb.h"
 #include "bakers/math/rng.h"
 #include "tests/support/test_scenes.h"
@@ -237,9 +240,9 @@ TEST(SeamStitcher, MakesTheLookupsOnBothSidesAgree) {
   EXPECT_EQ(stats.samples, 29u);  // 14 texels long: 28 half-texel segments, ends included
   const double step = largest_mismatch(before, charts.seams);
   EXPECT_GT(step, 0.4);
-  // The least-squares fit leaves a residual of about c/(w_seam Σ α²/c) of the step: the seam weight (100) against
-  // the dilated texels' confidence (0.01), which give way first. 10⁻³ of the step bounds it with room; measured
-  // here between the stitcher's points too, where the lookups are linear interpolations of its own.
+  // The least-squares fit leaves a residual of about c/(w_seam Σα²) of the step, the seam weight (1000) against the
+  // confidence of the texels that give way (0.01 for the dilated ones, which do here): about 2·10⁻⁵ (measured). 10⁻³
+  // of the step bounds it with room; measured here between the stitcher's points too (8 a texel).
   const double after = largest_mismatch(charts.image, charts.seams);
   std::printf("two charts: mismatch %.3g -> %.3g (%zu unknowns, %zu texels changed, %d CG iterations)\n", step, after,
               stats.unknowns, stats.texels_changed, stats.iterations);
@@ -293,6 +296,19 @@ TEST(SeamStitcher, OneChannelImages) {
   EXPECT_GT(stats.texels_changed, 0u);
 }
 
+// A dark chart against one with a bright spike on its border: the fit overshoots below zero beside the spike, and a
+// channel with no negative values keeps none.
+TEST(SeamStitcher, NonNegativeImagesStayNonNegative) {
+  TwoCharts charts(1);
+  for (size_t t = 0; t < charts.valid.size(); ++t) charts.image.pixels[t] = 0.0f;
+  charts.image.pixels[static_cast<size_t>(9) * charts.width + 24] = 100.0f;  // B's border, row 9
+  charts.image.pixels[static_cast<size_t>(10) * charts.width + 13] = 50.0f;  // A's border, row 10
+  const StitchStats stats = SeamStitcher(charts.seams, charts.width, charts.height, charts.valid).stitch(charts.image);
+  EXPECT_GT(stats.texels_changed, 0u);
+  EXPECT_LT(stats.mismatch_after, stats.mismatch_before);
+  for (const float v : charts.image.pixels) EXPECT_GE(v, 0.0f);
+}
+
 TEST(SeamStitcher, DegenerateSeamsAndValuesNeverCrash) {
   TwoCharts charts;
   std::vector<Seam> seams = charts.seams;
@@ -326,6 +342,176 @@ TEST(SeamStitcher, DegenerateSeamsAndValuesNeverCrash) {
   image::FloatImage wrong = charts.image;
   wrong.width = 10;
   EXPECT_THROW(stitcher.stitch(wrong), std::invalid_argument);
+}
+
+// ---- The test: a baked cube ----
+
+// The inside of a closed 2 m cube unwrapped into six charts (add_box, facing inward), grey (albedo 0.5), lit by a
+// point light at its centre. Every cube edge lies in a mirror plane of the scene (the plane through the edge and
+// the centre swaps its two faces), so the irradiance, direct (I·h/r³) and indirect alike, is continuous across every
+// edge; it also varies strongly across each face (from 1 at a face's centre to 0.35 at an edge's middle), so texels
+// read at different distances from the edge on the two sides disagree. At 24² the charts are 6 × 9.75 texels (add_box's
+// 3 × 2 layout), so one face's edge is 6 texels long on one side of a seam and 9.75 on the other, and the borders lie
+// at half- and quarter-texel phases.
+scene::Scene lit_cube_inside() {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("grey", 0.5));
+  test::add_box(s, "cube", {-1, -1, -1}, {1, 1, 1}, 0, /*inward=*/true);
+  scene::Light l;
+  l.type = scene::LightShape::point;
+  l.position = {0, 0, 0};
+  l.color = Rgb{1.0};
+  s.lights = {l};
+  return s;
+}
+
+constexpr int kCubeResolution = 24;
+
+struct SeamNoise {
+  double worst_ratio = 0;   // the largest |ΔY| / noise over the points
+  double worst_mismatch = 0;  // the largest |ΔY| / brightness
+  double rms_noise = 0;     // the RMS noise bound, relative
+  size_t points = 0, above = 0;  // points checked, and above kSeamSigmas noises
+  size_t above_one = 0;          // above one noise
+};
+
+// How many noises the two sides' lookups may differ by. A lookup is a weighted mean (weights summing to 1) of texels
+// whose standard errors are at most σ_X, the largest the error image gives the valid texels in the 4 × 4 block
+// around it (dilated texels are means of those), so the difference of the two independent sides has a standard
+// error of at most √(σ_A² + σ_B²). The error image's σ is itself estimated from 8 replicas (7 degrees of freedom,
+// test_scenes.h): 4 such errors are exceeded by a t₇ variable with probability 0.005. Stitched, every point must be
+// within one noise (measured: 0.39 at most); unstitched, some must be beyond kSeamSigmas (measured: 119 of 828 points,
+// up to 5.8), which noise alone would almost never give.
+constexpr double kSeamSigmas = 4;
+
+SeamNoise seam_noise(const image::FloatImage& irradiance, const image::FloatImage& error,
+                     const std::vector<uint8_t>& valid, const std::vector<Seam>& seams, double brightness) {
+  SeamNoise out;
+  const int w = irradiance.width, h = irradiance.height;
+  const auto sigma = [&](const Point2& p) {
+    const int x0 = static_cast<int>(std::floor(p.x - 0.5)) - 1, y0 = static_cast<int>(std::floor(p.y - 0.5)) - 1;
+    double worst = 0;
+    for (int y = y0; y < y0 + 4; ++y) {
+      for (int x = x0; x < x0 + 4; ++x) {
+        if (x < 0 || y < 0 || x >= w || y >= h) continue;
+        const size_t t = static_cast<size_t>(y) * w + x;
+        if (valid[t]) worst = std::max(worst, static_cast<double>(error.pixels[t]));
+      }
+    }
+    return worst;
+  };
+  double sum_sq = 0;
+  for (const Seam& s : seams) {
+    const double length = std::max(std::hypot(s.a1.x - s.a0.x, s.a1.y - s.a0.y), std::hypot(s.b1.x - s.b0.x, s.b1.y - s.b0.y));
+    const int n = static_cast<int>(std::ceil(8 * length));  // 8 points a texel: finer than the stitcher's 2
+    for (int k = 0; k <= n; ++k) {
+      const double t = static_cast<double>(k) / n;
+      const Point2 a{s.a0.x + t * (s.a1.x - s.a0.x), s.a0.y + t * (s.a1.y - s.a0.y)};
+      const Point2 b{s.b0.x + t * (s.b1.x - s.b0.x), s.b0.y + t * (s.b1.y - s.b0.y)};
+      const auto y = [&](const Point2& p) {
+        return luminance(Rgb(lookup(irradiance, p, 0), lookup(irradiance, p, 1), lookup(irradiance, p, 2)));
+      };
+      const double mismatch = std::abs(y(a) - y(b)) / brightness;
+      const double noise = std::hypot(sigma(a), sigma(b));
+      sum_sq += noise * noise;
+      ++out.points;
+      out.worst_mismatch = std::max(out.worst_mismatch, mismatch);
+      out.worst_ratio = std::max(out.worst_ratio, mismatch / noise);
+      if (mismatch > kSeamSigmas * noise) ++out.above;
+      if (mismatch > noise) ++out.above_one;
+    }
+  }
+  out.rms_noise = out.points ? std::sqrt(sum_sq / static_cast<double>(out.points)) : 0;
+  return out;
+}
+
+LightmapBakeResult bake_cube(bool stitch) {
+  LightmapBakeInput in = test::lightmap_input(lit_cube_inside(), kCubeResolution, 0.01);
+  in.padding = 2;
+  in.error_metric = ErrorMetric::lightmap;  // the error image in units of the brightness, as the mismatch
+  in.stitch_seams = stitch;
+  in.radiance = in.ao = true;
+  return bake_lightmaps(in);
+}
+
+SeamNoise cube_seams(const LightmapBakeResult& r, bool stitch, double& reported_before, double& reported_after) {
+  const scene::Scene s = lit_cube_inside();
+  const image::FloatImage irradiance = test::exr_output(r, "cube_irradiance.exr");
+  const image::FloatImage error = test::exr_output(r, "cube_error.exr");
+  const image::FloatImage validity = test::exr_output(r, "cube_validity.exr");
+  std::vector<uint8_t> valid(validity.pixels.size());
+  double sum = 0;
+  size_t n = 0;
+  for (size_t t = 0; t < valid.size(); ++t) {
+    valid[t] = validity.pixels[t] > 0.5f;
+    if (!valid[t]) continue;
+    sum += luminance(Rgb(irradiance.pixels[3 * t], irradiance.pixels[3 * t + 1], irradiance.pixels[3 * t + 2]));
+    ++n;
+  }
+  const std::vector<Seam> seams = find_seams(s, "cube", kCubeResolution, kCubeResolution).seams;
+  EXPECT_EQ(seams.size(), 12u);
+  const nlohmann::json report = nlohmann::json::parse(test::find_output(r, "report.json").bytes);
+  const nlohmann::json& entry = report["lightmaps"][0]["seams"];
+  EXPECT_EQ(entry["stitched"].get<bool>(), stitch);
+  reported_before = stitch ? entry["mismatch_max_before"].get<double>() : -1;
+  reported_after = stitch ? entry["mismatch_max_after"].get<double>() : -1;
+  if (stitch) {
+    EXPECT_EQ(entry["edges"].get<size_t>(), 12u);
+    EXPECT_GT(entry["texels_changed"].get<size_t>(), 0u);
+    EXPECT_TRUE(entry["converged"].get<bool>());
+    std::printf("stitched in %d CG iterations, %.3g s\n", entry["iterations"].get<int>(),
+                entry["seconds"].get<double>());
+  }
+  return seam_noise(irradiance, error, valid, seams, sum / static_cast<double>(n));
+}
+
+TEST(SeamStitching, BakedCubeSidesAgreeWithinTheNoiseAndDoNotWithoutIt) {
+  double before = 0, after = 0, unused = 0;
+  const LightmapBakeResult with = bake_cube(true), without = bake_cube(false);
+  const SeamNoise stitched = cube_seams(with, true, before, after);
+  const SeamNoise raw = cube_seams(without, false, unused, unused);
+  std::printf("cube 24^2, target 0.01: noise (RMS, relative) %.3g; largest mismatch stitched %.3g (%.3g noises), "
+              "unstitched %.3g (%.3g noises, %zu of %zu points above %g); report: %.3g -> %.3g\n",
+              stitched.rms_noise, stitched.worst_mismatch, stitched.worst_ratio, raw.worst_mismatch, raw.worst_ratio,
+              raw.above, raw.points, kSeamSigmas, before, after);
+  EXPECT_EQ(stitched.above_one, 0u) << "largest " << stitched.worst_ratio << " noises";
+  // The teeth: the same bake without stitching differs by more than the noise along its seams.
+  EXPECT_GT(raw.above, 0u) << "largest " << raw.worst_ratio << " noises";
+  // Validity and error are the same bytes either way; the radiance and AO are stitched too.
+  for (const char* name : {"cube_validity.exr", "cube_error.exr"}) {
+    EXPECT_EQ(test::find_output(with, name).bytes, test::find_output(without, name).bytes) << name;
+  }
+  for (const char* name : {"cube_radiance.exr", "cube_ao.exr"}) {
+    EXPECT_NE(test::find_output(with, name).bytes, test::find_output(without, name).bytes) << name;
+    const image::FloatImage img = test::exr_output(with, name);
+    for (const float v : img.pixels) ASSERT_TRUE(std::isfinite(v) && v >= 0) << name;
+  }
+}
+
+// The bundled Cornell box (its two blocks have five faces each, charts of one mesh: their edges are seams): every
+// lightmap with seams ends with a smaller mismatch, and the report says so. Prints the figures.
+TEST(SeamStitching, CornellBoxBlocks) {
+  LightmapBakeInput in = test::lightmap_input(test::cornell_box(), 32, 0.05);
+  in.padding = 2;
+  in.stitch_seams = true;
+  const LightmapBakeResult r = bake_lightmaps(in);
+  const nlohmann::json report = nlohmann::json::parse(test::find_output(r, "report.json").bytes);
+  size_t with_seams = 0;
+  for (const nlohmann::json& m : report["lightmaps"]) {
+    const nlohmann::json& e = m["seams"];
+    ASSERT_TRUE(e["stitched"].get<bool>());
+    if (e["edges"].get<size_t>() == 0) continue;
+    ++with_seams;
+    std::printf("cornell box 32^2 %s: %zu seam edges, %zu texels changed, mismatch %.3g -> %.3g (RMS %.3g -> %.3g), "
+                "%d iterations, %.3g s\n",
+                m["name"].get<std::string>().c_str(), e["edges"].get<size_t>(), e["texels_changed"].get<size_t>(),
+                e["mismatch_max_before"].get<double>(), e["mismatch_max_after"].get<double>(),
+                e["mismatch_rms_before"].get<double>(), e["mismatch_rms_after"].get<double>(),
+                e["iterations"].get<int>(), e["seconds"].get<double>());
+    EXPECT_LT(e["mismatch_max_after"].get<double>(), e["mismatch_max_before"].get<double>());
+    EXPECT_TRUE(e["converged"].get<bool>());
+  }
+  EXPECT_GE(with_seams, 2u);  // the short and the tall block
 }
 
 }  // namespace
