@@ -440,6 +440,7 @@ void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& 
   in.directional = j.directional();
   in.preview = !j.has_preview() || j.preview();
   in.denoise = j.denoise();
+  in.stitch_seams = !j.has_stitch_seams() || j.stitch_seams();
   in.error_metric = error_metric(j.error_metric());
   if (j.has_memory_limit_bytes()) {
     const uint64_t limit = j.memory_limit_bytes();
@@ -592,6 +593,7 @@ std::string scene_hash(const kiln::v1::LightmapJob& j) {
   scene_part.clear_directional();
   scene_part.clear_preview();
   scene_part.clear_denoise();
+  scene_part.clear_stitch_seams();
   scene_part.clear_error_metric();
   std::string bytes;
   {
@@ -658,7 +660,7 @@ std::string lightmap_canonical_text(const BakeRequest& r) {
     << "\nmax_bounces=" << in.max_bounces << "\nforce_effects=";
   for (const auto& [effect, on] : in.force_effects) o << effect << (on ? "+" : "-") << ";";
   o << "\nradiance=" << in.radiance << "\nao=" << in.ao << "\ndirectional=" << in.directional
-    << "\npreview=" << in.preview << "\ndenoise=" << in.denoise
+    << "\npreview=" << in.preview << "\ndenoise=" << in.denoise << "\nstitch_seams=" << in.stitch_seams
     << "\nerror_metric=" << lightmap::to_string(in.error_metric) << "\n";
   // Tiles change the bytes (not the answer beyond the noise): a tiled bake is another result. Untiled bakes keep the
   // key they had before tiles existed.

@@ -29,8 +29,9 @@
 #include "bakers/lightmap/lightmap_state.h"
 #include "bakers/lightmap/memory.h"
 #include "bakers/lightmap/memory_estimate.h"
-#include "bakers/lightmap/texel_guides.h"
+#include "bakers/lightmap/seams.h"
 #include "bakers/lightmap/stage_timer.h"
+#include "bakers/lightmap/texel_guides.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/lightmap/tracer_query.h"
 #include "bakers/plan/lightmap_plan.h"
@@ -547,23 +548,30 @@ void write_lightmap(LightmapBakeRun& run, const LightmapResults& r, const LeakRe
   options.color_space = run.color_space;
   options.metric = in.error_metric;
   options.stop = &run.cancel_only;
+  std::optional<LightmapSeams> seams;
+  if (in.stitch_seams) {
+    seams.emplace(run.checked, r.name(), r.width(), r.height(), r.validity());
+    options.finish = seams->finish(true);
+  }
+  const ImageFinish stitch = seams ? seams->finish(false) : ImageFinish{};
   for (bake::BakeOutput& o : encode_lightmap(r, options)) outputs.push_back(std::move(o));
   if (in.denoise) {
     const Clock::time_point t0 = Clock::now();
-    outputs.push_back(denoised_output(r, in.denoise_options, in.padding, run.color_space, run.cancel_only));
+    outputs.push_back(denoised_output(r, in.denoise_options, in.padding, run.color_space, run.cancel_only, stitch));
     run.report.denoise_seconds += seconds_since(t0);
   }
-  if (in.radiance) outputs.push_back(radiance_output(r, run.color_space));
-  if (in.ao) outputs.push_back(ao_output(r, run.ctx.ao_distance));
+  if (in.radiance) outputs.push_back(radiance_output(r, run.color_space, in.padding, run.cancel_only, stitch));
+  if (in.ao) outputs.push_back(ao_output(r, run.ctx.ao_distance, in.padding, run.cancel_only, stitch));
   std::optional<ShError> sh;
   if (in.directional) {
     sh = sh_error(r);
     outputs.push_back(sh_output(r, *sh, run.color_space));
   }
-  if (in.preview) outputs.push_back(preview_output(r, in.padding, run.color_space, run.cancel_only));
+  if (in.preview) outputs.push_back(preview_output(r, in.padding, run.color_space, run.cancel_only, stitch));
   const std::string& input_name = run.checked.input_lightmap_name(r.name());
   run.report.lightmaps.push_back({r.name(), input_name == r.name() ? "" : input_name, r.width(),
-                                  r.error_summary(in.target_error, 0, in.error_metric), sh, leaks, memory});
+                                  r.error_summary(in.target_error, 0, in.error_metric), sh, leaks, memory,
+                                  seams ? std::optional(seams->report()) : std::nullopt});
 }
 
 void write_report(LightmapBakeRun& run) {

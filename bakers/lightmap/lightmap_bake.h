@@ -8,7 +8,8 @@
 //   NAME_validity.exr     1 valid, 0 invalid, before dilation
 //   NAME_error.exr        the estimated relative error per texel
 //   NAME_irradiance_denoised.exr  the irradiance through the denoiser (denoise.h), dilated likewise (on request)
-//   NAME_radiance.exr     ρE/π (on request)        NAME_ao.exr  ambient occlusion (on request)
+//   NAME_radiance.exr     ρE/π (on request)        NAME_ao.exr  ambient occlusion (on request); both dilated
+// The irradiance (raw and denoised), radiance, AO and preview are stitched along seams after dilation (seams.h).
 //   NAME_sh.exr           order-1 SH of incoming radiance, 4 RGB coefficients as 12 channels (on request)
 //   NAME_preview.png      the irradiance through OpenColorIO's display transform
 //   report.json           plan, samples, rays, time, error estimate, error-versus-time curve, scene problems, memory
@@ -73,6 +74,9 @@ struct LightmapBakeInput {
   bool directional = false;  // NAME_sh.exr
   bool preview = true;       // NAME_preview.png
   bool denoise = false;      // NAME_irradiance_denoised.exr as well (denoise.h); NAME_irradiance.exr is unchanged
+  // Stitch seams (seams.h): where one world edge lies on two chart borders, the texels the bilinear lookups on both
+  // sides read are adjusted after dilation so that the lookups agree, in every image but the validity, error and SH.
+  bool stitch_seams = true;
   // The denoiser's settings: benchmarks tune them; a job always has the defaults (so they are not in the cache key).
   DenoiseOptions denoise_options;
 

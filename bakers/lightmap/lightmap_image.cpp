@@ -154,6 +154,7 @@ std::vector<bake::BakeOutput> encode_lightmap(const LightmapResults& lm, const L
   };
 
   image::FloatImage irradiance = lm.irradiance_image(options.padding, options.stop ? *options.stop : bake::StopCheck{});
+  if (options.finish) options.finish(irradiance);
   common(irradiance, "irradiance", "W/m^2", options.color_space);
   irradiance.metadata["kiln:padding"] = std::to_string(options.padding);
 

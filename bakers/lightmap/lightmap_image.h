@@ -18,6 +18,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -179,6 +180,8 @@ LightmapImage::ErrorSummary summarize_errors(const T& texels, double brightness,
   s.rms = s.estimated > 0 ? std::sqrt(sum_sq / s.estimated) : 0;
   return s;
 }
+// What an output does to its image after dilation and before encoding (seam stitching, seams.h); empty: nothing.
+using ImageFinish = std::function<void(image::FloatImage&)>;
 
 struct LightmapOutputOptions {
   int padding = 2;                          // texels of dilation in NAME_irradiance.exr, [0, 64]
@@ -186,6 +189,7 @@ struct LightmapOutputOptions {
   ErrorMetric metric = ErrorMetric::texel;  // of the error image
   std::string color_space = "lin_rec709";   // the working space the irradiance is in (recorded in the metadata)
   const bake::StopCheck* stop = nullptr;    // polled by the dilation (dilate.h); null: never stops
+  ImageFinish finish;                       // applied to NAME_irradiance.exr after its dilation
 };
 
 // The three files, named NAME_irradiance.exr, NAME_validity.exr, NAME_error.exr, as 32-bit float EXR (ZIP) with

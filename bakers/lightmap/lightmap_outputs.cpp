@@ -163,7 +163,8 @@ LightmapResults collect_results(const LightmapState& m, const ResultChannels& ch
 }
 
 bake::BakeOutput denoised_output(const LightmapResults& r, const DenoiseOptions& options, int padding,
-                                 const std::string& color_space, const bake::StopCheck& stop) {
+                                 const std::string& color_space, const bake::StopCheck& stop,
+                                 const ImageFinish& finish) {
   std::vector<Rgb> mean(r.texel_count());
   std::vector<double> variance(r.texel_count(), 0.0);
   for (size_t t = 0; t < r.texel_count(); ++t) {
@@ -178,6 +179,7 @@ bake::BakeOutput denoised_output(const LightmapResults& r, const DenoiseOptions&
     for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(std::clamp(d.colour[t][c], -kMax, kMax));
   });
   dilate(out, r.validity(), padding, stop);
+  if (finish) finish(out);
   out.metadata["kiln:content"] = "irradiance, denoised by an " + describe(options);
   out.metadata["kiln:units"] = "W/m^2";
   out.metadata["kiln:colorspace"] = color_space;
@@ -188,20 +190,28 @@ bake::BakeOutput denoised_output(const LightmapResults& r, const DenoiseOptions&
   return {r.name() + "_irradiance_denoised.exr", "image/x-exr", "scene_linear", image::encode_exr(out)};
 }
 
-bake::BakeOutput radiance_output(const LightmapResults& r, const std::string& color_space) {
+bake::BakeOutput radiance_output(const LightmapResults& r, const std::string& color_space, int padding,
+                                 const bake::StopCheck& stop, const ImageFinish& finish) {
   image::FloatImage rad = texel_image(r, 3, {"R", "G", "B"}, [&](size_t t, float* px) {
     for (int c = 0; c < 3; ++c) px[c] = r.radiance[t][c];
   });
+  dilate(rad, r.validity(), padding, stop);
+  if (finish) finish(rad);
   rad.metadata["kiln:content"] = "baked diffuse radiance rho*E/pi, W/(m^2 sr)";
   rad.metadata["kiln:lightmap"] = r.name();
+  rad.metadata["kiln:padding"] = std::to_string(padding);
   return {r.name() + "_radiance.exr", "image/x-exr", color_space, image::encode_exr(rad)};
 }
 
-bake::BakeOutput ao_output(const LightmapResults& r, double ao_distance) {
+bake::BakeOutput ao_output(const LightmapResults& r, double ao_distance, int padding, const bake::StopCheck& stop,
+                           const ImageFinish& finish) {
   image::FloatImage ao = texel_image(r, 1, {"Y"}, [&](size_t t, float* px) { px[0] = r.ao[t]; });
+  dilate(ao, r.validity(), padding, stop);
+  if (finish) finish(ao);
   ao.metadata["kiln:content"] =
       "ambient occlusion: cosine-weighted fraction of rays unoccluded within " + format_number(ao_distance);
   ao.metadata["kiln:lightmap"] = r.name();
+  ao.metadata["kiln:padding"] = std::to_string(padding);
   return {r.name() + "_ao.exr", "image/x-exr", "data", image::encode_exr(ao)};
 }
 
@@ -238,9 +248,11 @@ bake::BakeOutput sh_output(const LightmapResults& r, const ShError& error, const
 }
 
 bake::BakeOutput preview_output(const LightmapResults& r, int padding, const std::string& color_space,
-                                const bake::StopCheck& stop) {
+                                const bake::StopCheck& stop, const ImageFinish& finish) {
+  image::FloatImage irradiance = r.irradiance_image(padding, stop);
+  if (finish) finish(irradiance);
   return {r.name() + "_preview.png", "image/png", "srgb_display",
-          preview_png(r.irradiance_image(padding, stop), r.validity(), color_space, r.name())};
+          preview_png(irradiance, r.validity(), color_space, r.name())};
 }
 
 }  // namespace kiln::lightmap

@@ -33,16 +33,21 @@ void collect_results(const LightmapState& m, int x0, int y0, const ResultsContex
 LightmapResults collect_results(const LightmapState& m, const ResultChannels& channels, const ResultsContext& context);
 
 // NAME_irradiance_denoised.exr: the irradiance through the denoiser (denoise.h), guided by the page's guides, each
-// texel's variance (its standard error squared); dilated by `padding` texels (polling `stop`), with
-// NAME_irradiance.exr's metadata and a kiln:content naming the filter.
+// texel's variance (its standard error squared); dilated by `padding` texels (polling `stop`), then `finish`ed
+// (seams.h), with NAME_irradiance.exr's metadata and a kiln:content naming the filter.
 bake::BakeOutput denoised_output(const LightmapResults& r, const DenoiseOptions& options, int padding,
-                                 const std::string& color_space, const bake::StopCheck& stop = {});
+                                 const std::string& color_space, const bake::StopCheck& stop = {},
+                                 const ImageFinish& finish = {});
 
-// NAME_radiance.exr: the irradiance times the texel's diffuse reflectance, over π.
-bake::BakeOutput radiance_output(const LightmapResults& r, const std::string& color_space);
+// NAME_radiance.exr: the irradiance times the texel's diffuse reflectance, over π; dilated by `padding` texels like
+// the irradiance (so that bilinear lookups at a chart's edge read the chart's values, not black), then `finish`ed.
+bake::BakeOutput radiance_output(const LightmapResults& r, const std::string& color_space, int padding = 0,
+                                 const bake::StopCheck& stop = {}, const ImageFinish& finish = {});
 
-// NAME_ao.exr: the mean AO estimate per texel; `ao_distance` is the distance that counts as unoccluded.
-bake::BakeOutput ao_output(const LightmapResults& r, double ao_distance);
+// NAME_ao.exr: the mean AO estimate per texel; `ao_distance` is the distance that counts as unoccluded. Dilated and
+// finished as the radiance.
+bake::BakeOutput ao_output(const LightmapResults& r, double ao_distance, int padding = 0,
+                           const bake::StopCheck& stop = {}, const ImageFinish& finish = {});
 
 // The estimated relative error of the SH over the valid texels that have one: RMS (−1: none) and largest.
 struct ShError {
@@ -54,8 +59,9 @@ ShError sh_error(const LightmapResults& r);
 // NAME_sh.exr: the mean SH coefficients per texel, with `error` in its metadata.
 bake::BakeOutput sh_output(const LightmapResults& r, const ShError& error, const std::string& color_space);
 
-// NAME_preview.png: the irradiance, dilated by `padding` texels, through the display transform.
+// NAME_preview.png: the irradiance, dilated by `padding` texels and `finish`ed as NAME_irradiance.exr is, through the
+// display transform.
 bake::BakeOutput preview_output(const LightmapResults& r, int padding, const std::string& color_space,
-                                const bake::StopCheck& stop = {});
+                                const bake::StopCheck& stop = {}, const ImageFinish& finish = {});
 
 }  // namespace kiln::lightmap

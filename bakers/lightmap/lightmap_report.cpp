@@ -47,6 +47,19 @@ Json lightmap_json(const LightmapReportEntry& m) {
                 {"texels_invalidated", m.leaks.texels_invalidated}};
   j["memory_bytes"] = m.memory.total_bytes;
   j["memory"] = m.memory.describe();
+  if (m.seams) {
+    const SeamReport& s = *m.seams;
+    // Mismatches: |bilinear lookup on one side − on the other| over the lightmap's brightness (seams.h).
+    j["seams"] = {{"stitched", true},          {"edges", s.seams},
+                  {"non_manifold_edges", s.non_manifold}, {"left_out", s.left_out},
+                  {"lookup_pairs", s.samples}, {"texels_changed", s.texels_changed},
+                  {"mismatch_max_before", s.mismatch_before}, {"mismatch_max_after", s.mismatch_after},
+                  {"mismatch_rms_before", s.rms_before}, {"mismatch_rms_after", s.rms_after},
+                  {"iterations", s.iterations}, {"converged", s.converged},
+                  {"seconds", s.seconds}};
+  } else {
+    j["seams"] = {{"stitched", false}};
+  }
   return j;
 }
 

@@ -17,6 +17,7 @@
 #include "bakers/lightmap/lightmap_outputs.h"
 #include "bakers/lightmap/memory.h"
 #include "bakers/lightmap/stage_timer.h"
+#include "bakers/lightmap/seams.h"
 #include "bakers/plan/lightmap_plan.h"
 
 namespace kiln::lightmap {
@@ -30,6 +31,7 @@ struct LightmapReportEntry {
   std::optional<ShError> sh;  // when the SH output was asked for
   LeakReport leaks;
   LightmapMemory memory;
+  std::optional<SeamReport> seams;  // when seams were stitched
 };
 
 // What the report says beside the bake's result.

@@ -45,6 +45,8 @@ the bake:
                                guided by normals, positions, charts and each texel's estimated error (biased; the raw
                                NAME_irradiance.exr is written as always)
   --no-preview                 do not render NAME_preview.png
+  --no-stitch-seams            write the texels along seams as baked: do not adjust them so that bilinear lookups on
+                               both sides of an edge that lies on two chart borders agree (stitching is on by default)
   --job FILE.textproto         a kiln.v1.LightmapJob in protobuf text format merged over the imported scene: its
                                material_overrides (any material by name, with any model of the BRDF library), lights
                                (point, spot, directional sun, rect, disk) and environment are added, its settings
@@ -67,7 +69,7 @@ std::string default_name(const Flags& f, const std::string& scene) {
   std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
   if (auto v = f.get("--env")) name += " env=" + std::filesystem::path(*v).filename().string();
   name += given_flag_words(f, kJobFlags);
-  for (const char* flag : {"--radiance", "--ao", "--directional", "--denoise", "--no-preview"}) {
+  for (const char* flag : {"--radiance", "--ao", "--directional", "--denoise", "--no-preview", "--no-stitch-seams"}) {
     if (f.has(flag)) name += " " + std::string(flag + 2);
   }
   if (auto v = f.get("--job")) name += " job=" + std::filesystem::path(*v).filename().string();
@@ -145,7 +147,8 @@ void set_environment(const Flags& f, LightmapBake& bake) {
 
 std::vector<FlagSpec> bake_lightmap_flag_specs() {
   return bake_flag_specs({"--name", "--out", "--priority", "--idempotency-key", "--env", "--job"}, kJobFlags,
-                         {"--radiance", "--ao", "--directional", "--denoise", "--no-preview", "--wait"});
+                         {"--radiance", "--ao", "--directional", "--denoise", "--no-preview", "--no-stitch-seams",
+                          "--wait"});
 }
 
 LightmapBake lightmap_bake_from_flags(const std::vector<std::string>& args) {
@@ -186,6 +189,7 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
     }
   }
   if (f.has("--no-preview")) job->set_preview(false);
+  if (f.has("--no-stitch-seams")) job->set_stitch_seams(false);
 
   v1::Quality* q = bake.spec.mutable_quality();
   if (auto v = f.get("--max-samples")) {
@@ -218,6 +222,7 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
   if (flags.denoise()) merged.set_denoise(true);
   if (flags.error_metric() != v1::LIGHTMAP_ERROR_METRIC_DEFAULT) merged.set_error_metric(flags.error_metric());
   if (flags.has_preview()) merged.set_preview(flags.preview());
+  if (flags.has_stitch_seams()) merged.set_stitch_seams(flags.stitch_seams());
   *bake.spec.mutable_lightmap() = std::move(merged);
 }
 
@@ -235,6 +240,7 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
       {"denoise", "--denoise"},
       {"error_metric", "--error-metric"},
       {"preview", "--no-preview"},
+      {"stitch_seams", "--no-stitch-seams"},
       {"environment.constant", "--env-constant"},
       {"environment.rotation_degrees", "--env-rotation"},
       {"environment.intensity", "--env-intensity"},

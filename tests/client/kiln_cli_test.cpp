@@ -1378,6 +1378,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
                                                                         "--error-metric",
                                                                         "texel",
                                                                         "--no-preview",
+                                                                        "--no-stitch-seams",
                                                                         "--force",
                                                                         "environment_sampling=on"});
   EXPECT_EQ(bake.scene_file, "scene.gltf");
@@ -1399,6 +1400,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   EXPECT_TRUE(j.denoise());
   EXPECT_EQ(j.error_metric(), v1::LIGHTMAP_ERROR_METRIC_TEXEL);
   EXPECT_FALSE(j.preview());
+  EXPECT_FALSE(j.stitch_seams());
   EXPECT_EQ(j.environment().constant().g(), 0.5);
   EXPECT_EQ(j.environment().intensity(), 2);
   EXPECT_EQ(bake.spec.quality().samples(), 512u);
@@ -1407,6 +1409,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   const daemon::BakeRequest r = daemon::translate(bake.spec);
   EXPECT_EQ(r.lightmap().resolution, 32);
   EXPECT_TRUE(r.lightmap().denoise);
+  EXPECT_FALSE(r.lightmap().stitch_seams);
   EXPECT_EQ(r.lightmap().scene.materials[0].bsdf.specular.alpha_x, 0.2);
   EXPECT_EQ(r.lightmap().scene.lights[1].type, scene::LightShape::directional);
 

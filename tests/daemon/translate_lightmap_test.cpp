@@ -112,6 +112,7 @@ v1::JobSpec full_job() {
   j->set_directional(true);
   j->set_preview(false);
   j->set_denoise(true);
+  j->set_stitch_seams(false);
   j->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_TEXEL);
   spec.mutable_quality()->set_samples(256);
   spec.mutable_quality()->set_target_error(0.05);
@@ -180,6 +181,7 @@ TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   EXPECT_TRUE(in.radiance && in.ao && in.directional && in.denoise);
   EXPECT_EQ(in.error_metric, lightmap::ErrorMetric::texel);
   EXPECT_FALSE(in.preview);
+  EXPECT_FALSE(in.stitch_seams);
   EXPECT_EQ(in.max_samples, 256u);
   EXPECT_EQ(in.min_samples, 16u);
   EXPECT_EQ(in.target_error, 0.05);
@@ -229,6 +231,7 @@ TEST(TranslateLightmap, DefaultsAreTheDocumentedOnes) {
   EXPECT_EQ(in.target_error, 0.01);
   EXPECT_EQ(in.error_metric, lightmap::ErrorMetric::lightmap);
   EXPECT_TRUE(in.preview);
+  EXPECT_TRUE(in.stitch_seams);
 }
 
 TEST(TranslateLightmap, ConstantEnvironmentTakesItsIntensity) {
@@ -480,6 +483,7 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
   explicit_defaults.mutable_lightmap()->set_resolution(256);
   explicit_defaults.mutable_lightmap()->set_padding(4);
   explicit_defaults.mutable_lightmap()->set_preview(true);
+  explicit_defaults.mutable_lightmap()->set_stitch_seams(true);
   explicit_defaults.mutable_lightmap()->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_LIGHTMAP);
   explicit_defaults.mutable_quality()->set_samples(4096);
   EXPECT_EQ(cache_key(translate(plain), "v"), cache_key(translate(explicit_defaults), "v"));
@@ -491,6 +495,7 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
       [](v1::JobSpec& s) { s.mutable_quality()->set_target_error(0.04); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_ao(false); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_denoise(false); },  // a raw job shares no entry with it
+      [](v1::JobSpec& s) { s.mutable_lightmap()->set_stitch_seams(true); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_LIGHTMAP); },
       [](v1::JobSpec& s) { *s.mutable_lightmap()->mutable_meshes(1)->mutable_geometry() = digest('f'); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_lights(0)->mutable_color()->set_r(11); },

@@ -229,6 +229,7 @@ lightmap::LightmapBakeInput lightmap_input(scene::Scene s, int resolution, doubl
   in.resolution = resolution;
   in.target_error = target_error;
   in.padding = 0;
+  in.stitch_seams = false;
   in.preview = false;
   in.error_metric = lightmap::ErrorMetric::texel;
   return in;

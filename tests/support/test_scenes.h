@@ -63,7 +63,9 @@ std::vector<double> texel_means(const scene::Scene& s, const std::string& name, 
 // conventions: row 0 the zenith, u = ½ looking along −Z).
 std::string equirect_exr(int width, int height, const std::function<Rgb(const Vec3& dir)>& radiance);
 
-// A bake input for tests: no padding (texels are compared as baked), no preview, and the texel error metric, so that
+// A bake input for tests: no padding and no seam stitching (texels are compared as baked: stitching moves the texels
+// along a seam towards agreement with the other side, which at a hard edge is not what was measured there), no
+// preview, and the texel error metric, so that
 // NAME_error.exr holds each texel's standard error relative to its own mean (the tests that compare texels with
 // exact values multiply it back by the texel's value).
 lightmap::LightmapBakeInput lightmap_input(scene::Scene s, int resolution, double target_error);

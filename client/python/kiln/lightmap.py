@@ -148,9 +148,9 @@ def lightmap_job(meshes, *, instances=None, materials=None, textures=None, light
                    {"constant" or "image", "color_space", "rotation_degrees", "intensity"}
       material_overrides: [{"name", "bsdf", "base_color", "emission"}, ...]
       lightmaps: {lightmap name: resolution} or [{"name", "resolution"}, ...]
-      resolution, padding, max_bounces, radiance, ao, directional, preview, denoise, error_metric ("lightmap", the
-      default: errors relative to the lightmap's brightness, or "texel": relative to each texel's value): as in
-      kiln.proto.
+      resolution, padding, max_bounces, radiance, ao, directional, preview, denoise, stitch_seams, error_metric
+      ("lightmap", the default: errors relative to the lightmap's brightness, or "texel": relative to each texel's
+      value): as in kiln.proto.
     samples, target_error, time_limit_seconds and seed go into the job's quality; force_effects forces planner
     effects on or off by name. None leaves a field to its default. TypeError/ValueError name the field's path
     ("job.lightmap.lights[0].point.position") when something does not fit.

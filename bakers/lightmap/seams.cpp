@@ -1,0 +1,543 @@
+#include "bakers/lightmap/seams.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <tuple>
+#include <unordered_map>
+
+#include "bakers/math/rgb.h"
+#include "bakers/scene/scene_check.h"
+
+namespace kiln::lightmap {
+namespace {
+
+bool finite(const Vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+bool finite(const Point2& p) { return std::isfinite(p.x) && std::isfinite(p.y); }
+double distance(const Point2& a, const Point2& b) { return std::hypot(a.x - b.x, a.y - b.y); }
+
+// Welds world positions: a point within `eps` (Chebyshev) of an earlier representative takes its id. The grid's cells
+// are eps wide, so a representative within eps lies in one of the 27 cells around a point; no two representatives
+// share a cell (the second would have found the first). First come, first served: deterministic in input order.
+class Welder {
+ public:
+  explicit Welder(double eps) : eps_(eps) {}
+
+  uint32_t weld(const Vec3& p) {
+    const std::array<int64_t, 3> c{cell(p.x), cell(p.y), cell(p.z)};
+    for (int dz = -1; dz <= 1; ++dz) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = cells_.find(Key{c[0] + dx, c[1] + dy, c[2] + dz});
+          if (it == cells_.end()) continue;
+          const Vec3& q = points_[it->second];
+          if (std::abs(q.x - p.x) <= eps_ && std::abs(q.y - p.y) <= eps_ && std::abs(q.z - p.z) <= eps_) {
+            return it->second;
+          }
+        }
+      }
+    }
+    const auto id = static_cast<uint32_t>(points_.size());
+    points_.push_back(p);
+    cells_.emplace(Key{c[0], c[1], c[2]}, id);
+    return id;
+  }
+
+ private:
+  struct Key {
+    int64_t x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      uint64_t h = static_cast<uint64_t>(k.x) * 0x9E3779B97F4A7C15ull;
+      h ^= static_cast<uint64_t>(k.y) + 0x632BE59BD9B4E019ull + (h << 6) + (h >> 2);
+      h ^= static_cast<uint64_t>(k.z) + 0x85157AF5ull + (h << 6) + (h >> 2);
+      return static_cast<size_t>(h);
+    }
+  };
+  int64_t cell(double v) const { return static_cast<int64_t>(std::floor(v / eps_)); }
+
+  double eps_;
+  std::vector<Vec3> points_;
+  std::unordered_map<Key, uint32_t, KeyHash> cells_;
+};
+
+// One side of a world edge: its welded ends (w0 < w1), the texel-space UVs at each, and where it came from.
+struct EdgeSide {
+  uint32_t w0, w1;
+  Point2 uv0, uv1;
+  TriangleRef triangle;
+};
+
+bool same_uv(const EdgeSide& a, const EdgeSide& b, double tolerance) {
+  return distance(a.uv0, b.uv0) <= tolerance && distance(a.uv1, b.uv1) <= tolerance;
+}
+
+bool inside(const Point2& p, int width, int height) {
+  return p.x >= 0 && p.y >= 0 && p.x <= width && p.y <= height;
+}
+
+// The seam between two sides, or why there is none.
+enum class SeamCheck { seam, degenerate, outside };
+SeamCheck check_seam(const Point2& a0, const Point2& a1, const Point2& b0, const Point2& b1, int width, int height) {
+  if (!finite(a0) || !finite(a1) || !finite(b0) || !finite(b1)) return SeamCheck::degenerate;
+  if (!inside(a0, width, height) || !inside(a1, width, height) || !inside(b0, width, height) ||
+      !inside(b1, width, height)) {
+    return SeamCheck::outside;
+  }
+  if (distance(a0, a1) < kSeamUvTolerance || distance(b0, b1) < kSeamUvTolerance) return SeamCheck::degenerate;
+  return SeamCheck::seam;
+}
+
+// The usable triangles' vertices of the instances of lightmap `name`, in scene order: world positions (for the
+// weld's tolerance, computed first) and the triangles that use them.
+struct LightmapGeometry {
+  struct Triangle {
+    TriangleRef ref;
+    std::array<Vec3, 3> world;
+    std::array<Point2, 3> uv;  // texel space
+  };
+  std::vector<Triangle> triangles;
+  double scale = 0;  // the larger of the bounding box's extent and the largest absolute coordinate
+  size_t skipped = 0;
+};
+
+LightmapGeometry gather(const scene::Scene& scene, const std::string& name, int width, int height,
+                        const std::vector<std::vector<uint8_t>>* bake_mask) {
+  LightmapGeometry g;
+  Vec3 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
+  Vec3 hi = -lo;
+  double largest = 0;
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const scene::Instance& inst = scene.instances[i];
+    if (!inst.bake || scene::resolved_lightmap_name(scene, inst) != name) continue;
+    if (inst.mesh < 0 || static_cast<size_t>(inst.mesh) >= scene.meshes.size()) continue;
+    const scene::Mesh& mesh = scene.meshes[inst.mesh];
+    const size_t triangles = mesh.indices.size() / 3;
+    if (mesh.lightmap_uv.size() != mesh.positions.size()) {
+      g.skipped += triangles;
+      continue;
+    }
+    const std::vector<uint8_t>* mask =
+        bake_mask && static_cast<size_t>(inst.mesh) < bake_mask->size() ? &(*bake_mask)[inst.mesh] : nullptr;
+    const auto& so = inst.lightmap_scale_offset;
+    for (size_t t = 0; t < triangles; ++t) {
+      if (mask && t < mask->size() && !(*mask)[t]) continue;
+      LightmapGeometry::Triangle tri;
+      tri.ref = {static_cast<uint32_t>(i), static_cast<uint32_t>(inst.mesh), static_cast<uint32_t>(t)};
+      bool ok = true;
+      for (int k = 0; k < 3 && ok; ++k) {
+        const uint32_t v = mesh.indices[3 * t + k];
+        if (v >= mesh.positions.size()) {
+          ok = false;
+          break;
+        }
+        const Point2& uv = mesh.lightmap_uv[v];
+        tri.world[k] = inst.to_world.point(mesh.positions[v]);
+        tri.uv[k] = {(so[0] * uv.x + so[2]) * width, (so[1] * uv.y + so[3]) * height};
+        ok = finite(tri.world[k]) && finite(tri.uv[k]);
+      }
+      if (!ok) {
+        ++g.skipped;
+        continue;
+      }
+      for (const Vec3& p : tri.world) {
+        lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+        hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+        largest = std::max({largest, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+      }
+      g.triangles.push_back(tri);
+    }
+  }
+  if (!g.triangles.empty()) g.scale = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, largest});
+  return g;
+}
+
+// The four texels and weights of a clamp-to-edge bilinear lookup at texel-space point p.
+std::array<std::pair<size_t, double>, 4> bilinear(const Point2& p, int width, int height) {
+  const double x = p.x - 0.5, y = p.y - 0.5;
+  const double fx0 = std::floor(x), fy0 = std::floor(y);
+  const double fx = x - fx0, fy = y - fy0;
+  const auto cx = [&](double v) { return static_cast<size_t>(std::clamp(v, 0.0, width - 1.0)); };
+  const auto cy = [&](double v) { return static_cast<size_t>(std::clamp(v, 0.0, height - 1.0)); };
+  const size_t x0 = cx(fx0), x1 = cx(fx0 + 1), y0 = cy(fy0), y1 = cy(fy0 + 1);
+  const auto w = static_cast<size_t>(width);
+  return {{{y0 * w + x0, (1 - fx) * (1 - fy)},
+           {y0 * w + x1, fx * (1 - fy)},
+           {y1 * w + x0, (1 - fx) * fy},
+           {y1 * w + x1, fx * fy}}};
+}
+
+double brightness(const image::FloatImage& img, const std::vector<uint8_t>& validity) {
+  double sum = 0;
+  size_t n = 0;
+  const int ch = img.channels;
+  for (size_t t = 0; t < validity.size(); ++t) {
+    if (!validity[t]) continue;
+    const float* p = &img.pixels[t * ch];
+    double y = 0;
+    if (ch == 3) {
+      y = luminance(Rgb(p[0], p[1], p[2]));
+    } else {
+      for (int c = 0; c < ch; ++c) y += p[c];
+      y /= ch;
+    }
+    if (!std::isfinite(y)) continue;
+    sum += y;
+    ++n;
+  }
+  const double b = n ? sum / static_cast<double>(n) : 0.0;
+  return b > 0 ? b : 1.0;
+}
+
+}  // namespace
+
+SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int width, int height,
+                      const std::vector<std::vector<uint8_t>>* bake_mask) {
+  if (width < 1 || height < 1) {
+    throw std::invalid_argument("find_seams: lightmap '" + name + "' must be at least 1x1 texels, got " +
+                                std::to_string(width) + "x" + std::to_string(height));
+  }
+  SeamSearch out;
+  const LightmapGeometry g = gather(scene, name, width, height, bake_mask);
+  out.skipped_triangles = g.skipped;
+  if (g.triangles.empty()) return out;
+  // Near-exact welding: vertices split at UV seams carry bit-identical positions, but two instances (or two meshes
+  // exported apart) meeting at an edge reach it through different transforms and float rounding. A millionth of
+  // the lightmap's extent, or of its largest coordinate (some 16 float ulps there), covers that rounding and is far
+  // below any edge a mesh models.
+  Welder welder(kWeldTolerance * g.scale > 0 ? kWeldTolerance * g.scale : std::numeric_limits<double>::min());
+  std::vector<EdgeSide> sides;
+  sides.reserve(3 * g.triangles.size());
+  for (const LightmapGeometry::Triangle& tri : g.triangles) {
+    std::array<uint32_t, 3> w{};
+    for (int k = 0; k < 3; ++k) w[k] = welder.weld(tri.world[k]);
+    for (int k = 0; k < 3; ++k) {
+      const int j = (k + 1) % 3;
+      if (w[k] == w[j]) continue;  // a collapsed edge: no length in world space
+      EdgeSide s;
+      const bool flip = w[k] > w[j];
+      s.w0 = flip ? w[j] : w[k];
+      s.w1 = flip ? w[k] : w[j];
+      s.uv0 = flip ? tri.uv[j] : tri.uv[k];
+      s.uv1 = flip ? tri.uv[k] : tri.uv[j];
+      s.triangle = tri.ref;
+      sides.push_back(s);
+    }
+  }
+  // Group the sides by world edge; stable, so each group keeps scene order.
+  std::vector<uint32_t> order(sides.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<uint32_t>(i);
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    return std::tie(sides[a].w0, sides[a].w1) < std::tie(sides[b].w0, sides[b].w1);
+  });
+  struct Found {
+    uint32_t first_side;
+    Seam seam;
+  };
+  std::vector<Found> found;
+  for (size_t i = 0; i < order.size();) {
+    size_t j = i + 1;
+    while (j < order.size() && sides[order[j]].w0 == sides[order[i]].w0 && sides[order[j]].w1 == sides[order[i]].w1) {
+      ++j;
+    }
+    const size_t n = j - i;
+    ++out.edges;
+    if (n == 2) ++out.shared_edges;
+    if (n > 2) ++out.non_manifold;
+    if (n >= 2 && n <= 4) {
+      for (size_t a = i; a < j; ++a) {
+        for (size_t b = a + 1; b < j; ++b) {
+          const EdgeSide& sa = sides[order[a]];
+          const EdgeSide& sb = sides[order[b]];
+          if (same_uv(sa, sb, kSeamUvTolerance)) continue;
+          switch (check_seam(sa.uv0, sa.uv1, sb.uv0, sb.uv1, width, height)) {
+            case SeamCheck::degenerate: ++out.degenerate; break;
+            case SeamCheck::outside: ++out.outside; break;
+            case SeamCheck::seam:
+              found.push_back({std::min(order[a], order[b]), {sa.uv0, sa.uv1, sb.uv0, sb.uv1, sa.triangle, sb.triangle}});
+              break;
+          }
+        }
+      }
+    }
+    i = j;
+  }
+  std::stable_sort(found.begin(), found.end(), [](const Found& a, const Found& b) { return a.first_side < b.first_side; });
+  out.seams.reserve(found.size());
+  for (const Found& f : found) out.seams.push_back(f.seam);
+  return out;
+}
+
+SeamSearch find_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height) {
+  std::vector<std::vector<uint8_t>> mask;
+  mask.reserve(checked.triangles.size());
+  for (const auto& t : checked.triangles) mask.push_back(t.bake);
+  return find_seams(checked.scene, name, width, height, &mask);
+}
+
+SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height, const std::vector<uint8_t>& validity,
+                           const StitchOptions& options)
+    : width_(width), height_(height), validity_(validity), options_(options) {
+  if (width < 1 || height < 1 || validity.size() != static_cast<size_t>(width) * height) {
+    throw std::invalid_argument("SeamStitcher: the validity map has " + std::to_string(validity.size()) +
+                                " entries for a " + std::to_string(width) + "x" + std::to_string(height) +
+                                " lightmap; pass the map the image was dilated from");
+  }
+  for (const double w : {options.seam_weight, options.valid_weight, options.dilated_weight}) {
+    if (!(w > 0) || !std::isfinite(w)) {
+      throw std::invalid_argument("SeamStitcher: the weights must be positive and finite");
+    }
+  }
+  std::unordered_map<uint32_t, uint32_t> unknown_of;
+  for (const Seam& s : seams) {
+    if (check_seam(s.a0, s.a1, s.b0, s.b1, width, height) != SeamCheck::seam) continue;
+    ++seams_used_;
+    // Points spaced at most half a texel on either side, ends included.
+    const double length = std::max(distance(s.a0, s.a1), distance(s.b0, s.b1));
+    const int segments = std::max(1, static_cast<int>(std::ceil(2 * length)));
+    for (int k = 0; k <= segments; ++k) {
+      const double t = static_cast<double>(k) / segments;
+      const Point2 a{s.a0.x + t * (s.a1.x - s.a0.x), s.a0.y + t * (s.a1.y - s.a0.y)};
+      const Point2 b{s.b0.x + t * (s.b1.x - s.b0.x), s.b0.y + t * (s.b1.y - s.b0.y)};
+      const auto first = static_cast<uint32_t>(taps_.size());
+      for (int side = 0; side < 2; ++side) {
+        for (const auto& [texel, w] : bilinear(side == 0 ? a : b, width, height)) {
+          if (w == 0) continue;
+          const auto [it, inserted] =
+              unknown_of.emplace(static_cast<uint32_t>(texel), static_cast<uint32_t>(texels_.size()));
+          if (inserted) texels_.push_back(static_cast<uint32_t>(texel));
+          const double signed_w = side == 0 ? w : -w;
+          // Merge taps of one texel (clamped lookups, or both sides reading it).
+          bool merged = false;
+          for (size_t q = first; q < taps_.size(); ++q) {
+            if (taps_[q].unknown == it->second) {
+              taps_[q].weight += signed_w;
+              merged = true;
+              break;
+            }
+          }
+          if (!merged) taps_.push_back({it->second, signed_w});
+        }
+      }
+      pairs_.push_back({first, static_cast<uint32_t>(taps_.size() - first)});
+    }
+  }
+  build_matrix();
+}
+
+void SeamStitcher::build_matrix() {
+  const size_t n = texels_.size();
+  struct Entry {
+    uint32_t row, col;
+    double value;
+  };
+  std::vector<Entry> entries;
+  for (const Pair& p : pairs_) {
+    for (uint32_t i = p.first; i < p.first + p.count; ++i) {
+      for (uint32_t j = p.first; j < p.first + p.count; ++j) {
+        entries.push_back({taps_[i].unknown, taps_[j].unknown, options_.seam_weight * taps_[i].weight * taps_[j].weight});
+      }
+    }
+  }
+  for (uint32_t u = 0; u < n; ++u) {
+    entries.push_back({u, u, validity_[texels_[u]] ? options_.valid_weight : options_.dilated_weight});
+  }
+  // Sorted by position, equal positions summed in a fixed order: the same matrix on every run.
+  std::stable_sort(entries.begin(), entries.end(),
+                   [](const Entry& a, const Entry& b) { return std::tie(a.row, a.col) < std::tie(b.row, b.col); });
+  row_start_.assign(n + 1, 0);
+  diagonal_.assign(n, 0.0);
+  for (size_t e = 0; e < entries.size();) {
+    size_t f = e;
+    double sum = 0;
+    while (f < entries.size() && entries[f].row == entries[e].row && entries[f].col == entries[e].col) {
+      sum += entries[f].value;
+      ++f;
+    }
+    col_.push_back(entries[e].col);
+    value_.push_back(sum);
+    ++row_start_[entries[e].row + 1];
+    if (entries[e].row == entries[e].col) diagonal_[entries[e].row] = sum;
+    e = f;
+  }
+  for (size_t r = 0; r < n; ++r) row_start_[r + 1] += row_start_[r];
+}
+
+StitchStats SeamStitcher::measure(const image::FloatImage& image) const {
+  if (image.width != width_ || image.height != height_ || image.channels < 1) {
+    throw std::invalid_argument("SeamStitcher: the image is " + std::to_string(image.width) + "x" +
+                                std::to_string(image.height) + ", the seams were found for " +
+                                std::to_string(width_) + "x" + std::to_string(height_));
+  }
+  StitchStats s;
+  s.unknowns = texels_.size();
+  s.samples = pairs_.size();
+  mismatch(image, brightness(image, validity_), s.mismatch_before, s.rms_before);
+  return s;
+}
+
+void SeamStitcher::mismatch(const image::FloatImage& image, double scale, double& largest, double& rms) const {
+  const int ch = image.channels;
+  largest = 0;
+  double sum_sq = 0;
+  size_t counted = 0;
+  for (const Pair& p : pairs_) {
+    for (int c = 0; c < ch; ++c) {
+      double r = 0;
+      for (uint32_t i = p.first; i < p.first + p.count; ++i) {
+        r += taps_[i].weight * image.pixels[static_cast<size_t>(texels_[taps_[i].unknown]) * ch + c];
+      }
+      const double m = std::abs(r) / scale;
+      if (!std::isfinite(m)) continue;
+      largest = std::max(largest, m);
+      sum_sq += m * m;
+      ++counted;
+    }
+  }
+  rms = counted ? std::sqrt(sum_sq / static_cast<double>(counted)) : 0.0;
+}
+
+StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  StitchStats s = measure(image);
+  const double scale = brightness(image, validity_);
+  const size_t n = texels_.size();
+  const int ch = image.channels;
+  std::vector<float> before(n * ch);
+  for (size_t u = 0; u < n; ++u) {
+    for (int c = 0; c < ch; ++c) before[u * ch + c] = image.pixels[static_cast<size_t>(texels_[u]) * ch + c];
+  }
+  const auto multiply = [&](const std::vector<double>& x, std::vector<double>& y) {
+    for (size_t r = 0; r < n; ++r) {
+      double sum = 0;
+      for (uint32_t e = row_start_[r]; e < row_start_[r + 1]; ++e) sum += value_[e] * x[col_[e]];
+      y[r] = sum;
+    }
+  };
+  const auto dot = [](const std::vector<double>& a, const std::vector<double>& b) {
+    double sum = 0;
+    for (size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
+    return sum;
+  };
+  std::vector<double> x0(n), b(n), d(n), r(n), z(n), p(n), q(n);
+  for (int c = 0; c < ch && n > 0; ++c) {
+    bool finite_values = true, non_negative = true;
+    for (size_t u = 0; u < n; ++u) {
+      x0[u] = image.pixels[static_cast<size_t>(texels_[u]) * ch + c];
+      finite_values = finite_values && std::isfinite(x0[u]);
+      non_negative = non_negative && x0[u] >= 0;
+    }
+    if (!finite_values) {
+      ++s.channels_skipped;
+      continue;
+    }
+    // b = −Σ_k w r_k (r_k · x⁰)
+    std::fill(b.begin(), b.end(), 0.0);
+    for (const Pair& pair : pairs_) {
+      double rx = 0;
+      for (uint32_t i = pair.first; i < pair.first + pair.count; ++i) rx += taps_[i].weight * x0[taps_[i].unknown];
+      for (uint32_t i = pair.first; i < pair.first + pair.count; ++i) {
+        b[taps_[i].unknown] -= options_.seam_weight * taps_[i].weight * rx;
+      }
+    }
+    // Preconditioned conjugate gradients from d = 0 (Jacobi: the diagonal is at least the texel's c_i > 0).
+    std::fill(d.begin(), d.end(), 0.0);
+    r = b;
+    const double b_norm = std::sqrt(dot(b, b));
+    if (!(b_norm > 0)) continue;  // the lookups already agree exactly
+    for (size_t i = 0; i < n; ++i) z[i] = r[i] / diagonal_[i];
+    p = z;
+    double rz = dot(r, z);
+    int it = 0;
+    bool converged = false;
+    for (; it < options_.max_iterations; ++it) {
+      if (std::sqrt(dot(r, r)) <= options_.tolerance * b_norm) {
+        converged = true;
+        break;
+      }
+      multiply(p, q);
+      const double pq = dot(p, q);
+      if (!(pq > 0)) break;  // numerically exhausted
+      const double alpha = rz / pq;
+      for (size_t i = 0; i < n; ++i) {
+        d[i] += alpha * p[i];
+        r[i] -= alpha * q[i];
+      }
+      for (size_t i = 0; i < n; ++i) z[i] = r[i] / diagonal_[i];
+      const double rz_next = dot(r, z);
+      const double beta = rz_next / rz;
+      rz = rz_next;
+      for (size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
+    }
+    if (!converged && std::sqrt(dot(r, r)) <= options_.tolerance * b_norm) converged = true;
+    s.iterations = std::max(s.iterations, it);
+    s.converged = s.converged && converged;
+    constexpr double kMax = std::numeric_limits<float>::max();
+    for (size_t u = 0; u < n; ++u) {
+      const double v = x0[u] + d[u];
+      if (!std::isfinite(v)) continue;  // cannot happen for finite inputs; never write a NaN
+      // Irradiance, radiance and AO are never negative; the fit can overshoot below 0 beside a dark texel (a chart
+      // in shadow against a lit one), and then stops at 0.
+      const double lo = non_negative ? 0.0 : -kMax;
+      image.pixels[static_cast<size_t>(texels_[u]) * ch + c] = static_cast<float>(std::clamp(v, lo, kMax));
+    }
+  }
+  for (size_t u = 0; u < n; ++u) {
+    const float* now = &image.pixels[static_cast<size_t>(texels_[u]) * ch];
+    if (std::memcmp(now, &before[u * ch], sizeof(float) * ch) != 0) ++s.texels_changed;
+  }
+  mismatch(image, scale, s.mismatch_after, s.rms_after);
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s;
+}
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The seams as the stitcher takes them, with the search's counts noted in `report` on the way.
+std::vector<Seam> found_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height,
+                              SeamReport& report) {
+  SeamSearch found = find_seams(checked, name, width, height);
+  report.seams = found.seams.size();
+  report.non_manifold = found.non_manifold;
+  report.left_out = found.degenerate + found.outside;
+  return std::move(found.seams);
+}
+
+}  // namespace
+
+LightmapSeams::LightmapSeams(const scene::CheckedScene& checked, const std::string& name, int width, int height,
+                             const std::vector<uint8_t>& validity, const StitchOptions& options)
+    : stitcher_([&] {
+        const auto t0 = std::chrono::steady_clock::now();
+        std::vector<Seam> seams = found_seams(checked, name, width, height, report_);
+        SeamStitcher s(seams, width, height, validity, options);
+        report_.seconds += seconds_since(t0);
+        return s;
+      }()) {
+  report_.samples = stitcher_.samples();
+}
+
+void LightmapSeams::stitch(image::FloatImage& image, bool irradiance) {
+  const StitchStats s = stitcher_.stitch(image);
+  report_.seconds += s.seconds;
+  if (!irradiance) return;
+  report_.texels_changed = s.texels_changed;
+  report_.mismatch_before = s.mismatch_before;
+  report_.mismatch_after = s.mismatch_after;
+  report_.rms_before = s.rms_before;
+  report_.rms_after = s.rms_after;
+  report_.iterations = s.iterations;
+  report_.converged = s.converged;
+}
+
+}  // namespace kiln::lightmap

@@ -1,0 +1,177 @@
+// Seams: one 3D edge on two chart borders of a lightmap (a cube unwrapped into six charts has twelve). A bilinear
+// lookup on either side reads different texels, so the two sides show different values along the edge and a line
+// appears. find_seams finds them; SeamStitcher adjusts the texels the lookups read, after the image is baked and
+// dilated, so that the lookups on both sides agree — the least-squares seam fixing of "seamless" lightmaps (Castaño's
+// stitching for The Witness, Bakery's seam fixer).
+//
+// ## The least-squares problem
+// Along each seam, at points p_k (parameter t_k along the edge, spaced at most half a texel on either side), the
+// bilinear lookup on side A, Σ α_ki x_i, should equal that on side B, Σ β_kj x_j; every texel should stay near its
+// baked value x⁰_i. Per channel, the change d = x − x⁰ minimises
+//
+//     Σ_k w_seam (r_k · (x⁰ + d))² + Σ_i c_i d_i²,      r_k = α_k − β_k (the lookups' weights, A minus B),
+//
+// with c_i = valid_weight for a texel with samples and dilated_weight for one without (a dilated or padding texel
+// holds a copy of its neighbours, not a measurement, so it gives way first). The normal equations
+//
+//     (Σ_k w_seam r_k r_kᵀ + C) d = −Σ_k w_seam r_k (r_k · x⁰)
+//
+// are sparse, symmetric and positive definite (C > 0), over the texels some lookup reads and nothing else; they are
+// solved by conjugate gradients with a Jacobi preconditioner, in double, per channel, to a relative residual of
+// `tolerance` within `max_iterations`. Texels no lookup reads are not unknowns: they keep their exact bytes.
+//
+// ## Lookups
+// A bilinear lookup at texel-space point (s, t) (texels.h: (u·W, v·H)) reads the four texels around (s − ½, t − ½),
+// clamped to the image's edge, as a GPU does with clamp-to-edge addressing.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "bakers/image/exr.h"
+#include "bakers/lightmap/lightmap_image.h"
+#include "bakers/lightmap/texels.h"
+#include "bakers/math/sampling.h"
+#include "bakers/scene/scene.h"
+#include "bakers/scene/scene_check.h"
+
+namespace kiln::lightmap {
+
+// One seam: the same world edge on two triangles whose lightmap UVs differ. Ends in texel space (instance scale and
+// offset applied); a0 and b0 are the same world point, and so are a1 and b1.
+struct Seam {
+  Point2 a0, a1, b0, b1;
+  TriangleRef a, b;
+};
+
+// UV ends closer than this (texels) are the same: the lookups on both sides then read the same texels.
+inline constexpr double kSeamUvTolerance = 1e-4;
+// Relative weld tolerance: world positions within kWeldTolerance · L (Chebyshev) are one point, where L is the
+// larger of the lightmap's bounding-box extent and its largest absolute coordinate.
+inline constexpr double kWeldTolerance = 1e-6;
+
+struct SeamSearch {
+  std::vector<Seam> seams;     // in scene order (by the first side's instance, triangle and edge)
+  size_t edges = 0;            // distinct welded world edges of the lightmap's usable triangles
+  size_t shared_edges = 0;     // of those, on exactly two triangles
+  size_t non_manifold = 0;     // on more than two (each pair of them with different UVs is a seam, up to 4 sides)
+  size_t degenerate = 0;       // seams left out: an end pair less than kSeamUvTolerance apart on a side
+  size_t outside = 0;          // seams left out: an end outside the lightmap (UV outside [0, 1])
+  size_t skipped_triangles = 0;  // triangles left out: no lightmap UVs, an index out of range, a non-finite value
+};
+
+// The seams of the lightmap `name` (scene::resolved_lightmap_name) at width × height texels: edges shared in world
+// space by triangles of the baking instances (to_world applied, welded within kWeldTolerance) whose two sides'
+// lightmap UVs (lightmap_scale_offset applied) differ by more than kSeamUvTolerance texels. Two instances sharing the
+// lightmap meet at a seam only where they share the world edge. `bake_mask` as in RasterOptions. Deterministic;
+// never throws for bad geometry (it is counted), only std::invalid_argument for a size below 1.
+SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int width, int height,
+                      const std::vector<std::vector<uint8_t>>* bake_mask = nullptr);
+
+// The same for the scene as the bake has it: the cleaned scene, and its triangles marked "traced, not baked" left out.
+SeamSearch find_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height);
+
+struct StitchOptions {
+  double seam_weight = 1000;    // w_seam, per lookup pair
+  double valid_weight = 1;      // c_i of a texel with samples
+  double dilated_weight = 0.01;  // c_i of a texel without (dilated or empty)
+  int max_iterations = 2000;    // of conjugate gradients, per channel
+  double tolerance = 1e-10;     // relative residual ‖b − A d‖ / ‖b‖ at which CG stops
+};
+
+// What one stitch did. Mismatches are |lookup A − lookup B|, the largest over channels, over the lightmap's
+// brightness (the mean luminance of its valid texels, or of the one channel; 1 for a black lightmap): the relative
+// units of the error image under the lightmap metric.
+struct StitchStats {
+  size_t unknowns = 0;          // texels some lookup reads
+  size_t samples = 0;           // lookup pairs
+  size_t texels_changed = 0;    // whose bytes changed
+  double mismatch_before = 0;   // largest
+  double mismatch_after = 0;
+  double rms_before = 0;        // over the lookup pairs and channels
+  double rms_after = 0;
+  int iterations = 0;           // the most any channel took
+  bool converged = true;        // every channel reached the tolerance
+  size_t channels_skipped = 0;  // channels left alone: a value the lookups read was not finite
+  double seconds = 0;
+};
+
+// The seams' lookup pairs and normal equations for one lightmap, built once and applied to each of its images (they
+// share the texels and validity).
+class SeamStitcher {
+ public:
+  // `validity`: width·height bytes (non-zero: valid), the map the images were dilated from. Seams with a NaN or
+  // infinite end, an end outside [0, W] × [0, H], or no length on either side give no lookups. Throws
+  // std::invalid_argument when the sizes disagree or the weights are not positive and finite.
+  SeamStitcher(const std::vector<Seam>& seams, int width, int height, const std::vector<uint8_t>& validity,
+               const StitchOptions& options = {});
+
+  // Stitches every channel of `image` (width × height, any channel count) in place.
+  StitchStats stitch(image::FloatImage& image) const;
+  // The mismatches of `image` without changing it (mismatch_before and rms_before are filled).
+  StitchStats measure(const image::FloatImage& image) const;
+
+  size_t unknowns() const { return texels_.size(); }
+  size_t samples() const { return pairs_.size(); }
+  size_t seams_used() const { return seams_used_; }
+
+ private:
+  struct Tap {
+    uint32_t unknown;  // into texels_
+    double weight;     // + on side A, − on side B
+  };
+  struct Pair {
+    uint32_t first, count;  // taps_[first, first + count)
+  };
+  int width_ = 0, height_ = 0;
+  std::vector<uint8_t> validity_;
+  StitchOptions options_;
+  size_t seams_used_ = 0;
+  std::vector<uint32_t> texels_;  // unknown → texel index, in order of first use
+  std::vector<Tap> taps_;
+  std::vector<Pair> pairs_;
+  // The normal matrix in compressed rows over the unknowns.
+  std::vector<uint32_t> row_start_, col_;
+  std::vector<double> value_;
+  std::vector<double> diagonal_;
+
+  void build_matrix();
+  // The largest and RMS |lookup A − lookup B| over `scale`, over the lookup pairs and channels.
+  void mismatch(const image::FloatImage& image, double scale, double& largest, double& rms) const;
+};
+
+// One lightmap's seams in report.json: what was found, and what stitching did to NAME_irradiance.exr.
+struct SeamReport {
+  size_t seams = 0;           // seam edges stitched
+  size_t non_manifold = 0;    // world edges on more than two triangles
+  size_t left_out = 0;        // seams not stitched: no length in UV on a side, or an end outside the lightmap
+  size_t samples = 0;         // lookup pairs along them
+  size_t texels_changed = 0;  // of NAME_irradiance.exr
+  double mismatch_before = 0, mismatch_after = 0;  // largest, relative (StitchStats)
+  double rms_before = 0, rms_after = 0;
+  int iterations = 0;
+  bool converged = true;
+  double seconds = 0;  // finding the seams, building the system and stitching every image of the lightmap
+};
+
+// The seams of one lightmap of a bake, found once, stitching each of its images (irradiance, denoised, radiance, AO,
+// preview) through finish() after their dilation.
+class LightmapSeams {
+ public:
+  LightmapSeams(const scene::CheckedScene& checked, const std::string& name, int width, int height,
+                const std::vector<uint8_t>& validity, const StitchOptions& options = {});
+  // Stitches an image in place; `irradiance` says it is NAME_irradiance.exr, whose figures go in the report.
+  void stitch(image::FloatImage& image, bool irradiance);
+  ImageFinish finish(bool irradiance) {
+    return [this, irradiance](image::FloatImage& image) { stitch(image, irradiance); };
+  }
+  const SeamReport& report() const { return report_; }
+
+ private:
+  SeamReport report_;  // before stitcher_: its construction fills the search's counts
+  SeamStitcher stitcher_;
+};
+
+}  // namespace kiln::lightmap
