@@ -20,6 +20,7 @@
 #include "bakers/lightmap/light_budget.h"
 #include "bakers/lightmap/light_tracing.h"
 #include "bakers/lightmap/lightmap_image.h"
+#include "bakers/lightmap/lightmap_manifest.h"
 #include "bakers/lightmap/lightmap_outputs.h"
 #include "bakers/lightmap/lightmap_report.h"
 #include "bakers/lightmap/lightmap_state.h"
@@ -62,6 +63,7 @@ struct LightmapBakeRun {
   double last_fraction = 0;     // the progress reported so far, which never decreases
 
   scene::CheckedScene checked;  // the scene as baked: textures and environment decoded, then cleaned
+  std::optional<AtlasPack> atlas;  // when the input packs atlas pages
   std::string color_space;      // the working space every output is in
   plan::LightmapPlan plan;
   std::unique_ptr<scene::Tracer> tracer;
@@ -151,7 +153,13 @@ void prepare_scene(LightmapBakeRun& run) {
   run.stop.check();
   decode_environment(run, input);
   run.stop.check();
-  run.checked = scene::check_scene(input);
+  if (run.in.atlas.texel_density > 0) {
+    AtlasOptions options = run.in.atlas;
+    options.padding = run.in.padding;
+    run.checked = check_and_pack_scene(std::move(input), options, run.stop, run.atlas.emplace());
+  } else {
+    run.checked = scene::check_scene(input);
+  }
   run.stop.check();
   for (const scene::Problem& p : run.checked.report.problems) {
     run.result.skipped.push_back(std::string(scene::to_string(p.kind)) + ": " + p.what + "; " + p.action);
@@ -219,7 +227,9 @@ void rasterize_texels(LightmapBakeRun& run) {
   for (const std::string& name : lightmap_names(run.scene())) {
     const auto it = in.resolutions.find(run.checked.input_lightmap_name(name));
     RasterOptions raster;
-    raster.width = raster.height = it != in.resolutions.end() ? it->second : in.resolution;
+    raster.width = raster.height = run.atlas                           ? in.atlas.page_size
+                                   : it != in.resolutions.end() ? it->second
+                                                                : in.resolution;
     raster.bake_mask = &bake_mask;
     run.stage = "rasterization of lightmap '" + name + "'";
     LightmapTexels texels = rasterize_lightmap(run.scene(), name, raster, run.stop);
@@ -445,7 +455,19 @@ void write_report(LightmapBakeRun& run) {
   report.tracer_bytes = run.tracer->memory_bytes();
   report.scene_problems = run.checked.report.total();
   report.denoise = run.in.denoise ? &run.in.denoise_options : nullptr;
+  report.atlas = run.atlas ? &*run.atlas : nullptr;
   run.result.outputs.push_back({"report.json", "application/json", "", report_json(run.result, report)});
+}
+
+// lightmaps.json, and the atlas's part of report.json (written just before, so it is the last output).
+void write_manifest(LightmapBakeRun& run) {
+  ManifestInput m;
+  m.input_scene = &run.in.scene;
+  m.pack = &*run.atlas;
+  m.texel_density = run.in.atlas.texel_density;
+  for (const LightmapReportEntry& e : run.report.lightmaps) m.valid_texels[e.name] = e.error.valid;
+  m.outputs = &run.result.outputs;
+  run.result.outputs.push_back(manifest_output(m));
 }
 
 // The time limit ran out before the first sample: there is nothing to write, and the same job would run out again.
@@ -464,6 +486,7 @@ void write_outputs(LightmapBakeRun& run) {
   }
   run.result.seconds = seconds_since(run.t0);
   write_report(run);
+  if (run.atlas) write_manifest(run);
   run.progress(1.0, "done", run.result.error_estimate);
 }
 
@@ -487,6 +510,9 @@ std::optional<bake::InvalidInput> validate(const LightmapBakeInput& in) {
   const bounds::Range time_limit{0, bounds::kLightmapTimeLimitSeconds.hi};
   if (auto e = check_range("time_limit_seconds", in.time_limit_seconds, time_limit)) return e;
   if (auto e = check_range("max_bounces", in.max_bounces, bounds::kMaxBounces.real())) return e;
+  if (in.atlas.texel_density != 0) {
+    if (auto e = check_atlas_options(in.atlas)) return e->under("atlas");
+  }
   if (!in.textures.empty() && !in.scene.textures.empty()) {
     return InvalidInput("textures", "give textures either decoded in the scene or encoded, not both");
   }

@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bakers/lightmap/lightmap_manifest.h"
+
 namespace kiln::lightmap {
 namespace {
 
@@ -106,6 +108,11 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["denoise"] = denoise_json(report);
   j["tracer"] = tracer_json(report);
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
+  if (report.atlas) {
+    std::map<std::string, size_t> valid;
+    for (const LightmapReportEntry& m : report.lightmaps) valid[m.name] = m.error.valid;
+    j["atlas"] = Json::parse(atlas_report_json(*report.atlas, valid));
+  }
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
   return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
 }

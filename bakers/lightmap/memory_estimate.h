@@ -4,7 +4,9 @@
 // their estimates fits (so a job that fits is never killed by the kernel for memory).
 //
 // The model, every figure from the sizes of the structures the bake allocates (memory_estimate.cpp):
-//  - per texel of each lightmap (every texel counted, as if the charts covered the whole map): its sample points
+//  - per texel of each lightmap (every texel counted, as if the charts covered the whole map; with atlas pages, each
+//    of max_pages pages of page_size² texels, since how many the packer fills is not known before the bake): its
+//    sample points
 //    (samples_per_texel of them) and the bake's state, held to the end; while that lightmap is rasterized and probed
 //    for leaks, the fragments (twice, while sorted) and the leak results; and its output images, raw and encoded,
 //    which the bake holds until it returns.
