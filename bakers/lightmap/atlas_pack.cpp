@@ -351,8 +351,10 @@ void apply_atlas(const AtlasPack& pack, scene::Scene& scene) {
 
 scene::CheckedScene check_and_pack_scene(scene::Scene scene, const AtlasOptions& options, const bake::StopCheck& stop,
                                          AtlasPack& pack) {
+  // One safe placeholder name for every instance: the check then has no lightmap to rename (the packer names the
+  // pages), and no placement to refuse.
   for (scene::Instance& inst : scene.instances) {
-    inst.lightmap.clear();
+    inst.lightmap = "page";
     inst.lightmap_scale_offset = {1, 1, 0, 0};
   }
   scene::CheckOptions check;

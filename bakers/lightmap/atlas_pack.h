@@ -113,7 +113,7 @@ AtlasPack pack_atlas(const scene::CheckedScene& checked, const AtlasOptions& opt
 void apply_atlas(const AtlasPack& pack, scene::Scene& scene);
 
 // The scene check of a bake that packs: the instances' own lightmap names and scales and offsets are dropped (the
-// packer places them), the scene is checked, packed and placed (apply_atlas), and only then checked for overlapping
+// packer names and places them, so no lightmap is renamed for its file name), the scene is checked, packed and placed (apply_atlas), and only then checked for overlapping
 // lightmap UVs, so the report has the overlaps of the pages as baked (a mesh whose own UVs overlap), not of the
 // placement the packer replaced. `pack` receives the pack.
 scene::CheckedScene check_and_pack_scene(scene::Scene scene, const AtlasOptions& options, const bake::StopCheck& stop,

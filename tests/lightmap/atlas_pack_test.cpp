@@ -308,13 +308,17 @@ TEST(AtlasPack, DegenerateInputsNeverCrash) {
 // overlap still is.
 TEST(AtlasPack, OverlapsAreCheckedOnThePagesAsBaked) {
   scene::Scene s = mixed_scene();  // four instances of one quad at the same default place: overlapping
+  s.meshes[0].name = "Node/quad";   // not a file name: renamed when it names a lightmap, not when pages do
   EXPECT_GT(scene::check_scene(s).report.count(scene::ProblemKind::overlapping_lightmap_uv), 0);
+  EXPECT_GT(scene::check_scene(s).report.count(scene::ProblemKind::renamed_lightmap), 0);
   AtlasOptions o;
   o.texel_density = 20;
   o.page_size = 256;
   AtlasPack p;
   const scene::CheckedScene packed = check_and_pack_scene(s, o, {}, p);
   EXPECT_EQ(packed.report.count(scene::ProblemKind::overlapping_lightmap_uv), 0);
+  EXPECT_EQ(packed.report.count(scene::ProblemKind::renamed_lightmap), 0);
+  EXPECT_TRUE(packed.renamed_lightmaps.empty());
   for (const scene::Instance& inst : packed.scene.instances) EXPECT_EQ(inst.lightmap.rfind("page", 0), 0u);
 
   // A quad whose two triangles share the same UVs overlaps itself, wherever it is placed.
