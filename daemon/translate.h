@@ -51,7 +51,8 @@ inline constexpr uint64_t kMaxInputBlobBytes = uint64_t{512} << 20;
 struct LightmapMemoryBasis {
   lightmap::LightmapJobSize size;
   std::string texel_field, scene_field, input_field;
-  size_t lightmaps = 0;
+  size_t lightmaps = 0;  // lightmaps, or atlas pages when `pages`
+  bool pages = false;
   uint64_t texels = 0;
 };
 

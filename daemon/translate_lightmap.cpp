@@ -1,6 +1,7 @@
 // The lightmap job's part of the translation layer: a kiln.v1.LightmapJob in, a lightmap::LightmapBakeInput out,
 // every field checked against the bounds kiln.proto documents and named by its path when it is not
 // ("job.lightmap.lights[0].spot.outer_cone_angle"). Mesh blobs are decoded later, in the worker (load_inputs).
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
@@ -38,6 +39,7 @@ constexpr bounds::Range kCoordinate{-kMaxCoordinate, kMaxCoordinate};
 constexpr double kMaxLightColor = 1e12;
 constexpr double kMaxEmission = 1e9;
 constexpr uint64_t kDefaultMinSamples = 16;  // the baker's default, capped by max_samples
+constexpr uint64_t kDefaultMaxPages = 4;     // atlas pages, fewer where the texel limit says so
 constexpr double kHalfPi = 1.5707963267948966;
 
 std::string at(const std::string& path, int i) { return path + "[" + std::to_string(i) + "]"; }
@@ -348,6 +350,8 @@ scene::Instance instance(const kiln::v1::Instance& inst, const std::string& p, i
   }
   check_name(inst.lightmap(), p + ".lightmap");
   out.lightmap = inst.lightmap();
+  check_name(inst.name(), p + ".name");
+  out.name = inst.name();
   lightmap_scale_offset(inst, p, out);
   out.bake = !inst.has_bake() || inst.bake();
   return out;
@@ -387,6 +391,10 @@ void lights(const kiln::v1::LightmapJob& j, scene::Scene& sc) {
 void resolutions(const kiln::v1::LightmapJob& j, const std::set<std::string>& lightmap_names,
                  lightmap::LightmapBakeInput& in) {
   set_count(j.has_resolution(), j.resolution(), kPath + ".resolution", bounds::kLightmapResolution, in.resolution);
+  if (j.has_texel_density() && j.lightmaps_size() > 0) {
+    throw InvalidField(at(kPath + ".lightmaps", 0), "per-lightmap settings do not apply when texel_density packs "
+                                                    "atlas pages (every page is page_size on a side): leave them out");
+  }
   for (int i = 0; i < j.lightmaps_size(); ++i) {
     const kiln::v1::LightmapSettings& l = j.lightmaps(i);
     const std::string p = at(kPath + ".lightmaps", i);
@@ -402,8 +410,54 @@ void resolutions(const kiln::v1::LightmapJob& j, const std::set<std::string>& li
   }
 }
 
+// Atlas pages: the job's density, page size and page limit, and each instance's options; without texel_density the
+// others must be left unset, and with it no instance may place itself.
+void atlas_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& in) {
+  lightmap::AtlasOptions& a = in.atlas;
+  if (!j.has_texel_density()) {
+    if (j.has_page_size()) throw InvalidField(kPath + ".page_size", "needs texel_density: pages are what it packs");
+    if (j.has_max_pages()) throw InvalidField(kPath + ".max_pages", "needs texel_density: pages are what it packs");
+    for (int i = 0; i < j.instances_size(); ++i) {
+      const std::string p = at(kPath + ".instances", i);
+      if (j.instances(i).has_texel_density()) {
+        throw InvalidField(p + ".texel_density", "needs job.lightmap.texel_density (atlas packing)");
+      }
+      if (j.instances(i).own_page()) throw InvalidField(p + ".own_page", "needs job.lightmap.texel_density (atlas packing)");
+    }
+    return;
+  }
+  check_range(kPath + ".texel_density", j.texel_density(), bounds::kTexelDensity);
+  a.texel_density = j.texel_density();
+  set_count(j.has_page_size(), j.page_size(), kPath + ".page_size", bounds::kAtlasPageSize, a.page_size);
+  const uint64_t page_texels = static_cast<uint64_t>(a.page_size) * static_cast<uint64_t>(a.page_size);
+  a.max_pages = static_cast<int>(std::min<uint64_t>(kDefaultMaxPages, kMaxTotalTexels / page_texels));
+  set_count(j.has_max_pages(), j.max_pages(), kPath + ".max_pages", bounds::kAtlasMaxPages, a.max_pages);
+  if (static_cast<uint64_t>(a.max_pages) * page_texels > kMaxTotalTexels) {
+    throw InvalidField(kPath + ".max_pages", std::to_string(a.max_pages) + " pages of " + std::to_string(a.page_size) +
+                                                 "^2 texels exceed the job's " + std::to_string(kMaxTotalTexels) +
+                                                 " texels: at most " +
+                                                 std::to_string(kMaxTotalTexels / page_texels) + " at this page_size");
+  }
+  for (int i = 0; i < j.instances_size(); ++i) {
+    const kiln::v1::Instance& inst = j.instances(i);
+    const std::string p = at(kPath + ".instances", i);
+    if (inst.lightmap_scale_offset_size() > 0) {
+      throw InvalidField(p + ".lightmap_scale_offset", "must be empty when texel_density packs atlas pages (the "
+                                                       "packer places every instance; lightmaps.json says where)");
+    }
+    lightmap::AtlasInstanceOptions o;
+    if (inst.has_texel_density()) {
+      check_range(p + ".texel_density", inst.texel_density(), bounds::kTexelDensity);
+      o.texel_density = inst.texel_density();
+    }
+    o.own_page = inst.own_page();
+    if (inst.has_texel_density() || o.own_page) a.instances[static_cast<uint32_t>(i)] = o;
+  }
+}
+
 // The texel budget over every lightmap the job bakes.
 void check_texels(const std::set<std::string>& lightmap_names, const lightmap::LightmapBakeInput& in) {
+  if (in.atlas.texel_density > 0) return;  // atlas_settings bounded max_pages × page_size²
   uint64_t texels = 0;
   for (const std::string& name : lightmap_names) {
     const auto it = in.resolutions.find(name);
@@ -506,7 +560,15 @@ void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>
   // The largest lightmap, and the field that sets its resolution.
   std::string largest_field = kPath + ".resolution";
   uint64_t largest = 0, texels = 0;
-  for (const std::string& name : lightmap_names) {
+  const bool packing = in.atlas.texel_density > 0;
+  if (packing) {
+    // Atlas pages: as many as the job allows, every one whole (the charts are not known before the bake).
+    const uint64_t page = static_cast<uint64_t>(in.atlas.page_size) * static_cast<uint64_t>(in.atlas.page_size);
+    size.lightmap_texels.assign(static_cast<size_t>(in.atlas.max_pages), page);
+    texels = page * static_cast<uint64_t>(in.atlas.max_pages);
+    largest_field = kPath + (j.has_max_pages() ? ".max_pages" : ".page_size");
+  }
+  for (const std::string& name : packing ? std::set<std::string>() : lightmap_names) {
     const auto it = in.resolutions.find(name);
     const uint64_t n = static_cast<uint64_t>(it == in.resolutions.end() ? in.resolution : it->second);
     size.lightmap_texels.push_back(n * n);
@@ -525,7 +587,8 @@ void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>
   basis.texel_field = largest_field;
   basis.scene_field = kPath + (j.instances_size() > 0 ? ".instances" : ".meshes");
   basis.input_field = kPath + (size.texture_blob_bytes >= size.environment_blob_bytes ? ".textures" : ".environment");
-  basis.lightmaps = lightmap_names.size();
+  basis.lightmaps = packing ? size.lightmap_texels.size() : lightmap_names.size();
+  basis.pages = packing;
   basis.texels = texels;
   r.lightmap_memory = basis;
   plan_lightmap_memory(r, in.memory_limit_bytes);
@@ -560,7 +623,7 @@ void plan_lightmap_memory(BakeRequest& r, uint64_t limit) {
                             " bytes a texel in flight, " +
                             std::to_string(static_cast<uint64_t>(e.results_bytes_per_texel)) + " a texel of a page)"
                       : " at about " + std::to_string(static_cast<uint64_t>(e.bytes_per_texel)) + " bytes each";
-  r.memory_note = std::to_string(basis.lightmaps) + " lightmap(s) of " + std::to_string(texels) + " texels in all" +
+  r.memory_note = std::to_string(basis.lightmaps) + (basis.pages ? " atlas page(s) of " : " lightmap(s) of ") + std::to_string(texels) + " texels in all" +
                   tiles + " (" + lightmap::format_bytes(texel_bytes) + "), up to " +
                   std::to_string(size.traced_triangles) + " traced triangles (" + lightmap::format_bytes(e.scene_bytes) +
                   " with the meshes), inputs " + lightmap::format_bytes(e.input_bytes);
@@ -595,6 +658,9 @@ std::string scene_hash(const kiln::v1::LightmapJob& j) {
   scene_part.clear_denoise();
   scene_part.clear_stitch_seams();
   scene_part.clear_error_metric();
+  scene_part.clear_texel_density();
+  scene_part.clear_page_size();
+  scene_part.clear_max_pages();
   std::string bytes;
   {
     google::protobuf::io::StringOutputStream stream(&bytes);
@@ -618,6 +684,7 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
   const std::set<std::string> lightmap_names = instances(j, sc);
   lights(j, sc);
   if (j.has_environment()) environment(j.environment(), kPath + ".environment", blobs, r);
+  atlas_settings(j, in);
   resolutions(j, lightmap_names, in);
   check_texels(lightmap_names, in);
   bake_settings(j, in);
@@ -665,6 +732,12 @@ std::string lightmap_canonical_text(const BakeRequest& r) {
   // Tiles change the bytes (not the answer beyond the noise): a tiled bake is another result. Untiled bakes keep the
   // key they had before tiles existed.
   if (in.tile_size > 0) o << "tile_size=" << in.tile_size << "\n";
+  // Only when packing, so that the keys of jobs without atlas pages stay what they were. The per-instance options
+  // are in the scene part.
+  if (in.atlas.texel_density > 0) {
+    o << "texel_density=" << format_number(in.atlas.texel_density) << "\npage_size=" << in.atlas.page_size
+      << "\nmax_pages=" << in.atlas.max_pages << "\n";
+  }
   return o.str();
 }
 

@@ -74,6 +74,7 @@ std::string describe_output(const std::string& n) {
   if (n == "split_sum.exr") return "split-sum scale and bias on f0 over (mu, roughness), with standard errors";
   if (n == "brdf.merl") return "the BRDF tabulated in the MERL binary layout (90 x 90 x 180 x RGB doubles)";
   if (n == "report.json") return "the bake report: samples, time, errors, validation, plan";
+  if (n == "lightmaps.json") return "the atlas manifest: each instance's page, scale and offset, each page's files";
   if (n == "specular.ktx2") return "the prefiltered specular cube, every level and face, RGBA16F";
   if (n.rfind("specular_L", 0) == 0) return "one face of one level of the prefiltered specular cube, RGB float";
   if (n.rfind("irradiance_", 0) == 0) return "one face of the irradiance cube E(n), RGB float";

@@ -63,5 +63,10 @@ inline constexpr WholeRange kMaxBounces{0, 1024};
 inline constexpr WholeRange kLightmapSamples{1, 1 << 20};  // per texel
 inline constexpr Range kLightmapTargetError{0.0, 1.0, true};
 inline constexpr Range kLightmapTimeLimitSeconds{0.0, 7 * 86400.0, true};
+// Atlas packing (bakers/lightmap/atlas_pack.h): texels per metre of surface (per scene unit), texels on a side of a
+// page, pages per job.
+inline constexpr Range kTexelDensity{0.0, 1e6, true};
+inline constexpr WholeRange kAtlasPageSize{16, 8192};
+inline constexpr WholeRange kAtlasMaxPages{1, 4096};
 
 }  // namespace kiln::bounds

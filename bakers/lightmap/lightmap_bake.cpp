@@ -23,6 +23,7 @@
 #include "bakers/lightmap/light_budget.h"
 #include "bakers/lightmap/light_tracing.h"
 #include "bakers/lightmap/lightmap_image.h"
+#include "bakers/lightmap/lightmap_manifest.h"
 #include "bakers/lightmap/lightmap_outputs.h"
 #include "bakers/lightmap/lightmap_report.h"
 #include "bakers/lightmap/lightmap_results.h"
@@ -70,6 +71,8 @@ struct LightmapBakeRun {
   double last_fraction = 0;     // the progress reported so far, which never decreases
 
   scene::CheckedScene checked;  // the scene as baked: textures and environment decoded, then cleaned
+  std::optional<AtlasPack> atlas;  // when the input packs atlas pages
+  std::vector<std::string> output_names;  // of every output handed over so far, in order
   std::string color_space;      // the working space every output is in
   plan::LightmapPlan plan;
   std::unique_ptr<scene::Tracer> tracer;
@@ -160,7 +163,13 @@ void prepare_scene(LightmapBakeRun& run) {
   run.stop.check();
   decode_environment(run, input);
   run.stop.check();
-  run.checked = scene::check_scene(input);
+  if (run.in.atlas.texel_density > 0) {
+    AtlasOptions options = run.in.atlas;
+    options.padding = run.in.padding;
+    run.checked = check_and_pack_scene(std::move(input), options, run.stop, run.atlas.emplace());
+  } else {
+    run.checked = scene::check_scene(input);
+  }
   run.stop.check();
   for (const scene::Problem& p : run.checked.report.problems) {
     run.result.skipped.push_back(std::string(scene::to_string(p.kind)) + ": " + p.what + "; " + p.action);
@@ -170,8 +179,10 @@ void prepare_scene(LightmapBakeRun& run) {
 
 // ---- 2. Memory: whole pages, or tiles (memory_estimate.h) ----
 
-// The texels on a side of lightmap `name` (a file stem of the checked scene; the job's settings use its input name).
+// The texels on a side of lightmap `name` (a file stem of the checked scene, whose settings the job gives under its
+// input name), or of an atlas page.
 int lightmap_resolution(const LightmapBakeRun& run, const std::string& name) {
+  if (run.atlas) return run.in.atlas.page_size;  // every atlas page
   const auto it = run.in.resolutions.find(run.checked.input_lightmap_name(name));
   return it != run.in.resolutions.end() ? it->second : run.in.resolution;
 }
@@ -510,12 +521,14 @@ void sample_adaptively(LightmapBakeRun& run) {
 
 // ---- 6. Outputs ----
 
-// Hands an output to the caller's sink, or keeps it in the result when there is none (bake::BakeControl).
+// Hands an output to the caller's sink, or keeps it in the result when there is none (bake::BakeControl); either
+// way its name joins `names` (lightmaps.json lists each page's files).
 class OutputStream {
  public:
-  OutputStream(const bake::BakeControl& control, std::vector<bake::BakeOutput>& kept)
-      : sink_(control.output_sink), kept_(kept) {}
+  OutputStream(const bake::BakeControl& control, std::vector<bake::BakeOutput>& kept, std::vector<std::string>& names)
+      : sink_(control.output_sink), kept_(kept), names_(names) {}
   void push_back(bake::BakeOutput&& o) {
+    names_.push_back(o.name);
     if (sink_) {
       sink_(std::move(o));
     } else {
@@ -526,6 +539,7 @@ class OutputStream {
  private:
   const std::function<void(bake::BakeOutput&&)>& sink_;
   std::vector<bake::BakeOutput>& kept_;
+  std::vector<std::string>& names_;
 };
 
 // The per-texel results a page keeps for the outputs asked for.
@@ -542,7 +556,7 @@ ResultChannels result_channels(const LightmapBakeInput& in) {
 void write_lightmap(LightmapBakeRun& run, const LightmapResults& r, const LeakReport& leaks,
                     const LightmapMemory& memory) {
   const LightmapBakeInput& in = run.in;
-  OutputStream outputs(run.control, run.result.outputs);
+  OutputStream outputs(run.control, run.result.outputs, run.output_names);
   LightmapOutputOptions options;
   options.padding = in.padding;
   options.color_space = run.color_space;
@@ -587,8 +601,20 @@ void write_report(LightmapBakeRun& run) {
   report.tracer_bytes = run.tracer->memory_bytes();
   report.scene_problems = run.checked.report.total();
   report.denoise = run.in.denoise ? &run.in.denoise_options : nullptr;
-  OutputStream(run.control, run.result.outputs).push_back(
-      {"report.json", "application/json", "", report_json(run.result, report)});
+  report.atlas = run.atlas ? &*run.atlas : nullptr;
+  OutputStream(run.control, run.result.outputs, run.output_names)
+      .push_back({"report.json", "application/json", "", report_json(run.result, report)});
+}
+
+// lightmaps.json, and the atlas's part of report.json (written just before, so it is the last output).
+void write_manifest(LightmapBakeRun& run) {
+  ManifestInput m;
+  m.input_scene = &run.in.scene;
+  m.pack = &*run.atlas;
+  m.texel_density = run.in.atlas.texel_density;
+  for (const LightmapReportEntry& e : run.report.lightmaps) m.valid_texels[e.name] = e.error.valid;
+  m.output_names = &run.output_names;
+  OutputStream(run.control, run.result.outputs, run.output_names).push_back(manifest_output(m));
 }
 
 // The time limit ran out before the first sample: there is nothing to write, and the same job would run out again.
@@ -621,6 +647,7 @@ void write_outputs(LightmapBakeRun& run) {
   }
   run.result.seconds = seconds_since(run.t0);
   write_report(run);
+  if (run.atlas) write_manifest(run);
   run.progress(1.0, "done", run.result.error_estimate);
 }
 
@@ -816,6 +843,7 @@ void bake_tiles(LightmapBakeRun& run) {
   result.error_estimate = result.curve.empty() ? -1.0 : std::max(-1.0, result.curve.back().error);
   result.seconds = seconds_since(run.t0);
   write_report(run);
+  if (run.atlas) write_manifest(run);
   run.progress(1.0, "done", result.error_estimate);
 }
 
@@ -842,6 +870,9 @@ std::optional<bake::InvalidInput> validate(const LightmapBakeInput& in) {
   if (in.tile_size != 0) {
     const bounds::Range tile{static_cast<double>(kMinTileSize), 16384};
     if (auto e = check_range("tile_size", in.tile_size, tile)) return e;
+  }
+  if (in.atlas.texel_density != 0) {
+    if (auto e = check_atlas_options(in.atlas)) return e->under("atlas");
   }
   if (!in.textures.empty() && !in.scene.textures.empty()) {
     return InvalidInput("textures", "give textures either decoded in the scene or encoded, not both");

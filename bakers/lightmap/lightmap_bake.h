@@ -13,6 +13,7 @@
 //   NAME_sh.exr           order-1 SH of incoming radiance, 4 RGB coefficients as 12 channels (on request)
 //   NAME_preview.png      the irradiance through OpenColorIO's display transform
 //   report.json           plan, samples, rays, time, error estimate, error-versus-time curve, scene problems, memory
+//   lightmaps.json        when atlas.texel_density is set: each instance's page, scale and offset (lightmap_manifest.h)
 #pragma once
 
 #include <cstdint>
@@ -26,6 +27,7 @@
 #include "bakers/bake/invalid_input.h"
 #include "bakers/bake/output.h"
 #include "bakers/envmap/env_input.h"
+#include "bakers/lightmap/atlas_pack.h"
 #include "bakers/lightmap/denoise.h"
 #include "bakers/lightmap/error_metric.h"
 #include "bakers/plan/decision.h"
@@ -55,6 +57,11 @@ struct LightmapBakeInput {
   int resolution = 256;                    // texels on a side of every lightmap, [4, 8192]
   std::map<std::string, int> resolutions;  // per lightmap name, overriding `resolution`
   int padding = 4;                         // texels of dilation, [0, 64]
+  // Atlas pages (atlas_pack.h): with atlas.texel_density > 0 every baking instance gets a region of a page at that
+  // density, replacing its own lightmap name and lightmap_scale_offset; pages are atlas.page_size on a side
+  // (`resolution` and `resolutions` do not apply), charts are `padding` texels apart (at least 2; atlas.padding is
+  // not read) and lightmaps.json is written. 0: no packing, each instance bakes where the scene puts it.
+  AtlasOptions atlas;
 
   double target_error = 0.01;  // the error per texel, under error_metric, the adaptive sampling aims at
   ErrorMetric error_metric = ErrorMetric::lightmap;  // what target_error measures (error_metric.h)

@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bakers/lightmap/lightmap_manifest.h"
+
 namespace kiln::lightmap {
 namespace {
 
@@ -159,6 +161,11 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
                      {"rule", "probed only near other instances (a texel of their chunks' boxes) or on meshes that "
                               "can hide their own points (neither convex nor a height field)"}};
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
+  if (report.atlas) {
+    std::map<std::string, size_t> valid;
+    for (const LightmapReportEntry& m : report.lightmaps) valid[m.name] = m.error.valid;
+    j["atlas"] = Json::parse(atlas_report_json(*report.atlas, valid));
+  }
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
   return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
 }

@@ -51,6 +51,7 @@ struct LightmapReport {
   int64_t scene_problems = 0;               // all of them; result.skipped lists the ones that are listed
   const DenoiseOptions* denoise = nullptr;  // the denoiser's settings when NAME_irradiance_denoised.exr was asked for
   double denoise_seconds = 0;               // its guides and filter, over every lightmap
+  const AtlasPack* atlas = nullptr;         // when the bake packed atlas pages: "atlas", its pages and regions
 };
 
 // The JSON text, ending in a newline.

@@ -5,7 +5,8 @@
 //
 // The model, every figure from the sizes of the structures the bake allocates (memory_estimate.cpp):
 //  - untiled (tile_size 0), per texel of each lightmap (every texel counted, as if the charts covered the whole
-//    map): its sample points (samples_per_texel of them) and the bake's state, held to the end; while that lightmap
+//    map; with atlas pages, each of max_pages pages of page_size² texels, since how many the packer fills is not
+//    known before the bake): its sample points (samples_per_texel of them) and the bake's state, held to the end; while that lightmap
 //    is rasterized and probed for leaks, the fragments (twice, while sorted) and the leak results; then one page's
 //    results (lightmap_results.h) at a time while the pages are written; and the output images, raw and encoded:
 //    one page's when the outputs stream (bake::BakeControl::output_sink), else every page's, which the bake then

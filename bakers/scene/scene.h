@@ -91,7 +91,8 @@ struct Environment {
 };
 
 struct Instance {
-  int mesh = 0;  // into Scene::meshes
+  int mesh = 0;      // into Scene::meshes
+  std::string name;  // for people and lightmaps.json (a node's name); may be empty, need not be unique
   Transform to_world;
   std::string lightmap;  // the lightmap it bakes into: empty = "<mesh name>"; instances may share an atlas
   // Where this instance's lightmap UVs land in its lightmap: uv' = (s_u·u + o_u, s_v·v + o_v), as

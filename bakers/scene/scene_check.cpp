@@ -616,13 +616,13 @@ std::vector<UvTriangle> lightmap_triangles(const CheckedScene& out, const std::s
 }
 
 // Per lightmap, in the order the instances name them.
-void check_overlaps(SceneCheck& c) {
+void find_all_overlaps(const CheckedScene& out, Reporter& reporter) {
   std::vector<std::string> names;
-  for (const Instance& inst : c.out.scene.instances) {
+  for (const Instance& inst : out.scene.instances) {
     if (inst.bake && std::find(names.begin(), names.end(), inst.lightmap) == names.end())
       names.push_back(inst.lightmap);
   }
-  for (const std::string& name : names) find_overlaps(name, lightmap_triangles(c.out, name), c.report);
+  for (const std::string& name : names) find_overlaps(name, lightmap_triangles(out, name), reporter);
 }
 
 }  // namespace
@@ -641,8 +641,13 @@ CheckedScene check_scene(const Scene& in, const CheckOptions& options) {
   out.triangles.resize(in.meshes.size());
   for (size_t m = 0; m < in.meshes.size(); ++m) check_mesh(c, m);
   check_instances(c);
-  check_overlaps(c);
+  if (options.overlaps) find_all_overlaps(out, c.report);
   return out;
+}
+
+void check_overlaps(CheckedScene& checked, const CheckOptions& options) {
+  Reporter reporter(checked.report, options.max_listed_per_kind);
+  find_all_overlaps(checked, reporter);
 }
 
 }  // namespace kiln::scene

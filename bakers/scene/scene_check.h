@@ -94,6 +94,9 @@ struct SceneReport {
 
 struct CheckOptions {
   size_t max_listed_per_kind = 100;
+  // false: no overlap check yet, for a caller that places the instances in their lightmaps after the check (an atlas
+  // packer) and then calls check_overlaps.
+  bool overlaps = true;
 };
 
 struct CheckedScene {
@@ -117,6 +120,10 @@ struct CheckedScene {
 
 // Never throws for bad data: everything wrong is in the report.
 CheckedScene check_scene(const Scene& scene, const CheckOptions& options = {});
+
+// The overlapping_lightmap_uv check of check_scene, on a checked scene whose instances' lightmaps or scale and offset
+// changed since (an atlas packed them): its problems are added to checked.report.
+void check_overlaps(CheckedScene& checked, const CheckOptions& options = {});
 
 // The lightmap an instance bakes into: its `lightmap`, else its mesh's name, else "mesh<index>".
 std::string resolved_lightmap_name(const Scene& scene, const Instance& instance);

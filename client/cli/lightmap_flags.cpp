@@ -18,8 +18,9 @@ lightmap UVs from TEXCOORD_1, else TEXCOORD_0; instances; metallic-roughness mat
 textures; emissive materials as area lights; KHR_lights_punctual), uploads its meshes, textures and environment (a
 blob the server already holds is not sent again), submits the job, waits with a progress display and writes every
 output into DIR: NAME_irradiance.exr (irradiance E in W/m^2), NAME_validity.exr, NAME_error.exr, NAME_preview.png for
-each lightmap NAME (a mesh's name), on request NAME_irradiance_denoised.exr, NAME_radiance.exr, NAME_ao.exr,
-NAME_sh.exr, and report.json (plan, samples, rays, time, error estimate, error-versus-time curve). What the importer
+each lightmap NAME (a mesh's name, or an atlas page with --texel-density), on request NAME_irradiance_denoised.exr, NAME_radiance.exr, NAME_ao.exr,
+NAME_sh.exr, report.json (plan, samples, rays, time, error estimate, error-versus-time curve) and, with
+--texel-density, lightmaps.json. What the importer
 dropped or approximated is printed. Ctrl-C cancels the job on the server (a second Ctrl-C leaves it running).
 
 the environment (at most one; none: black):
@@ -36,7 +37,15 @@ the bake:
   --max-samples N              most samples per texel, [1, 1048576]; default 4096
   --time-limit S               stop after S seconds (the current pass completes), (0, 604800]; default none
   --seed N                     random seed; the same scene, settings and seed give the same bytes
-  --padding N                  texels of dilation around charts, [0, 64]; default 4
+  --padding N                  texels of dilation around charts, [0, 64]; default 4 (with --texel-density also
+                               the texels between two instances' charts, at least 2)
+atlas pages (none of these: one lightmap per mesh at --resolution):
+  --texel-density D            pack every instance's chart into square atlas pages at D texels per metre of surface,
+                               (0, 1e6]; outputs are per page (page0_irradiance.exr, ...) with lightmaps.json: each
+                               instance's page and the scale and offset of its lightmap UVs in it
+  --page-size N                texels on a side of a page, [16, 8192]; default 1024
+  --max-pages N                most pages, [1, 4096]; default 4 (fewer for pages above 2048^2); charts that do not fit
+                               are all scaled down to fit, and the report says by how much
   --max-bounces N              cap on the bounces the planner chooses, [0, 1024]; default 64
   --radiance                   also write NAME_radiance.exr (rho E / pi)
   --ao                         also write NAME_ao.exr (ambient occlusion)
@@ -57,13 +66,15 @@ the bake:
 example:
   /usr/bin/python3 client/examples/scenes/cornell_box.py out/cornell_box.gltf
   kiln bake lightmap out/cornell_box.gltf --resolution 64 --target-error 0.05 --out out/cornell_box
+  kiln bake lightmap out/cornell_box.gltf --texel-density 32 --page-size 256 --target-error 0.05 --out out/pages
 )";
 
 namespace {
 
 const char* const kJobFlags[] = {"--env-constant", "--env-rotation", "--env-intensity", "--resolution",
                                  "--target-error", "--max-samples",  "--time-limit",    "--seed",
-                                 "--padding",      "--max-bounces",  "--error-metric"};
+                                 "--padding",      "--max-bounces",  "--error-metric",  "--texel-density",
+                                 "--page-size",    "--max-pages"};
 
 std::string default_name(const Flags& f, const std::string& scene) {
   std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
@@ -175,6 +186,15 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
   if (f.has("--resolution")) job->set_resolution(whole_flag(f, "--resolution", bounds::kLightmapResolution));
   if (f.has("--padding")) job->set_padding(whole_flag(f, "--padding", bounds::kLightmapPadding));
   if (f.has("--max-bounces")) job->set_max_bounces(whole_flag(f, "--max-bounces", bounds::kMaxBounces));
+  if (auto v = f.get("--texel-density"))
+    job->set_texel_density(parse_number_in("--texel-density", *v, bounds::kTexelDensity));
+  if (f.has("--page-size")) job->set_page_size(whole_flag(f, "--page-size", bounds::kAtlasPageSize));
+  if (f.has("--max-pages")) job->set_max_pages(whole_flag(f, "--max-pages", bounds::kAtlasMaxPages));
+  for (const char* flag : {"--page-size", "--max-pages"}) {
+    if (f.has(flag) && !job->has_texel_density() && !bake.overlay.has_texel_density()) {
+      throw UsageError(std::string(flag) + ": sizes atlas pages; add --texel-density D to pack them");
+    }
+  }
   if (f.has("--radiance")) job->set_radiance(true);
   if (f.has("--ao")) job->set_ao(true);
   if (f.has("--directional")) job->set_directional(true);
@@ -216,6 +236,9 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
   if (flags.has_resolution()) merged.set_resolution(flags.resolution());
   if (flags.has_padding()) merged.set_padding(flags.padding());
   if (flags.has_max_bounces()) merged.set_max_bounces(flags.max_bounces());
+  if (flags.has_texel_density()) merged.set_texel_density(flags.texel_density());
+  if (flags.has_page_size()) merged.set_page_size(flags.page_size());
+  if (flags.has_max_pages()) merged.set_max_pages(flags.max_pages());
   if (flags.radiance()) merged.set_radiance(true);
   if (flags.ao()) merged.set_ao(true);
   if (flags.directional()) merged.set_directional(true);
@@ -234,6 +257,9 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
       {"resolution", "--resolution"},
       {"padding", "--padding"},
       {"max_bounces", "--max-bounces"},
+      {"texel_density", "--texel-density"},
+      {"page_size", "--page-size"},
+      {"max_pages", "--max-pages"},
       {"radiance", "--radiance"},
       {"ao", "--ao"},
       {"directional", "--directional"},

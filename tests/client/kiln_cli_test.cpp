@@ -1433,5 +1433,43 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   fs::remove_all(dir);
 }
 
+// The example: --texel-density, --page-size and --max-pages set the job's atlas fields, the daemon's
+// translation takes them, refusals map back to the flags, and the page flags alone are a usage error.
+TEST(BakeLightmapFlags, AtlasFlagsMap) {
+  LightmapBake bake = lightmap_bake_from_flags(std::vector<std::string>{
+      "lightmap", "scene.gltf", "--texel-density", "20", "--page-size", "2048", "--max-pages", "2", "--out", "dir"});
+  v1::LightmapJob imported;
+  v1::Mesh* m = imported.add_meshes();
+  m->set_name("floor");
+  m->mutable_geometry()->set_sha256(std::string(64, 'a'));
+  m->mutable_geometry()->set_size(100);
+  merge_scene(bake, imported);
+  const v1::LightmapJob& j = bake.spec.lightmap();
+  EXPECT_EQ(j.texel_density(), 20);
+  EXPECT_EQ(j.page_size(), 2048u);
+  EXPECT_EQ(j.max_pages(), 2u);
+  const daemon::BakeRequest r = daemon::translate(bake.spec);
+  EXPECT_EQ(r.lightmap().atlas.texel_density, 20);
+  EXPECT_EQ(r.lightmap().atlas.page_size, 2048);
+  EXPECT_EQ(r.lightmap().atlas.max_pages, 2);
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.texel_density"), "--texel-density");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.page_size"), "--page-size");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.max_pages"), "--max-pages");
+  for (const auto& [args, flag] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--page-size", "512"}, "--page-size"},
+           {{"--texel-density", "20", "--max-pages", "0"}, "--max-pages"},
+           {{"--texel-density", "0"}, "--texel-density"},
+           {{"--texel-density", "20", "--page-size", "8"}, "--page-size"}}) {
+    std::vector<std::string> all{"lightmap", "scene.gltf"};
+    all.insert(all.end(), args.begin(), args.end());
+    try {
+      lightmap_bake_from_flags(all);
+      ADD_FAILURE() << "took " << flag;
+    } catch (const UsageError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(flag, 0), 0u) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace kiln::cli

@@ -512,6 +512,143 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
   EXPECT_NE(cache_key(translate(base), "kiln-lightmap-0"), key);
 }
 
+// A job that packs atlas pages: two instances of one mesh, one with its own density, one on a page of its own.
+v1::JobSpec atlas_job() {
+  v1::JobSpec spec;
+  v1::LightmapJob* j = spec.mutable_lightmap();
+  v1::Mesh* m = j->add_meshes();
+  m->set_name("tile");
+  *m->mutable_geometry() = digest('a');
+  v1::Instance* a = j->add_instances();
+  a->set_name("left tile");
+  a->set_texel_density(40);
+  v1::Instance* b = j->add_instances();
+  b->set_lightmap("ignored when packing");
+  b->set_own_page(true);
+  j->set_texel_density(20);
+  j->set_page_size(512);
+  j->set_max_pages(8);
+  return spec;
+}
+
+TEST(TranslateLightmap, AtlasFieldsMapOntoTheBakersInput) {
+  const BakeRequest r = translate(atlas_job());
+  const lightmap::LightmapBakeInput& in = r.lightmap();
+  EXPECT_EQ(in.atlas.texel_density, 20);
+  EXPECT_EQ(in.atlas.page_size, 512);
+  EXPECT_EQ(in.atlas.max_pages, 8);
+  ASSERT_EQ(in.atlas.instances.size(), 2u);
+  EXPECT_EQ(in.atlas.instances.at(0).texel_density, 40);
+  EXPECT_FALSE(in.atlas.instances.at(0).own_page);
+  EXPECT_TRUE(in.atlas.instances.at(1).own_page);
+  EXPECT_EQ(in.scene.instances[0].name, "left tile");
+  // The memory estimate counts max_pages whole pages.
+  v1::JobSpec fewer = atlas_job();
+  fewer.mutable_lightmap()->set_max_pages(1);
+  EXPECT_GT(r.memory_bytes, translate(fewer).memory_bytes + 6 * 512 * 512 * 100);
+  EXPECT_EQ(r.memory_field, "job.lightmap.max_pages");
+  // Defaults: 1024 texels a page, 4 pages (16 MiTexels, the job's limit), one page at 4096.
+  v1::JobSpec defaults = atlas_job();
+  defaults.mutable_lightmap()->clear_page_size();
+  defaults.mutable_lightmap()->clear_max_pages();
+  EXPECT_EQ(translate(defaults).lightmap().atlas.page_size, 1024);
+  EXPECT_EQ(translate(defaults).lightmap().atlas.max_pages, 4);
+  defaults.mutable_lightmap()->set_page_size(4096);
+  EXPECT_EQ(translate(defaults).lightmap().atlas.max_pages, 1);
+  // Without a density nothing packs.
+  v1::JobSpec none = atlas_job();
+  none.mutable_lightmap()->clear_texel_density();
+  none.mutable_lightmap()->clear_page_size();
+  none.mutable_lightmap()->clear_max_pages();
+  none.mutable_lightmap()->mutable_instances(0)->clear_texel_density();
+  none.mutable_lightmap()->mutable_instances(1)->clear_own_page();
+  EXPECT_EQ(translate(none).lightmap().atlas.texel_density, 0);
+}
+
+TEST(TranslateLightmap, BadAtlasFieldsAreNamedByTheirPath) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto lm = [](v1::JobSpec& s) { return s.mutable_lightmap(); };
+  const std::vector<BadCase> cases = {
+      {"job.lightmap.texel_density", [&](v1::JobSpec& s) { lm(s)->set_texel_density(0); }},
+      {"job.lightmap.texel_density", [&](v1::JobSpec& s) { lm(s)->set_texel_density(nan); }},
+      {"job.lightmap.texel_density", [&](v1::JobSpec& s) { lm(s)->set_texel_density(2e6); }},
+      {"job.lightmap.page_size", [&](v1::JobSpec& s) { lm(s)->set_page_size(15); }},
+      {"job.lightmap.page_size", [&](v1::JobSpec& s) { lm(s)->set_page_size(8192); }},  // one page over 2^24
+      {"job.lightmap.max_pages", [&](v1::JobSpec& s) { lm(s)->set_max_pages(0); }},
+      {"job.lightmap.max_pages", [&](v1::JobSpec& s) { lm(s)->set_max_pages(65); }},  // 65 × 512² > 2^24
+      {"job.lightmap.instances[0].texel_density",
+       [&](v1::JobSpec& s) { lm(s)->mutable_instances(0)->set_texel_density(-1); }},
+      {"job.lightmap.instances[1].lightmap_scale_offset",
+       [&](v1::JobSpec& s) {
+         for (double v : {0.5, 0.5, 0.0, 0.0}) lm(s)->mutable_instances(1)->add_lightmap_scale_offset(v);
+       }},
+      {"job.lightmap.lightmaps[0]",
+       [&](v1::JobSpec& s) {
+         v1::LightmapSettings* l = lm(s)->add_lightmaps();
+         l->set_name("tile");
+         l->set_resolution(64);
+       }},
+      {"job.lightmap.instances[0].name",
+       [&](v1::JobSpec& s) { lm(s)->mutable_instances(0)->set_name(std::string(257, 'n')); }},
+      // Packing options without packing.
+      {"job.lightmap.page_size", [&](v1::JobSpec& s) { lm(s)->clear_texel_density(); }},
+      {"job.lightmap.max_pages",
+       [&](v1::JobSpec& s) {
+         lm(s)->clear_texel_density();
+         lm(s)->clear_page_size();
+       }},
+      {"job.lightmap.instances[0].texel_density",
+       [&](v1::JobSpec& s) {
+         lm(s)->clear_texel_density();
+         lm(s)->clear_page_size();
+         lm(s)->clear_max_pages();
+       }},
+      {"job.lightmap.instances[1].own_page",
+       [&](v1::JobSpec& s) {
+         lm(s)->clear_texel_density();
+         lm(s)->clear_page_size();
+         lm(s)->clear_max_pages();
+         lm(s)->mutable_instances(0)->clear_texel_density();
+       }},
+  };
+  for (const BadCase& c : cases) {
+    v1::JobSpec spec = atlas_job();
+    c.spoil(spec);
+    try {
+      translate(spec);
+      ADD_FAILURE() << "accepted a job with a bad " << c.field;
+    } catch (const InvalidField& e) {
+      EXPECT_EQ(e.field(), c.field) << e.what();
+      EXPECT_GT(std::string(e.what()).size(), e.field().size() + 10) << "no explanation: " << e.what();
+    }
+  }
+}
+
+TEST(TranslateLightmap, AtlasSettingsAreInTheCacheKey) {
+  const v1::JobSpec base = atlas_job();
+  const std::string key = cache_key(translate(base), "v");
+  const std::vector<std::function<void(v1::JobSpec&)>> changes = {
+      [](v1::JobSpec& s) { s.mutable_lightmap()->set_texel_density(21); },
+      [](v1::JobSpec& s) { s.mutable_lightmap()->set_page_size(256); },
+      [](v1::JobSpec& s) { s.mutable_lightmap()->set_max_pages(7); },
+      [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_instances(0)->set_texel_density(41); },
+      [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_instances(1)->set_own_page(false); },
+      [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_instances(0)->set_name("right tile"); },
+  };
+  for (std::size_t i = 0; i < changes.size(); ++i) {
+    v1::JobSpec changed = base;
+    changes[i](changed);
+    EXPECT_NE(cache_key(translate(changed), "v"), key) << "change " << i;
+  }
+  // Defaults written out equal defaults left out.
+  v1::JobSpec a = base, b = base;
+  a.mutable_lightmap()->clear_page_size();
+  a.mutable_lightmap()->clear_max_pages();
+  b.mutable_lightmap()->set_page_size(1024);
+  b.mutable_lightmap()->set_max_pages(4);
+  EXPECT_EQ(cache_key(translate(a), "v"), cache_key(translate(b), "v"));
+}
+
 }  // namespace
 }  // namespace kiln::daemon
 

@@ -16,6 +16,8 @@
 #include <set>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "bakers/image/exr.h"
 #include "client/lib/client.h"
 #include "proto/digest.h"
@@ -178,6 +180,44 @@ TEST(LightmapService, AMeshPlacedTwiceBakesIntoTwoLightmapsWithPlainFileNames) {
   EXPECT_NE(report.find(R"("input_name": "quad@Post/A")"), std::string::npos) << report;
   EXPECT_NE(report.find(R"("input_name": "quad@Post/A#1")"), std::string::npos) << report;
   EXPECT_NE(report.find("renamed_lightmap"), std::string::npos) << report;
+}
+
+// --texel-density: the Cornell box packed into atlas pages; lightmaps.json and every page's images come back, and
+// each of the eight instances has a page, a scale and an offset.
+TEST(LightmapService, TexelDensityBakesAtlasPagesWithAManifest) {
+  Daemon d;
+  const fs::path scene = d.dir() / "cornell_box.gltf", out = d.dir() / "out";
+  const std::string gen = "/usr/bin/python3 " + (source_dir() / "client/examples/scenes/cornell_box.py").string() +
+                          " " + scene.string() + " > /dev/null";
+  ASSERT_EQ(std::system(gen.c_str()), 0) << gen;
+  const CliRun run = kiln(d, "bake lightmap " + scene.string() +
+                                 " --texel-density 8 --page-size 64 --max-pages 4 --target-error 0.2 --out " +
+                                 out.string());
+  ASSERT_EQ(run.status, 0) << run.said;
+  const nlohmann::json manifest = nlohmann::json::parse(read(out / "lightmaps.json"));
+  ASSERT_EQ(manifest["instances"].size(), 8u) << manifest.dump(1);
+  std::set<std::string> pages;
+  for (const nlohmann::json& page : manifest["pages"]) {
+    const std::string name = page["name"];
+    pages.insert(name);
+    EXPECT_EQ(page["size"], 64);
+    const image::FloatImage irradiance = image::decode_exr(read(out / (name + "_irradiance.exr")));
+    EXPECT_EQ(irradiance.width, 64) << name;
+    for (const char* kind : {"_validity.exr", "_error.exr", "_preview.png"}) {
+      EXPECT_TRUE(fs::exists(out / (name + kind))) << name << kind;
+    }
+    for (const nlohmann::json& f : page["files"]) EXPECT_TRUE(fs::exists(out / f.get<std::string>())) << f;
+  }
+  EXPECT_GE(pages.size(), 1u);
+  EXPECT_LE(pages.size(), 4u);
+  for (const nlohmann::json& e : manifest["instances"]) {
+    ASSERT_TRUE(e["page"].is_string()) << e.dump();
+    EXPECT_TRUE(pages.count(e["page"].get<std::string>()));
+    EXPECT_GT(e["scale"][0].get<double>(), 0);
+    EXPECT_GT(e["texel_density"].get<double>(), 0);
+  }
+  EXPECT_FALSE(fs::exists(out / "floor_irradiance.exr")) << "no per-mesh lightmaps when packing";
+  EXPECT_NE(read(out / "report.json").find("\"atlas\""), std::string::npos);
 }
 #endif
 

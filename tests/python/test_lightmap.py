@@ -143,6 +143,17 @@ class LightmapJobKeywords(unittest.TestCase):
                 % (floor.digest.sha256, floor.digest.size))
         self.assertEqual(small, kiln.parse_job(text))
 
+    def test_atlas_keywords(self):
+        floor = floor_mesh()
+        job = kiln.lightmap_job([floor], instances=[{"mesh": "floor", "name": "left", "texel_density": 40},
+                                                    {"mesh": 0, "name": "right", "own_page": True}],
+                                texel_density=20, page_size=2048, max_pages=3)
+        j = job.lightmap
+        self.assertEqual((j.texel_density, j.page_size, j.max_pages), (20.0, 2048, 3))
+        self.assertEqual((j.instances[0].name, j.instances[0].texel_density), ("left", 40.0))
+        self.assertTrue(j.instances[1].own_page)
+        self.assertFalse(j.instances[1].HasField("texel_density"))
+
     def test_mistakes_name_their_field(self):
         floor = floor_mesh()
         with self.assertRaisesRegex(ValueError, r"job.lightmap.instances\[0\].mesh: no mesh named 'flor'"):
@@ -275,6 +286,37 @@ class LightmapAgainstKilnd(unittest.TestCase):
         plan = {d["effect"]: d["enabled"] for d in report["plan"]}
         self.assertTrue(plan["point_lights"])
         self.assertFalse(plan["environment_sampling"])
+
+    def test_two_instances_of_one_mesh_share_an_atlas_page_with_a_manifest(self):
+        # Two 1 m floors at 8 texels per metre in one 32-texel page: a region each, π under a sky of radiance 1.
+        floor = floor_mesh()
+        self.c.upload_blob(floor.data)
+        job = kiln.lightmap_job([floor], instances=[{"mesh": 0, "name": "here"},
+                                                    {"mesh": 0, "name": "there",
+                                                     "transform": [(1, 0, 0, 3), (0, 1, 0, 0), (0, 0, 1, 0)]}],
+                                environment=1.0, texel_density=8, page_size=32, max_pages=1, padding=0,
+                                target_error=0.05, name="python atlas")
+        reply = self.c.submit(job)
+        final = self.c.watch(reply.job_id)
+        self.assertEqual(final.state, pb.JOB_STATE_SUCCEEDED, final.message + test_client.DAEMON.log())
+        out = os.path.join(self.out, "atlas")
+        names = {os.path.basename(p) for p in self.c.fetch_outputs(reply.job_id, out)}
+        self.assertLessEqual({"lightmaps.json", "page0_irradiance.exr", "page0_validity.exr", "report.json"}, names)
+        with open(os.path.join(out, "lightmaps.json")) as f:
+            manifest = json.load(f)
+        self.assertEqual([i["name"] for i in manifest["instances"]], ["here", "there"])
+        self.assertEqual({i["page"] for i in manifest["instances"]}, {"page0"})
+        regions = [i["region"] for i in manifest["instances"]]
+        self.assertEqual([(r["width"], r["height"]) for r in regions], [(8, 8), (8, 8)])
+        self.assertNotEqual((regions[0]["x"], regions[0]["y"]), (regions[1]["x"], regions[1]["y"]))
+        with open(os.path.join(out, "page0_irradiance.exr"), "rb") as f:
+            irradiance = read_exr(f.read())
+        for instance in manifest["instances"]:
+            # The texel at the centre of each floor's UV square, by the manifest's scale and offset: E = π.
+            u = 0.5 * instance["scale"][0] + instance["offset"][0]
+            v = 0.5 * instance["scale"][1] + instance["offset"][1]
+            x, y = int(u * 32), int(v * 32)
+            self.assertAlmostEqual(irradiance.at("G", x, y), math.pi, delta=1e-5, msg=(instance["name"], x, y))
 
     def test_a_corrupt_python_mesh_fails_naming_its_field(self):
         floor = floor_mesh()

@@ -135,7 +135,8 @@ def lightmap_job(meshes, *, instances=None, materials=None, textures=None, light
     (colors as a number, (r, g, b) or a kiln.pb.Color; vectors as (x, y, z); digests as Client.upload_* returns them;
     enums by short name; a Brdf as {"model": "ggx", "alpha": 0.2, ...}):
       instances: [{"mesh": index or mesh name, "transform": 12 numbers (row-major 3x4) or 3 rows of 4,
-                   "lightmap": atlas name, "bake": bool, "lightmap_scale_offset": (su, sv, ou, ov)}, ...];
+                   "lightmap": atlas name, "bake": bool, "lightmap_scale_offset": (su, sv, ou, ov), "name",
+                   "texel_density": its own, "own_page": bool (the last two with texel_density)}, ...];
                  None: each mesh once, untransformed.
       materials: [{"name", "bsdf": {"diffuse": Brdf, "specular": Brdf, "combine", "specular_weight"},
                    "base_color", "base_color_texture": index or texture name, "emission", "two_sided"}, ...]
@@ -151,6 +152,9 @@ def lightmap_job(meshes, *, instances=None, materials=None, textures=None, light
       resolution, padding, max_bounces, radiance, ao, directional, preview, denoise, stitch_seams, error_metric
       ("lightmap", the default: errors relative to the lightmap's brightness, or "texel": relative to each texel's
       value): as in kiln.proto.
+      texel_density (texels per metre), page_size, max_pages: atlas pages, as in kiln.proto: every instance's chart
+      packed into pages page0, page1, ... at that density; the outputs are per page, with lightmaps.json (each
+      instance's page, scale and offset).
     samples, target_error, time_limit_seconds and seed go into the job's quality; force_effects forces planner
     effects on or off by name. None leaves a field to its default. TypeError/ValueError name the field's path
     ("job.lightmap.lights[0].point.position") when something does not fit.
