@@ -46,6 +46,7 @@ void translate_material(const kiln::v1::JobSpec& spec, BakeRequest& r) {
   set_count(m.has_table_roughness(), m.table_roughness(), "job.material.table_roughness", bounds::kTableSize,
             in.table_roughness);
   in.merl = m.merl();
+  in.preview = !m.has_preview() || m.preview();
   material_effects(spec, in);
   material_quality(spec.quality(), in);
   if (auto problem = material::validate(in)) throw baker_problem("job.material", *problem);

@@ -9,8 +9,10 @@
 #include <cmath>
 #include <utility>
 
+#include "bakers/image/color.h"
 #include "bakers/material/approximations.h"
 #include "bakers/material/material_report.h"
+#include "bakers/material/material_preview.h"
 #include "bakers/material/merl.h"
 #include "bakers/material/model_traits.h"
 #include "bakers/material/model_validation.h"
@@ -386,6 +388,15 @@ void encode_outputs(MaterialBakeRun& run) {
   result.outputs.push_back(split_sum_image(result, run.input.model.model, run.rough_axis, settings));
   if (run.input.merl) {
     result.outputs.push_back({"brdf.merl", "application/x-merl-brdf", "scene_linear", std::move(run.merl_bytes)});
+  }
+  if (run.input.preview) {
+    PreviewOptions options;
+    options.seed = static_cast<uint32_t>(run.input.seed);
+    const PreviewImage image =
+        render_preview(*run.models.bxdf, *run.models.white, options, run.progress.cancel_flag());
+    result.outputs.push_back(preview_output(image, image::ColorConfig::active().working_space()));
+    result.plan.push_back("preview.png: the material under a studio environment and a sun, and its white-furnace "
+                          "form, " + std::to_string(options.samples_per_pixel) + " samples per pixel");
   }
   result.seconds = run.elapsed();
 }

@@ -25,6 +25,8 @@
 //                  μ = (x + 0.5) / table_mu, roughness = (y + 0.5) / table_roughness · max_roughness (row 0, the top
 //                  row, is the smoothest); roughness is the model's own parameter (brdf::roughness_name).
 //   brdf.merl      when merl is set: the MERL binary layout (see merl.h), 34 992 012 bytes.
+//   preview.png    unless preview is off: spheres of the material under a studio environment and a sun, and of its
+//                  white-furnace form (material_preview.h), 480 × 160, through OpenColorIO's display transform.
 //   report.json    everything in MaterialBakeResult but the tables, for people and pipelines.
 // Both EXRs carry their layout, the model and the bake settings in string attributes (kiln:*).
 #pragma once
@@ -52,7 +54,7 @@ namespace kiln::material {
 // --- The material bake. ----------------------------------------------------------------------------------------
 
 // Changes whenever the same input would give different outputs (part of the daemon's result-cache key).
-inline constexpr const char* kMaterialBakerVersion = "kiln-material-2";
+inline constexpr const char* kMaterialBakerVersion = "kiln-material-3";
 
 struct MaterialBakeInput {
   brdf::ModelSpec model;
@@ -61,6 +63,7 @@ struct MaterialBakeInput {
   int table_mu = 32;         // [1, 1024] texels along μ
   int table_roughness = 32;  // [1, 1024] rows of the split-sum table
   bool merl = false;         // also tabulate the BRDF in the MERL layout
+  bool preview = true;       // preview.png (material_preview.h)
   // Samples per table entry. 0: 4096, or as many as target_error needs (up to 1 048 576). With target_error set,
   // this is the cap. At most 2^30. Counts are rounded up to whole stratified replicates.
   uint64_t samples = 0;

@@ -2,6 +2,7 @@
 // largest standard error of the entries, and answers "cancelled?".
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <mutex>
@@ -27,6 +28,7 @@ class ProgressTracker {
             double new_error = -1);
   void finish();
   uint64_t samples() const;
+  const std::atomic<bool>* cancel_flag() const { return control_.cancel; }
 
  private:
   void report(const std::string& stage, bool last);

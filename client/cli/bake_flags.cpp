@@ -13,7 +13,8 @@ namespace kiln::cli {
 const char* const kBakeMaterialHelp = R"(usage: kiln bake material --model MODEL [parameters] --out DIR [options]
 
 Bakes one material on the server, waits for it with a progress display, and writes every output (albedo.exr,
-split_sum.exr, brdf.merl with --merl) and report.json into DIR. Prints where they went and what the bake cost.
+split_sum.exr, brdf.merl with --merl, preview.png) and report.json into DIR. Prints where they went and what the
+bake cost.
 Ctrl-C cancels the job on the server (a second Ctrl-C leaves it running and exits at once).
 The flags are those of kiln-brdf; they become a kiln.v1.JobSpec (see client/examples/ for the same as job files).
 
@@ -41,6 +42,8 @@ quality and tables:
   --table-mu N                 albedo table resolution along mu = cos(theta_o), [2, 1024]
   --table-roughness N          split-sum table resolution along roughness, [2, 1024]
   --merl                       also tabulate the BRDF in the MERL binary layout (brdf.merl, 35 MB)
+  --no-preview                 leave out preview.png (spheres of the material under a studio and a sun, and its
+                               white-furnace form)
   --force EFFECT=on|off        make the planner simulate or skip an effect (repeatable; material: merl)
   --name TEXT                  a name for people in `kiln jobs` (default: the model and its flags)
 options:
@@ -266,6 +269,7 @@ void set_tables_and_quality(const Flags& f, v1::JobSpec& spec) {
   if (f.has("--table-mu")) job->set_table_mu(whole_flag(f, "--table-mu", bounds::kTableSize));
   if (f.has("--table-roughness")) job->set_table_roughness(whole_flag(f, "--table-roughness", bounds::kTableSize));
   job->set_merl(f.has("--merl"));
+  if (f.has("--no-preview")) job->set_preview(false);
 
   v1::Quality* q = spec.mutable_quality();
   if (auto v = f.get("--samples"))
@@ -335,6 +339,7 @@ const std::pair<const char*, const char*> kFieldFlags[] = {
     {"table_mu", "--table-mu"},
     {"table_roughness", "--table-roughness"},
     {"merl", "--merl"},
+    {"preview", "--no-preview"},
     {"samples", "--samples"},
     {"target_error", "--target-error"},
     {"time_limit_seconds", "--time-limit"},
@@ -344,7 +349,7 @@ const std::pair<const char*, const char*> kFieldFlags[] = {
 }  // namespace
 
 std::vector<FlagSpec> bake_material_flag_specs() {
-  return bake_flag_specs({"--model", "--name", "--out", "--priority", "--idempotency-key"}, kJobFlags, {"--merl"});
+  return bake_flag_specs({"--model", "--name", "--out", "--priority", "--idempotency-key"}, kJobFlags, {"--merl", "--no-preview"});
 }
 
 v1::JobSpec material_spec_from_flags(const std::vector<std::string>& args) {

@@ -41,9 +41,9 @@ struct CrashPoint {
   const char* name;
   int passes;
 };
-// Material jobs write three outputs each (albedo.exr, split_sum.exr, report.json).
-const CrashPoint kPoints[] = {{"blob.append", 6},     {"blob.complete", 2}, {"blob.put", 3 * kJobs},
-                              {"blob.installed", 2 + 3 * kJobs},         {"job.inserted", kJobs},
+// Material jobs write four outputs each (albedo.exr, split_sum.exr, preview.png, report.json).
+const CrashPoint kPoints[] = {{"blob.append", 6},     {"blob.complete", 2}, {"blob.put", 4 * kJobs},
+                              {"blob.installed", 2 + 4 * kJobs},         {"job.inserted", kJobs},
                               {"job.running", kJobs}, {"job.succeeded", kJobs}};
 
 // What the client was told before the crash.

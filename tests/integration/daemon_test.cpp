@@ -61,7 +61,7 @@ TEST(Daemon, SubmitWatchFetchOverTcpAndUnixSocket) {
       EXPECT_EQ(bytes.size(), o.digest().size());
       EXPECT_EQ(proto::sha256_hex(bytes), o.digest().sha256());
     }
-    EXPECT_EQ(names, (std::set<std::string>{"albedo.exr", "split_sum.exr", "report.json"}));
+    EXPECT_EQ(names, (std::set<std::string>{"albedo.exr", "split_sum.exr", "preview.png", "report.json"}));
     EXPECT_GT(r.report().samples(), 0u);
     EXPECT_GT(r.report().seconds(), 0.0);
     EXPECT_GT(r.report().error_estimate(), 0.0);

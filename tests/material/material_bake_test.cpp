@@ -477,13 +477,14 @@ TEST(MaterialBake, ReportJsonIsValidAndHasTheExpectedKeys) {
   in.table_roughness = 2;
   in.samples = 1024;
   const MaterialBakeResult r = bake_material(in);
-  ASSERT_EQ(r.outputs.size(), 3u);
+  ASSERT_EQ(r.outputs.size(), 4u);
   EXPECT_EQ(r.outputs[0].name, "albedo.exr");
   EXPECT_EQ(r.outputs[1].name, "split_sum.exr");
-  EXPECT_EQ(r.outputs[2].name, "report.json");
-  EXPECT_EQ(r.outputs[2].media_type, "application/json");
-  JsonChecker json(r.outputs[2].bytes);
-  ASSERT_TRUE(json.parse()) << "invalid JSON near byte " << json.error_at() << ":\n" << r.outputs[2].bytes;
+  EXPECT_EQ(r.outputs[2].name, "preview.png");
+  EXPECT_EQ(r.outputs[3].name, "report.json");
+  EXPECT_EQ(r.outputs[3].media_type, "application/json");
+  JsonChecker json(r.outputs[3].bytes);
+  ASSERT_TRUE(json.parse()) << "invalid JSON near byte " << json.error_at() << ":\n" << r.outputs[3].bytes;
   for (const char* key : {"baker",
                           "model.description",
                           "settings.table_mu",
@@ -513,7 +514,7 @@ TEST(MaterialBake, ReportJsonIsValidAndHasTheExpectedKeys) {
   bool merl_skipped = false;
   for (const auto& p : r.plan) merl_skipped = merl_skipped || p == "merl skipped: not requested";
   EXPECT_TRUE(merl_skipped);
-  EXPECT_NE(r.outputs[2].bytes.find("merl skipped: not requested"), std::string::npos);
+  EXPECT_NE(r.outputs[3].bytes.find("merl skipped: not requested"), std::string::npos);
 }
 
 TEST(MaterialBake, MerlOutputWhenAsked) {

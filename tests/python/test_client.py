@@ -131,7 +131,7 @@ class AgainstKilnd(unittest.TestCase):
         self.assertEqual(fractions, sorted(fractions), "progress never goes backwards")
         result = client.result(sub.job_id)
         self.assertEqual(result.state, pb.JOB_STATE_SUCCEEDED)
-        self.assertEqual({o.name for o in result.outputs}, {"albedo.exr", "split_sum.exr", "report.json"})
+        self.assertEqual({o.name for o in result.outputs}, {"albedo.exr", "split_sum.exr", "preview.png", "report.json"})
         for output in result.outputs:
             data = client.fetch(output.digest)  # the client verifies too; check independently
             self.assertEqual(len(data), output.digest.size)

@@ -34,7 +34,7 @@ def load_job(path):
         raise ValueError("%s: %s" % (path, e)) from e
 
 
-def material_job(model, *, name="", table_mu=None, table_roughness=None, merl=None, samples=None,
+def material_job(model, *, name="", table_mu=None, table_roughness=None, merl=None, preview=None, samples=None,
                  target_error=None, time_limit_seconds=None, seed=None, force_effects=None, **params):
     """A kiln.pb.JobSpec for a material bake, from keyword arguments.
 
@@ -51,7 +51,8 @@ def material_job(model, *, name="", table_mu=None, table_roughness=None, merl=No
     """
     spec = pb.JobSpec(name=name)
     _set_model(spec.material, model, params, "job.material")
-    _fill(spec.material, {"table_mu": table_mu, "table_roughness": table_roughness, "merl": merl}, "job.material")
+    _fill(spec.material, {"table_mu": table_mu, "table_roughness": table_roughness, "merl": merl, "preview": preview},
+          "job.material")
     _set_quality_and_effects(spec, {"samples": samples, "target_error": target_error,
                                     "time_limit_seconds": time_limit_seconds, "seed": seed}, force_effects)
     return spec
