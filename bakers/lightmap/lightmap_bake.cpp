@@ -633,7 +633,7 @@ void write_outputs(LightmapBakeRun& run) {
     memory.push_back(lightmap_memory(m.texels, lightmap_state_bytes(run.in.ao, run.in.directional, !m.traced.empty())));
     held += memory.back().total_bytes;
   }
-  const StageTimer timer(run.report.stages, "outputs");
+  std::optional<StageTimer> timer(std::in_place, run.report.stages, "outputs");
   for (size_t i = 0; i < run.maps.size(); ++i) {
     const LightmapState& m = run.maps[i];
     run.cancel_only.check();
@@ -645,6 +645,7 @@ void write_outputs(LightmapBakeRun& run) {
         run.result.memory.held_peak_bytes, held + r.texel_count() * LightmapResults::bytes_per_texel(r.channels()));
     write_lightmap(run, r, m.leaks, memory[i]);
   }
+  timer.reset();  // recorded before the report that lists it
   run.result.seconds = seconds_since(run.t0);
   write_report(run);
   if (run.atlas) write_manifest(run);

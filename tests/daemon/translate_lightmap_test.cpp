@@ -547,14 +547,14 @@ TEST(TranslateLightmap, AtlasFieldsMapOntoTheBakersInput) {
   fewer.mutable_lightmap()->set_max_pages(1);
   EXPECT_GT(r.memory_bytes, translate(fewer).memory_bytes + 6 * 512 * 512 * 100);
   EXPECT_EQ(r.memory_field, "job.lightmap.max_pages");
-  // Defaults: 1024 texels a page, 4 pages (16 MiTexels, the job's limit), one page at 4096.
+  // Defaults: 1024 texels a page, 4 pages; still 4 at the largest page, 8192² (4 × 2^26 = the job's 2^28 texels).
   v1::JobSpec defaults = atlas_job();
   defaults.mutable_lightmap()->clear_page_size();
   defaults.mutable_lightmap()->clear_max_pages();
   EXPECT_EQ(translate(defaults).lightmap().atlas.page_size, 1024);
   EXPECT_EQ(translate(defaults).lightmap().atlas.max_pages, 4);
-  defaults.mutable_lightmap()->set_page_size(4096);
-  EXPECT_EQ(translate(defaults).lightmap().atlas.max_pages, 1);
+  defaults.mutable_lightmap()->set_page_size(8192);
+  EXPECT_EQ(translate(defaults).lightmap().atlas.max_pages, 4);
   // Without a density nothing packs.
   v1::JobSpec none = atlas_job();
   none.mutable_lightmap()->clear_texel_density();
@@ -573,9 +573,9 @@ TEST(TranslateLightmap, BadAtlasFieldsAreNamedByTheirPath) {
       {"job.lightmap.texel_density", [&](v1::JobSpec& s) { lm(s)->set_texel_density(nan); }},
       {"job.lightmap.texel_density", [&](v1::JobSpec& s) { lm(s)->set_texel_density(2e6); }},
       {"job.lightmap.page_size", [&](v1::JobSpec& s) { lm(s)->set_page_size(15); }},
-      {"job.lightmap.page_size", [&](v1::JobSpec& s) { lm(s)->set_page_size(8192); }},  // one page over 2^24
+      {"job.lightmap.page_size", [&](v1::JobSpec& s) { lm(s)->set_page_size(8193); }},
       {"job.lightmap.max_pages", [&](v1::JobSpec& s) { lm(s)->set_max_pages(0); }},
-      {"job.lightmap.max_pages", [&](v1::JobSpec& s) { lm(s)->set_max_pages(65); }},  // 65 × 512² > 2^24
+      {"job.lightmap.max_pages", [&](v1::JobSpec& s) { lm(s)->set_max_pages(1025); }},  // 1025 × 512² > 2^28
       {"job.lightmap.instances[0].texel_density",
        [&](v1::JobSpec& s) { lm(s)->mutable_instances(0)->set_texel_density(-1); }},
       {"job.lightmap.instances[1].lightmap_scale_offset",
