@@ -59,7 +59,7 @@ first="$(ls "$top"/client/examples/*.textproto | head -n 1)"
 echo
 "$build/bin/kiln" --server "$address" --token-file "$token_file" status || true
 echo
-echo "kiln: outputs are in $out/<example>/ (EXR tables, MERL where asked, report.json) and $out/sky_env/ (the"
+echo "kiln: outputs are in $out/<example>/ (EXR tables, MERL where asked, preview.png, report.json) and $out/sky_env/ (the"
 echo "     prefiltered specular cube as KTX2 and EXR faces, irradiance, SH, DFG table, preview.png, report.json) and"
 echo "     $out/cornell_box/ (per mesh: irradiance, validity and error EXRs, a preview PNG; report.json)"
 exit $status
