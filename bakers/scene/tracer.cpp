@@ -142,6 +142,46 @@ void init_ray_hit(RTCRayHit& rh, const Ray& ray) {
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
 }
 
+// A triangle geometry and its vertex and index buffers; released unless attached to a scene.
+struct TriangleGeometry {
+  RTCGeometry geom = nullptr;
+  float* vb = nullptr;
+  uint32_t* ib = nullptr;
+  TriangleGeometry() = default;
+  TriangleGeometry(const TriangleGeometry&) = delete;
+  TriangleGeometry& operator=(const TriangleGeometry&) = delete;
+  ~TriangleGeometry() {
+    if (geom) rtcReleaseGeometry(geom);
+  }
+  // Commits it and hands it to `s` (which then holds it); its ID there.
+  unsigned attach(RTCScene s) {
+    rtcCommitGeometry(geom);
+    const unsigned id = rtcAttachGeometry(s, geom);
+    rtcReleaseGeometry(geom);
+    geom = nullptr;
+    return id;
+  }
+};
+
+// Calls take(v, f) for each vertex v of `mesh` placed by `place` (object to the tracer's space) and rounded to
+// float, f its three floats; a vertex no triangle uses is replaced by the first one used, since Embree bounds every
+// vertex. Throws for a vertex beyond float range, naming `owner` and the `space` it lands in.
+template <class Place, class Take>
+void for_each_float_vertex(const Mesh& mesh, const Place& place, const std::string& owner, const char* space,
+                           Take take) {
+  std::vector<uint8_t> used(mesh.positions.size(), 0);
+  for (uint32_t i : mesh.indices) used[i] = 1;
+  for (size_t v = 0; v < used.size(); ++v) {
+    const Vec3 w = place(mesh.positions[used[v] ? v : mesh.indices[0]]);
+    const float f[3] = {static_cast<float>(w.x), static_cast<float>(w.y), static_cast<float>(w.z)};
+    if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2]))
+      throw std::invalid_argument("tracer: " + owner + ": vertex " + std::to_string(v) + " lands at (" +
+                                  std::to_string(w.x) + ", " + std::to_string(w.y) + ", " + std::to_string(w.z) +
+                                  ") in " + space + " space, beyond single precision; scale the scene down");
+    take(v, f);
+  }
+}
+
 }  // namespace
 
 struct Tracer::Impl {
@@ -213,13 +253,18 @@ struct Tracer::Impl {
   void commit_scene(RTCScene s, const char* doing);
   void push_records(const Mesh& mesh, const float* vb, const uint32_t* ib, double mirror,
                     const std::vector<Vec3>& normals);
+  void new_triangle_geometry(const Mesh& mesh, const std::string& owner, TriangleGeometry& out);
   // Of add_instance.
-  void write_world_vertices(const Scene& input, size_t k, RTCGeometry geom, float* vb);
+  void write_world_vertices(const Scene& input, size_t k, float* vb);
   void add_triangles(const Scene& input, size_t k, const float* vb, const uint32_t* ib, unsigned id);
   // Of add_instanced.
   void build_mesh_scene(const Scene& input, size_t k);
   void instance_bounds(const Scene& input, size_t k, const double (&m)[12]);
   void set_geometry(unsigned id, Geometry g);
+  void widen_bounds(const float (&f)[3]) {
+    lower = {std::min(lower.x, double(f[0])), std::min(lower.y, double(f[1])), std::min(lower.z, double(f[2]))};
+    upper = {std::max(upper.x, double(f[0])), std::max(upper.y, double(f[1])), std::max(upper.z, double(f[2]))};
+  }
 
   size_t triangle(unsigned geom_id, unsigned prim_id) const { return geometries[geom_id].first + prim_id; }
   // The top-level geometry a hit belongs to: the instance geometry for a hit inside an instanced mesh.
@@ -398,57 +443,45 @@ void Tracer::Impl::create_scene(const TracerOptions& options) {
 void Tracer::Impl::add_instance(const Scene& input, size_t k) {
   const Instance& inst = input.instances[k];
   const Mesh& mesh = input.meshes[inst.mesh];
-  const size_t nt = mesh.indices.size() / 3, nv = mesh.positions.size();
-  if (nt == 0) return;
+  if (mesh.indices.empty()) return;
   if (share[inst.mesh]) {
     add_instanced(input, k);
     return;
   }
-  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
-  auto* vb = static_cast<float*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
-  auto* ib = static_cast<uint32_t*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
-  if (!vb || !ib) {
-    rtcReleaseGeometry(geom);
-    check("allocating the geometry buffers");
-    throw std::runtime_error("Embree returned no geometry buffer for " + where(input, k, inst.mesh));
-  }
-  write_world_vertices(input, k, geom, vb);
-  std::copy(mesh.indices.begin(), mesh.indices.end(), ib);
-  rtcCommitGeometry(geom);
-  const unsigned id = rtcAttachGeometry(scene, geom);
-  rtcReleaseGeometry(geom);  // the scene holds it
+  TriangleGeometry tg;
+  new_triangle_geometry(mesh, where(input, k, inst.mesh), tg);
+  write_world_vertices(input, k, tg.vb);
+  std::copy(mesh.indices.begin(), mesh.indices.end(), tg.ib);
+  const unsigned id = tg.attach(scene);
   check("adding a geometry");
-  add_triangles(input, k, vb, ib, id);
+  add_triangles(input, k, tg.vb, tg.ib, id);
 }
 
-// World positions in double, rounded to float once (the float vertices are what the offsets bound); releases `geom`
-// before throwing for a vertex beyond float range.
-void Tracer::Impl::write_world_vertices(const Scene& input, size_t k, RTCGeometry geom, float* vb) {
+// A triangle geometry with buffers for `mesh`'s vertices and triangles, for `owner` (named in errors).
+void Tracer::Impl::new_triangle_geometry(const Mesh& mesh, const std::string& owner, TriangleGeometry& out) {
+  const size_t nt = mesh.indices.size() / 3, nv = mesh.positions.size();
+  out.geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  check("creating a geometry");
+  rtcSetGeometryBuildQuality(out.geom, RTC_BUILD_QUALITY_HIGH);
+  out.vb = static_cast<float*>(
+      rtcSetNewGeometryBuffer(out.geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+  out.ib = static_cast<uint32_t*>(
+      rtcSetNewGeometryBuffer(out.geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
+  if (!out.vb || !out.ib) {
+    check("allocating the geometry buffers");
+    throw std::runtime_error("Embree returned no geometry buffer for " + owner);
+  }
+}
+
+// World positions in double, rounded to float once (the float vertices are what the offsets bound).
+void Tracer::Impl::write_world_vertices(const Scene& input, size_t k, float* vb) {
   const Instance& inst = input.instances[k];
   const Mesh& mesh = input.meshes[inst.mesh];
-  const size_t nv = mesh.positions.size();
-  std::vector<uint8_t> used(nv, 0);
-  for (uint32_t i : mesh.indices) used[i] = 1;
-  for (size_t v = 0; v < nv; ++v) {
-    // Unreferenced vertices are never read by Embree's triangles but still must be finite floats for its bounds.
-    const Vec3 w = inst.to_world.point(mesh.positions[used[v] ? v : mesh.indices[0]]);
-    const float f[3] = {static_cast<float>(w.x), static_cast<float>(w.y), static_cast<float>(w.z)};
-    if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
-      rtcReleaseGeometry(geom);
-      throw std::invalid_argument("tracer: " + where(input, k, inst.mesh) + ": vertex " + std::to_string(v) +
-                                  " lands at (" + std::to_string(w.x) + ", " + std::to_string(w.y) + ", " +
-                                  std::to_string(w.z) +
-                                  ") in world space, beyond single precision; scale the scene down");
-    }
+  const auto to_world = [&](const Vec3& p) { return inst.to_world.point(p); };
+  for_each_float_vertex(mesh, to_world, where(input, k, inst.mesh), "world", [&](size_t v, const float (&f)[3]) {
     std::copy(f, f + 3, vb + 3 * v);
-    if (used[v]) {
-      lower = {std::min(lower.x, double(f[0])), std::min(lower.y, double(f[1])), std::min(lower.z, double(f[2]))};
-      upper = {std::max(upper.x, double(f[0])), std::max(upper.y, double(f[1])), std::max(upper.z, double(f[2]))};
-    }
-  }
+    widen_bounds(f);
+  });
 }
 
 // The records of a mesh's triangles from the float vertices `vb` and indices `ib` Embree traces (world space for a
@@ -513,40 +546,23 @@ void Tracer::Impl::commit_scene(RTCScene s, const char* doing) {
 void Tracer::Impl::build_mesh_scene(const Scene& input, size_t k) {
   const int m = input.instances[k].mesh;
   const Mesh& mesh = input.meshes[m];
-  const size_t nt = mesh.indices.size() / 3, nv = mesh.positions.size();
   RTCScene ms = rtcNewScene(device);
   mesh_scenes[m] = ms;  // released with the tracer
   rtcSetSceneFlags(ms, scene_flags);
   rtcSetSceneBuildQuality(ms, RTC_BUILD_QUALITY_HIGH);
-  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
-  auto* vb = static_cast<float*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
-  auto* ib = static_cast<uint32_t*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
-  if (!vb || !ib) {
-    rtcReleaseGeometry(geom);
-    check("allocating the geometry buffers");
-    throw std::runtime_error("Embree returned no geometry buffer for " + where(input, k, m));
-  }
-  std::vector<uint8_t> used(nv, 0);
-  for (uint32_t i : mesh.indices) used[i] = 1;
+  TriangleGeometry tg;
+  const std::string owner = where(input, k, m);
+  new_triangle_geometry(mesh, owner, tg);
   double extent = 0;
-  for (size_t v = 0; v < nv; ++v) {
-    const Vec3& p = mesh.positions[used[v] ? v : mesh.indices[0]];
-    const float f[3] = {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
-    if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
-      rtcReleaseGeometry(geom);
-      throw std::invalid_argument("tracer: mesh " + std::to_string(m) + " '" + mesh.name + "': vertex " +
-                                  std::to_string(v) + " is beyond single precision; scale the scene down");
-    }
-    std::copy(f, f + 3, vb + 3 * v);
+  const auto object = [](const Vec3& p) { return p; };
+  for_each_float_vertex(mesh, object, owner, "object", [&](size_t v, const float (&f)[3]) {
+    std::copy(f, f + 3, tg.vb + 3 * v);
     extent = std::max({extent, std::fabs(double(f[0])), std::fabs(double(f[1])), std::fabs(double(f[2]))});
-  }
-  std::copy(mesh.indices.begin(), mesh.indices.end(), ib);
-  rtcCommitGeometry(geom);
-  rtcAttachGeometry(ms, geom);
-  rtcReleaseGeometry(geom);
+  });
+  std::copy(mesh.indices.begin(), mesh.indices.end(), tg.ib);
+  const float* vb = tg.vb;
+  const uint32_t* ib = tg.ib;
+  tg.attach(ms);
   check("adding a mesh's geometry");
   mesh_first[m] = records.size();
   mesh_extent[m] = extent;
@@ -560,23 +576,14 @@ void Tracer::Impl::build_mesh_scene(const Scene& input, size_t k) {
 // float range.
 void Tracer::Impl::instance_bounds(const Scene& input, size_t k, const double (&m)[12]) {
   const Instance& inst = input.instances[k];
-  const Mesh& mesh = input.meshes[inst.mesh];
-  std::vector<uint8_t> used(mesh.positions.size(), 0);
-  for (uint32_t i : mesh.indices) used[i] = 1;
-  for (size_t v = 0; v < used.size(); ++v) {
-    if (!used[v]) continue;
-    const Vec3& p = mesh.positions[v];
+  // The float object vertex under the float transform, as Embree places it.
+  const auto to_world = [&](const Vec3& p) {
     const double x = static_cast<float>(p.x), y = static_cast<float>(p.y), z = static_cast<float>(p.z);
-    const double w[3] = {m[0] * x + m[1] * y + m[2] * z + m[3], m[4] * x + m[5] * y + m[6] * z + m[7],
-                         m[8] * x + m[9] * y + m[10] * z + m[11]};
-    const float f[3] = {static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])};
-    if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2]))
-      throw std::invalid_argument("tracer: " + where(input, k, inst.mesh) + ": vertex " + std::to_string(v) +
-                                  " lands at (" + std::to_string(w[0]) + ", " + std::to_string(w[1]) + ", " +
-                                  std::to_string(w[2]) + ") in world space, beyond single precision; scale the scene down");
-    lower = {std::min(lower.x, double(f[0])), std::min(lower.y, double(f[1])), std::min(lower.z, double(f[2]))};
-    upper = {std::max(upper.x, double(f[0])), std::max(upper.y, double(f[1])), std::max(upper.z, double(f[2]))};
-  }
+    return Vec3{m[0] * x + m[1] * y + m[2] * z + m[3], m[4] * x + m[5] * y + m[6] * z + m[7],
+                m[8] * x + m[9] * y + m[10] * z + m[11]};
+  };
+  for_each_float_vertex(input.meshes[inst.mesh], to_world, where(input, k, inst.mesh), "world",
+                        [&](size_t, const float (&f)[3]) { widen_bounds(f); });
 }
 
 // Instance k as an Embree instance of its mesh's BVH (built by its first instance).
