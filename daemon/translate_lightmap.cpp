@@ -537,13 +537,8 @@ void check_total_input(const BakeRequest& r) {
 // triangles are bounded by its blob's size (each needs 12 bytes of indices), and every instance traces its mesh's.
 void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>& lightmap_names, BakeRequest& r) {
   const lightmap::LightmapBakeInput& in = r.lightmap();
-  lightmap::LightmapJobSize size;
-  size.ao = in.ao;
-  size.directional = in.directional;
-  size.radiance = in.radiance;
-  size.denoise = in.denoise;
-  size.preview = in.preview;
-  size.streamed = true;  // the worker stores each output as the bake hands it over (daemon/workers.cpp)
+  // Streamed: the worker stores each output as the bake hands it over (daemon/workers.cpp).
+  lightmap::LightmapJobSize size = lightmap::output_size(in, true);
   std::vector<uint64_t> mesh_triangles(static_cast<size_t>(j.meshes_size()), 0);
   for (int i = 0; i < j.meshes_size(); ++i) {
     const uint64_t bytes = j.meshes(i).geometry().size();

@@ -187,18 +187,27 @@ int lightmap_resolution(const LightmapBakeRun& run, const std::string& name) {
   return it != run.in.resolutions.end() ? it->second : run.in.resolution;
 }
 
-// What the estimate needs to know of the bake, from its input and the checked scene: the same model the daemon
-// applies to the spec (daemon/translate_lightmap.cpp), with the meshes' sizes as their blobs would have them.
-LightmapJobSize job_size(const LightmapBakeRun& run) {
-  const LightmapBakeInput& in = run.in;
-  const scene::Scene& s = run.scene();
+}  // namespace
+
+LightmapJobSize output_size(const LightmapBakeInput& in, bool streamed) {
   LightmapJobSize size;
   size.ao = in.ao;
   size.directional = in.directional;
   size.radiance = in.radiance;
   size.denoise = in.denoise;
   size.preview = in.preview;
-  size.streamed = static_cast<bool>(run.control.output_sink);
+  size.streamed = streamed;
+  return size;
+}
+
+namespace {
+
+// What the estimate needs to know of the bake, from its input and the checked scene: the same model the daemon
+// applies to the spec (daemon/translate_lightmap.cpp), with the meshes' sizes as their blobs would have them.
+LightmapJobSize job_size(const LightmapBakeRun& run) {
+  const LightmapBakeInput& in = run.in;
+  const scene::Scene& s = run.scene();
+  LightmapJobSize size = output_size(in, static_cast<bool>(run.control.output_sink));
   for (const std::string& name : lightmap_names(s)) {
     const auto side = static_cast<uint64_t>(lightmap_resolution(run, name));
     size.lightmap_texels.push_back(side * side);

@@ -30,6 +30,7 @@
 #include "bakers/lightmap/atlas_pack.h"
 #include "bakers/lightmap/denoise.h"
 #include "bakers/lightmap/error_metric.h"
+#include "bakers/lightmap/memory_estimate.h"
 #include "bakers/plan/decision.h"
 #include "bakers/scene/scene.h"
 
@@ -153,6 +154,10 @@ struct LightmapBakeResult {
 
 // nullopt if valid, else the first offending field and what is wrong with it.
 std::optional<bake::InvalidInput> validate(const LightmapBakeInput& input);
+
+// The memory estimate's size of the outputs `input` asks for (no texels, triangles or bytes yet); `streamed`: the
+// outputs go to BakeControl::output_sink as they are made.
+LightmapJobSize output_size(const LightmapBakeInput& input, bool streamed);
 
 // Throws bake::InvalidInput for a bad input: a field out of range (validate()), bytes that do not decode (field
 // "textures[I]", I the index in `textures`, or "environment_image"; the problem is the decoder's message, which
