@@ -251,6 +251,21 @@ struct BadCase {
   std::function<void(v1::JobSpec&)> spoil;
 };
 
+// Each case spoils a good job; translation must refuse it, naming the case's field and saying why.
+void expect_each_refused(const std::vector<BadCase>& cases, const v1::JobSpec& good) {
+  for (const BadCase& c : cases) {
+    v1::JobSpec spec = good;
+    c.spoil(spec);
+    try {
+      translate(spec);
+      ADD_FAILURE() << "accepted a job with a bad " << c.field;
+    } catch (const InvalidField& e) {
+      EXPECT_EQ(e.field(), c.field) << e.what();
+      EXPECT_GT(std::string(e.what()).size(), e.field().size() + 10) << "no explanation: " << e.what();
+    }
+  }
+}
+
 TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   auto lm = [](v1::JobSpec& s) { return s.mutable_lightmap(); };
@@ -355,17 +370,7 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
        }},
   };
   ASSERT_GE(cases.size(), 25u);
-  for (const BadCase& c : cases) {
-    v1::JobSpec spec = full_job();
-    c.spoil(spec);
-    try {
-      translate(spec);
-      ADD_FAILURE() << "accepted a job with a bad " << c.field;
-    } catch (const InvalidField& e) {
-      EXPECT_EQ(e.field(), c.field) << e.what();
-      EXPECT_GT(std::string(e.what()).size(), e.field().size() + 10) << "no explanation: " << e.what();
-    }
-  }
+  expect_each_refused(cases, full_job());
 }
 
 // The layout of kiln.proto written out here by hand, field by field.
@@ -611,17 +616,7 @@ TEST(TranslateLightmap, BadAtlasFieldsAreNamedByTheirPath) {
          lm(s)->mutable_instances(0)->clear_texel_density();
        }},
   };
-  for (const BadCase& c : cases) {
-    v1::JobSpec spec = atlas_job();
-    c.spoil(spec);
-    try {
-      translate(spec);
-      ADD_FAILURE() << "accepted a job with a bad " << c.field;
-    } catch (const InvalidField& e) {
-      EXPECT_EQ(e.field(), c.field) << e.what();
-      EXPECT_GT(std::string(e.what()).size(), e.field().size() + 10) << "no explanation: " << e.what();
-    }
-  }
+  expect_each_refused(cases, atlas_job());
 }
 
 TEST(TranslateLightmap, AtlasSettingsAreInTheCacheKey) {

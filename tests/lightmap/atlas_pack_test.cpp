@@ -18,11 +18,7 @@ using test::add_quad;
 using test::add_sphere;
 using test::lambert_material;
 
-scene::Transform translate_scale(Vec3 t, double s) {
-  scene::Transform x;
-  x.m = {s, 0, 0, t.x, 0, s, 0, t.y, 0, 0, s, t.z};
-  return x;
-}
+using test::translate_scale;
 
 // A quad instanced four times at different scales, a box (six charts in one mesh atlas) and a sphere.
 scene::Scene mixed_scene() {

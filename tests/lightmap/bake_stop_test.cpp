@@ -25,6 +25,23 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// Bakes `in`, cancelling it after `delay`; the seconds from the cancel to the bake's end (a BakeCancelled).
+double seconds_to_cancel(const LightmapBakeInput& in, std::chrono::milliseconds delay) {
+  std::atomic<bool> cancel{false};
+  bake::BakeControl control;
+  control.cancel = &cancel;
+  Clock::time_point cancelled_at;
+  std::thread canceller([&] {
+    std::this_thread::sleep_for(delay);
+    cancelled_at = Clock::now();
+    cancel = true;
+  });
+  EXPECT_THROW(bake_lightmaps(in, control), bake::BakeCancelled);
+  const Clock::time_point ended = Clock::now();
+  canceller.join();
+  return std::chrono::duration<double>(ended - cancelled_at).count();
+}
+
 scene::Scene floor_scene(int n = 4) {
   scene::Scene s;
   s.materials.push_back(test::lambert_material("grey", 0.5));
@@ -118,19 +135,7 @@ TEST(BakeStop, ATimeLimitEndsABigSetUpNamingTheField) {
 
 TEST(BakeStop, ACancelDuringTheSetUpEndsTheBakeWithinASecond) {
   const LightmapBakeInput in = big_room();
-  std::atomic<bool> cancel{false};
-  bake::BakeControl control;
-  control.cancel = &cancel;
-  Clock::time_point cancelled_at;
-  std::thread canceller([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    cancelled_at = Clock::now();
-    cancel = true;
-  });
-  EXPECT_THROW(bake_lightmaps(in, control), bake::BakeCancelled);
-  const Clock::time_point ended = Clock::now();
-  canceller.join();
-  const double after = std::chrono::duration<double>(ended - cancelled_at).count();
+  const double after = seconds_to_cancel(in, std::chrono::milliseconds(500));
   EXPECT_LT(after, 1.0);
   std::printf("1024² room, cancelled 0.5 s into the set-up: ended %.3f s after the cancel\n", after);
 }
@@ -160,19 +165,7 @@ TEST(BakeStop, ACancelStopsATiledBake) {
   LightmapBakeInput in = test::lightmap_input(floor_scene(), 256, 0.0005);
   in.tile_size = 32;
   in.max_samples = 1 << 20;
-  std::atomic<bool> cancel{false};
-  bake::BakeControl control;
-  control.cancel = &cancel;
-  Clock::time_point cancelled_at;
-  std::thread canceller([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(700));
-    cancelled_at = Clock::now();
-    cancel = true;
-  });
-  EXPECT_THROW(bake_lightmaps(in, control), bake::BakeCancelled);
-  const Clock::time_point ended = Clock::now();
-  canceller.join();
-  const double after = std::chrono::duration<double>(ended - cancelled_at).count();
+  const double after = seconds_to_cancel(in, std::chrono::milliseconds(700));
   EXPECT_LT(after, 1.0);
   std::printf("256² floor in 32² tiles, cancelled after 0.7 s: ended %.3f s after the cancel\n", after);
 }

@@ -21,11 +21,7 @@ namespace {
 
 using Json = nlohmann::json;
 
-scene::Transform translate_scale(Vec3 t, double s) {
-  scene::Transform x;
-  x.m = {s, 0, 0, t.x, 0, s, 0, t.y, 0, 0, s, t.z};
-  return x;
-}
+using test::translate_scale;
 
 // Under a uniform sky of radiance 1: a 1 m tile in the open (E = π exactly), the same mesh 1.5× inside a closed vault
 // that does not bake (E = 0 exactly: no light gets in), the same mesh 0.5× in the open (π), and a ball. The vault

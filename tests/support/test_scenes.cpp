@@ -133,6 +133,12 @@ int add_sphere(scene::Scene& s, const std::string& name, Vec3 centre, double rad
   return add_mesh(s, std::move(mesh));
 }
 
+scene::Transform translate_scale(Vec3 t, double s) {
+  scene::Transform x;
+  x.m = {s, 0, 0, t.x, 0, s, 0, t.y, 0, 0, s, t.z};
+  return x;
+}
+
 void scale_scene(scene::Scene& s, double scale, Vec3 offset) {
   for (scene::Instance& inst : s.instances) {
     auto& m = inst.to_world.m;

@@ -34,6 +34,9 @@ int add_sphere(scene::Scene& s, const std::string& name, Vec3 centre, double rad
 // irradiance at scaled distances is unchanged).
 void scale_scene(scene::Scene& s, double scale, Vec3 offset = {});
 
+// x' = s·x + t.
+scene::Transform translate_scale(Vec3 t, double s);
+
 // ---- Lightmap test helpers (appended for the outputs, lights and robustness tests) ----
 
 // The floor quad of side `size` centred at the origin facing +Y, subdivided n × n, as its own mesh "floor"
