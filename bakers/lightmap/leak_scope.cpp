@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -44,6 +45,27 @@ bool interiors_overlap(const Point2d (&a)[3], const Point2d (&b)[3], double tol)
     return false;
   };
   return !separated(a, b) && !separated(b, a);
+}
+
+// Calls visit(cell id) for each cell of `grid` that the box [a, b] overlaps (clamped to the grid; none for a box
+// wholly outside it or not finite) until one returns true; returns whether one did.
+template <class Grid, class Visit>
+bool for_each_cell(const Grid& grid, const Vec3& a, const Vec3& b, Visit visit) {
+  const double la[3] = {a.x - grid.lower.x, a.y - grid.lower.y, a.z - grid.lower.z};
+  const double lb[3] = {b.x - grid.lower.x, b.y - grid.lower.y, b.z - grid.lower.z};
+  size_t c0[3], c1[3];
+  for (int k = 0; k < 3; ++k) {
+    const double extent = static_cast<double>(grid.n[k]) * grid.cell;
+    // Also false for NaN: a sample at a non-finite position is near nothing.
+    if (!(lb[k] >= 0 && la[k] < extent)) return false;
+    c0[k] = std::min(grid.n[k] - 1, static_cast<size_t>(std::max(0.0, la[k] / grid.cell)));
+    c1[k] = std::min(grid.n[k] - 1, static_cast<size_t>(std::min(extent, lb[k]) / grid.cell));
+  }
+  for (size_t z = c0[2]; z <= c1[2]; ++z)
+    for (size_t y = c0[1]; y <= c1[1]; ++y)
+      for (size_t x = c0[0]; x <= c1[0]; ++x)
+        if (visit((z * grid.n[1] + y) * grid.n[0] + x)) return true;
+  return false;
 }
 
 }  // namespace
@@ -245,95 +267,77 @@ LeakScope::LeakScope(const scene::Scene& scene, const LeakScopeOptions& options,
     }
   }
   summary_.chunks = chunks_.size();
+  build_grid();
 }
 
-std::vector<uint8_t> LeakScope::probe_mask(std::span<const TexelSample> samples, const bake::StopCheck& stop) const {
-  std::vector<uint8_t> mask(samples.size(), 0);
-  if (samples.empty()) return mask;
-  double max_size = 0;
-  for (const TexelSample& s : samples) max_size = std::max(max_size, static_cast<double>(s.texel_world_size));
-  const double reach = options_.margin_texels * max_size;
-  // A uniform grid over the chunks' boxes grown by the largest margin: a sample looks up its own cell only.
+// The grid's cell is the chunks' median extent (most chunks span one or two cells a side) or, for a few large
+// chunks, what gives about eight cells a chunk; a chunk is listed in every cell its box overlaps.
+void LeakScope::build_grid() {
+  if (chunks_.empty()) return;
   Vec3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
   std::vector<double> extents;
+  extents.reserve(chunks_.size());
   for (const Chunk& c : chunks_) {
     lo = {std::min(lo.x, c.lower.x), std::min(lo.y, c.lower.y), std::min(lo.z, c.lower.z)};
     hi = {std::max(hi.x, c.upper.x), std::max(hi.y, c.upper.y), std::max(hi.z, c.upper.z)};
     const Vec3 e = c.upper - c.lower;
     extents.push_back(std::max({e.x, e.y, e.z}));
   }
-  lo = lo - Vec3{reach, reach, reach};
-  hi = hi + Vec3{reach, reach, reach};
-  const bool grid = !chunks_.empty() && std::isfinite(reach) && std::isfinite(length(hi - lo));
-  double cell = 1;
-  size_t n[3] = {1, 1, 1};
-  std::vector<uint32_t> first, items;
-  if (grid) {
-    std::nth_element(extents.begin(), extents.begin() + extents.size() / 2, extents.end());
-    const Vec3 w = hi - lo;
-    cell = std::max({extents[extents.size() / 2] + 2 * reach, std::cbrt(w.x * w.y * w.z / (8.0 * chunks_.size())),
-                     1e-300 + 1e-9 * std::max({w.x, w.y, w.z})});
-    const double dims[3] = {w.x, w.y, w.z};
-    for (int a = 0; a < 3; ++a) n[a] = static_cast<size_t>(dims[a] / cell) + 1;
-    const auto range = [&](const Vec3& a, const Vec3& b, size_t (&c0)[3], size_t (&c1)[3]) {
-      const double la[3] = {a.x - lo.x, a.y - lo.y, a.z - lo.z}, lb[3] = {b.x - lo.x, b.y - lo.y, b.z - lo.z};
-      for (int k = 0; k < 3; ++k) {
-        c0[k] = std::min(n[k] - 1, static_cast<size_t>(std::max(0.0, la[k] / cell)));
-        c1[k] = std::min(n[k] - 1, static_cast<size_t>(std::max(0.0, lb[k] / cell)));
-      }
-    };
-    first.assign(n[0] * n[1] * n[2] + 1, 0);
-    for (int pass = 0; pass < 2; ++pass) {
-      std::vector<uint32_t> fill;
-      if (pass == 1) {
-        for (size_t c = 1; c < first.size(); ++c) first[c] += first[c - 1];
-        items.resize(first.back());
-        fill.assign(first.begin(), first.end() - 1);
-      }
-      for (size_t i = 0; i < chunks_.size(); ++i) {
-        size_t c0[3], c1[3];
-        range(chunks_[i].lower - Vec3{reach, reach, reach}, chunks_[i].upper + Vec3{reach, reach, reach}, c0, c1);
-        for (size_t z = c0[2]; z <= c1[2]; ++z)
-          for (size_t y = c0[1]; y <= c1[1]; ++y)
-            for (size_t x = c0[0]; x <= c1[0]; ++x) {
-              const size_t id = (z * n[1] + y) * n[0] + x;
-              if (pass == 0)
-                ++first[id + 1];
-              else
-                items[fill[id]++] = static_cast<uint32_t>(i);
-            }
-      }
+  const Vec3 w = hi - lo;
+  const double widest = std::max({w.x, w.y, w.z});
+  // A scene beyond double range has no usable grid: every sample then tests every chunk's box (exact, slower).
+  if (!std::isfinite(widest)) return;
+  std::nth_element(extents.begin(), extents.begin() + extents.size() / 2, extents.end());
+  // Guard: a scene of one flat point (all extents 0) still needs a cell > 0.
+  grid_.cell = std::max({extents[extents.size() / 2], std::cbrt(w.x * w.y * w.z / (8.0 * chunks_.size())),
+                         1e-9 * widest, std::numeric_limits<double>::min()});
+  grid_.lower = lo;
+  const double dims[3] = {w.x, w.y, w.z};
+  for (int a = 0; a < 3; ++a) grid_.n[a] = static_cast<size_t>(dims[a] / grid_.cell) + 1;
+  grid_.first.assign(grid_.n[0] * grid_.n[1] * grid_.n[2] + 1, 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<uint32_t> fill;
+    if (pass == 1) {
+      for (size_t c = 1; c < grid_.first.size(); ++c) grid_.first[c] += grid_.first[c - 1];
+      grid_.items.resize(grid_.first.back());
+      fill.assign(grid_.first.begin(), grid_.first.end() - 1);
+    }
+    for (size_t i = 0; i < chunks_.size(); ++i) {
+      for_each_cell(grid_, chunks_[i].lower, chunks_[i].upper, [&](size_t id) {
+        if (pass == 0)
+          ++grid_.first[id + 1];
+        else
+          grid_.items[fill[id]++] = static_cast<uint32_t>(i);
+        return false;
+      });
     }
   }
+}
+
+// Whether the sample lies within its margin of a chunk of another instance.
+bool LeakScope::near_other_instance(const TexelSample& s) const {
+  const Vec3& p = s.position;
+  const double m = options_.margin_texels * static_cast<double>(s.texel_world_size);
+  const auto near = [&](const Chunk& ch) {
+    return ch.instance != s.triangle.instance && p.x >= ch.lower.x - m && p.x <= ch.upper.x + m &&
+           p.y >= ch.lower.y - m && p.y <= ch.upper.y + m && p.z >= ch.lower.z - m && p.z <= ch.upper.z + m;
+  };
+  if (grid_.n[0] == 0) return std::any_of(chunks_.begin(), chunks_.end(), near);
+  const Vec3 reach{m, m, m};
+  return for_each_cell(grid_, p - reach, p + reach, [&](size_t id) {
+    for (uint32_t i = grid_.first[id]; i < grid_.first[id + 1]; ++i)
+      if (near(chunks_[grid_.items[i]])) return true;
+    return false;
+  });
+}
+
+std::vector<uint8_t> LeakScope::probe_mask(std::span<const TexelSample> samples, const bake::StopCheck& stop) const {
+  std::vector<uint8_t> mask(samples.size(), 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, samples.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
     stop.check();
     for (size_t j = r.begin(); j < r.end(); ++j) {
       const TexelSample& s = samples[j];
-      if (self_hiding_[s.triangle.mesh]) {
-        mask[j] = 1;
-        continue;
-      }
-      if (!grid) continue;
-      const Vec3& p = s.position;
-      const double rel[3] = {p.x - lo.x, p.y - lo.y, p.z - lo.z};
-      size_t c[3];
-      bool inside = true;
-      for (int k = 0; k < 3; ++k) {
-        if (!(rel[k] >= 0) || rel[k] / cell >= static_cast<double>(n[k])) inside = false;
-        c[k] = inside ? static_cast<size_t>(rel[k] / cell) : 0;
-      }
-      if (!inside) continue;
-      const size_t id = (c[2] * n[1] + c[1]) * n[0] + c[0];
-      const double m = options_.margin_texels * static_cast<double>(s.texel_world_size);
-      for (uint32_t i = first[id]; i < first[id + 1]; ++i) {
-        const Chunk& ch = chunks_[items[i]];
-        if (ch.instance == s.triangle.instance) continue;
-        if (p.x >= ch.lower.x - m && p.x <= ch.upper.x + m && p.y >= ch.lower.y - m && p.y <= ch.upper.y + m &&
-            p.z >= ch.lower.z - m && p.z <= ch.upper.z + m) {
-          mask[j] = 1;
-          break;
-        }
-      }
+      mask[j] = self_hiding_[s.triangle.mesh] || near_other_instance(s);
     }
   });
   return mask;

@@ -68,9 +68,21 @@ class LeakScope {
     Vec3 lower, upper;
     uint32_t instance;
   };
+  // A uniform grid over the chunks' boxes, built once: a sample looks up the cells its own reach overlaps.
+  struct ChunkGrid {
+    Vec3 lower;
+    double cell = 1;
+    size_t n[3] = {0, 0, 0};      // cells along x, y, z; 0: no grid (no chunks)
+    std::vector<uint32_t> first;  // by cell, with one past the last: where its chunks start in `items`
+    std::vector<uint32_t> items;  // chunk indices
+  };
+  void build_grid();
+  bool near_other_instance(const TexelSample& s) const;
+
   LeakScopeOptions options_;
   std::vector<uint8_t> self_hiding_;  // by mesh
   std::vector<Chunk> chunks_;
+  ChunkGrid grid_;
   LeakScopeSummary summary_;
 };
 
