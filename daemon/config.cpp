@@ -10,10 +10,12 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "daemon/kilnd_config.pb.h"
+#include "proto/byte_size.h"
 
 namespace kiln::daemon {
 namespace {
@@ -66,18 +68,12 @@ double parse_seconds(const std::string& flag, const std::string& text) {
 // A size in bytes, optionally with a binary suffix: "512M", "6G".
 uint64_t parse_bytes(const std::string& flag, const std::string& text) {
   constexpr uint64_t kMax = uint64_t{1} << 50;
-  std::string digits = text;
-  int shift = 0;
-  if (!digits.empty()) {
-    const std::string units = "KMGT";
-    const auto u = units.find(static_cast<char>(std::toupper(static_cast<unsigned char>(digits.back()))));
-    if (u != std::string::npos) {
-      shift = 10 * static_cast<int>(u + 1);
-      digits.pop_back();
-    }
+  const std::optional<uint64_t> v = proto::parse_byte_size(text);
+  if (!v || *v > kMax) {
+    throw std::invalid_argument(flag + ": expected a size in bytes in [0, 2^50], whole or with K, M, G or T " +
+                                "(x1024), got '" + text + "'");
   }
-  const uint64_t v = parse_unsigned(flag, digits, 0, kMax >> shift);
-  return v << shift;
+  return *v;
 }
 
 struct Flag {

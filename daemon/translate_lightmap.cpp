@@ -33,7 +33,6 @@ constexpr int kMaxLightmapSettings = 65536;
 // 16 pages of 4096²: a bake that does not fit its memory limit whole samples them a tile at a time, holding ~40
 // bytes a texel of the page being baked (bakers/lightmap/lightmap_results.h).
 constexpr uint64_t kMaxTotalTexels = uint64_t{1} << 28;
-constexpr uint64_t kMinMemoryLimit = uint64_t{1} << 26, kMaxMemoryLimit = uint64_t{1} << 50;
 constexpr double kMaxCoordinate = 1e9;                   // beyond it float32 geometry has no precision left
 constexpr bounds::Range kCoordinate{-kMaxCoordinate, kMaxCoordinate};
 constexpr double kMaxLightColor = 1e12;
@@ -498,7 +497,8 @@ void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& 
   in.error_metric = error_metric(j.error_metric());
   if (j.has_memory_limit_bytes()) {
     const uint64_t limit = j.memory_limit_bytes();
-    if (limit < kMinMemoryLimit || limit > kMaxMemoryLimit) {
+    const bounds::WholeRange range = bounds::kLightmapMemoryLimit;
+    if (limit < static_cast<uint64_t>(range.lo) || limit > static_cast<uint64_t>(range.hi)) {
       throw InvalidField(kPath + ".memory_limit_bytes", "must be in [2^26, 2^50] bytes (64 MiB to 1 PiB), got " +
                                                             std::to_string(limit));
     }

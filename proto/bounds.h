@@ -68,5 +68,7 @@ inline constexpr Range kLightmapTimeLimitSeconds{0.0, 7 * 86400.0, true};
 inline constexpr Range kTexelDensity{0.0, 1e6, true};
 inline constexpr WholeRange kAtlasPageSize{16, 8192};
 inline constexpr WholeRange kAtlasMaxPages{1, 4096};
+// The most memory a bake may hold, bytes: 64 MiB to 1 PiB.
+inline constexpr WholeRange kLightmapMemoryLimit{int64_t{1} << 26, int64_t{1} << 50};
 
 }  // namespace kiln::bounds

@@ -5,6 +5,7 @@
 #include <cstdlib>
 
 #include "client/cli/format.h"
+#include "proto/byte_size.h"
 
 namespace kiln::cli {
 
@@ -90,6 +91,15 @@ std::int64_t parse_whole(const std::string& flag, const std::string& text, const
                      std::to_string(range.hi) + "], got " + text);
   }
   return static_cast<std::int64_t>(v);
+}
+
+std::uint64_t parse_byte_size(const std::string& flag, const std::string& text, const bounds::WholeRange& range) {
+  const std::optional<std::uint64_t> v = proto::parse_byte_size(text);
+  if (!v || *v < static_cast<std::uint64_t>(range.lo) || *v > static_cast<std::uint64_t>(range.hi)) {
+    throw UsageError(flag + ": must be a size in bytes in [" + std::to_string(range.lo) + ", " +
+                     std::to_string(range.hi) + "], whole or with K, M, G or T (x1024) as in 512M or 4G, got " + text);
+  }
+  return *v;
 }
 
 }  // namespace kiln::cli

@@ -62,5 +62,7 @@ double parse_number(const std::string& flag, const std::string& text);
 double parse_number_in(const std::string& flag, const std::string& text, const bounds::Range& range);
 // A whole number in the range; "1e6" is accepted as 1000000.
 std::int64_t parse_whole(const std::string& flag, const std::string& text, const bounds::WholeRange& range);
+// A size in bytes in the range, whole or with K, M, G or T (x1024): "512M", "4G".
+std::uint64_t parse_byte_size(const std::string& flag, const std::string& text, const bounds::WholeRange& range);
 
 }  // namespace kiln::cli

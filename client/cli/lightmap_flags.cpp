@@ -46,6 +46,9 @@ atlas pages (none of these: one lightmap per mesh at --resolution):
   --page-size N                texels on a side of a page, [16, 8192]; default 1024
   --max-pages N                most pages, [1, 4096]; default 4 (fewer for pages above 2048^2); charts that do not fit
                                are all scaled down to fit, and the report says by how much
+  --memory-limit BYTES         the most memory the bake may hold, [64M, 1P], e.g. 4G (K, M, G, T: x1024); default
+                               and upper bound: the server's --memory-limit. A bake larger than that samples its
+                               lightmaps a tile at a time (the same images within the noise; report.json's memory)
   --max-bounces N              cap on the bounces the planner chooses, [0, 1024]; default 64
   --radiance                   also write NAME_radiance.exr (rho E / pi)
   --ao                         also write NAME_ao.exr (ambient occlusion)
@@ -74,7 +77,7 @@ namespace {
 const char* const kJobFlags[] = {"--env-constant", "--env-rotation", "--env-intensity", "--resolution",
                                  "--target-error", "--max-samples",  "--time-limit",    "--seed",
                                  "--padding",      "--max-bounces",  "--error-metric",  "--texel-density",
-                                 "--page-size",    "--max-pages"};
+                                 "--page-size",    "--max-pages",    "--memory-limit"};
 
 std::string default_name(const Flags& f, const std::string& scene) {
   std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
@@ -195,6 +198,8 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
       throw UsageError(std::string(flag) + ": sizes atlas pages; add --texel-density D to pack them");
     }
   }
+  if (auto v = f.get("--memory-limit"))
+    job->set_memory_limit_bytes(parse_byte_size("--memory-limit", *v, bounds::kLightmapMemoryLimit));
   if (f.has("--radiance")) job->set_radiance(true);
   if (f.has("--ao")) job->set_ao(true);
   if (f.has("--directional")) job->set_directional(true);
@@ -239,6 +244,7 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
   if (flags.has_texel_density()) merged.set_texel_density(flags.texel_density());
   if (flags.has_page_size()) merged.set_page_size(flags.page_size());
   if (flags.has_max_pages()) merged.set_max_pages(flags.max_pages());
+  if (flags.has_memory_limit_bytes()) merged.set_memory_limit_bytes(flags.memory_limit_bytes());
   if (flags.radiance()) merged.set_radiance(true);
   if (flags.ao()) merged.set_ao(true);
   if (flags.directional()) merged.set_directional(true);
@@ -260,6 +266,7 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
       {"texel_density", "--texel-density"},
       {"page_size", "--page-size"},
       {"max_pages", "--max-pages"},
+      {"memory_limit_bytes", "--memory-limit"},
       {"radiance", "--radiance"},
       {"ao", "--ao"},
       {"directional", "--directional"},

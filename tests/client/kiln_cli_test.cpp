@@ -1471,5 +1471,29 @@ TEST(BakeLightmapFlags, AtlasFlagsMap) {
   }
 }
 
+// --memory-limit sets the bake's memory budget (binary suffixes), the daemon takes it, and sizes outside
+// [64 MiB, 1 PiB] or malformed are usage errors naming the flag.
+TEST(BakeLightmapFlags, MemoryLimitFlagMaps) {
+  LightmapBake bake = lightmap_bake_from_flags(
+      std::vector<std::string>{"lightmap", "scene.gltf", "--memory-limit", "3G", "--out", "dir"});
+  v1::LightmapJob imported;
+  v1::Mesh* m = imported.add_meshes();
+  m->set_name("floor");
+  m->mutable_geometry()->set_sha256(std::string(64, 'a'));
+  m->mutable_geometry()->set_size(100);
+  merge_scene(bake, imported);
+  EXPECT_EQ(bake.spec.lightmap().memory_limit_bytes(), uint64_t{3} << 30);
+  EXPECT_EQ(daemon::translate(bake.spec).lightmap().memory_limit_bytes, uint64_t{3} << 30);
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.memory_limit_bytes"), "--memory-limit");
+  for (const char* bad : {"63M", "2P", "1.5G", "4GB", "-1", ""}) {
+    try {
+      lightmap_bake_from_flags(std::vector<std::string>{"lightmap", "scene.gltf", "--memory-limit", bad});
+      ADD_FAILURE() << "took --memory-limit " << bad;
+    } catch (const UsageError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("--memory-limit", 0), 0u) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace kiln::cli

@@ -155,6 +155,8 @@ def lightmap_job(meshes, *, instances=None, materials=None, textures=None, light
       texel_density (texels per metre), page_size, max_pages: atlas pages, as in kiln.proto: every instance's chart
       packed into pages page0, page1, ... at that density; the outputs are per page, with lightmaps.json (each
       instance's page, scale and offset).
+      memory_limit_bytes: the most memory the bake may hold (at most the server's --memory-limit); a bake larger
+      than that samples its lightmaps a tile at a time.
     samples, target_error, time_limit_seconds and seed go into the job's quality; force_effects forces planner
     effects on or off by name. None leaves a field to its default. TypeError/ValueError name the field's path
     ("job.lightmap.lights[0].point.position") when something does not fit.
