@@ -3,6 +3,7 @@
 //
 //   level_bench [--quads=N] [--instances=N] [--meshes=N] [--detail=N] [--prop-resolution=N]
 //               [--terrain-resolution=N] [--time-limit=S] [--skip-level] [--skip-terrain]
+//               [--texel-density=D [--page-size=N] [--max-pages=K]] [--limit=BYTES]
 //
 // The level:
 //   1. the tracer built three ways (scene::Instancing: every instance flattened; shared meshes instanced, the
@@ -10,8 +11,11 @@
 //      monitor and the tracer's arrays), triangles traced and held;
 //   2. closest-hit rays per CPU-second through each (incoherent rays in the level's box, tests/bench/ray_workload.h,
 //      one at a time on both cores);
-//   3. a short bake (terrain at --terrain-resolution, each prop mesh's atlas at --prop-resolution, every instance in
-//      a cell of its mesh's atlas; --time-limit): report.json's stages, samples, rays, texels, rates.
+//   3. a short bake (--time-limit): report.json's stages, samples, rays, texels, rates. Without --texel-density:
+//      the terrain at --terrain-resolution, each prop mesh's atlas at --prop-resolution, every instance in a cell of
+//      its mesh's atlas. With it: every instance packed into atlas pages at D texels per metre (--page-size, default
+//      2048; --max-pages, default 64), and the packing's pages and efficiency. --limit (e.g. 4G) bounds the bake's
+//      memory (tiles when the pages do not fit).
 // The terrain: one 1 M-triangle height field (--quads 708: 2·708² triangles) at 1024² with the time limit: its
 // stages and that samples are taken (no leak probe: it cannot leak, leak_scope.h).
 //
@@ -52,8 +56,20 @@ struct Args {
   LevelOptions level;
   int prop_resolution = 32, terrain_resolution = 512, terrain_quads = 708;
   double time_limit = 30;
+  double texel_density = 0;
+  int page_size = 2048, max_pages = 64;
+  uint64_t limit = 0;
   bool skip_level = false, skip_terrain = false;
 };
+
+// "4G", "512M", "1048576".
+uint64_t parse_bytes(const std::string& text) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  const char unit = end && *end ? *end : ' ';
+  const double scale = unit == 'G' ? 1073741824.0 : unit == 'M' ? 1048576.0 : unit == 'K' ? 1024.0 : 1.0;
+  return static_cast<uint64_t>(v * scale);
+}
 
 Args parse(int argc, char** argv) {
   Args a;
@@ -74,6 +90,10 @@ Args parse(int argc, char** argv) {
     else if (auto v6 = value("--terrain-resolution")) a.terrain_resolution = static_cast<int>(*v6);
     else if (auto v7 = value("--terrain-quads")) a.terrain_quads = static_cast<int>(*v7);
     else if (auto v8 = value("--time-limit")) a.time_limit = *v8;
+    else if (auto v9 = value("--texel-density")) a.texel_density = *v9;
+    else if (auto v10 = value("--page-size")) a.page_size = static_cast<int>(*v10);
+    else if (auto v11 = value("--max-pages")) a.max_pages = static_cast<int>(*v11);
+    else if (s.rfind("--limit=", 0) == 0) a.limit = parse_bytes(s.substr(8));
     else if (s == "--skip-level") a.skip_level = true;
     else if (s == "--skip-terrain") a.skip_terrain = true;
     else {
@@ -155,6 +175,15 @@ void bake_and_report(const char* what, lightmap::LightmapBakeInput in) {
   std::printf("  leak probes: %.0f sample points probed, %.0f pruned; tracer %.1f MB, %s triangles traced, %s held\n",
               probed, pruned, report["tracer"]["memory_bytes"].get<double>() / 1048576.0,
               report["tracer"]["triangles"].dump().c_str(), report["tracer"]["stored_triangles"].dump().c_str());
+  if (report.contains("atlas")) {
+    const auto& at = report["atlas"];
+    std::printf("  atlas: %s pages, %zu instances packed, density scale %s, chart area %.3f and valid texels %.3f "
+                "of the pages' texels, packed in %.2f s\n",
+                at["pages"].dump().c_str(), at["regions"].size(), at["density_scale"].dump().c_str(),
+                at["efficiency"]["chart_area"].get<double>(), at["efficiency"]["valid_texels"].get<double>(),
+                at["seconds"].get<double>());
+  }
+  if (report.contains("memory")) std::printf("  memory: %s\n", report["memory"].dump().c_str());
   std::printf("  %-22s %9s %9s\n", "stage", "seconds", "fraction");
   for (const auto& st : report["stages"])
     std::printf("  %-22s %9.3f %9.3f\n", st["stage"].get<std::string>().c_str(), st["seconds"].get<double>(),
@@ -200,7 +229,19 @@ int main(int argc, char** argv) {
                 static_cast<long long>(checked.report.total()));
     bench::tracers(checked.scene);
     lightmap::LightmapBakeInput in = bench::short_bake(level, a.prop_resolution, a.time_limit);
-    in.resolutions["terrain"] = a.terrain_resolution;
+    in.memory_limit_bytes = a.limit;
+    if (a.texel_density > 0) {
+      for (scene::Instance& i : in.scene.instances) {
+        i.lightmap.clear();
+        i.lightmap_scale_offset = {1, 1, 0, 0};
+      }
+      in.atlas.texel_density = a.texel_density;
+      in.atlas.page_size = a.page_size;
+      in.atlas.max_pages = a.max_pages;
+      in.atlas.padding = in.padding;
+    } else {
+      in.resolutions["terrain"] = a.terrain_resolution;
+    }
     bench::bake_and_report("level bake", in);
   }
   if (!a.skip_terrain) {
