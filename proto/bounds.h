@@ -69,19 +69,4 @@ inline constexpr Range kTexelDensity{0.0, 1e6, true};
 inline constexpr WholeRange kAtlasPageSize{16, 8192};
 inline constexpr WholeRange kAtlasMaxPages{1, 4096};
 
-// --- Participating media (bakers/volume/, docs/MEDIA.md) -------------------------------------------------------------
-// sigma_a and sigma_s each channel, per metre (per scene unit); for a grid medium, per unit of density. 1e6 m⁻¹ is a
-// mean free path of a micrometre: opaque at any scene scale.
-inline constexpr Range kMediumCoefficient{0.0, 1e6};
-// Henyey–Greenstein asymmetry g; ±1 (a Dirac delta) is accepted and narrowed by the phase function
-// (bakers/volume/henyey_greenstein.h).
-inline constexpr Range kMediumAsymmetry{-1.0, 1.0};
-inline constexpr Range kMediumEmission{0.0, 1e6};  // emitted radiance Le (or its scale for an emission grid)
-// A VDB blob: its bytes, the active voxels of each grid read from it, the extent of a grid's active voxels in voxels
-// along each axis, and the world-space size of a voxel (the grid's own transform, before the medium's).
-inline constexpr WholeRange kVdbBytes{1, int64_t{256} << 20};
-inline constexpr WholeRange kVdbActiveVoxels{0, int64_t{1} << 26};
-inline constexpr WholeRange kVdbExtentVoxels{1, 1 << 16};
-inline constexpr Range kVdbVoxelSize{0.0, 1e6, true};
-
 }  // namespace kiln::bounds

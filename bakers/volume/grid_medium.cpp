@@ -7,6 +7,7 @@
 
 #include "bakers/bake/range_check.h"
 #include "bakers/volume/affine.h"
+#include "bakers/volume/medium_bounds.h"
 #include "bakers/volume/vdb_grid_impl.h"
 
 namespace kiln::volume {
@@ -16,10 +17,10 @@ namespace {
 using bake::InvalidInput;
 
 void validate(const GridMediumSpec& s) {
-  if (auto e = bake::check_rgb("sigma_a", s.sigma_a, bounds::kMediumCoefficient)) throw *e;
-  if (auto e = bake::check_rgb("sigma_s", s.sigma_s, bounds::kMediumCoefficient)) throw *e;
-  if (auto e = bake::check_rgb("Le_scale", s.Le_scale, bounds::kMediumEmission)) throw *e;
-  if (auto e = bake::check_range("g", s.g, bounds::kMediumAsymmetry)) throw *e;
+  if (auto e = bake::check_rgb("sigma_a", s.sigma_a, limits::kMediumCoefficient)) throw *e;
+  if (auto e = bake::check_rgb("sigma_s", s.sigma_s, limits::kMediumCoefficient)) throw *e;
+  if (auto e = bake::check_rgb("Le_scale", s.Le_scale, limits::kMediumEmission)) throw *e;
+  if (auto e = bake::check_range("g", s.g, limits::kMediumAsymmetry)) throw *e;
   if (!s.density.valid()) throw InvalidInput("density", "no grid given");
   if (s.emission && !s.emission->valid()) throw InvalidInput("emission", "an empty grid handle");
 }

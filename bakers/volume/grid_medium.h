@@ -23,9 +23,9 @@ struct GridMediumSpec {
   VdbGrid density;                  // a float grid (vdb_file.h); its transform maps index space to medium space
   std::optional<VdbGrid> emission;  // Le = value × Le_scale, in its own index space
   scene::Transform to_world;        // medium space → scene
-  Rgb sigma_a, sigma_s;             // per unit density, m⁻¹, each in bounds::kMediumCoefficient
-  Rgb Le_scale;                     // in bounds::kMediumEmission
-  double g = 0;                     // in bounds::kMediumAsymmetry
+  Rgb sigma_a, sigma_s;             // per unit density, m⁻¹, each in limits::kMediumCoefficient
+  Rgb Le_scale;                     // in limits::kMediumEmission
+  double g = 0;                     // in limits::kMediumAsymmetry
 };
 
 class GridMedium final : public Medium {

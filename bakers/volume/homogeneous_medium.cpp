@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "bakers/bake/range_check.h"
+#include "bakers/volume/medium_bounds.h"
 #include "bakers/volume/ray_box.h"
 
 namespace kiln::volume {
@@ -11,10 +12,10 @@ namespace kiln::volume {
 namespace {
 
 void validate(const HomogeneousMediumSpec& s) {
-  if (auto e = bake::check_rgb("sigma_a", s.sigma_a, bounds::kMediumCoefficient)) throw *e;
-  if (auto e = bake::check_rgb("sigma_s", s.sigma_s, bounds::kMediumCoefficient)) throw *e;
-  if (auto e = bake::check_rgb("Le", s.Le, bounds::kMediumEmission)) throw *e;
-  if (auto e = bake::check_range("g", s.g, bounds::kMediumAsymmetry)) throw *e;
+  if (auto e = bake::check_rgb("sigma_a", s.sigma_a, limits::kMediumCoefficient)) throw *e;
+  if (auto e = bake::check_rgb("sigma_s", s.sigma_s, limits::kMediumCoefficient)) throw *e;
+  if (auto e = bake::check_rgb("Le", s.Le, limits::kMediumEmission)) throw *e;
+  if (auto e = bake::check_range("g", s.g, limits::kMediumAsymmetry)) throw *e;
   if (s.box && (!is_finite(s.box->lo) || !is_finite(s.box->hi) || s.box->empty()))
     throw bake::InvalidInput("box", "must have finite corners with lo ≤ hi on every axis");
 }

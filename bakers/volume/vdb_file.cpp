@@ -11,8 +11,8 @@
 
 #include "bakers/bake/invalid_input.h"
 #include "bakers/bake/number_format.h"
+#include "bakers/volume/medium_bounds.h"
 #include "bakers/volume/vdb_grid_impl.h"
-#include "proto/bounds.h"
 
 namespace kiln::volume {
 
@@ -44,8 +44,8 @@ class SpanBuffer : public std::streambuf {
 
 void check_header(std::span<const uint8_t> bytes) {
   const int64_t n = static_cast<int64_t>(bytes.size());
-  if (!bounds::kVdbBytes.contains(n))
-    throw InvalidInput("bytes", "a VDB file must hold 1 to " + std::to_string(bounds::kVdbBytes.hi) + " bytes, got " +
+  if (!limits::kVdbBytes.contains(n))
+    throw InvalidInput("bytes", "a VDB file must hold 1 to " + std::to_string(limits::kVdbBytes.hi) + " bytes, got " +
                                     std::to_string(n));
   // OpenVDB files open with the 64-bit magic number OPENVDB_MAGIC ("VDB " little-endian).
   int64_t magic = 0;
@@ -71,14 +71,14 @@ void check_transform(const openvdb::GridBase& grid, const std::string& field) {
     throw InvalidInput(field, "has a non-linear (frustum) transform; kiln reads grids with linear transforms");
   const openvdb::Vec3d size = grid.transform().voxelSize();
   for (int a = 0; a < 3; ++a)
-    if (!std::isfinite(size[a]) || !bounds::kVdbVoxelSize.contains(size[a]))
-      throw InvalidInput(field, "voxel edges must be in (0, " + format_number(bounds::kVdbVoxelSize.hi) + "], got " +
+    if (!std::isfinite(size[a]) || !limits::kVdbVoxelSize.contains(size[a]))
+      throw InvalidInput(field, "voxel edges must be in (0, " + format_number(limits::kVdbVoxelSize.hi) + "], got " +
                                     format_number(size[0]) + " × " + format_number(size[1]) + " × " +
                                     format_number(size[2]));
 }
 
 void check_sizes(const openvdb::FloatGrid& grid, const std::string& field) {
-  const int64_t cap = bounds::kVdbActiveVoxels.hi;
+  const int64_t cap = limits::kVdbActiveVoxels.hi;
   const int64_t active = static_cast<int64_t>(grid.activeVoxelCount());
   const int64_t stored = static_cast<int64_t>(grid.tree().leafCount()) * 512;
   if (active > cap || stored > cap)
@@ -90,10 +90,10 @@ void check_sizes(const openvdb::FloatGrid& grid, const std::string& field) {
   if (box.empty()) return;
   const openvdb::Coord extent = box.dim();
   for (int a = 0; a < 3; ++a)
-    if (extent[a] > bounds::kVdbExtentVoxels.hi)
+    if (extent[a] > limits::kVdbExtentVoxels.hi)
       throw InvalidInput(field, "spans " + std::to_string(extent[0]) + " × " + std::to_string(extent[1]) + " × " +
                                     std::to_string(extent[2]) + " voxels; at most " +
-                                    std::to_string(bounds::kVdbExtentVoxels.hi) + " on each axis are allowed");
+                                    std::to_string(limits::kVdbExtentVoxels.hi) + " on each axis are allowed");
 }
 
 // The named grid, checked (read_vdb's rules) before anything is made from it.
