@@ -20,15 +20,17 @@ namespace kiln::volume {
 
 // Samples the tentative collisions of ray over [0, t_end) against the medium's majorants, calling
 // at_collision(t, sigma_bar) at each (sigma_bar: the segment's grey majorant per unit length) until it returns false.
-// Returns true if the ray left [0, t_end) without being stopped. Segments with a zero majorant are passed over
+// Returns true if the ray left [0, t_end) without being stopped (always, for a ray that does not move or has a
+// non-finite coordinate). Segments with a zero majorant are passed over
 // whole without a random number (empty space). Each step draws one uniform from rng.
 template <class AtCollision>
 bool track_majorants(const Medium& medium, const scene::Ray& ray, double t_end, Pcg32& rng,
                      AtCollision&& at_collision) {
   // Coefficients are per unit of length and t is in units of |direction|: a step in t is a distance / speed.
   const double speed = length(ray.direction);
-  // A ray that does not move crosses no medium.
-  if (!(speed > 0)) return true;
+  // A ray that does not move crosses no medium. A ray with a NaN or infinite coordinate (a caller's bug) has no
+  // place to look the medium up: it crosses none either, rather than feeding NaN to the lookups.
+  if (!(speed > 0) || !std::isfinite(speed) || !is_finite(ray.origin)) return true;
   MajorantIterator segments = medium.majorants(ray, t_end);
   while (const auto segment = segments.next()) {
     const double sigma_bar = segment->sigma_maj.max();

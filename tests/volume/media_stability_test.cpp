@@ -84,8 +84,8 @@ TEST(MediaStability, NanVoxelsReadAsZero) {
   expect_finite_tracking(medium, 200);
 }
 
-// g = ±1 is accepted by a medium (bounds::kMediumAsymmetry) and narrowed by the phase function; g outside, or NaN
-// coefficients, are rejected naming the field.
+// g = ±1 is accepted by a medium (volume::limits::kMediumAsymmetry) and narrowed by the phase function; g outside, or
+// NaN coefficients, are rejected naming the field.
 TEST(MediaStability, AsymmetryLimitsAndBadCoefficients) {
   for (double g : {-1.0, 1.0}) {
     const HomogeneousMedium fog({{0.1, 0.1, 0.1}, {1, 1, 1}, {}, g, std::nullopt});
@@ -124,6 +124,22 @@ TEST(MediaStability, MediaOutsideTheSceneAreReported) {
   EXPECT_FALSE(outside_scene(fog, scene_bounds));
   const GridMedium near({test::lumpy_ball_grid(), {}, {}, {1, 1, 1}, {1, 1, 1}, {}, 0.0});
   EXPECT_FALSE(outside_scene(near, scene_bounds));
+}
+
+// Rays that do not move, or carry NaN or infinite coordinates, cross no medium: transmittance 1, no collision.
+TEST(MediaStability, DegenerateRaysCrossNothing) {
+  const GridMedium ball({test::lumpy_ball_grid(), {}, {}, {1, 1, 1}, {1, 1, 1}, {}, 0.0});
+  const HomogeneousMedium fog({{1, 1, 1}, {1, 1, 1}, {}, 0.0, std::nullopt});
+  const scene::Ray rays[] = {{{0.5, 0.5, 0.5}, {0, 0, 0}},
+                             {{NAN, 0.5, 0.5}, {1, 0, 0}},
+                             {{0.5, 0.5, 0.5}, {INFINITY, 0, 0}},
+                             {{0.5, 0.5, 0.5}, {0, NAN, 1}}};
+  Pcg32 rng(8);
+  for (const Medium* m : {static_cast<const Medium*>(&ball), static_cast<const Medium*>(&fog)})
+    for (const scene::Ray& ray : rays) {
+      EXPECT_EQ(ratio_tracking_transmittance(*m, ray, 1, rng), Rgb(1));
+      EXPECT_EQ(delta_tracking_transmittance(*m, ray, 1, rng), Rgb(1));
+    }
 }
 
 // A singular placement is rejected naming to_world.
