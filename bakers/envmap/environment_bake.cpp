@@ -384,7 +384,9 @@ uint64_t estimate_environment_memory(const EnvironmentBakeInput& in, int width, 
   else
     source += double(width) * height * 60.0;
   const double split = 10.0 / 3.0 * cube;
-  const double chain = 11.0 / 3.0 * cube;
+  // The chain's working set, and the sampler's copy of the sky's mips with a one-texel border (4/3 C, padded).
+  const double chain =
+      11.0 / 3.0 * cube + 4.0 / 3.0 * cube * (in.size + 2.0) * (in.size + 2.0) / (double(in.size) * in.size);
   const double output = 4.0 / 3.0 * cube + chain_texels * 48.0 + 12.0 * in.size * in.size;
   const double small = 6.0 * kIrradianceSourceSize * kIrradianceSourceSize * sizeof(Rgb) * 2 +
                        6.0 * in.irradiance_size * in.irradiance_size * sizeof(Rgb) * 2 +
