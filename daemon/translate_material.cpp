@@ -39,15 +39,22 @@ void material_quality(const kiln::v1::Quality& q, material::MaterialBakeInput& i
 // Every parameter of one model, each line starting with `prefix` (a two-lobe material's "diffuse." and "specular.").
 void model_text(std::ostringstream& o, const std::string& prefix, const brdf::ModelSpec& s) {
   auto rgb = [](const Rgb& c) { return format_number(c.r) + "," + format_number(c.g) + "," + format_number(c.b); };
-  auto layer = [&](const brdf::SchlickLayer& l) { return rgb(l.c) + "," + format_number(l.r) + "," + format_number(l.p); };
-  o << prefix << "model=" << brdf::to_string(s.model) << "\n" << prefix << "albedo=" << rgb(s.albedo) << "\n"
-    << prefix << "sigma=" << format_number(s.sigma) << "\n" << prefix << "interreflection=" << s.interreflection << "\n"
-    << prefix << "alpha_x=" << format_number(s.alpha_x) << "\n" << prefix << "alpha_y=" << format_number(s.alpha_y)
-    << "\n" << prefix << "fresnel=" << brdf::to_string(brdf::fresnel_mode(s)) << "\n" << prefix << "f0=" << rgb(s.f0)
-    << "\n" << prefix << "eta=" << format_number(s.eta) << "\n" << prefix
-    << "distribution=" << (s.distribution ? brdf::to_string(*s.distribution) : "default") << "\n" << prefix
-    << "masking=" << (s.masking ? brdf::to_string(*s.masking) : "default") << "\n" << prefix
-    << "normalization=" << brdf::to_string(s.normalization) << "\n" << prefix << "layer=" << layer(s.layer) << "\n"
+  auto layer = [&](const brdf::SchlickLayer& l) {
+    return rgb(l.c) + "," + format_number(l.r) + "," + format_number(l.p);
+  };
+  o << prefix << "model=" << brdf::to_string(s.model) << "\n"
+    << prefix << "albedo=" << rgb(s.albedo) << "\n"
+    << prefix << "sigma=" << format_number(s.sigma) << "\n"
+    << prefix << "interreflection=" << s.interreflection << "\n"
+    << prefix << "alpha_x=" << format_number(s.alpha_x) << "\n"
+    << prefix << "alpha_y=" << format_number(s.alpha_y) << "\n"
+    << prefix << "fresnel=" << brdf::to_string(brdf::fresnel_mode(s)) << "\n"
+    << prefix << "f0=" << rgb(s.f0) << "\n"
+    << prefix << "eta=" << format_number(s.eta) << "\n"
+    << prefix << "distribution=" << (s.distribution ? brdf::to_string(*s.distribution) : "default") << "\n"
+    << prefix << "masking=" << (s.masking ? brdf::to_string(*s.masking) : "default") << "\n"
+    << prefix << "normalization=" << brdf::to_string(s.normalization) << "\n"
+    << prefix << "layer=" << layer(s.layer) << "\n"
     << prefix << "bottom=" << layer(s.bottom_layer) << "\n";
 }
 

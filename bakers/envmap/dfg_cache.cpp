@@ -15,8 +15,8 @@ std::shared_ptr<const DfgTable> cached_dfg(EnvLobe lobe, brdf::Masking masking, 
   }
   using Key = std::tuple<int, int, int, int, int, uint64_t>;
   static bake::BoundedCache<Key, DfgTable> cache(kDfgCacheTables);
-  const Key key{static_cast<int>(lobe), static_cast<int>(masking), size, options.samples, options.replicates,
-                options.seed};
+  const Key key{static_cast<int>(lobe), static_cast<int>(masking), size,
+                options.samples,        options.replicates,        options.seed};
   return cache.get(key, build, hit);
 }
 

@@ -120,8 +120,8 @@ void plan_tables(MaterialBakeRun& run) {
                  " (F = 1, white), for the strict energy check and energy compensation");
   const std::string of_lobe = input.material ? " of the specular lobe" : "";
   if (run.rough_axis) {
-    plan.push_back("split-sum table" + of_lobe + ": " + n_mu + " x " + n_r + " over (mu, " + brdf::roughness_name(model) + " in (0, " +
-                   shortest_number(brdf::max_roughness(model)) +
+    plan.push_back("split-sum table" + of_lobe + ": " + n_mu + " x " + n_r + " over (mu, " +
+                   brdf::roughness_name(model) + " in (0, " + shortest_number(brdf::max_roughness(model)) +
                    "]), white model without Fresnel, E ~= f0 * scale + bias");
   } else {
     plan.push_back("split-sum table" + of_lobe + ": " + n_mu + " x " + n_r + "; " + brdf::to_string(model) +
@@ -354,8 +354,8 @@ void validate_model(MaterialBakeRun& run) {
   for (const Comparison& cmp : run.comparisons) {
     // A material's approximations are its lobes': each is measured on the lobe alone.
     const std::unique_ptr<brdf::Bxdf> lobe = cmp.lobe ? brdf::make_bxdf(*cmp.lobe) : nullptr;
-    v.approximations.push_back(measure_approximation(lobe ? *lobe : bxdf, cmp, run.n_mu, run.input.seed,
-                                                     run.progress, &result.validation_samples));
+    v.approximations.push_back(measure_approximation(lobe ? *lobe : bxdf, cmp, run.n_mu, run.input.seed, run.progress,
+                                                     &result.validation_samples));
     result.plan.push_back("approximation " + cmp.name + ": albedo difference measured at the " +
                           std::to_string(run.n_mu) + " mu of the table, " + std::to_string(kApproximationSamples) +
                           " shared samples each");

@@ -1,5 +1,6 @@
-// The material bake: one BRDF model, or a two-lobe material (brdf::MaterialSpec), in; its tables (EXR), a tabulated BRDF (MERL), a validation report and a JSON
-// report out. Plain C++ types only: the daemon translates its messages into MaterialBakeInput and back.
+// The material bake: one BRDF model, or a two-lobe material (brdf::MaterialSpec), in; its tables (EXR), a tabulated
+// BRDF (MERL), a validation report and a JSON report out. Plain C++ types only: the daemon translates its messages into
+// MaterialBakeInput and back.
 //
 // What it computes (μ = cos θ_o at texel centres (i + 0.5) / table_mu, azimuth of wo averaged):
 //   albedo       E(μ) = ∫ f(wo, wi) cos θ_i dω_i of the model as configured (colours, Fresnel);

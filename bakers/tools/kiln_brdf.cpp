@@ -127,8 +127,8 @@ E parse_enum(const std::string& flag, const std::string& text, std::optional<E> 
 
 struct Command {
   std::string name;
-  ModelSpec spec;                         // one model, or the specular lobe of `material`
-  std::optional<MaterialSpec> material;   // a two-lobe material (--diffuse and --specular)
+  ModelSpec spec;                              // one model, or the specular lobe of `material`
+  std::optional<MaterialSpec> material;        // a two-lobe material (--diffuse and --specular)
   std::map<std::string, std::string> options;  // command options (--wo, --mu, --samples, ...)
 };
 
@@ -163,8 +163,7 @@ ModelSpec parse_model(const Take& take, const std::string& model_flag, const std
   if (auto v = take(flag("f0"))) s.f0 = parse_rgb(flag("f0"), *v);
   if (auto v = take(flag("eta"))) s.eta = parse_number(flag("eta"), *v);
   if (auto v = take(flag("distribution"))) {
-    s.distribution =
-        parse_enum<Distribution>(flag("distribution"), *v, distribution_from_string, distribution_names());
+    s.distribution = parse_enum<Distribution>(flag("distribution"), *v, distribution_from_string, distribution_names());
   }
   if (auto v = take(flag("masking")))
     s.masking = parse_enum<Masking>(flag("masking"), *v, masking_from_string, masking_names());
@@ -278,8 +277,7 @@ const std::string& required(const Command& cmd, const std::string& flag, const s
 }
 
 int run(const Command& cmd) {
-  const std::unique_ptr<Bxdf> bxdf =
-      cmd.material ? std::make_unique<Material>(*cmd.material) : make_bxdf(cmd.spec);
+  const std::unique_ptr<Bxdf> bxdf = cmd.material ? std::make_unique<Material>(*cmd.material) : make_bxdf(cmd.spec);
   if (cmd.name == "eval") {
     const Vec3 wo = parse_direction("--wo", required(cmd, "--wo", "the outgoing direction x,y,z"));
     const Vec3 wi = parse_direction("--wi", required(cmd, "--wi", "the incident direction x,y,z"));

@@ -123,15 +123,14 @@ const Applies kApplies[] = {
 };
 
 // A model's parameter flags without their dashes, in the order the default name lists them.
-const char* const kParameters[] = {"albedo",       "sigma",   "interreflection", "alpha", "alpha-x",
-                                   "alpha-y",      "fresnel", "f0",              "eta",   "distribution",
-                                   "masking",      "normalization", "c",         "r",     "p",
-                                   "bottom-c",     "bottom-r", "bottom-p"};
+const char* const kParameters[] = {
+    "albedo",       "sigma",   "interreflection", "alpha", "alpha-x", "alpha-y", "fresnel",  "f0",       "eta",
+    "distribution", "masking", "normalization",   "c",     "r",       "p",       "bottom-c", "bottom-r", "bottom-p"};
 // A two-lobe material's own flags.
 const char* const kMaterialFlags[] = {"--diffuse", "--specular", "--combine", "--specular-weight"};
 // The flags that describe the job besides the model's: the tables and the quality.
-const char* const kTableFlags[] = {"--samples", "--target-error", "--time-limit", "--seed", "--table-mu",
-                                   "--table-roughness"};
+const char* const kTableFlags[] = {"--samples", "--target-error", "--time-limit",
+                                   "--seed",    "--table-mu",     "--table-roughness"};
 
 // Every flag that describes the job, in the order the default name lists them: a single model's parameters
 // ("--alpha"), the material's flags, each lobe's parameters ("--diffuse-albedo", "--specular-alpha"), the tables'.
@@ -139,7 +138,8 @@ const std::vector<const char*>& job_flags() {
   static const std::vector<std::string> names = [] {
     std::vector<std::string> out;
     for (const char* prefix : {"--", "--diffuse-", "--specular-"}) {
-      if (std::string(prefix) == "--diffuse-") out.insert(out.end(), std::begin(kMaterialFlags), std::end(kMaterialFlags));
+      if (std::string(prefix) == "--diffuse-")
+        out.insert(out.end(), std::begin(kMaterialFlags), std::end(kMaterialFlags));
       for (const char* p : kParameters) out.push_back(prefix + std::string(p));
     }
     out.insert(out.end(), std::begin(kTableFlags), std::end(kTableFlags));
@@ -204,8 +204,8 @@ void microfacet(const Flags& f, const std::string& p, Model model, const std::st
   }
   if (auto v = f.get(eta)) {
     if (fresnel != "exact") {
-      throw UsageError(eta + ": only exact Fresnel uses it, and " + in_force + " would ignore it; add " +
-                       fresnel_flag + " exact");
+      throw UsageError(eta + ": only exact Fresnel uses it, and " + in_force + " would ignore it; add " + fresnel_flag +
+                       " exact");
     }
     m->set_eta(parse_number_in(eta, *v, bounds::kEta));
   }
@@ -252,8 +252,7 @@ void oren_nayar(const Flags& f, const std::string& p, Model model, v1::OrenNayar
 // The model's own parameters (the flags were already checked to belong to it), into a MaterialJob or a Brdf (a
 // lobe of a layered material): the two share their oneof's names.
 template <class Message>
-void set_model_fields(const Flags& f, const std::string& p, Model model, const std::string& model_name,
-                      Message* job) {
+void set_model_fields(const Flags& f, const std::string& p, Model model, const std::string& model_name, Message* job) {
   switch (model) {
     case Model::lambert:
       if (auto v = f.get(p + "albedo")) set_color(p + "albedo", *v, job->mutable_lambert()->mutable_albedo());
@@ -423,8 +422,8 @@ std::string set_layered_fields(const Flags& f, v1::MaterialJob* job) {
   set_model_fields(f, "--specular-", specular, model_name(specular), layered->mutable_specular());
   std::string combine = "layered";
   if (auto v = f.get("--combine")) {
-    layered->set_combine(parse_choice<v1::Combine>("--combine", *v,
-                                                   {{"layered", v1::COMBINE_LAYERED}, {"weights", v1::COMBINE_WEIGHTS}}));
+    layered->set_combine(parse_choice<v1::Combine>(
+        "--combine", *v, {{"layered", v1::COMBINE_LAYERED}, {"weights", v1::COMBINE_WEIGHTS}}));
     combine = hyphenated(*v);
   }
   if (auto v = f.get("--specular-weight")) {

@@ -39,7 +39,8 @@ TEST(DfgCache, TheSecondAskIsAHitWithTheSameTable) {
   EXPECT_TRUE(same(*first, compute_dfg(lobe_model(EnvLobe::ggx, hc), 8, 8, options(64, 11))));
   // Every argument that changes the table is another entry.
   for (const auto& [lobe, masking, size, samples, seed] :
-       {std::tuple{EnvLobe::beckmann, hc, 8, 64, uint64_t{11}}, std::tuple{EnvLobe::ggx, brdf::Masking::separable, 8, 64, uint64_t{11}},
+       {std::tuple{EnvLobe::beckmann, hc, 8, 64, uint64_t{11}},
+        std::tuple{EnvLobe::ggx, brdf::Masking::separable, 8, 64, uint64_t{11}},
         std::tuple{EnvLobe::ggx, hc, 4, 64, uint64_t{11}}, std::tuple{EnvLobe::ggx, hc, 8, 32, uint64_t{11}},
         std::tuple{EnvLobe::ggx, hc, 8, 64, uint64_t{12}}}) {
     const auto other = cached_dfg(lobe, masking, size, options(samples, seed), &hit);

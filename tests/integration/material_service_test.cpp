@@ -143,7 +143,8 @@ TEST(MaterialService, KilnBakeMaterialTakesTheLobeFlags) {
       kiln +
       " bake material --diffuse lambert --diffuse-albedo 0.6,0.1,0.05 --specular ggx --specular-alpha 0.2 "
       "--specular-fresnel schlick --specular-f0 0.04 --table-mu 8 --table-roughness 4 --samples 1024 --no-preview "
-      "--out " + out.string() + " 2>&1");
+      "--out " +
+      out.string() + " 2>&1");
   ASSERT_EQ(run.status, 0) << run.output;
   std::set<std::string> written;
   for (const auto& e : std::filesystem::directory_iterator(out)) written.insert(e.path().filename().string());

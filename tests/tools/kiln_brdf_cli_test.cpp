@@ -83,12 +83,14 @@ TEST(KilnBrdfCli, LambertAlbedoIsExactlyRho) {
 // A two-lobe material from the lobe flags: weights of two Lamberts is the weighted albedo over π, exactly; layered
 // over a black base is its coat alone.
 TEST(KilnBrdfCli, TwoLobeMaterialsFromTheLobeFlags) {
-  const Result w = run("eval --diffuse lambert --diffuse-albedo 0.5 --specular lambert --specular-albedo 0.25 "
-                       "--combine weights --specular-weight 0.2 --wo 0,0,1 --wi 1,0,1");
+  const Result w =
+      run("eval --diffuse lambert --diffuse-albedo 0.5 --specular lambert --specular-albedo 0.25 "
+          "--combine weights --specular-weight 0.2 --wo 0,0,1 --wi 1,0,1");
   ASSERT_EQ(w.status, 0) << w.out;
   EXPECT_NEAR(first_number(w.out), (0.8 * 0.5 + 0.2 * 0.25) * kiln::kInvPi, 1e-15);
-  const Result layered = run("eval --diffuse lambert --diffuse-albedo 0 --specular ggx --specular-alpha 0.3 "
-                             "--wo 0,0,1 --wi 0.2,0,1");
+  const Result layered =
+      run("eval --diffuse lambert --diffuse-albedo 0 --specular ggx --specular-alpha 0.3 "
+          "--wo 0,0,1 --wi 0.2,0,1");
   const Result coat = run("eval --model ggx --alpha 0.3 --wo 0,0,1 --wi 0.2,0,1");
   ASSERT_EQ(layered.status, 0) << layered.out;
   EXPECT_EQ(layered.out, coat.out);
