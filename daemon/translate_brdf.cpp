@@ -1,7 +1,6 @@
 // The BRDF models of the translation layer: a kiln.v1 model message in, a brdf::ModelSpec (or a two-lobe
 // brdf::MaterialSpec) out, every parameter checked and named by its path ("job.material.ggx.alpha").
 #include <string>
-#include <type_traits>
 
 #include "daemon/translate_fields.h"
 #include "proto/kiln.pb.h"
@@ -140,13 +139,6 @@ template <class Message>
 brdf::ModelSpec model(const Message& m, const std::string& path) {
   brdf::ModelSpec s;
   using MJ = Message;
-  if constexpr (std::is_same_v<Message, kiln::v1::MaterialJob>) {
-    if (m.model_case() == MJ::kLayered) {
-      throw InvalidField(path + ".layered",
-                         "two-lobe materials are not supported by the material bake yet; "
-                         "bake the diffuse and the specular model as two jobs");
-    }
-  }
   switch (m.model_case()) {
     case MJ::kLambert:
       s.model = brdf::Model::lambert;
@@ -180,7 +172,7 @@ brdf::ModelSpec model(const Message& m, const std::string& path) {
       s.layer = schlick_layer(m.schlick_double().top(), path + ".schlick_double.top");
       s.bottom_layer = schlick_layer(m.schlick_double().bottom(), path + ".schlick_double.bottom");
       break;
-    default:  // MODEL_NOT_SET (and MaterialJob's layered, refused above)
+    default:  // MODEL_NOT_SET (a MaterialJob's layered case is translated by material_spec instead)
       throw InvalidField(path,
                          "no model given: set one of lambert, oren_nayar, oren_nayar_simple, cook_torrance, "
                          "ggx, beckmann, schlick, schlick_double");

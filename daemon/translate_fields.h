@@ -44,7 +44,7 @@ std::map<std::string, bool> forced_effects(const kiln::v1::JobSpec& spec);
 
 // BRDF models (translate_brdf.cpp). One model of the BRDF library:
 brdf::ModelSpec brdf_model(const kiln::v1::Brdf& m, const std::string& path);
-// The material job's model (its oneof is a Brdf's, plus a layered case the material bake refuses).
+// The material job's one model (its oneof is a Brdf's, plus a layered case that material_spec translates).
 brdf::ModelSpec material_job_model(const kiln::v1::MaterialJob& m, const std::string& path);
 // A diffuse and a specular lobe; a missing specular lobe is none (a weightless one).
 brdf::MaterialSpec material_spec(const kiln::v1::Layered& l, const std::string& path);

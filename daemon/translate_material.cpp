@@ -36,12 +36,38 @@ void material_quality(const kiln::v1::Quality& q, material::MaterialBakeInput& i
   in.seed = q.seed();
 }
 
+// Every parameter of one model, each line starting with `prefix` (a two-lobe material's "diffuse." and "specular.").
+void model_text(std::ostringstream& o, const std::string& prefix, const brdf::ModelSpec& s) {
+  auto rgb = [](const Rgb& c) { return format_number(c.r) + "," + format_number(c.g) + "," + format_number(c.b); };
+  auto layer = [&](const brdf::SchlickLayer& l) {
+    return rgb(l.c) + "," + format_number(l.r) + "," + format_number(l.p);
+  };
+  o << prefix << "model=" << brdf::to_string(s.model) << "\n"
+    << prefix << "albedo=" << rgb(s.albedo) << "\n"
+    << prefix << "sigma=" << format_number(s.sigma) << "\n"
+    << prefix << "interreflection=" << s.interreflection << "\n"
+    << prefix << "alpha_x=" << format_number(s.alpha_x) << "\n"
+    << prefix << "alpha_y=" << format_number(s.alpha_y) << "\n"
+    << prefix << "fresnel=" << brdf::to_string(brdf::fresnel_mode(s)) << "\n"
+    << prefix << "f0=" << rgb(s.f0) << "\n"
+    << prefix << "eta=" << format_number(s.eta) << "\n"
+    << prefix << "distribution=" << (s.distribution ? brdf::to_string(*s.distribution) : "default") << "\n"
+    << prefix << "masking=" << (s.masking ? brdf::to_string(*s.masking) : "default") << "\n"
+    << prefix << "normalization=" << brdf::to_string(s.normalization) << "\n"
+    << prefix << "layer=" << layer(s.layer) << "\n"
+    << prefix << "bottom=" << layer(s.bottom_layer) << "\n";
+}
+
 }  // namespace
 
 void translate_material(const kiln::v1::JobSpec& spec, BakeRequest& r) {
   const kiln::v1::MaterialJob& m = spec.material();
   material::MaterialBakeInput& in = r.input.emplace<material::MaterialBakeInput>();
-  in.model = material_job_model(m, "job.material");
+  if (m.model_case() == kiln::v1::MaterialJob::kLayered) {
+    in.material = material_spec(m.layered(), "job.material.layered");
+  } else {
+    in.model = material_job_model(m, "job.material");
+  }
   set_count(m.has_table_mu(), m.table_mu(), "job.material.table_mu", bounds::kTableSize, in.table_mu);
   set_count(m.has_table_roughness(), m.table_roughness(), "job.material.table_roughness", bounds::kTableSize,
             in.table_roughness);
@@ -58,21 +84,19 @@ void translate_material(const kiln::v1::JobSpec& spec, BakeRequest& r) {
 
 std::string material_canonical_text(const BakeRequest& r) {
   const material::MaterialBakeInput& in = r.material();
-  const brdf::ModelSpec& s = in.model;
   std::ostringstream o;
-  auto rgb = [](const Rgb& c) { return format_number(c.r) + "," + format_number(c.g) + "," + format_number(c.b); };
-  o << "type=" << job_type(r) << "\nmodel=" << brdf::to_string(s.model) << "\nalbedo=" << rgb(s.albedo)
-    << "\nsigma=" << format_number(s.sigma) << "\ninterreflection=" << s.interreflection
-    << "\nalpha_x=" << format_number(s.alpha_x) << "\nalpha_y=" << format_number(s.alpha_y)
-    << "\nfresnel=" << brdf::to_string(brdf::fresnel_mode(s)) << "\nf0=" << rgb(s.f0)
-    << "\neta=" << format_number(s.eta)
-    << "\ndistribution=" << (s.distribution ? brdf::to_string(*s.distribution) : "default")
-    << "\nmasking=" << (s.masking ? brdf::to_string(*s.masking) : "default")
-    << "\nnormalization=" << brdf::to_string(s.normalization) << "\nlayer=" << rgb(s.layer.c) << ","
-    << format_number(s.layer.r) << "," << format_number(s.layer.p) << "\nbottom=" << rgb(s.bottom_layer.c) << ","
-    << format_number(s.bottom_layer.r) << "," << format_number(s.bottom_layer.p) << "\ntable_mu=" << in.table_mu
-    << "\ntable_roughness=" << in.table_roughness << "\nmerl=" << in.merl << "\nsamples=" << in.samples
-    << "\ntarget_error=" << format_number(in.target_error)
+  o << "type=" << job_type(r) << "\n";
+  if (in.material) {
+    const brdf::MaterialSpec& m = *in.material;
+    o << "combine=" << (m.combine == brdf::Combine::weights ? "weights" : "layered")
+      << "\nspecular_weight=" << format_number(m.specular_weight) << "\n";
+    model_text(o, "diffuse.", m.diffuse);
+    model_text(o, "specular.", m.specular);
+  } else {
+    model_text(o, "", in.model);
+  }
+  o << "table_mu=" << in.table_mu << "\ntable_roughness=" << in.table_roughness << "\nmerl=" << in.merl
+    << "\npreview=" << in.preview << "\nsamples=" << in.samples << "\ntarget_error=" << format_number(in.target_error)
     << "\ntime_limit_seconds=" << format_number(in.time_limit_seconds) << "\nseed=" << in.seed << "\n";
   return o.str();
 }

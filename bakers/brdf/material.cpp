@@ -48,6 +48,12 @@ std::optional<bake::InvalidInput> validate(const MaterialSpec& spec) {
   return std::nullopt;
 }
 
+MaterialSpec without_fresnel(MaterialSpec spec) {
+  spec.diffuse = without_fresnel(spec.diffuse);
+  spec.specular = without_fresnel(spec.specular);
+  return spec;
+}
+
 Material::Material(const MaterialSpec& spec) : spec_(spec) {
   if (auto e = validate(spec)) throw *e;
   diffuse_ = make_bxdf(spec.diffuse);

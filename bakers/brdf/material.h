@@ -30,6 +30,9 @@ struct MaterialSpec {
 
 std::optional<bake::InvalidInput> validate(const MaterialSpec& spec);
 
+// The white-furnace form: both lobes white and without Fresnel (brdf::without_fresnel), combined as before.
+MaterialSpec without_fresnel(MaterialSpec spec);
+
 // The closed form of a material whose two lobes are both Lambertian (as the lightmap planner leaves a pruned
 // specular lobe): it reflects the same for every pair of directions above the horizon, f(wo, wi, tint) =
 // (A + B·tint)/π, so a renderer may shade it without the general machinery. Weights: A = s ρ_s, B = (1 − s) ρ_d.

@@ -1,10 +1,8 @@
 #include "bakers/brdf/schlick_tables.h"
 
-#include <deque>
-#include <map>
-#include <mutex>
 #include <utility>
 
+#include "bakers/bake/bounded_cache.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::brdf::detail {
@@ -36,26 +34,8 @@ double DirectionTable::cosine_average() const {
 }
 
 std::shared_ptr<const LayerTables> cached_tables(double r, double p, const std::function<LayerTables()>& build) {
-  constexpr size_t kCapacity = 256;
-  static std::mutex mutex;
-  static std::map<std::pair<double, double>, std::shared_ptr<const LayerTables>> cache;
-  static std::deque<std::pair<double, double>> order;
-  const auto key = std::make_pair(r, p);
-  {
-    const std::lock_guard<std::mutex> lock(mutex);
-    if (auto it = cache.find(key); it != cache.end()) return it->second;
-  }
-  auto built = std::make_shared<const LayerTables>(build());
-  const std::lock_guard<std::mutex> lock(mutex);
-  const auto [it, inserted] = cache.emplace(key, std::move(built));
-  if (inserted) {
-    order.push_back(key);
-    if (order.size() > kCapacity) {
-      cache.erase(order.front());
-      order.pop_front();
-    }
-  }
-  return it->second;
+  static bake::BoundedCache<std::pair<double, double>, LayerTables> cache(256);
+  return cache.get(std::make_pair(r, p), build);
 }
 
 }  // namespace kiln::brdf::detail

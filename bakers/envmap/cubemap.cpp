@@ -179,29 +179,39 @@ Cubemap resample_equirect_to_cube(const RgbImage& equirect, int size, int supers
   const int k = supersampling > 0 ? supersampling
                                   : std::clamp(static_cast<int>(std::ceil(2.0 * equirect.width / (kPi * size))), 2, 32);
   Cubemap cube(size);
-  const double texel = 2.0 / size, sub = texel / k;
-  tbb::parallel_for(tbb::blocked_range<int>(0, kFaceCount * size), [&](const tbb::blocked_range<int>& rows) {
+  // The sub-texels' corners lie on one grid of (size k + 1)² points, the same on every face: for each row of texels,
+  // the solid angle of the rectangle [0, a] × [0, b] at the grid points it touches (corner_area: two square roots
+  // and an arctangent) is computed once for all six faces, and a sub-texel's solid angle is four reads of it
+  // (face_rect_solid_angle's sum), where it was four evaluations per sub-texel and face.
+  const int n = size * k;
+  const double sub = 2.0 / n;
+  tbb::parallel_for(tbb::blocked_range<int>(0, size), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<double> corner(static_cast<size_t>(k + 1) * (n + 1));
     std::vector<double> weights(static_cast<size_t>(k) * k);
     std::vector<Rgb> values(weights.size());
-    for (int row = rows.begin(); row != rows.end(); ++row) {
-      const int face = row / size, y = row % size;
-      for (int x = 0; x < size; ++x) {
-        const double a0 = -1.0 + x * texel, b0 = -1.0 + y * texel;
-        double wsum = 0;
-        for (int j = 0; j < k; ++j) {
-          for (int i = 0; i < k; ++i) {
-            const double sa0 = a0 + i * sub, sb0 = b0 + j * sub;
-            const double w = face_rect_solid_angle(sa0, sb0, sa0 + sub, sb0 + sub);
-            const Vec3 d = face_uv_to_direction(face, 0.5 * (sa0 + 0.5 * sub + 1.0), 0.5 * (sb0 + 0.5 * sub + 1.0));
-            weights[j * k + i] = w;
-            values[j * k + i] = sample_equirect_bilinear(equirect, d);
-            wsum += w;
+    for (int y = rows.begin(); y != rows.end(); ++y) {
+      for (int j = 0; j <= k; ++j)
+        for (int i = 0; i <= n; ++i)
+          corner[static_cast<size_t>(j) * (n + 1) + i] = corner_area(-1.0 + i * sub, -1.0 + (y * k + j) * sub);
+      for (int face = 0; face < kFaceCount; ++face) {
+        for (int x = 0; x < size; ++x) {
+          double wsum = 0;
+          for (int j = 0; j < k; ++j) {
+            const double* c0 = &corner[static_cast<size_t>(j) * (n + 1) + x * k];
+            const double* c1 = c0 + (n + 1);
+            for (int i = 0; i < k; ++i) {
+              const double w = c1[i + 1] - c1[i] - c0[i + 1] + c0[i];
+              const Vec3 d = face_uv_to_direction(face, (x * k + i + 0.5) / n, (y * k + j + 0.5) / n);
+              weights[j * k + i] = w;
+              values[j * k + i] = sample_equirect_bilinear(equirect, d);
+              wsum += w;
+            }
           }
+          // The weighted mean written as L0 + Σ w (L − L0) / Σ w: exactly L0 when all samples are equal.
+          Rgb delta;
+          for (size_t s = 1; s < values.size(); ++s) delta += (values[s] - values[0]) * weights[s];
+          cube.at(face, x, y) = values[0] + delta / wsum;
         }
-        // The weighted mean written as L0 + Σ w (L − L0) / Σ w: exactly L0 when all samples are equal.
-        Rgb delta;
-        for (size_t s = 1; s < values.size(); ++s) delta += (values[s] - values[0]) * weights[s];
-        cube.at(face, x, y) = values[0] + delta / wsum;
       }
     }
   });

@@ -10,6 +10,7 @@
 #include "bakers/bake/range_check.h"
 #include "bakers/envmap/cubemap.h"
 #include "bakers/envmap/dfg.h"
+#include "bakers/envmap/dfg_cache.h"
 #include "bakers/envmap/environment_effect.h"
 #include "bakers/envmap/environment_report.h"
 #include "bakers/envmap/irradiance.h"
@@ -69,7 +70,7 @@ struct EnvironmentRun {
   std::vector<PrefilteredLevel> chain;  // the specular levels
   Cubemap irradiance;
   ShCoefficients sh{};
-  DfgTable dfg;
+  std::shared_ptr<const DfgTable> dfg;  // shared with the process's cache (dfg_cache.h)
 
   EnvironmentRun(const EnvironmentBakeInput& input, const bake::BakeControl& bake_control)
       : in(input),
@@ -217,13 +218,13 @@ void convolve_diffuse(EnvironmentRun& run) {
   run.end_stage(0.7, "irradiance");
 }
 
-// The DFG table of the same lobe.
+// The DFG table of the same lobe, from the process's cache when an earlier bake computed the same one.
 void compute_dfg_table(EnvironmentRun& run) {
   const EnvironmentBakeInput& in = run.in;
   brdf::AlbedoOptions options;
   options.samples = in.dfg_samples;
   options.seed = in.seed;
-  run.dfg = compute_dfg(lobe_model(in.lobe, dfg_masking(in.lobe, in.dfg_masking)), in.dfg_size, in.dfg_size, options);
+  run.dfg = cached_dfg(in.lobe, dfg_masking(in.lobe, in.dfg_masking), in.dfg_size, options);
   run.result.samples += static_cast<uint64_t>(in.dfg_size) * in.dfg_size * in.dfg_samples;
   run.end_stage(0.85, "dfg");
 }
@@ -291,7 +292,7 @@ void encode_dfg(EnvironmentRun& run) {
   image.channel_names = {"scale", "bias", "energy"};
   for (int j = 0; j < size; ++j) {
     for (int i = 0; i < size; ++i) {
-      const DfgEntry& e = run.dfg.at(i, j);
+      const DfgEntry& e = run.dfg->at(i, j);
       image.pixels.insert(image.pixels.end(), {float(e.scale), float(e.bias), float(e.energy)});
     }
   }
@@ -310,7 +311,7 @@ void encode_preview(EnvironmentRun& run) {
     run.plan(EnvironmentEffect::preview, false, false, "not asked for");
     return;
   }
-  run.add_output("preview.png", "image/png", "", render_preview(run.chain, run.irradiance, run.dfg, run.color_space));
+  run.add_output("preview.png", "image/png", "", render_preview(run.chain, run.irradiance, *run.dfg, run.color_space));
   run.plan(EnvironmentEffect::preview, true, false,
            "preview.png: spheres at roughness 0, 0.25, 0.5, 0.75, 1 and a diffuse one");
 }
@@ -383,7 +384,9 @@ uint64_t estimate_environment_memory(const EnvironmentBakeInput& in, int width, 
   else
     source += double(width) * height * 60.0;
   const double split = 10.0 / 3.0 * cube;
-  const double chain = 11.0 / 3.0 * cube;
+  // The chain's working set, and the sampler's copy of the sky's mips with a one-texel border (4/3 C, padded).
+  const double chain =
+      11.0 / 3.0 * cube + 4.0 / 3.0 * cube * (in.size + 2.0) * (in.size + 2.0) / (double(in.size) * in.size);
   const double output = 4.0 / 3.0 * cube + chain_texels * 48.0 + 12.0 * in.size * in.size;
   const double small = 6.0 * kIrradianceSourceSize * kIrradianceSourceSize * sizeof(Rgb) * 2 +
                        6.0 * in.irradiance_size * in.irradiance_size * sizeof(Rgb) * 2 +

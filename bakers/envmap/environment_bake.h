@@ -19,7 +19,7 @@
 //   source stage    equirect W·H·60 bytes (decoded floats 12, image 24, rotated copy 24) + C;
 //                   or faces: 6 M²·24 (the faces as a cube) + M²·36 (one face decoding) + C
 //   split stage     3.33 C (source, sky, and the per-texel luminance, solid angle and order of the sun rule)
-//   chain stage     3.67 C (sky, its mip chain 4/3 C, the chain 4/3 C)
+//   chain stage     5 C (sky, its mip chain 4/3 C and its padded copy for the sampler 4/3 C, the chain 4/3 C)
 //   output stage    4/3 C + T·48 (KTX floats 16 and bytes 8, EXR bytes ≤ 12, ... per texel) + 12 N² per face
 // plus the irradiance, DFG and preview (small), and the peak is the largest stage. 4 GiB admits every size up to
 // 2048 with equirect images up to ~61 M pixels (e.g. 11000 × 5500); env_input's own limit is 2^26 = 67 M pixels.
@@ -39,7 +39,7 @@
 
 namespace kiln::envmap {
 
-inline constexpr const char* kEnvironmentBakerVersion = "kiln-environment-2";
+inline constexpr const char* kEnvironmentBakerVersion = "kiln-environment-3";
 
 struct EnvironmentBakeInput {
   // Exactly one source: `constant`, else six `faces`, else `image`.

@@ -68,6 +68,8 @@ class SplitSumLobe {
 
  private:
   brdf::MicrofacetDistribution dist_;
+  bool ggx_;
+  double alpha2_;
 };
 
 }  // namespace kiln::envmap

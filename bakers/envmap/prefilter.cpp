@@ -44,16 +44,63 @@ Point2 hammersley(int i, int m, Point2 shift) {
   return {x, y};
 }
 
-// Trilinear read of the mip chain at fractional level `lod` (clamped to the chain).
-Rgb sample_trilinear(const std::vector<Cubemap>& mips, const Vec3& dir, double lod) {
-  const double top = static_cast<double>(mips.size() - 1);
-  lod = std::clamp(lod, 0.0, top);
-  const int l0 = static_cast<int>(std::floor(lod));
-  const double t = lod - l0;
-  const Rgb a = mips[l0].sample_bilinear(dir);
-  if (t == 0.0 || l0 + 1 >= static_cast<int>(mips.size())) return a;
-  return lerp(t, a, mips[l0 + 1].sample_bilinear(dir));
-}
+// The sky's mip chain as the sampler reads it: every face with a one-texel border holding what
+// Cubemap::texel_extended gives beyond its edges, so that a bilinear read is four loads without a branch, and the
+// face and its coordinates are found once for both levels of a trilinear read. Reads are bit for bit those of
+// Cubemap::sample_bilinear (the same texels, the same arithmetic).
+class PaddedMips {
+ public:
+  explicit PaddedMips(const std::vector<Cubemap>& mips) : levels_(mips.size()) {
+    for (size_t m = 0; m < mips.size(); ++m) {
+      const Cubemap& c = mips[m];
+      Level& l = levels_[m];
+      l.size = c.size();
+      l.stride = l.size + 2;
+      for (int f = 0; f < kFaceCount; ++f) {
+        std::vector<Rgb>& px = l.faces[f];
+        px.resize(static_cast<size_t>(l.stride) * l.stride);
+        for (int y = -1; y <= l.size; ++y)
+          for (int x = -1; x <= l.size; ++x)
+            px[static_cast<size_t>(y + 1) * l.stride + (x + 1)] = c.texel_extended(f, x, y);
+      }
+    }
+  }
+
+  // Trilinear read at fractional level `lod` (clamped to the chain).
+  Rgb sample_trilinear(const Vec3& dir, double lod) const {
+    const double top = static_cast<double>(levels_.size() - 1);
+    lod = std::clamp(lod, 0.0, top);
+    const int l0 = static_cast<int>(std::floor(lod));
+    const double t = lod - l0;
+    const FaceUv f = direction_to_face_uv(dir);
+    const Rgb a = bilinear(levels_[l0], f);
+    if (t == 0.0 || l0 + 1 >= static_cast<int>(levels_.size())) return a;
+    return lerp(t, a, bilinear(levels_[l0 + 1], f));
+  }
+
+ private:
+  struct Level {
+    int size = 0, stride = 0;
+    std::array<std::vector<Rgb>, kFaceCount> faces;  // (size + 2)² texels, row-major, border included
+  };
+
+  // a + t (b − a): Cubemap::sample_bilinear's lerp, exact when a == b.
+  static Rgb lerp_exact(double t, const Rgb& a, const Rgb& b) { return a + (b - a) * t; }
+
+  static Rgb bilinear(const Level& l, const FaceUv& f) {
+    const double px = f.u * l.size - 0.5, py = f.v * l.size - 0.5;
+    const double fx0 = std::floor(px), fy0 = std::floor(py);
+    const double tx = px - fx0, ty = py - fy0;
+    // px, py ∈ [−½, size − ½]: the taps lie in [−1, size], inside the border.
+    const Rgb* row = l.faces[f.face].data() + static_cast<size_t>(static_cast<int>(fy0) + 1) * l.stride +
+                     (static_cast<int>(fx0) + 1);
+    const Rgb top = lerp_exact(tx, row[0], row[1]);
+    const Rgb bottom = lerp_exact(tx, row[l.stride], row[l.stride + 1]);
+    return lerp_exact(ty, top, bottom);
+  }
+
+  std::vector<Level> levels_;
+};
 
 template <class Fn>
 void for_each_texel(int size, Fn&& fn) {
@@ -74,13 +121,12 @@ void for_each_texel(int size, Fn&& fn) {
 // for every texel, so the output has no per-texel noise); the spread of the group means is the noise estimate.
 class LevelSampler {
  public:
-  LevelSampler(const std::vector<Cubemap>& mips, double alpha, brdf::Distribution distribution, int samples,
+  LevelSampler(const PaddedMips& mips, int size0, double alpha, brdf::Distribution distribution, int samples,
                uint64_t seed)
       : mips_(mips) {
     const int per_group = (samples + kGroups - 1) / kGroups;
     const int n_total = per_group * kGroups;
     const brdf::MicrofacetDistribution dist(distribution, alpha, alpha);
-    const int size0 = mips[0].size();
     const double omega_p = 4.0 * kPi / (6.0 * size0 * size0);  // solid angle of one level-0 source texel (average)
     Pcg32 rng(0x9e3779b97f4a7c15ULL ^ seed, 0x6a09e667f3bcc909ULL);
     const Vec3 v{0, 0, 1};
@@ -110,7 +156,7 @@ class LevelSampler {
       Rgb sum;
       double w = 0.0;
       for (const Sample& s : pattern_[g]) {
-        sum += sample_trilinear(mips_, frame.from_local(s.l), s.lod) * s.nl;
+        sum += mips_.sample_trilinear(frame.from_local(s.l), s.lod) * s.nl;
         w += s.nl;
       }
       sum_all += sum;
@@ -137,40 +183,48 @@ class LevelSampler {
     double nl;
     double lod;
   };
-  const std::vector<Cubemap>& mips_;
+  const PaddedMips& mips_;
   std::array<std::vector<Sample>, kGroups> pattern_;
 };
 
-// Brute force over every texel of one cube at a few normals (the reference of the checked subset).
+// Brute force over every texel of one cube at a few normals (the reference of the checked subset). Each texel's
+// direction, solid angle and radiance are gathered once, in the order the sums visit them.
 class BruteForce {
  public:
   BruteForce(const Cubemap& src, const SplitSumLobe& lobe) : src_(src), lobe_(lobe) {
     const int m = src.size();
-    omega_.resize(static_cast<size_t>(m) * m);
+    std::vector<double> omega(static_cast<size_t>(m) * m);
     for (int y = 0; y < m; ++y)
-      for (int x = 0; x < m; ++x) omega_[static_cast<size_t>(y) * m + x] = texel_solid_angle(x, y, m);
-  }
-  Rgb at(const Vec3& n) const {
-    const int m = src_.size();
-    Rgb sum;
-    double w = 0.0;
+      for (int x = 0; x < m; ++x) omega[static_cast<size_t>(y) * m + x] = texel_solid_angle(x, y, m);
+    texels_.reserve(static_cast<size_t>(kFaceCount) * m * m);
     for (int f = 0; f < kFaceCount; ++f)
       for (int y = 0; y < m; ++y)
-        for (int x = 0; x < m; ++x) {
-          const double wt = lobe_.weight(n, texel_direction(f, x, y, m)) * omega_[static_cast<size_t>(y) * m + x];
-          if (wt == 0.0) continue;
-          sum += src_.at(f, x, y) * wt;
-          w += wt;
-        }
+        for (int x = 0; x < m; ++x)
+          texels_.push_back({texel_direction(f, x, y, m), omega[static_cast<size_t>(y) * m + x], src.at(f, x, y)});
+  }
+  Rgb at(const Vec3& n) const {
+    Rgb sum;
+    double w = 0.0;
+    for (const Texel& t : texels_) {
+      const double wt = lobe_.weight(n, t.l) * t.omega;
+      if (wt == 0.0) continue;
+      sum += t.radiance * wt;
+      w += wt;
+    }
     // w = 0: no texel centre lies inside the lobe's support (Schlick's compact D narrower than the texels of a
     // coarse source); the convolution of so narrow a lobe is the reconstructed radiance at n.
     return w > 0.0 ? sum / w : src_.sample_bilinear(n);
   }
 
  private:
+  struct Texel {
+    Vec3 l;
+    double omega;
+    Rgb radiance;
+  };
   const Cubemap& src_;
   const SplitSumLobe& lobe_;
-  std::vector<double> omega_;
+  std::vector<Texel> texels_;
 };
 
 double rgb_norm2(const Rgb& c) { return c.r * c.r + c.g * c.g + c.b * c.b; }
@@ -275,9 +329,9 @@ int choose_samples(const PrefilterOptions& opt, const std::function<double(int)>
 }
 
 // Every texel of the level with N = level.samples, plus the exact sun; sets the cube and the noise estimate.
-void sample_level(PrefilteredLevel& level, const std::vector<Cubemap>& mips, const std::vector<SunTexel>& sun,
+void sample_level(PrefilteredLevel& level, const PaddedMips& padded, int size0, const std::vector<SunTexel>& sun,
                   const LevelLobe& l, int out_size, const PrefilterOptions& opt, uint64_t level_seed) {
-  const LevelSampler sampler(mips, l.alpha, opt.distribution, level.samples, level_seed);
+  const LevelSampler sampler(padded, size0, l.alpha, opt.distribution, level.samples, level_seed);
   level.cube = Cubemap(out_size);
   std::vector<double> rel_var(static_cast<size_t>(kFaceCount) * out_size * out_size, 0.0);
   for_each_texel(out_size, [&](int f, int x, int y, int idx) {
@@ -290,8 +344,9 @@ void sample_level(PrefilteredLevel& level, const std::vector<Cubemap>& mips, con
   level.noise_estimate = std::sqrt(acc / rel_var.size());
 }
 
-PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const std::vector<SunTexel>& sun, int out_size,
-                                 double rho, const PrefilterOptions& opt, uint64_t level_seed) {
+PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const PaddedMips& padded,
+                                 const std::vector<SunTexel>& sun, int out_size, double rho,
+                                 const PrefilterOptions& opt, uint64_t level_seed) {
   const auto t0 = std::chrono::steady_clock::now();
   PrefilteredLevel level;
   level.roughness = rho;
@@ -303,7 +358,7 @@ PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const std::ve
   std::vector<Rgb> sun_at_subset(subset.size());
   for (size_t i = 0; i < subset.size(); ++i) sun_at_subset[i] = sun_specular_at(sun, l.lobe, l.w_norm, subset[i].n);
   const auto check = [&](int samples) {
-    const LevelSampler sampler(mips, alpha, opt.distribution, samples, level_seed);
+    const LevelSampler sampler(padded, mips[0].size(), alpha, opt.distribution, samples, level_seed);
     std::vector<Rgb> values(subset.size());
     tbb::parallel_for(size_t{0}, subset.size(),
                       [&](size_t i) { values[i] = sampler.eval(subset[i].n, nullptr) + sun_at_subset[i]; });
@@ -312,7 +367,7 @@ PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const std::ve
   };
   level.samples = choose_samples(opt, check);
 
-  sample_level(level, mips, sun, l, out_size, opt, level_seed);
+  sample_level(level, padded, mips[0].size(), sun, l, out_size, opt, level_seed);
   std::vector<Rgb> values(subset.size());
   for (size_t i = 0; i < subset.size(); ++i) values[i] = level.cube.at(subset[i].face, subset[i].x, subset[i].y);
   level.checked_error = relative_rms(subset, values);
@@ -348,6 +403,7 @@ std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& sky, const std::
   if (!(opt.target_error > 0.0 && opt.target_error <= 1.0))
     throw std::invalid_argument("prefilter_specular: target_error must be in (0, 1]");
   const std::vector<Cubemap> mips = build_source_mips(sky);
+  const PaddedMips padded(mips);
   std::vector<PrefilteredLevel> chain;
   for (int k = 0; k < opt.levels; ++k) {
     if (opt.cancel && opt.cancel->load()) break;  // the caller discards the incomplete chain
@@ -373,7 +429,7 @@ std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& sky, const std::
       chain.push_back(std::move(level));
       continue;
     }
-    chain.push_back(prefilter_level(mips, sun, size, rho, opt, opt.seed + 0x9e3779b97f4a7c15ULL * (k + 1)));
+    chain.push_back(prefilter_level(mips, padded, sun, size, rho, opt, opt.seed + 0x9e3779b97f4a7c15ULL * (k + 1)));
   }
   return chain;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "bakers/bake/number_format.h"
 #include "bakers/brdf/fresnel.h"
@@ -66,6 +67,23 @@ std::vector<Comparison> approximations(const brdf::ModelSpec& spec, std::vector<
     exact.model = brdf::Model::oren_nayar;
     exact.interreflection = false;
     add("oren-nayar: simplified A/B vs full first-order (C1, C2, C3)", exact);
+  }
+  return out;
+}
+
+std::vector<Comparison> approximations(const brdf::MaterialSpec& spec, std::vector<std::string>& plan) {
+  std::vector<Comparison> out;
+  for (const auto& [name, lobe] : {std::pair<const char*, const brdf::ModelSpec*>{"diffuse lobe", &spec.diffuse},
+                                   {"specular lobe", &spec.specular}}) {
+    // A weightless specular lobe (weights, s = 0) is not part of the material: its approximations cost nothing.
+    if (lobe == &spec.specular && spec.combine == brdf::Combine::weights && spec.specular_weight == 0) continue;
+    std::vector<std::string> lobe_plan;
+    for (Comparison c : approximations(*lobe, lobe_plan)) {
+      c.name = std::string(name) + ", " + c.name;
+      c.lobe = *lobe;
+      out.push_back(std::move(c));
+    }
+    for (const std::string& line : lobe_plan) plan.push_back(std::string(name) + ": " + line);
   }
   return out;
 }

@@ -80,25 +80,32 @@ void check_finite(const Estimate& e, const std::string& what) {
 // --- Models and plan. ---------------------------------------------------------------------------------------------
 
 // The model as configured, its white-furnace form, and the white form at each roughness texel centre of the split-sum
-// rows (a model without a roughness parameter has one distinct row).
+// rows (a model without a roughness parameter has one distinct row). A two-lobe material's rows are its specular
+// lobe's.
 void make_models(MaterialBakeRun& run) {
-  const brdf::ModelSpec& spec = run.input.model;
-  run.models.bxdf = brdf::make_bxdf(spec);
-  const brdf::ModelSpec white_spec = brdf::without_fresnel(spec);
-  run.models.white = brdf::make_bxdf(white_spec);
+  const MaterialBakeInput& input = run.input;
+  if (input.material) {
+    run.models.bxdf = std::make_unique<brdf::Material>(*input.material);
+    run.models.white = std::make_unique<brdf::Material>(brdf::without_fresnel(*input.material));
+  } else {
+    run.models.bxdf = brdf::make_bxdf(input.model);
+    run.models.white = brdf::make_bxdf(brdf::without_fresnel(input.model));
+  }
   run.result.description = run.models.bxdf->describe();
-  run.rough_axis = has_roughness(spec.model);
+  const brdf::ModelSpec& rows_spec = split_sum_lobe(input);
+  const brdf::ModelSpec white_rows = brdf::without_fresnel(rows_spec);
+  run.rough_axis = has_roughness(rows_spec.model);
   const int distinct_rows = run.rough_axis ? run.n_r : 1;
   run.roughness.resize(run.n_r);
-  for (int j = 0; j < run.n_r; ++j) run.roughness[j] = (j + 0.5) / run.n_r * brdf::max_roughness(spec.model);
+  for (int j = 0; j < run.n_r; ++j) run.roughness[j] = (j + 0.5) / run.n_r * brdf::max_roughness(rows_spec.model);
   for (int j = 0; j < distinct_rows; ++j) {
-    run.models.rows.push_back(brdf::make_bxdf(brdf::with_roughness(white_spec, run.roughness[j])));
+    run.models.rows.push_back(brdf::make_bxdf(brdf::with_roughness(white_rows, run.roughness[j])));
   }
 }
 
 void plan_tables(MaterialBakeRun& run) {
   const MaterialBakeInput& input = run.input;
-  const brdf::Model model = input.model.model;
+  const brdf::Model model = split_sum_lobe(input).model;
   run.target_mode = input.target_error > 0;
   run.progressive = run.target_mode || input.time_limit_seconds > 0;
   run.goal = input.samples ? input.samples : (run.target_mode ? kDefaultCap : kDefaultSamples);
@@ -111,12 +118,13 @@ void plan_tables(MaterialBakeRun& run) {
                  ", model as configured, averaged over the azimuth of wo");
   plan.push_back("white-furnace table: E(mu) of " + run.models.white->describe() +
                  " (F = 1, white), for the strict energy check and energy compensation");
+  const std::string of_lobe = input.material ? " of the specular lobe" : "";
   if (run.rough_axis) {
-    plan.push_back("split-sum table: " + n_mu + " x " + n_r + " over (mu, " + brdf::roughness_name(model) + " in (0, " +
-                   shortest_number(brdf::max_roughness(model)) +
+    plan.push_back("split-sum table" + of_lobe + ": " + n_mu + " x " + n_r + " over (mu, " +
+                   brdf::roughness_name(model) + " in (0, " + shortest_number(brdf::max_roughness(model)) +
                    "]), white model without Fresnel, E ~= f0 * scale + bias");
   } else {
-    plan.push_back("split-sum table: " + n_mu + " x " + n_r + "; " + brdf::to_string(model) +
+    plan.push_back("split-sum table" + of_lobe + ": " + n_mu + " x " + n_r + "; " + brdf::to_string(model) +
                    " has no roughness parameter, so one row is computed and repeated");
   }
   plan.push_back(
@@ -158,8 +166,9 @@ void make_entries(MaterialBakeRun& run) {
 
 // The planned work of every stage, in samples or BRDF evaluations (they cost about the same).
 void plan_work(MaterialBakeRun& run) {
-  run.comparisons = approximations(run.input.model, run.result.plan);
-  run.merl_azimuths = anisotropic(run.input.model) ? kMerlAnisotropicAzimuths : 1;
+  run.comparisons = run.input.material ? approximations(*run.input.material, run.result.plan)
+                                       : approximations(run.input.model, run.result.plan);
+  run.merl_azimuths = anisotropic(run.input) ? kMerlAnisotropicAzimuths : 1;
   run.merl_units = run.input.merl
                        ? static_cast<double>(kMerlEntries) * run.merl_azimuths * (run.models.bxdf->reciprocal() ? 1 : 2)
                        : 0.0;
@@ -343,8 +352,10 @@ void validate_model(MaterialBakeRun& run) {
   result.plan.push_back("reciprocity: " + std::to_string(kReciprocityPairs) +
                         " random direction pairs, uniform over the hemisphere");
   for (const Comparison& cmp : run.comparisons) {
-    v.approximations.push_back(
-        measure_approximation(bxdf, cmp, run.n_mu, run.input.seed, run.progress, &result.validation_samples));
+    // A material's approximations are its lobes': each is measured on the lobe alone.
+    const std::unique_ptr<brdf::Bxdf> lobe = cmp.lobe ? brdf::make_bxdf(*cmp.lobe) : nullptr;
+    v.approximations.push_back(measure_approximation(lobe ? *lobe : bxdf, cmp, run.n_mu, run.input.seed, run.progress,
+                                                     &result.validation_samples));
     result.plan.push_back("approximation " + cmp.name + ": albedo difference measured at the " +
                           std::to_string(run.n_mu) + " mu of the table, " + std::to_string(kApproximationSamples) +
                           " shared samples each");
@@ -385,7 +396,7 @@ void encode_outputs(MaterialBakeRun& run) {
   MaterialBakeResult& result = run.result;
   const std::string settings = table_settings(run.input);
   result.outputs.push_back(albedo_image(result, settings));
-  result.outputs.push_back(split_sum_image(result, run.input.model.model, run.rough_axis, settings));
+  result.outputs.push_back(split_sum_image(result, split_sum_lobe(run.input).model, run.rough_axis, settings));
   if (run.input.merl) {
     result.outputs.push_back({"brdf.merl", "application/x-merl-brdf", "scene_linear", std::move(run.merl_bytes)});
   }
@@ -406,10 +417,10 @@ void encode_outputs(MaterialBakeRun& run) {
 std::optional<bake::InvalidInput> validate(const MaterialBakeInput& in) {
   using bake::InvalidInput;
   if (in.material) {
-    return InvalidInput("material",
-                        "two-lobe materials are not supported by the material bake yet; describe one model in model");
+    if (auto e = brdf::validate(*in.material)) return e->under("material");
+  } else if (auto e = brdf::validate(in.model)) {
+    return e->under("model");
   }
-  if (auto e = brdf::validate(in.model)) return e->under("model");
   if (in.table_mu < 1 || in.table_mu > kMaxTable) {
     return InvalidInput("table_mu",
                         "must be in [1, " + std::to_string(kMaxTable) + "], got " + std::to_string(in.table_mu));

@@ -1,5 +1,6 @@
-// The material bake: one BRDF model in; its tables (EXR), a tabulated BRDF (MERL), a validation report and a JSON
-// report out. Plain C++ types only: the daemon translates its messages into MaterialBakeInput and back.
+// The material bake: one BRDF model, or a two-lobe material (brdf::MaterialSpec), in; its tables (EXR), a tabulated
+// BRDF (MERL), a validation report and a JSON report out. Plain C++ types only: the daemon translates its messages into
+// MaterialBakeInput and back.
 //
 // What it computes (μ = cos θ_o at texel centres (i + 0.5) / table_mu, azimuth of wo averaged):
 //   albedo       E(μ) = ∫ f(wo, wi) cos θ_i dω_i of the model as configured (colours, Fresnel);
@@ -54,11 +55,14 @@ namespace kiln::material {
 // --- The material bake. ----------------------------------------------------------------------------------------
 
 // Changes whenever the same input would give different outputs (part of the daemon's result-cache key).
-inline constexpr const char* kMaterialBakerVersion = "kiln-material-3";
+inline constexpr const char* kMaterialBakerVersion = "kiln-material-4";
 
 struct MaterialBakeInput {
   brdf::ModelSpec model;
-  // Reserved for two-lobe materials (brdf::MaterialSpec); not supported yet: a set value is rejected.
+  // A two-lobe material (the layered or weighted model lightmaps shade with); when set, it is what is baked and
+  // `model` is ignored. Its split-sum table is that of its specular lobe (white, Fresnel off) over the specular
+  // lobe's roughness: the lobe an engine lights with the prefiltered environment. Its approximations are measured
+  // lobe by lobe; everything else (albedo, white furnace, validation, MERL, preview) is of the whole material.
   std::optional<brdf::MaterialSpec> material;
   int table_mu = 32;         // [1, 1024] texels along μ
   int table_roughness = 32;  // [1, 1024] rows of the split-sum table

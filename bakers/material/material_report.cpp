@@ -13,10 +13,22 @@ Json rgb_json(const Rgb& c) { return Json::array({c.r, c.g, c.b}); }
 Json vec_json(const Vec3& v) { return Json::array({v.x, v.y, v.z}); }
 
 Json model_json(const MaterialBakeInput& input, const MaterialBakeResult& result) {
-  const brdf::Model m = input.model.model;
+  if (!input.material) {
+    const brdf::Model m = input.model.model;
+    return {{"description", result.description},
+            {"name", brdf::to_string(m)},
+            {"roughness_parameter", brdf::roughness_name(m)}};
+  }
+  const brdf::MaterialSpec& mat = *input.material;
+  const bool weights = mat.combine == brdf::Combine::weights;
   return {{"description", result.description},
-          {"name", brdf::to_string(m)},
-          {"roughness_parameter", brdf::roughness_name(m)}};
+          {"name", "material"},
+          {"combine", weights ? "weights" : "layered"},
+          {"specular_weight", weights ? Json(mat.specular_weight) : Json(nullptr)},
+          {"diffuse", brdf::to_string(mat.diffuse.model)},
+          {"specular", brdf::to_string(mat.specular.model)},
+          // The split-sum rows sweep the specular lobe's roughness.
+          {"roughness_parameter", brdf::roughness_name(mat.specular.model)}};
 }
 
 Json settings_json(const MaterialBakeInput& input) {

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "bakers/brdf/model_spec.h"
+#include "bakers/material/material_bake.h"
 
 namespace kiln::material {
 
@@ -18,6 +19,16 @@ inline bool anisotropic(const brdf::ModelSpec& s) {
   if (s.model == brdf::Model::schlick) return s.layer.p < 1;
   if (s.model == brdf::Model::schlick_double) return s.layer.p < 1 || s.bottom_layer.p < 1;
   return false;
+}
+
+inline bool anisotropic(const MaterialBakeInput& in) {
+  if (in.material) return anisotropic(in.material->diffuse) || anisotropic(in.material->specular);
+  return anisotropic(in.model);
+}
+
+// The model whose roughness the split-sum rows sweep: the model itself, or a two-lobe material's specular lobe.
+inline const brdf::ModelSpec& split_sum_lobe(const MaterialBakeInput& in) {
+  return in.material ? in.material->specular : in.model;
 }
 
 }  // namespace kiln::material

@@ -2,9 +2,12 @@
 //   kiln-brdf eval   --model M [params] --wo x,y,z --wi x,y,z   f(wo, wi) per channel (one value if grey)
 //   kiln-brdf albedo --model M [params] --mu MU                 directional albedo E(μ) with its standard error
 //   kiln-brdf table  --model M [params]                         albedo and split-sum tables as CSV
+// --diffuse M --specular M [--combine ...] with --diffuse-PARAM and --specular-PARAM in place of --model M [params]
+// takes a two-lobe material (brdf::Material, the model lightmaps shade with).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -16,6 +19,7 @@
 #include "bakers/bake/number_format.h"
 #include "bakers/brdf/albedo.h"
 #include "bakers/brdf/bxdf.h"
+#include "bakers/brdf/material.h"
 #include "bakers/brdf/model_spec.h"
 
 namespace {
@@ -30,6 +34,7 @@ struct UsageError : std::runtime_error {
 };
 
 constexpr const char* kUsage = R"(usage: kiln-brdf eval|albedo|table --model MODEL [parameters] [options]
+       kiln-brdf eval|albedo|table --diffuse MODEL --specular MODEL [material] [lobe parameters] [options]
 
 commands:
   eval   --wo x,y,z --wi x,y,z   print f(wo, wi) without the cosine (one value per RGB channel, or one if grey);
@@ -54,6 +59,14 @@ parameters:
   --normalization 4|pi        microfacet denominator, default 4
   --c C | R,G,B  --r R  --p P            Schlick layer: reflection factor, roughness, isotropy (top layer)
   --bottom-c C --bottom-r R --bottom-p P  Schlick double layer: the bottom layer
+two-lobe material (brdf::Material, what lightmaps shade with), instead of --model:
+  --diffuse MODEL --specular MODEL   the lobes, each any model above (usually lambert or oren-nayar, and ggx)
+  --combine layered|weights   layered (default): the diffuse lobe gets what the specular one does not reflect;
+                              weights: d * diffuse + s * specular with d = 1 - s
+  --specular-weight S         s for --combine weights, [0, 1], default 0.5
+  --diffuse-PARAM V, --specular-PARAM V   a lobe's parameter, e.g. --diffuse-albedo 0.8 --specular-alpha 0.3
+                              --specular-fresnel schlick --specular-f0 0.04
+                              (table: the split-sum table is the specular lobe's)
 options:
   --samples N                 samples per estimate (albedo, table), default 65536 for albedo, 4096 for table
   --n-mu N --n-roughness N    table resolution, default 32 x 32
@@ -114,9 +127,86 @@ E parse_enum(const std::string& flag, const std::string& text, std::optional<E> 
 
 struct Command {
   std::string name;
-  ModelSpec spec;
+  ModelSpec spec;                              // one model, or the specular lobe of `material`
+  std::optional<MaterialSpec> material;        // a two-lobe material (--diffuse and --specular)
   std::map<std::string, std::string> options;  // command options (--wo, --mu, --samples, ...)
 };
+
+using Take = std::function<std::optional<std::string>(const std::string&)>;
+
+// One model's parameters: --albedo, --alpha, ... for a single model; --diffuse-albedo, --specular-alpha, ... for a
+// lobe of a two-lobe material (prefix "diffuse-" or "specular-"). The model itself comes from `model_flag`.
+ModelSpec parse_model(const Take& take, const std::string& model_flag, const std::string& model_text,
+                      const std::string& prefix) {
+  const auto flag = [&](const char* name) { return "--" + prefix + name; };
+  ModelSpec s;
+  s.model = parse_enum<Model>(model_flag, model_text, model_from_string, model_names());
+  const bool schlick_model = s.model == Model::schlick || s.model == Model::schlick_double;
+
+  if (auto v = take(flag("albedo"))) {
+    if (schlick_model) {
+      s.layer.c = parse_rgb(flag("albedo"), *v);
+    } else {
+      s.albedo = parse_rgb(flag("albedo"), *v);
+    }
+  }
+  if (auto v = take(flag("sigma"))) s.sigma = parse_number(flag("sigma"), *v);
+  if (auto v = take(flag("interreflection"))) {
+    if (*v != "on" && *v != "off") throw UsageError(flag("interreflection") + ": expected on or off, got '" + *v + "'");
+    s.interreflection = *v == "on";
+  }
+  if (auto v = take(flag("alpha"))) s.alpha_x = s.alpha_y = parse_number(flag("alpha"), *v);
+  if (auto v = take(flag("alpha-x"))) s.alpha_x = parse_number(flag("alpha-x"), *v);
+  if (auto v = take(flag("alpha-y"))) s.alpha_y = parse_number(flag("alpha-y"), *v);
+  if (auto v = take(flag("fresnel")))
+    s.fresnel = parse_enum<FresnelMode>(flag("fresnel"), *v, fresnel_from_string, fresnel_names());
+  if (auto v = take(flag("f0"))) s.f0 = parse_rgb(flag("f0"), *v);
+  if (auto v = take(flag("eta"))) s.eta = parse_number(flag("eta"), *v);
+  if (auto v = take(flag("distribution"))) {
+    s.distribution = parse_enum<Distribution>(flag("distribution"), *v, distribution_from_string, distribution_names());
+  }
+  if (auto v = take(flag("masking")))
+    s.masking = parse_enum<Masking>(flag("masking"), *v, masking_from_string, masking_names());
+  if (auto v = take(flag("normalization"))) {
+    s.normalization =
+        parse_enum<Normalization>(flag("normalization"), *v, normalization_from_string, normalization_names());
+  }
+  if (auto v = take(flag("c"))) s.layer.c = parse_rgb(flag("c"), *v);
+  if (auto v = take(flag("r"))) s.layer.r = parse_number(flag("r"), *v);
+  if (auto v = take(flag("p"))) s.layer.p = parse_number(flag("p"), *v);
+  if (auto v = take(flag("bottom-c"))) s.bottom_layer.c = parse_rgb(flag("bottom-c"), *v);
+  if (auto v = take(flag("bottom-r"))) s.bottom_layer.r = parse_number(flag("bottom-r"), *v);
+  if (auto v = take(flag("bottom-p"))) s.bottom_layer.p = parse_number(flag("bottom-p"), *v);
+  if (auto error = validate(s)) {
+    throw UsageError(prefix.empty() ? error->what() : error->under(prefix.substr(0, prefix.size() - 1)).what());
+  }
+  return s;
+}
+
+// --diffuse MODEL --specular MODEL [--combine layered|weights] [--specular-weight S] and the lobes' parameters.
+MaterialSpec parse_material(const Take& take) {
+  const auto diffuse = take("--diffuse");
+  const auto specular = take("--specular");
+  if (!diffuse || !specular) {
+    throw UsageError(std::string(diffuse ? "--specular" : "--diffuse") +
+                     ": missing; a two-lobe material needs both --diffuse MODEL and --specular MODEL");
+  }
+  MaterialSpec m;
+  m.diffuse = parse_model(take, "--diffuse", *diffuse, "diffuse-");
+  m.specular = parse_model(take, "--specular", *specular, "specular-");
+  if (auto v = take("--combine")) {
+    if (*v != "layered" && *v != "weights") {
+      throw UsageError("--combine: expected layered or weights, got '" + *v + "'");
+    }
+    m.combine = *v == "weights" ? Combine::weights : Combine::layered;
+  }
+  if (auto v = take("--specular-weight")) {
+    if (m.combine != Combine::weights) throw UsageError("--specular-weight: applies to --combine weights only");
+    m.specular_weight = parse_number("--specular-weight", *v);
+  }
+  if (auto error = validate(m)) throw UsageError(error->what());
+  return m;
+}
 
 Command parse_command(int argc, char** argv) {
   if (argc < 2) throw UsageError("missing command: expected eval, albedo or table (see --help)");
@@ -133,7 +223,7 @@ Command parse_command(int argc, char** argv) {
     if (args.count(flag)) throw UsageError(flag + ": given twice");
     args[flag] = argv[++i];
   }
-  auto take = [&](const std::string& flag) -> std::optional<std::string> {
+  const Take take = [&](const std::string& flag) -> std::optional<std::string> {
     auto it = args.find(flag);
     if (it == args.end()) return std::nullopt;
     std::string v = it->second;
@@ -141,52 +231,23 @@ Command parse_command(int argc, char** argv) {
     return v;
   };
 
-  const auto model = take("--model");
-  if (!model) throw UsageError("--model: missing; expected one of " + model_names());
-  ModelSpec& s = cmd.spec;
-  s.model = parse_enum<Model>("--model", *model, model_from_string, model_names());
-  const bool schlick_model = s.model == Model::schlick || s.model == Model::schlick_double;
-
-  if (auto v = take("--albedo")) {
-    if (schlick_model) {
-      s.layer.c = parse_rgb("--albedo", *v);
-    } else {
-      s.albedo = parse_rgb("--albedo", *v);
-    }
+  const bool two_lobes = args.count("--diffuse") || args.count("--specular");
+  if (two_lobes && args.count("--model")) {
+    throw UsageError("--model: give either --model or --diffuse and --specular (a two-lobe material), not both");
   }
-  if (auto v = take("--sigma")) s.sigma = parse_number("--sigma", *v);
-  if (auto v = take("--interreflection")) {
-    if (*v != "on" && *v != "off") throw UsageError("--interreflection: expected on or off, got '" + *v + "'");
-    s.interreflection = *v == "on";
+  if (two_lobes) {
+    cmd.material = parse_material(take);
+    cmd.spec = cmd.material->specular;
+  } else {
+    const auto model = take("--model");
+    if (!model) throw UsageError("--model: missing; expected one of " + model_names());
+    cmd.spec = parse_model(take, "--model", *model, "");
   }
-  if (auto v = take("--alpha")) s.alpha_x = s.alpha_y = parse_number("--alpha", *v);
-  if (auto v = take("--alpha-x")) s.alpha_x = parse_number("--alpha-x", *v);
-  if (auto v = take("--alpha-y")) s.alpha_y = parse_number("--alpha-y", *v);
-  if (auto v = take("--fresnel"))
-    s.fresnel = parse_enum<FresnelMode>("--fresnel", *v, fresnel_from_string, fresnel_names());
-  if (auto v = take("--f0")) s.f0 = parse_rgb("--f0", *v);
-  if (auto v = take("--eta")) s.eta = parse_number("--eta", *v);
-  if (auto v = take("--distribution")) {
-    s.distribution = parse_enum<Distribution>("--distribution", *v, distribution_from_string, distribution_names());
-  }
-  if (auto v = take("--masking"))
-    s.masking = parse_enum<Masking>("--masking", *v, masking_from_string, masking_names());
-  if (auto v = take("--normalization")) {
-    s.normalization =
-        parse_enum<Normalization>("--normalization", *v, normalization_from_string, normalization_names());
-  }
-  if (auto v = take("--c")) s.layer.c = parse_rgb("--c", *v);
-  if (auto v = take("--r")) s.layer.r = parse_number("--r", *v);
-  if (auto v = take("--p")) s.layer.p = parse_number("--p", *v);
-  if (auto v = take("--bottom-c")) s.bottom_layer.c = parse_rgb("--bottom-c", *v);
-  if (auto v = take("--bottom-r")) s.bottom_layer.r = parse_number("--bottom-r", *v);
-  if (auto v = take("--bottom-p")) s.bottom_layer.p = parse_number("--bottom-p", *v);
 
   for (const char* flag : {"--wo", "--wi", "--mu", "--samples", "--n-mu", "--n-roughness", "--seed"}) {
     if (auto v = take(flag)) cmd.options[flag] = *v;
   }
   if (!args.empty()) throw UsageError("unknown option '" + args.begin()->first + "' (see --help)");
-  if (auto error = validate(s)) throw UsageError(error->what());
   return cmd;
 }
 
@@ -216,7 +277,7 @@ const std::string& required(const Command& cmd, const std::string& flag, const s
 }
 
 int run(const Command& cmd) {
-  const std::unique_ptr<Bxdf> bxdf = make_bxdf(cmd.spec);
+  const std::unique_ptr<Bxdf> bxdf = cmd.material ? std::make_unique<Material>(*cmd.material) : make_bxdf(cmd.spec);
   if (cmd.name == "eval") {
     const Vec3 wo = parse_direction("--wo", required(cmd, "--wo", "the outgoing direction x,y,z"));
     const Vec3 wi = parse_direction("--wi", required(cmd, "--wi", "the incident direction x,y,z"));
@@ -250,8 +311,8 @@ int run(const Command& cmd) {
   std::cout << "average," << csv(table.average.value) << "," << csv(table.average.std_error) << ","
             << table.average.samples << "\n\n";
   const SplitSumTable ss = split_sum_table(cmd.spec, n_mu, n_roughness, options);
-  std::cout << "# split-sum table of the white model without Fresnel: E ~= f0 * scale + bias; roughness is "
-            << roughness_name(cmd.spec.model) << "\n";
+  std::cout << "# split-sum table of the white " << (cmd.material ? "specular lobe" : "model")
+            << " without Fresnel: E ~= f0 * scale + bias; roughness is " << roughness_name(cmd.spec.model) << "\n";
   std::cout << "roughness,mu,scale,bias,scale_std_error,bias_std_error\n";
   for (int j = 0; j < ss.n_roughness; ++j) {
     for (int i = 0; i < ss.n_mu; ++i) {

@@ -11,6 +11,7 @@
 namespace kiln::cli {
 
 const char* const kBakeMaterialHelp = R"(usage: kiln bake material --model MODEL [parameters] --out DIR [options]
+       kiln bake material --diffuse MODEL --specular MODEL [material] [lobe parameters] --out DIR [options]
 
 Bakes one material on the server, waits for it with a progress display, and writes every output (albedo.exr,
 split_sum.exr, brdf.merl with --merl, preview.png) and report.json into DIR. Prints where they went and what the
@@ -34,6 +35,14 @@ parameters (a model refuses the parameters it does not have; unset ones take the
   --c C | R,G,B  --r R  --p P  Schlick layer (the top one for schlick-double): reflection factor, roughness,
                                isotropy, each in [0, 1]
   --bottom-c C --bottom-r R --bottom-p P   schlick-double: the bottom layer
+a two-lobe material (the model lightmaps shade with), instead of --model:
+  --diffuse MODEL --specular MODEL   its lobes, each one of the models (usually lambert or oren-nayar, and ggx)
+  --combine layered|weights    layered (default): the diffuse lobe gets what the specular one does not reflect;
+                               weights: (1 - s) diffuse + s specular
+  --specular-weight S          s for --combine weights, [0, 1]; default 0.5
+  --diffuse-PARAM V, --specular-PARAM V   a lobe's parameters, the flags above with the lobe's name before them:
+                               --diffuse-albedo 0.8 --specular-alpha 0.3 --specular-fresnel schlick --specular-f0 0.04
+                               (split_sum.exr is then the specular lobe's)
 quality and tables:
   --samples N                  samples per table entry, [1, 16777216]; with --target-error, the cap
   --target-error E             stop refining an entry once its standard error is below E, (0, 1]
@@ -52,8 +61,10 @@ options:
   --idempotency-key KEY        resubmitting with the same key and spec returns the first job
   --server HOST:PORT | unix:PATH, --token-file FILE, --tls-ca FILE   see `kiln --help`
 
-example:
+examples:
   kiln bake material --model ggx --alpha 0.3 --fresnel schlick --f0 0.04 --out out/ggx
+  kiln bake material --diffuse lambert --diffuse-albedo 0.5,0.3,0.2 --specular ggx --specular-alpha 0.2 \
+    --specular-fresnel schlick --specular-f0 0.04 --out out/layered
 )";
 
 namespace {
@@ -111,31 +122,36 @@ const Applies kApplies[] = {
     {"--bottom-p", [](Model m) { return m == Model::schlick_double; }, "schlick-double"},
 };
 
-// The flags that describe the job, in the order the default name lists them.
-const char* const kJobFlags[] = {"--albedo",
-                                 "--sigma",
-                                 "--interreflection",
-                                 "--alpha",
-                                 "--alpha-x",
-                                 "--alpha-y",
-                                 "--fresnel",
-                                 "--f0",
-                                 "--eta",
-                                 "--distribution",
-                                 "--masking",
-                                 "--normalization",
-                                 "--c",
-                                 "--r",
-                                 "--p",
-                                 "--bottom-c",
-                                 "--bottom-r",
-                                 "--bottom-p",
-                                 "--samples",
-                                 "--target-error",
-                                 "--time-limit",
-                                 "--seed",
-                                 "--table-mu",
-                                 "--table-roughness"};
+// A model's parameter flags without their dashes, in the order the default name lists them.
+const char* const kParameters[] = {
+    "albedo",       "sigma",   "interreflection", "alpha", "alpha-x", "alpha-y", "fresnel",  "f0",       "eta",
+    "distribution", "masking", "normalization",   "c",     "r",       "p",       "bottom-c", "bottom-r", "bottom-p"};
+// A two-lobe material's own flags.
+const char* const kMaterialFlags[] = {"--diffuse", "--specular", "--combine", "--specular-weight"};
+// The flags that describe the job besides the model's: the tables and the quality.
+const char* const kTableFlags[] = {"--samples", "--target-error", "--time-limit",
+                                   "--seed",    "--table-mu",     "--table-roughness"};
+
+// Every flag that describes the job, in the order the default name lists them: a single model's parameters
+// ("--alpha"), the material's flags, each lobe's parameters ("--diffuse-albedo", "--specular-alpha"), the tables'.
+const std::vector<const char*>& job_flags() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out;
+    for (const char* prefix : {"--", "--diffuse-", "--specular-"}) {
+      if (std::string(prefix) == "--diffuse-")
+        out.insert(out.end(), std::begin(kMaterialFlags), std::end(kMaterialFlags));
+      for (const char* p : kParameters) out.push_back(prefix + std::string(p));
+    }
+    out.insert(out.end(), std::begin(kTableFlags), std::end(kTableFlags));
+    return out;
+  }();
+  static const std::vector<const char*> flags = [] {
+    std::vector<const char*> out;
+    for (const std::string& n : names) out.push_back(n.c_str());
+    return out;
+  }();
+  return flags;
+}
 
 void set_color(const std::string& flag, const std::string& text, v1::Color* c) {
   parse_color(flag, text, bounds::kReflectance, c);
@@ -152,57 +168,63 @@ Enum parse_choice(const std::string& flag, const std::string& text,
   throw UsageError(flag + ": expected one of " + names + ", got '" + text + "'");
 }
 
-void microfacet(const Flags& f, Model model, const std::string& model_name, v1::Microfacet* m) {
-  const bool anisotropic = f.has("--alpha-x") || f.has("--alpha-y");
-  if (f.has("--alpha") && anisotropic) {
-    throw UsageError("--alpha: give either --alpha or --alpha-x and --alpha-y, not both");
+// The parameter flags of one model take `p` before their name: "--" for a single model ("--alpha"), "--diffuse-" or
+// "--specular-" for a lobe of a two-lobe material ("--specular-alpha").
+void microfacet(const Flags& f, const std::string& p, Model model, const std::string& model_name, v1::Microfacet* m) {
+  const std::string alpha = p + "alpha", alpha_x = p + "alpha-x", alpha_y = p + "alpha-y";
+  const bool anisotropic = f.has(alpha_x) || f.has(alpha_y);
+  if (f.has(alpha) && anisotropic) {
+    throw UsageError(alpha + ": give either " + alpha + " or " + alpha_x + " and " + alpha_y + ", not both");
   }
-  if (anisotropic && !(f.has("--alpha-x") && f.has("--alpha-y"))) {
-    throw UsageError(std::string(f.has("--alpha-x") ? "--alpha-y" : "--alpha-x") +
-                     ": missing; --alpha-x and --alpha-y go together");
+  if (anisotropic && !(f.has(alpha_x) && f.has(alpha_y))) {
+    throw UsageError((f.has(alpha_x) ? alpha_y : alpha_x) + ": missing; " + alpha_x + " and " + alpha_y +
+                     " go together");
   }
-  if (auto v = f.get("--alpha")) m->set_alpha(parse_number_in("--alpha", *v, bounds::kAlpha));
-  if (auto v = f.get("--alpha-x")) m->set_alpha_x(parse_number_in("--alpha-x", *v, bounds::kAlpha));
-  if (auto v = f.get("--alpha-y")) m->set_alpha_y(parse_number_in("--alpha-y", *v, bounds::kAlpha));
+  if (auto v = f.get(alpha)) m->set_alpha(parse_number_in(alpha, *v, bounds::kAlpha));
+  if (auto v = f.get(alpha_x)) m->set_alpha_x(parse_number_in(alpha_x, *v, bounds::kAlpha));
+  if (auto v = f.get(alpha_y)) m->set_alpha_y(parse_number_in(alpha_y, *v, bounds::kAlpha));
 
   // The Fresnel term in force, so that --f0 and --eta are refused where the model would ignore them.
+  const std::string fresnel_flag = p + "fresnel", f0 = p + "f0", eta = p + "eta";
   std::string fresnel = model == Model::cook_torrance ? "exact" : "none";
-  if (auto v = f.get("--fresnel")) {
+  if (auto v = f.get(fresnel_flag)) {
     m->set_fresnel(parse_choice<v1::Fresnel>(
-        "--fresnel", *v, {{"none", v1::FRESNEL_NONE}, {"schlick", v1::FRESNEL_SCHLICK}, {"exact", v1::FRESNEL_EXACT}}));
+        fresnel_flag, *v,
+        {{"none", v1::FRESNEL_NONE}, {"schlick", v1::FRESNEL_SCHLICK}, {"exact", v1::FRESNEL_EXACT}}));
     fresnel = hyphenated(*v);
   }
   const std::string in_force =
-      f.has("--fresnel") ? "--fresnel " + fresnel : model_name + "'s default Fresnel term (" + fresnel + ")";
-  if (auto v = f.get("--f0")) {
+      f.has(fresnel_flag) ? fresnel_flag + " " + fresnel : model_name + "'s default Fresnel term (" + fresnel + ")";
+  if (auto v = f.get(f0)) {
     if (fresnel != "schlick") {
-      throw UsageError("--f0: only --fresnel schlick uses it, and " + in_force +
-                       " would ignore it; add --fresnel schlick");
+      throw UsageError(f0 + ": only " + fresnel_flag + " schlick uses it, and " + in_force + " would ignore it; add " +
+                       fresnel_flag + " schlick");
     }
-    set_color("--f0", *v, m->mutable_f0());
+    set_color(f0, *v, m->mutable_f0());
   }
-  if (auto v = f.get("--eta")) {
+  if (auto v = f.get(eta)) {
     if (fresnel != "exact") {
-      throw UsageError("--eta: only exact Fresnel uses it, and " + in_force + " would ignore it; add --fresnel exact");
+      throw UsageError(eta + ": only exact Fresnel uses it, and " + in_force + " would ignore it; add " + fresnel_flag +
+                       " exact");
     }
-    m->set_eta(parse_number_in("--eta", *v, bounds::kEta));
+    m->set_eta(parse_number_in(eta, *v, bounds::kEta));
   }
-  if (auto v = f.get("--distribution")) {
-    m->set_distribution(parse_choice<v1::Distribution>("--distribution", *v,
+  if (auto v = f.get(p + "distribution")) {
+    m->set_distribution(parse_choice<v1::Distribution>(p + "distribution", *v,
                                                        {{"ggx", v1::DISTRIBUTION_GGX},
                                                         {"beckmann", v1::DISTRIBUTION_BECKMANN},
                                                         {"schlick-beckmann", v1::DISTRIBUTION_SCHLICK_BECKMANN}}));
   }
-  if (auto v = f.get("--masking")) {
-    m->set_masking(parse_choice<v1::Masking>("--masking", *v,
+  if (auto v = f.get(p + "masking")) {
+    m->set_masking(parse_choice<v1::Masking>(p + "masking", *v,
                                              {{"separable", v1::MASKING_SEPARABLE},
                                               {"height-correlated", v1::MASKING_HEIGHT_CORRELATED},
                                               {"v-groove", v1::MASKING_V_GROOVE},
                                               {"schlick", v1::MASKING_SCHLICK}}));
   }
-  if (auto v = f.get("--normalization")) {
+  if (auto v = f.get(p + "normalization")) {
     m->set_normalization(parse_choice<v1::Normalization>(
-        "--normalization", *v, {{"4", v1::NORMALIZATION_FOUR}, {"pi", v1::NORMALIZATION_PI}}));
+        p + "normalization", *v, {{"4", v1::NORMALIZATION_FOUR}, {"pi", v1::NORMALIZATION_PI}}));
   }
 }
 
@@ -213,50 +235,56 @@ void schlick_layer(const Flags& f, const std::string& prefix, v1::SchlickLayer* 
   if (auto v = f.get(p)) l->set_p(parse_number_in(p, *v, bounds::kSchlickParameter));
 }
 
-void oren_nayar(const Flags& f, Model model, v1::OrenNayar* on) {
-  if (auto v = f.get("--albedo")) set_color("--albedo", *v, on->mutable_albedo());
-  if (auto v = f.get("--sigma")) on->set_sigma(parse_number_in("--sigma", *v, bounds::kSigma));
-  if (auto v = f.get("--interreflection")) {
-    if (*v != "on" && *v != "off") throw UsageError("--interreflection: expected on or off, got '" + *v + "'");
+void oren_nayar(const Flags& f, const std::string& p, Model model, v1::OrenNayar* on) {
+  const std::string albedo = p + "albedo", sigma = p + "sigma", inter = p + "interreflection";
+  if (auto v = f.get(albedo)) set_color(albedo, *v, on->mutable_albedo());
+  if (auto v = f.get(sigma)) on->set_sigma(parse_number_in(sigma, *v, bounds::kSigma));
+  if (auto v = f.get(inter)) {
+    if (*v != "on" && *v != "off") throw UsageError(inter + ": expected on or off, got '" + *v + "'");
     if (*v == "on" && model != Model::oren_nayar) {
-      throw UsageError("--interreflection: the two-bounce term belongs to the full model; use --model oren-nayar");
+      throw UsageError(inter + ": the two-bounce term belongs to the full model; use " +
+                       (p == "--" ? std::string("--model") : p.substr(0, p.size() - 1)) + " oren-nayar");
     }
     on->set_interreflection(*v == "on");
   }
 }
 
-// The model's own parameters (the flags were already checked to belong to it).
-void set_model_fields(const Flags& f, Model model, const std::string& model_name, v1::MaterialJob* job) {
+// The model's own parameters (the flags were already checked to belong to it), into a MaterialJob or a Brdf (a
+// lobe of a layered material): the two share their oneof's names.
+template <class Message>
+void set_model_fields(const Flags& f, const std::string& p, Model model, const std::string& model_name, Message* job) {
   switch (model) {
     case Model::lambert:
-      if (auto v = f.get("--albedo")) set_color("--albedo", *v, job->mutable_lambert()->mutable_albedo());
+      if (auto v = f.get(p + "albedo")) set_color(p + "albedo", *v, job->mutable_lambert()->mutable_albedo());
       job->mutable_lambert();
       break;
     case Model::oren_nayar:
-      oren_nayar(f, model, job->mutable_oren_nayar());
+      oren_nayar(f, p, model, job->mutable_oren_nayar());
       break;
     case Model::oren_nayar_simple:
-      oren_nayar(f, model, job->mutable_oren_nayar_simple());
+      oren_nayar(f, p, model, job->mutable_oren_nayar_simple());
       break;
     case Model::cook_torrance:
-      microfacet(f, model, model_name, job->mutable_cook_torrance());
+      microfacet(f, p, model, model_name, job->mutable_cook_torrance());
       break;
     case Model::ggx:
-      microfacet(f, model, model_name, job->mutable_ggx());
+      microfacet(f, p, model, model_name, job->mutable_ggx());
       break;
     case Model::beckmann:
-      microfacet(f, model, model_name, job->mutable_beckmann());
+      microfacet(f, p, model, model_name, job->mutable_beckmann());
       break;
     case Model::schlick:
     case Model::schlick_double: {
       // kiln-brdf takes --albedo as the Schlick layer's reflection factor; so does this.
-      if (f.has("--albedo") && f.has("--c")) throw UsageError("--albedo: give --albedo or --c, not both");
+      if (f.has(p + "albedo") && f.has(p + "c")) {
+        throw UsageError(p + "albedo: give " + p + "albedo or " + p + "c, not both");
+      }
       v1::SchlickLayer* top =
           model == Model::schlick ? job->mutable_schlick() : job->mutable_schlick_double()->mutable_top();
-      if (auto v = f.get("--albedo")) set_color("--albedo", *v, top->mutable_c());
-      schlick_layer(f, "--", top);
+      if (auto v = f.get(p + "albedo")) set_color(p + "albedo", *v, top->mutable_c());
+      schlick_layer(f, p, top);
       if (model == Model::schlick_double) {
-        schlick_layer(f, "--bottom-", job->mutable_schlick_double()->mutable_bottom());
+        schlick_layer(f, p + "bottom-", job->mutable_schlick_double()->mutable_bottom());
       }
       break;
     }
@@ -283,7 +311,7 @@ void set_tables_and_quality(const Flags& f, v1::JobSpec& spec) {
 }
 
 std::string default_name(const Flags& f, const std::string& model_name) {
-  return model_name + given_flag_words(f, kJobFlags) + (f.has("--merl") ? " merl" : "");
+  return model_name + given_flag_words(f, job_flags()) + (f.has("--merl") ? " merl" : "");
 }
 
 // The components of a field path without their [index] or [key]: "job.lights[2].color" -> job, lights, color.
@@ -346,10 +374,70 @@ const std::pair<const char*, const char*> kFieldFlags[] = {
     {"seed", "--seed"},
 };
 
+// --model's or a lobe's (--diffuse, --specular) model name.
+Model model_from_flag(const Flags& f, const std::string& flag) {
+  const auto text = f.get(flag);
+  if (!text) throw UsageError(flag + ": missing; expected one of " + model_names());
+  const auto found =
+      std::find_if(kModels.begin(), kModels.end(), [&](const ModelName& m) { return hyphenated(*text) == m.name; });
+  if (found == kModels.end()) throw UsageError(flag + ": expected one of " + model_names() + ", got '" + *text + "'");
+  return found->model;
+}
+
+const char* model_name(Model m) {
+  return std::find_if(kModels.begin(), kModels.end(), [&](const ModelName& n) { return n.model == m; })->name;
+}
+
+// A parameter flag given to a model without that parameter is an error rather than silently ignored.
+void check_parameters_apply(const Flags& f, const std::string& p, const std::string& model_flag, Model model) {
+  for (const auto& a : kApplies) {
+    const std::string flag = p + (a.flag + 2);
+    if (f.has(flag) && !a.applies(model)) {
+      throw UsageError(flag + ": " + model_flag + " " + model_name(model) + " has no such parameter (" + flag +
+                       " is for " + a.models + ")");
+    }
+  }
+}
+
+// --diffuse MODEL --specular MODEL [--combine] [--specular-weight] and the lobes' parameters, into job.layered.
+std::string set_layered_fields(const Flags& f, v1::MaterialJob* job) {
+  if (f.has("--model")) {
+    throw UsageError("--model: give either --model or --diffuse and --specular (a two-lobe material), not both");
+  }
+  for (const char* p : kParameters) {
+    if (f.has("--" + std::string(p))) {
+      throw UsageError("--" + std::string(p) + ": a two-lobe material takes its lobes' parameters as --diffuse-" + p +
+                       " or --specular-" + p);
+    }
+  }
+  if (!f.has("--diffuse") || !f.has("--specular")) {
+    throw UsageError(std::string(f.has("--diffuse") ? "--specular" : "--diffuse") +
+                     ": missing; a two-lobe material needs both --diffuse MODEL and --specular MODEL");
+  }
+  v1::Layered* layered = job->mutable_layered();
+  const Model diffuse = model_from_flag(f, "--diffuse"), specular = model_from_flag(f, "--specular");
+  check_parameters_apply(f, "--diffuse-", "--diffuse", diffuse);
+  check_parameters_apply(f, "--specular-", "--specular", specular);
+  set_model_fields(f, "--diffuse-", diffuse, model_name(diffuse), layered->mutable_diffuse());
+  set_model_fields(f, "--specular-", specular, model_name(specular), layered->mutable_specular());
+  std::string combine = "layered";
+  if (auto v = f.get("--combine")) {
+    layered->set_combine(parse_choice<v1::Combine>(
+        "--combine", *v, {{"layered", v1::COMBINE_LAYERED}, {"weights", v1::COMBINE_WEIGHTS}}));
+    combine = hyphenated(*v);
+  }
+  if (auto v = f.get("--specular-weight")) {
+    if (combine != "weights") throw UsageError("--specular-weight: applies to --combine weights only");
+    layered->set_specular_weight(parse_number_in("--specular-weight", *v, bounds::kSpecularWeight));
+  }
+  return combine + " " + model_name(diffuse) + "+" + model_name(specular);
+}
+
 }  // namespace
 
 std::vector<FlagSpec> bake_material_flag_specs() {
-  return bake_flag_specs({"--model", "--name", "--out", "--priority", "--idempotency-key"}, kJobFlags, {"--merl", "--no-preview"});
+  return bake_flag_specs({"--model", "--name", "--out", "--priority", "--idempotency-key"}, job_flags(),
+                         {"--merl", "--no-preview"});
 }
 
 v1::JobSpec material_spec_from_flags(const std::vector<std::string>& args) {
@@ -357,28 +445,26 @@ v1::JobSpec material_spec_from_flags(const std::vector<std::string>& args) {
 }
 
 v1::JobSpec material_spec_from_flags(const Flags& f) {
-  const auto model_text = f.get("--model");
-  if (!model_text) throw UsageError("--model: missing; expected one of " + model_names());
-  const auto found = std::find_if(kModels.begin(), kModels.end(),
-                                  [&](const ModelName& m) { return hyphenated(*model_text) == m.name; });
-  if (found == kModels.end()) {
-    throw UsageError("--model: expected one of " + model_names() + ", got '" + *model_text + "'");
-  }
-  const Model model = found->model;
-  const std::string model_name = found->name;
-  for (const auto& a : kApplies) {
-    if (f.has(a.flag) && !a.applies(model)) {
-      throw UsageError(std::string(a.flag) + ": --model " + model_name + " has no such parameter (" + a.flag +
-                       " is for " + a.models + ")");
-    }
-  }
-
   v1::JobSpec spec;
   v1::MaterialJob* job = spec.mutable_material();
-  set_model_fields(f, model, model_name, job);
+  std::string name;
+  const bool two_lobes = std::any_of(std::begin(kMaterialFlags), std::end(kMaterialFlags),
+                                     [&](const char* flag) { return f.has(flag); }) ||
+                         std::any_of(job_flags().begin(), job_flags().end(), [&](const char* flag) {
+                           const std::string s(flag);
+                           return f.has(s) && (s.rfind("--diffuse-", 0) == 0 || s.rfind("--specular-", 0) == 0);
+                         });
+  if (two_lobes) {
+    name = set_layered_fields(f, job);
+  } else {
+    const Model model = model_from_flag(f, "--model");
+    check_parameters_apply(f, "--", "--model", model);
+    name = model_name(model);
+    set_model_fields(f, "--", model, name, job);
+  }
   set_tables_and_quality(f, spec);
   add_forced_effects(f, spec);
-  set_name(f, spec, default_name(f, model_name));
+  set_name(f, spec, default_name(f, name));
   return spec;
 }
 
@@ -398,10 +484,19 @@ std::string flag_for_field(const std::string& field_path) {
       last = parent;
     }
   }
+  // A lobe of a layered material: job.material.layered.{diffuse,specular}.MODEL.FIELD takes --diffuse-FIELD's flag.
+  const bool layered = parts.size() >= 3 && parts[1] == "material" && parts[2] == "layered";
+  if (layered && parts.size() == 3) return "";
+  if (layered && parts.size() == 4) {
+    if (parts[3] == "combine") return "--combine";
+    if (parts[3] == "specular_weight") return "--specular-weight";
+    return "--" + parts[3];  // a lobe as a whole: its model
+  }
+  const std::string p = layered ? "--" + parts[3] + "-" : "--";
   const bool bottom = std::find(parts.begin(), parts.end(), "bottom") != parts.end();
-  if (last == "c" || last == "r" || last == "p") return (bottom ? "--bottom-" : "--") + last;
+  if (last == "c" || last == "r" || last == "p") return p + (bottom ? "bottom-" : "") + last;
   for (const auto& [field, flag] : kFieldFlags) {
-    if (last == field) return flag;
+    if (last == field) return layered ? p + (flag + 2) : flag;
   }
   return "";
 }

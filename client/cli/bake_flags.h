@@ -25,7 +25,8 @@ v1::JobSpec material_spec_from_flags(const Flags& flags);
 v1::JobSpec material_spec_from_flags(const std::vector<std::string>& args);
 
 // The flag that sets a field of the job spec, so that the server's errors can name what the user typed:
-// "job.material.ggx.alpha" -> "--alpha", "job.material.schlick_double.bottom.c.g" -> "--bottom-c";
+// "job.material.ggx.alpha" -> "--alpha", "job.material.schlick_double.bottom.c.g" -> "--bottom-c",
+// "job.material.layered.specular.ggx.alpha" -> "--specular-alpha";
 // "" when no flag sets it.
 std::string flag_for_field(const std::string& field_path);
 

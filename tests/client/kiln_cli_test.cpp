@@ -241,12 +241,44 @@ TEST(KilnCliBakeFlags, BadFlagsGetOneLineNamingTheFlag) {
       {"--model ggx --merl=yes", "--merl: takes no value, got 'yes'"},
       {"--model ggx --colour red", "unknown option --colour for `kiln bake material`"},
       {"--model ggx --name " + std::string(300, 'n'), "--name: at most 256 bytes, got 300"},
+      {"--diffuse lambert", "--specular: missing; a two-lobe material needs both"},
+      {"--model ggx --specular ggx --diffuse lambert", "--model: give either --model or --diffuse and --specular"},
+      {"--diffuse lambert --specular ggx --alpha 0.3", "--alpha: a two-lobe material takes its lobes' parameters"},
+      {"--diffuse lambert --specular ggx --diffuse-alpha 0.3",
+       "--diffuse-alpha: --diffuse lambert has no such parameter"},
+      {"--diffuse lambert --specular ggx --specular-f0 0.04", "--specular-f0: only --specular-fresnel schlick uses it"},
+      {"--diffuse lambert --specular ggx --specular-alpha 2", "--specular-alpha: must be in (0, 1], got 2"},
+      {"--diffuse lambert --specular ggx --specular-weight 0.3", "--specular-weight: applies to --combine weights"},
+      {"--diffuse lambert --specular ggx --combine mixed", "--combine: expected one of layered, weights"},
+      {"--diffuse phong --specular ggx", "--diffuse: expected one of lambert"},
   };
   for (const auto& [args, expected] : cases) {
     const std::string error = usage_error(args);
     EXPECT_NE(error.find(expected), std::string::npos) << "kiln bake material " << args << "\n  gave: " << error;
     EXPECT_EQ(error.find('\n'), std::string::npos) << error;
   }
+}
+
+TEST(KilnCliBakeFlags, TwoLobeMaterialsTakeTheLobeFlags) {
+  const v1::JobSpec s = from_flags(
+      "--diffuse oren-nayar --diffuse-albedo 0.5,0.4,0.3 --diffuse-sigma 0.2 --specular ggx --specular-alpha 0.2 "
+      "--specular-fresnel schlick --specular-f0 0.04 --combine weights --specular-weight 0.3");
+  ASSERT_TRUE(s.material().has_layered());
+  const v1::Layered& l = s.material().layered();
+  EXPECT_EQ(l.diffuse().oren_nayar().albedo().g(), 0.4);
+  EXPECT_EQ(l.diffuse().oren_nayar().sigma(), 0.2);
+  EXPECT_EQ(l.specular().ggx().alpha(), 0.2);
+  EXPECT_EQ(l.specular().ggx().fresnel(), v1::FRESNEL_SCHLICK);
+  EXPECT_EQ(l.specular().ggx().f0().r(), 0.04);
+  EXPECT_EQ(l.combine(), v1::COMBINE_WEIGHTS);
+  EXPECT_EQ(l.specular_weight(), 0.3);
+  EXPECT_EQ(s.name().rfind("weights oren-nayar+ggx", 0), 0u) << s.name();
+  EXPECT_TRUE(daemon_accepts(s));
+  // Layered by default, and a Schlick lobe takes --specular-albedo as its C like --albedo does for --model.
+  const v1::JobSpec d = from_flags("--diffuse lambert --specular schlick --specular-albedo 0.9 --specular-r 0.3");
+  EXPECT_EQ(d.material().layered().combine(), v1::COMBINE_DEFAULT);
+  EXPECT_EQ(d.material().layered().specular().schlick().c().r(), 0.9);
+  EXPECT_EQ(d.material().layered().specular().schlick().r(), 0.3);
 }
 
 TEST(KilnCliBakeFlags, ServerFieldsMapBackToFlags) {
@@ -275,6 +307,15 @@ TEST(KilnCliBakeFlags, ServerFieldsMapBackToFlags) {
       {"job.quality.seed", "--seed"},
       {"job.force_effects[merl]", "--force"},
       {"job.name", "--name"},
+      {"job.material.layered.specular.ggx.alpha", "--specular-alpha"},
+      {"job.material.layered.specular.ggx.f0.g", "--specular-f0"},
+      {"job.material.layered.diffuse.oren_nayar.sigma", "--diffuse-sigma"},
+      {"job.material.layered.diffuse.lambert.albedo.r", "--diffuse-albedo"},
+      {"job.material.layered.specular.schlick_double.bottom.r", "--specular-bottom-r"},
+      {"job.material.layered.specular.schlick.c", "--specular-c"},
+      {"job.material.layered.specular", "--specular"},
+      {"job.material.layered.combine", "--combine"},
+      {"job.material.layered.specular_weight", "--specular-weight"},
       {"job", ""},
       {"digests[3].sha256", ""},
   };
@@ -445,9 +486,9 @@ TEST(KilnCliJobFiles, ExamplesParseMatchTheirFlagsAndPassTheDaemonsChecks) {
                                                                 << spec.DebugString() << "flags:\n"
                                                                 << from_comment.DebugString();
   }
-  // A GGX dielectric, an Oren-Nayar clay, a Cook-Torrance glass with MERL, a Schlick brushed metal; a constant
-  // environment.
-  EXPECT_EQ(count, 5);
+  // A GGX dielectric, an Oren-Nayar clay, a Cook-Torrance glass with MERL, a Schlick brushed metal, a layered
+  // plastic with MERL; a constant environment.
+  EXPECT_EQ(count, 6);
   EXPECT_EQ(environment, 1);
 }
 

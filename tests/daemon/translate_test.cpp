@@ -58,6 +58,42 @@ TEST(Translate, SameBakeSameKeyWhateverTheSpelling) {
   EXPECT_NE(cache_key(a, kBakerVersion), cache_key(a, "another-version"));
 }
 
+TEST(Translate, LayeredMaterialReachesTheBake) {
+  const BakeRequest r = translate(spec_from(R"(material { layered {
+      diffuse { oren_nayar { sigma: 0.3 albedo { r: 0.5 g: 0.4 b: 0.3 } } }
+      specular { ggx { alpha: 0.2 fresnel: FRESNEL_SCHLICK } } } })"));
+  ASSERT_TRUE(r.material().material.has_value());
+  const brdf::MaterialSpec& m = *r.material().material;
+  EXPECT_EQ(m.combine, brdf::Combine::layered);
+  EXPECT_EQ(m.diffuse.model, brdf::Model::oren_nayar);
+  EXPECT_EQ(m.diffuse.albedo.g, 0.4);
+  EXPECT_EQ(m.specular.model, brdf::Model::ggx);
+  EXPECT_EQ(m.specular.alpha_x, 0.2);
+  const BakeRequest w = translate(
+      spec_from("material { layered { combine: COMBINE_WEIGHTS specular_weight: 0.25 specular { ggx { } } } }"));
+  EXPECT_EQ(w.material().material->combine, brdf::Combine::weights);
+  EXPECT_EQ(w.material().material->specular_weight, 0.25);
+}
+
+TEST(Translate, EveryMaterialSettingChangesTheKey) {
+  // Each of these differs from the others in one setting, so no two may share a key. preview was once left out of
+  // the key, so a bake without preview.png answered a later request for one from the cache.
+  std::set<std::string> keys;
+  for (const char* text : {
+           "material { ggx { } }",
+           "material { ggx { } preview: false }",
+           "material { layered { specular { ggx { } } } }",
+           "material { layered { specular { ggx { alpha: 0.2 } } } }",
+           "material { layered { specular { beckmann { } } } }",
+           "material { layered { diffuse { lambert { albedo { r: 0.5 } } } specular { ggx { } } } }",
+           "material { layered { combine: COMBINE_WEIGHTS specular { ggx { } } } }",
+           "material { layered { combine: COMBINE_WEIGHTS specular_weight: 0.25 specular { ggx { } } } }",
+       }) {
+    const auto r = translate(spec_from(text));
+    EXPECT_TRUE(keys.insert(cache_key(r, kBakerVersion)).second) << "same key as another: " << text;
+  }
+}
+
 struct BadSpec {
   const char* text;
   const char* field;
@@ -99,7 +135,10 @@ INSTANTIATE_TEST_SUITE_P(
         BadSpec{"material { schlick { p: -0.5 } }", "job.material.schlick.p", "got -0.5"},
         BadSpec{"material { schlick { c { r: 3 } } }", "job.material.schlick.c.r", "got 3"},
         BadSpec{"material { schlick_double { bottom { r: 7 } } }", "job.material.schlick_double.bottom.r", "got 7"},
-        BadSpec{"material { layered { } }", "job.material.layered", "not supported"},
+        BadSpec{"material { layered { specular { ggx { alpha: 2 } } } }", "job.material.layered.specular.ggx.alpha",
+                "got 2"},
+        BadSpec{"material { layered { specular_weight: 0.3 specular { ggx { } } } }",
+                "job.material.layered.specular_weight", "COMBINE_WEIGHTS only"},
         BadSpec{"material { }", "job.material", "no model given"},
         BadSpec{"", "job", "no job given: set material, environment or lightmap"},
         BadSpec{"material { ggx { } table_mu: 0 }", "job.material.table_mu", "got 0"},

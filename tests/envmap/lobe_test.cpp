@@ -6,8 +6,10 @@
 
 #include <cmath>
 
+#include "bakers/brdf/microfacet_distribution.h"
 #include "bakers/math/constants.h"
 #include "bakers/math/quadrature.h"
+#include "bakers/math/vec3.h"
 
 namespace kiln::envmap {
 namespace {
@@ -56,6 +58,27 @@ TEST(Lobe, WeightIsZeroBelowTheHorizonAndSymmetricAboutN) {
   EXPECT_GT(lobe.weight(n, n), 0.0);
   // D(h)(n·l) at l = n equals D at the normal: 1/(π α²) for GGX (1e-12 relative: rounding).
   EXPECT_NEAR(lobe.weight(n, n), 1.0 / (kPi * 0.09), 1e-12 / (kPi * 0.09));
+}
+
+// GGX's weight is computed in closed form from n·l alone (the brute-force references' inner loop); it must be the
+// library's D(h)(n·l) with h = normalize(n + l), to rounding: 1e-12 relative over widths and angles down to grazing.
+TEST(Lobe, GgxWeightInClosedFormIsDOfTheHalfVectorTimesNl) {
+  for (double alpha : {1.0 / 36, 0.1, 0.5, 1.0}) {
+    const SplitSumLobe lobe(brdf::Distribution::ggx, alpha);
+    const brdf::MicrofacetDistribution d(brdf::Distribution::ggx, alpha, alpha);
+    const Vec3 n = normalize(Vec3{0.3, -0.5, 0.8});
+    for (double theta : {0.0, 1e-4, 0.01, 0.3, 1.0, 1.5, 1.5707}) {
+      for (double phi : {0.0, 1.0, 4.0}) {
+        const Frame frame = Frame::from_normal(n);
+        const Vec3 l =
+            frame.from_local({std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)});
+        const Vec3 h = normalize(n + l);
+        const double nh = dot(n, h);
+        const double expected = d.D({std::sqrt(std::fmax(0.0, 1.0 - nh * nh)), 0.0, nh}) * dot(n, l);
+        EXPECT_NEAR(lobe.weight(n, l), expected, 1e-12 * expected) << alpha << " " << theta << " " << phi;
+      }
+    }
+  }
 }
 
 }  // namespace

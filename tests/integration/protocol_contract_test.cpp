@@ -1,7 +1,7 @@
 // proto/kiln.proto's contract, request by request: every error code the file lists for a request is what the real
 // kilnd answers, with the field path it documents (paths start inside the request's body, without its name); a
-// GetResult of a job that has not ended is answered with its state and nothing else; layered material jobs are
-// refused naming "job.material.layered"; HelloReply's limits carry the deadlines and the memory limit.
+// GetResult of a job that has not ended is answered with its state and nothing else; a bad lobe of a layered material
+// job is named by its path under "job.material.layered"; HelloReply's limits carry the deadlines and the memory limit.
 #include <gtest/gtest.h>
 
 #include <map>
@@ -160,8 +160,8 @@ TEST(ProtocolContract, JobRequestErrors) {
   EXPECT_EQ(error_of(submit(ok, 0, std::string(129, 'k'))), "INVALID_ARGUMENT idempotency_key");
   EXPECT_EQ(error_of(submit(v1::JobSpec())), "INVALID_ARGUMENT job");
   v1::JobSpec layered;
-  layered.mutable_material()->mutable_layered()->mutable_diffuse()->mutable_lambert();
-  EXPECT_EQ(error_of(submit(layered)), "INVALID_ARGUMENT job.material.layered");
+  layered.mutable_material()->mutable_layered()->mutable_specular()->mutable_ggx()->set_alpha(2);
+  EXPECT_EQ(error_of(submit(layered)), "INVALID_ARGUMENT job.material.layered.specular.ggx.alpha");
   EXPECT_EQ(error_of(submit(ok, 0, "key")), "no error");
   EXPECT_EQ(error_of(submit(test::ggx_job(0.4), 0, "key")), "INVALID_ARGUMENT ");
 

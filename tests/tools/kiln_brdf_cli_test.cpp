@@ -80,6 +80,26 @@ TEST(KilnBrdfCli, LambertAlbedoIsExactlyRho) {
   EXPECT_NE(r.out.find("std_error 0 "), std::string::npos) << r.out;
 }
 
+// A two-lobe material from the lobe flags: weights of two Lamberts is the weighted albedo over π, exactly; layered
+// over a black base is its coat alone.
+TEST(KilnBrdfCli, TwoLobeMaterialsFromTheLobeFlags) {
+  const Result w =
+      run("eval --diffuse lambert --diffuse-albedo 0.5 --specular lambert --specular-albedo 0.25 "
+          "--combine weights --specular-weight 0.2 --wo 0,0,1 --wi 1,0,1");
+  ASSERT_EQ(w.status, 0) << w.out;
+  EXPECT_NEAR(first_number(w.out), (0.8 * 0.5 + 0.2 * 0.25) * kiln::kInvPi, 1e-15);
+  const Result layered =
+      run("eval --diffuse lambert --diffuse-albedo 0 --specular ggx --specular-alpha 0.3 "
+          "--wo 0,0,1 --wi 0.2,0,1");
+  const Result coat = run("eval --model ggx --alpha 0.3 --wo 0,0,1 --wi 0.2,0,1");
+  ASSERT_EQ(layered.status, 0) << layered.out;
+  EXPECT_EQ(layered.out, coat.out);
+  const Result table = run("table --diffuse lambert --specular ggx --n-mu 2 --n-roughness 2 --samples 256");
+  ASSERT_EQ(table.status, 0) << table.out;
+  EXPECT_NE(table.out.find("material(layered: "), std::string::npos) << table.out;
+  EXPECT_NE(table.out.find("split-sum table of the white specular lobe"), std::string::npos) << table.out;
+}
+
 TEST(KilnBrdfCli, TablePrintsBothTables) {
   const Result r = run("table --model ggx --alpha 0.3 --n-mu 4 --n-roughness 3 --samples 256");
   ASSERT_EQ(r.status, 0) << r.out;
@@ -134,6 +154,17 @@ INSTANTIATE_TEST_SUITE_P(
                       BadInput{"table --model ggx --n-mu 100000", "--n-mu: must be a whole number"},
                       BadInput{"eval --model ggx --bogus 1", "unknown option '--bogus'"},
                       BadInput{"frobnicate --model ggx", "unknown command 'frobnicate'"},
-                      BadInput{"", "missing command"}));
+                      BadInput{"", "missing command"},
+                      BadInput{"eval --diffuse lambert --wo 0,0,1 --wi 0,0,1", "--specular: missing"},
+                      BadInput{"eval --model ggx --diffuse lambert --specular ggx --wo 0,0,1 --wi 0,0,1",
+                               "give either --model or --diffuse and --specular"},
+                      BadInput{"eval --diffuse lambert --specular ggx --specular-alpha 2 --wo 0,0,1 --wi 0,0,1",
+                               "specular.alpha_x: must be in (0, 1], got 2"},
+                      BadInput{"eval --diffuse lambert --specular ggx --specular-weight 0.3 --wo 0,0,1 --wi 0,0,1",
+                               "--specular-weight: applies to --combine weights only"},
+                      BadInput{"eval --diffuse lambert --specular ggx --combine mixed --wo 0,0,1 --wi 0,0,1",
+                               "--combine: expected layered or weights"},
+                      BadInput{"eval --diffuse lambert --specular ggx --alpha 0.3 --wo 0,0,1 --wi 0,0,1",
+                               "unknown option '--alpha'"}));
 
 }  // namespace
