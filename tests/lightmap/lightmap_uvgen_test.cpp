@@ -74,7 +74,9 @@ TEST(LightmapUvgen, AMeshWithoutLightmapUvsBakesWithGeneratedOnes) {
   const image::FloatImage validity = image::decode_exr(test::find_output(r, "blob_validity.exr").bytes);
   int valid = 0;
   for (float v : validity.pixels) valid += v == 1.0f;
-  EXPECT_GT(valid, 32 * 32 / 4);
+  // The blob's charts cover about a third of their square (uvgen_bench), less at 32² where the padding around its
+  // ~50 charts takes more of it: an eighth is a floor that only a failed generation (no texel) would break.
+  EXPECT_GT(valid, 32 * 32 / 8);
   const scene::Mesh m = decode(test::find_output(r, "blob_uv.bin").bytes);
   const scene::Mesh input = test::uv_blob(false);
   EXPECT_EQ(m.indices.size(), input.indices.size());
