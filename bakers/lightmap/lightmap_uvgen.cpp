@@ -19,8 +19,8 @@ using Json = nlohmann::ordered_json;
 // The linear scale of a transform: the cube root of its volume scale.
 double linear_scale(const scene::Transform& t) {
   const auto& m = t.m;
-  const double det = m[0] * (m[5] * m[10] - m[6] * m[9]) - m[1] * (m[4] * m[10] - m[6] * m[8]) +
-                     m[2] * (m[4] * m[9] - m[5] * m[8]);
+  const double det =
+      m[0] * (m[5] * m[10] - m[6] * m[9]) - m[1] * (m[4] * m[10] - m[6] * m[8]) + m[2] * (m[4] * m[9] - m[5] * m[8]);
   return std::cbrt(std::fabs(det));
 }
 
@@ -34,8 +34,8 @@ std::optional<uvgen::PackOptions> pack_options(const scene::Scene& scene, const 
     if (!inst.bake || inst.mesh != static_cast<int>(m) || !scene::usable_transform(inst.to_world)) continue;
     if (in.atlas.texel_density > 0) {
       const auto it = in.atlas.instances.find(static_cast<uint32_t>(i));
-      const double asked =
-          it != in.atlas.instances.end() && it->second.texel_density > 0 ? it->second.texel_density : in.atlas.texel_density;
+      const double asked = it != in.atlas.instances.end() && it->second.texel_density > 0 ? it->second.texel_density
+                                                                                          : in.atlas.texel_density;
       density = std::min(density, asked * linear_scale(inst.to_world));
     } else {
       const auto it = in.resolutions.find(scene::resolved_lightmap_name(scene, inst));
@@ -70,9 +70,11 @@ std::string encode_mesh(const scene::Mesh& m) {
   append(out, static_cast<uint32_t>(nv));
   append(out, static_cast<uint32_t>(nt));
   append(out, static_cast<uint32_t>((normals ? 1u : 0u) | (uvs ? 2u : 0u) | 4u | (materials ? 8u : 0u)));
-  for (const Vec3& p : m.positions) append(out, static_cast<float>(p.x)), append(out, static_cast<float>(p.y)), append(out, static_cast<float>(p.z));
+  for (const Vec3& p : m.positions)
+    append(out, static_cast<float>(p.x)), append(out, static_cast<float>(p.y)), append(out, static_cast<float>(p.z));
   if (normals)
-    for (const Vec3& n : m.normals) append(out, static_cast<float>(n.x)), append(out, static_cast<float>(n.y)), append(out, static_cast<float>(n.z));
+    for (const Vec3& n : m.normals)
+      append(out, static_cast<float>(n.x)), append(out, static_cast<float>(n.y)), append(out, static_cast<float>(n.z));
   if (uvs)
     for (const Point2& q : m.uv) append(out, static_cast<float>(q.x)), append(out, static_cast<float>(q.y));
   for (const Point2& q : m.lightmap_uv) append(out, static_cast<float>(q.x)), append(out, static_cast<float>(q.y));

@@ -30,11 +30,11 @@
 namespace kiln::lightmap {
 
 struct GeneratedMeshUvs {
-  int mesh = 0;          // into the scene's meshes
-  std::string name;      // the mesh's name
-  std::string reason;    // why its own UVs were not used ("always" when asked for every mesh)
-  std::string file;      // NAME_uv.bin
-  std::string bytes;     // its contents: the generated mesh in the kiln mesh layout
+  int mesh = 0;        // into the scene's meshes
+  std::string name;    // the mesh's name
+  std::string reason;  // why its own UVs were not used ("always" when asked for every mesh)
+  std::string file;    // NAME_uv.bin
+  std::string bytes;   // its contents: the generated mesh in the kiln mesh layout
   uvgen::UvgenStats stats;
 };
 

@@ -146,8 +146,8 @@ void project(const MeshAdjacency& adj, FlatChart& flat) {
   flat.uv.clear();
   for (uint32_t t : flat.triangles) {
     const std::array<Vec3, 3> p = corners(adj.mesh(), t);
-    flat.uv.push_back({Point2{dot(p[0], u), dot(p[0], v)}, Point2{dot(p[1], u), dot(p[1], v)},
-                       Point2{dot(p[2], u), dot(p[2], v)}});
+    flat.uv.push_back(
+        {Point2{dot(p[0], u), dot(p[0], v)}, Point2{dot(p[1], u), dot(p[1], v)}, Point2{dot(p[2], u), dot(p[2], v)}});
   }
   flat.method = FlattenMethod::projection;
 }

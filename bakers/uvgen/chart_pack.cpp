@@ -22,7 +22,8 @@ double cross(const Point2& o, const Point2& a, const Point2& b) {
 
 // Andrew's monotone chain.
 std::vector<Point2> convex_hull(std::vector<Point2> pts) {
-  std::sort(pts.begin(), pts.end(), [](const Point2& a, const Point2& b) { return std::tie(a.x, a.y) < std::tie(b.x, b.y); });
+  std::sort(pts.begin(), pts.end(),
+            [](const Point2& a, const Point2& b) { return std::tie(a.x, a.y) < std::tie(b.x, b.y); });
   if (pts.size() < 3) return pts;
   std::vector<Point2> hull(2 * pts.size());
   size_t k = 0;
@@ -152,7 +153,8 @@ PackedCharts pack_charts(std::vector<FlatChart>& charts, const PackOptions& opti
     const double sx = packed.texels_per_unit > 0 ? packed.texels_per_unit : p.w / sides[i].x;
     const double sy = packed.texels_per_unit > 0 ? packed.texels_per_unit : p.h / sides[i].y;
     for (auto& q : charts[i].uv)
-      for (Point2& pt : q) pt = {(p.x + std::min(pt.x * sx, double(p.w))) * inv, (p.y + std::min(pt.y * sy, double(p.h))) * inv};
+      for (Point2& pt : q)
+        pt = {(p.x + std::min(pt.x * sx, double(p.w))) * inv, (p.y + std::min(pt.y * sy, double(p.h))) * inv};
   }
   return packed;
 }

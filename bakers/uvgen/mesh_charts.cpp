@@ -118,7 +118,8 @@ MeshAdjacency::MeshAdjacency(const scene::Mesh& mesh, const ChartOptions& option
       size_t best = j;
       for (size_t b = a + 1; b < j; ++b) {
         if (paired[b - i] || edges[b].forward == edges[a].forward || edges[b].t == edges[a].t) continue;
-        if (best == j || dot(normal_[edges[a].t], normal_[edges[b].t]) > dot(normal_[edges[a].t], normal_[edges[best].t]))
+        if (best == j ||
+            dot(normal_[edges[a].t], normal_[edges[b].t]) > dot(normal_[edges[a].t], normal_[edges[best].t]))
           best = b;
       }
       if (best == j) continue;
@@ -157,8 +158,8 @@ std::vector<Chart> grow_charts(const MeshAdjacency& adj, const ChartOptions& opt
       const Vec3 mean = normalize(sum);
       for (int e = 0; e < 3; ++e) {
         const int64_t u = adj.neighbour(t, e);
-        if (u >= 0 && chart_of[u] < 0) queue.push({1 - dot(adj.normal(static_cast<uint32_t>(u)), mean),
-                                                   static_cast<uint32_t>(u)});
+        if (u >= 0 && chart_of[u] < 0)
+          queue.push({1 - dot(adj.normal(static_cast<uint32_t>(u)), mean), static_cast<uint32_t>(u)});
       }
     };
     push_neighbours(seed);
@@ -228,8 +229,9 @@ std::vector<Chart> split_chart(const MeshAdjacency& adj, const Chart& chart) {
   auto coordinate = [&](size_t i) { return axis == 0 ? centroid[i].x : (axis == 1 ? centroid[i].y : centroid[i].z); };
   std::vector<size_t> order(chart.size());
   std::iota(order.begin(), order.end(), size_t{0});
-  std::sort(order.begin(), order.end(),
-            [&](size_t a, size_t b) { return std::make_pair(coordinate(a), chart[a]) < std::make_pair(coordinate(b), chart[b]); });
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return std::make_pair(coordinate(a), chart[a]) < std::make_pair(coordinate(b), chart[b]);
+  });
   Chart first, second;
   for (size_t k = 0; k < order.size(); ++k) (k < order.size() / 2 ? first : second).push_back(chart[order[k]]);
   std::vector<Chart> out;

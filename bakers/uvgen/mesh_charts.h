@@ -3,9 +3,9 @@
 //
 // ## Which edges a chart may span
 // Positions are welded (bitwise-equal positions are one vertex), so an edge two triangles share in space is shared
-// even where the mesh split its vertices for normals or texture UVs. An edge joins two triangles that run it in opposite
-// directions (where more than two meet, each is paired with the opposite-running one whose normal is closest), unless
-// it is cut. Cut edges are:
+// even where the mesh split its vertices for normals or texture UVs. An edge joins two triangles that run it in
+// opposite directions (where more than two meet, each is paired with the opposite-running one whose normal is closest),
+// unless it is cut. Cut edges are:
 //   - hard edges: the dihedral angle exceeds `hard_angle_degrees`, or the mesh gives the two triangles different
 //     normals at a shared position (the exporter's split normals: an artist's hard edge);
 //   - texture seams (with `split_at_texture_seams`): different texture UVs at a shared position. Cutting there puts

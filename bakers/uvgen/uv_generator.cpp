@@ -46,7 +46,7 @@ scene::Mesh build_mesh(const scene::Mesh& in, const std::vector<FlatChart>& char
   const size_t nv = in.positions.size();
   const bool normals = in.normals.size() == nv, uvs = in.uv.size() == nv;
   out.lightmap_uv.assign(nv, Point2{0, 0});
-  std::vector<int64_t> owner(nv, -1);  // the chart that has the vertex itself
+  std::vector<int64_t> owner(nv, -1);             // the chart that has the vertex itself
   std::unordered_map<uint64_t, uint32_t> copies;  // (vertex, chart) → the copy's index
   for (size_t c = 0; c < charts.size(); ++c) {
     for (size_t k = 0; k < charts[c].triangles.size(); ++k) {
@@ -110,7 +110,8 @@ GeneratedUvs generate_lightmap_uvs(const scene::Mesh& mesh, const UvgenOptions& 
   GeneratedUvs result;
   UvgenStats& stats = result.stats;
   const MeshAdjacency adj(mesh, options.charts);
-  for (size_t t = 0; t < adj.triangle_count(); ++t) stats.triangles_uncharted += adj.usable(static_cast<uint32_t>(t)) ? 0 : 1;
+  for (size_t t = 0; t < adj.triangle_count(); ++t)
+    stats.triangles_uncharted += adj.usable(static_cast<uint32_t>(t)) ? 0 : 1;
   stop.check();
   std::vector<FlatChart> charts = flatten_all(adj, grow_charts(adj, options.charts), options.flatten, stop);
   for (int round = 0;; ++round) {
@@ -149,9 +150,9 @@ GeneratedUvs generate_lightmap_uvs(const scene::Mesh& mesh, const UvgenOptions& 
   }
   stats.charts = static_cast<int>(charts.size());
   for (const FlatChart& c : charts) {
-    (c.method == FlattenMethod::lscm ? stats.lscm_charts
-                                     : c.method == FlattenMethod::projection ? stats.projection_charts
-                                                                              : stats.single_charts)++;
+    (c.method == FlattenMethod::lscm         ? stats.lscm_charts
+     : c.method == FlattenMethod::projection ? stats.projection_charts
+                                             : stats.single_charts)++;
   }
   stats.quality = measure_uv_quality(result.mesh);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

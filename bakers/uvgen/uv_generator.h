@@ -40,9 +40,9 @@ struct UvgenOptions {
 struct UvgenStats {
   int charts = 0;
   int lscm_charts = 0, projection_charts = 0, single_charts = 0;
-  int split_rounds = 0;      // rounds of splitting charts whose UVs overlapped
-  PackedCharts pack;         // the square the charts were packed in
-  UvQuality quality;         // of the generated UVs (overlaps: 0)
+  int split_rounds = 0;  // rounds of splitting charts whose UVs overlapped
+  PackedCharts pack;     // the square the charts were packed in
+  UvQuality quality;     // of the generated UVs (overlaps: 0)
   int64_t vertices_added = 0;
   int64_t triangles_uncharted = 0;  // unusable triangles (no chart)
   double seconds = 0;

@@ -11,15 +11,16 @@ namespace kiln::uvgen {
 namespace {
 
 double angle(const Vec3& a, const Vec3& b) { return std::atan2(length(cross(a, b)), dot(a, b)); }
-double angle(const Point2& a, const Point2& b) { return std::atan2(std::fabs(a.x * b.y - a.y * b.x), a.x * b.x + a.y * b.y); }
+double angle(const Point2& a, const Point2& b) {
+  return std::atan2(std::fabs(a.x * b.y - a.y * b.x), a.x * b.x + a.y * b.y);
+}
 Point2 minus(const Point2& a, const Point2& b) { return {a.x - b.x, a.y - b.y}; }
 
 }  // namespace
 
 void DistortionSums::add(const std::array<Vec3, 3>& p, const std::array<Point2, 3>& q) {
   const double a3 = 0.5 * length(cross(p[1] - p[0], p[2] - p[0]));
-  const double a2_signed =
-      0.5 * ((q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[2].x - q[0].x) * (q[1].y - q[0].y));
+  const double a2_signed = 0.5 * ((q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[2].x - q[0].x) * (q[1].y - q[0].y));
   const double a2 = std::fabs(a2_signed);
   if (!(a3 > 0) || !(a2 > 0) || !std::isfinite(a3) || !std::isfinite(a2)) return;
   // Sander et al.: the partial derivatives of the surface point along s and t (the UV axes).

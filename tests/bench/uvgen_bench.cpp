@@ -13,13 +13,13 @@
 //
 //   uvgen_bench [--size=1024] [--table_out=FILE] [--obj=FILE ...]
 #include <chrono>
-#include <ctime>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fstream>
-#include <stdexcept>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -99,8 +99,9 @@ int main(int argc, char** argv) {
   options.pack.padding = 4;
   char line[512];
   std::string table;
-  std::snprintf(line, sizeof line, "| mesh | triangles | charts (LSCM / projected / single) | rounds | utilisation | "
-                                   "L2 stretch | angle error (°) | overlaps | seconds | CPU s / 100k triangles |\n");
+  std::snprintf(line, sizeof line,
+                "| mesh | triangles | charts (LSCM / projected / single) | rounds | utilisation | "
+                "L2 stretch | angle error (°) | overlaps | seconds | CPU s / 100k triangles |\n");
   table += line;
   table += "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   for (const test::NamedMesh& m : meshes) {
@@ -111,11 +112,10 @@ int main(int argc, char** argv) {
     const uvgen::UvgenStats& s = g.stats;
     const double per_100k = cpu / std::max<double>(1, static_cast<double>(s.quality.triangles)) * 1e5;
     std::snprintf(line, sizeof line,
-                  "| %s | %lld | %d (%d / %d / %d) | %d | %.3f | %.4f | %.2f | %lld | %.3f | %.2f |\n",
-                  m.name.c_str(), static_cast<long long>(s.quality.triangles), s.charts, s.lscm_charts,
-                  s.projection_charts, s.single_charts, s.split_rounds, s.quality.utilisation, s.quality.l2_stretch,
-                  s.quality.mean_angle_error_degrees, static_cast<long long>(s.quality.overlaps), s.seconds,
-                  per_100k);
+                  "| %s | %lld | %d (%d / %d / %d) | %d | %.3f | %.4f | %.2f | %lld | %.3f | %.2f |\n", m.name.c_str(),
+                  static_cast<long long>(s.quality.triangles), s.charts, s.lscm_charts, s.projection_charts,
+                  s.single_charts, s.split_rounds, s.quality.utilisation, s.quality.l2_stretch,
+                  s.quality.mean_angle_error_degrees, static_cast<long long>(s.quality.overlaps), s.seconds, per_100k);
     table += line;
     std::fputs(line, stdout);
     std::fflush(stdout);

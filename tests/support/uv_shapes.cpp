@@ -122,7 +122,8 @@ scene::Mesh uv_blob(bool mirrored_lightmap) {
   });
   // Texture UVs that mirror: both halves (x < 0 and x > 0) map onto the same half of the texture.
   double reach_x = 0, lo_y = INFINITY, hi_y = -INFINITY;
-  for (const Vec3& p : m.positions) reach_x = std::max(reach_x, std::fabs(p.x)), lo_y = std::min(lo_y, p.y), hi_y = std::max(hi_y, p.y);
+  for (const Vec3& p : m.positions)
+    reach_x = std::max(reach_x, std::fabs(p.x)), lo_y = std::min(lo_y, p.y), hi_y = std::max(hi_y, p.y);
   for (size_t i = 0; i < m.positions.size(); ++i) {
     const Vec3& p = m.positions[i];
     m.uv[i] = {0.5 * std::fabs(p.x) / reach_x + (p.z < 0 ? 0.5 : 0.0), (hi_y - p.y) / (hi_y - lo_y)};
@@ -137,9 +138,9 @@ scene::Mesh uv_room() {
   for (double x : {-0.75, 0.7})
     for (double z : {-0.45, 0.4}) append(m, box({x, 0, z}, {x + 0.05, 0.7, z + 0.05}, false));  // legs
   for (double z : {-1.0, 0.6}) {
-    append(m, box({-0.25, 0.45, z}, {0.25, 0.5, z + 0.4}, false));                           // seat
+    append(m, box({-0.25, 0.45, z}, {0.25, 0.5, z + 0.4}, false));                                       // seat
     append(m, box({-0.25, 0.5, z < 0 ? z : z + 0.35}, {0.25, 1.0, z < 0 ? z + 0.05 : z + 0.4}, false));  // back
-    append(m, box({-0.22, 0, z + 0.02}, {0.22, 0.45, z + 0.38}, false));                     // base
+    append(m, box({-0.22, 0, z + 0.02}, {0.22, 0.45, z + 0.38}, false));                                 // base
   }
   return m;
 }
@@ -147,18 +148,24 @@ scene::Mesh uv_room() {
 scene::Mesh uv_scan(int triangles) {
   const int rings = std::max(4, static_cast<int>(std::lround(std::sqrt(triangles / 4.0))));
   // Bumps of a few wavelengths, as a scanned stone or statue has: smooth but nowhere flat.
-  scene::Mesh m = parametric(2 * rings, rings, [](double u, double v) {
-    const Vec3 d = on_sphere(u, v);
-    const double r = 1 + 0.08 * std::sin(7 * d.x + 1) * std::sin(5 * d.y + 2) * std::sin(6 * d.z) +
-                     0.03 * std::sin(23 * d.x) * std::sin(19 * d.z + 1);
-    return d * r;
-  }, false);
+  scene::Mesh m = parametric(
+      2 * rings, rings,
+      [](double u, double v) {
+        const Vec3 d = on_sphere(u, v);
+        const double r = 1 + 0.08 * std::sin(7 * d.x + 1) * std::sin(5 * d.y + 2) * std::sin(6 * d.z) +
+                         0.03 * std::sin(23 * d.x) * std::sin(19 * d.z + 1);
+        return d * r;
+      },
+      false);
   m.uv.clear();  // a scan has no texture UVs
   return m;
 }
 
 std::vector<NamedMesh> uv_generated_set() {
-  return {{"torus", uv_torus()}, {"sphere", uv_sphere()}, {"blob", uv_blob()}, {"room", uv_room()},
+  return {{"torus", uv_torus()},
+          {"sphere", uv_sphere()},
+          {"blob", uv_blob()},
+          {"room", uv_room()},
           {"scan_100k", uv_scan(100000)}};
 }
 

@@ -92,8 +92,8 @@ TEST(UvGenerator, SameMeshSameBytes) {
   const GeneratedUvs a = generate_lightmap_uvs(blob, options_at(256));
   const GeneratedUvs b = generate_lightmap_uvs(blob, options_at(256));
   ASSERT_EQ(a.mesh.lightmap_uv.size(), b.mesh.lightmap_uv.size());
-  EXPECT_EQ(0, std::memcmp(a.mesh.lightmap_uv.data(), b.mesh.lightmap_uv.data(),
-                           a.mesh.lightmap_uv.size() * sizeof(Point2)));
+  EXPECT_EQ(
+      0, std::memcmp(a.mesh.lightmap_uv.data(), b.mesh.lightmap_uv.data(), a.mesh.lightmap_uv.size() * sizeof(Point2)));
   EXPECT_EQ(a.mesh.indices, b.mesh.indices);
   EXPECT_EQ(a.mesh.positions.size(), b.mesh.positions.size());
 }
@@ -113,11 +113,11 @@ TEST(UvGenerator, BadMeshesDoNotCrash) {
   scene::Mesh m = test::uv_plane(2);
   const auto n = static_cast<uint32_t>(m.positions.size());
   m.positions.push_back({NAN, 0, 0});
-  m.indices.insert(m.indices.end(), {0, 1, n});          // a NaN corner
-  m.indices.insert(m.indices.end(), {0, 1, n + 7});      // out of range
-  m.indices.insert(m.indices.end(), {0, 0, 1});          // zero area
-  m.indices.insert(m.indices.end(), {0, 1, 2});          // collinear: the grid's first row
-  m.indices.push_back(3);                                // not a whole triangle
+  m.indices.insert(m.indices.end(), {0, 1, n});      // a NaN corner
+  m.indices.insert(m.indices.end(), {0, 1, n + 7});  // out of range
+  m.indices.insert(m.indices.end(), {0, 0, 1});      // zero area
+  m.indices.insert(m.indices.end(), {0, 1, 2});      // collinear: the grid's first row
+  m.indices.push_back(3);                            // not a whole triangle
   const GeneratedUvs g = generate_lightmap_uvs(m, options_at(64));
   EXPECT_EQ(g.stats.quality.overlaps, 0);
   EXPECT_EQ(g.stats.triangles_uncharted, 4);
@@ -150,8 +150,8 @@ TEST(UvGenerator, ChartsArePaddingTexelsApart) {
   }
   for (int i = 0; i < 6; ++i) {
     for (int j = i + 1; j < 6; ++j) {
-      const double gap = std::max({boxes[j].x0 - boxes[i].x1, boxes[i].x0 - boxes[j].x1, boxes[j].y0 - boxes[i].y1,
-                                   boxes[i].y0 - boxes[j].y1});
+      const double gap = std::max(
+          {boxes[j].x0 - boxes[i].x1, boxes[i].x0 - boxes[j].x1, boxes[j].y0 - boxes[i].y1, boxes[i].y0 - boxes[j].y1});
       EXPECT_GE(gap, padding - 1e-9) << i << " " << j;
     }
   }
