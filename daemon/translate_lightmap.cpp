@@ -484,6 +484,21 @@ lightmap::ErrorMetric error_metric(kiln::v1::LightmapErrorMetric m) {
   }
 }
 
+uvgen::GenerateUvs generate_uvs(kiln::v1::GenerateUvs g) {
+  switch (g) {
+    case kiln::v1::GENERATE_UVS_DEFAULT:
+    case kiln::v1::GENERATE_UVS_AUTO:
+      return uvgen::GenerateUvs::automatic;
+    case kiln::v1::GENERATE_UVS_ALWAYS:
+      return uvgen::GenerateUvs::always;
+    case kiln::v1::GENERATE_UVS_NEVER:
+      return uvgen::GenerateUvs::never;
+    default:
+      throw InvalidField(kPath + ".generate_uvs", "unknown value " + std::to_string(static_cast<int>(g)) +
+                                                      ": GENERATE_UVS_AUTO (1), _ALWAYS (2) or _NEVER (3)");
+  }
+}
+
 // Padding, bounces, which outputs to write and what the target error measures.
 void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& in) {
   set_count(j.has_padding(), j.padding(), kPath + ".padding", bounds::kLightmapPadding, in.padding);
@@ -495,6 +510,7 @@ void bake_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput& 
   in.denoise = j.denoise();
   in.stitch_seams = !j.has_stitch_seams() || j.stitch_seams();
   in.error_metric = error_metric(j.error_metric());
+  in.generate_uvs = generate_uvs(j.generate_uvs());
   if (j.has_memory_limit_bytes()) {
     const uint64_t limit = j.memory_limit_bytes();
     const bounds::WholeRange range = bounds::kLightmapMemoryLimit;
@@ -653,6 +669,7 @@ std::string scene_hash(const kiln::v1::LightmapJob& j) {
   scene_part.clear_denoise();
   scene_part.clear_stitch_seams();
   scene_part.clear_error_metric();
+  scene_part.clear_generate_uvs();
   scene_part.clear_texel_density();
   scene_part.clear_page_size();
   scene_part.clear_max_pages();
@@ -723,7 +740,8 @@ std::string lightmap_canonical_text(const BakeRequest& r) {
   for (const auto& [effect, on] : in.force_effects) o << effect << (on ? "+" : "-") << ";";
   o << "\nradiance=" << in.radiance << "\nao=" << in.ao << "\ndirectional=" << in.directional
     << "\npreview=" << in.preview << "\ndenoise=" << in.denoise << "\nstitch_seams=" << in.stitch_seams
-    << "\nerror_metric=" << lightmap::to_string(in.error_metric) << "\n";
+    << "\nerror_metric=" << lightmap::to_string(in.error_metric)
+    << "\ngenerate_uvs=" << uvgen::to_string(in.generate_uvs) << "\n";
   // Tiles change the bytes (not the answer beyond the noise): a tiled bake is another result. Untiled bakes keep the
   // key they had before tiles existed.
   if (in.tile_size > 0) o << "tile_size=" << in.tile_size << "\n";

@@ -94,6 +94,7 @@ std::string describe_output(const std::string& n) {
   if (ends("_ao.exr")) return "ambient occlusion per texel";
   if (ends("_sh.exr")) return "order-1 spherical harmonics of incoming radiance: 4 RGB coefficients (12 channels)";
   if (ends("_preview.png")) return "the irradiance lightmap through the display transform, for people";
+  if (ends("_uv.bin")) return "the mesh with its generated lightmap UVs, in the kiln mesh layout (kiln.proto)";
   return {};
 }
 

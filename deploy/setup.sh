@@ -11,6 +11,7 @@ packages=(
   libboost-dev libboost-system-dev libboost-iostreams-dev libprotobuf-dev protobuf-compiler libtbb-dev
   libsqlite3-dev libssl-dev openssl python3 python3-protobuf libassimp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libcgal-dev libeigen3-dev  # the lightmap-UV generator's chart flattening (bakers/uvgen/), header-only
   clang-14 libclang-rt-14-dev  # the sanitizer stage and the fuzz targets (deploy/sanitize.sh, tests/fuzz/)
   python3-venv python3-pip python3-setuptools python3-wheel  # the Python client's package and its install test
   help2man  # the man pages, made from each program's --help (cmake/install.cmake)

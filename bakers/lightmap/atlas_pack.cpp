@@ -9,6 +9,7 @@
 #include "bakers/bake/invalid_input.h"
 #include "bakers/bake/number_format.h"
 #include "bakers/bake/range_check.h"
+#include "bakers/math/skyline.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -107,55 +108,6 @@ ChartSize chart_size(const Chart& c, double f, int limit) {
   }
   return s;
 }
-
-// The skyline of one page: the heights of the columns in use, as runs of equal height, left to right.
-class Skyline {
- public:
-  explicit Skyline(int size) : size_(size), runs_{{0, 0, size}} {}
-
-  // The lowest, then leftmost, position of a w × h rectangle; false when there is none.
-  bool find(int w, int h, int& best_x, int& best_y) const {
-    best_y = std::numeric_limits<int>::max();
-    best_x = 0;
-    for (size_t i = 0; i < runs_.size(); ++i) {
-      const int x = runs_[i].x;
-      if (x + w > size_) break;
-      int y = 0;
-      for (size_t j = i; j < runs_.size() && runs_[j].x < x + w; ++j) y = std::max(y, runs_[j].y);
-      if (y + h <= size_ && y < best_y) best_y = y, best_x = x;
-    }
-    return best_y != std::numeric_limits<int>::max();
-  }
-
-  void place(int x, int y, int w, int h) {
-    std::vector<Run> next;
-    for (const Run& r : runs_) {
-      const int end = r.x + r.w;
-      if (end <= x || r.x >= x + w) {
-        next.push_back(r);
-        continue;
-      }
-      if (r.x < x) next.push_back({r.x, r.y, x - r.x});
-      if (r.x <= x) next.push_back({x, y + h, w});
-      if (end > x + w) next.push_back({x + w, r.y, end - (x + w)});
-    }
-    runs_.clear();
-    for (const Run& r : next) {
-      if (!runs_.empty() && runs_.back().y == r.y) {
-        runs_.back().w += r.w;
-      } else {
-        runs_.push_back(r);
-      }
-    }
-  }
-
- private:
-  struct Run {
-    int x, y, w;
-  };
-  int size_;
-  std::vector<Run> runs_;
-};
 
 struct Placement {
   int page = -1, x = 0, y = 0;  // of the chart's allocation (padding included)

@@ -28,6 +28,7 @@
 #include "bakers/lightmap/lightmap_report.h"
 #include "bakers/lightmap/lightmap_results.h"
 #include "bakers/lightmap/lightmap_state.h"
+#include "bakers/lightmap/lightmap_uvgen.h"
 #include "bakers/lightmap/memory.h"
 #include "bakers/lightmap/memory_estimate.h"
 #include "bakers/lightmap/seams.h"
@@ -72,6 +73,7 @@ struct LightmapBakeRun {
 
   scene::CheckedScene checked;  // the scene as baked: textures and environment decoded, then cleaned
   std::optional<AtlasPack> atlas;  // when the input packs atlas pages
+  std::vector<GeneratedMeshUvs> generated_uvs;  // the meshes that got generated lightmap UVs
   std::vector<std::string> output_names;  // of every output handed over so far, in order
   std::string color_space;      // the working space every output is in
   plan::LightmapPlan plan;
@@ -163,6 +165,10 @@ void prepare_scene(LightmapBakeRun& run) {
   run.stop.check();
   decode_environment(run, input);
   run.stop.check();
+  // Within the "scene" stage's time; report.json's generated_uvs gives each mesh's seconds.
+  run.stage = "lightmap UV generation";
+  run.generated_uvs = generate_scene_uvs(input, run.in, run.stop);
+  run.stage = "scene";
   if (run.in.atlas.texel_density > 0) {
     AtlasOptions options = run.in.atlas;
     options.padding = run.in.padding;
@@ -327,7 +333,7 @@ void rasterize_texels(LightmapBakeRun& run) {
   if (run.maps.empty()) {
     throw bake::InvalidInput("",
                              "nothing to bake: no instance has a lightmap (meshes need lightmap UVs, TEXCOORD_1 "
-                             "or TEXCOORD_0, and instances with bake set); " +
+                             "or TEXCOORD_0, or generate_uvs other than never, and instances with bake set); " +
                                  run.checked.report.summary());
   }
   run.progress(0.05, "texels", -1);
@@ -611,6 +617,11 @@ void write_report(LightmapBakeRun& run) {
   report.scene_problems = run.checked.report.total();
   report.denoise = run.in.denoise ? &run.in.denoise_options : nullptr;
   report.atlas = run.atlas ? &*run.atlas : nullptr;
+  report.generate_uvs = run.in.generate_uvs;
+  report.generated_uvs = &run.generated_uvs;
+  for (GeneratedMeshUvs& g : run.generated_uvs) {
+    OutputStream(run.control, run.result.outputs, run.output_names).push_back(generated_uvs_output(g));
+  }
   OutputStream(run.control, run.result.outputs, run.output_names)
       .push_back({"report.json", "application/json", "", report_json(run.result, report)});
 }
@@ -687,7 +698,7 @@ std::vector<TiledPage> bin_pages(LightmapBakeRun& run, const std::vector<std::ve
   if (pages.empty()) {
     throw bake::InvalidInput("",
                              "nothing to bake: no instance has a lightmap (meshes need lightmap UVs, TEXCOORD_1 "
-                             "or TEXCOORD_0, and instances with bake set); " +
+                             "or TEXCOORD_0, or generate_uvs other than never, and instances with bake set); " +
                                  run.checked.report.summary());
   }
   return pages;

@@ -14,6 +14,8 @@
 //   NAME_preview.png      the irradiance through OpenColorIO's display transform
 //   report.json           plan, samples, rays, time, error estimate, error-versus-time curve, scene problems, memory
 //   lightmaps.json        when atlas.texel_density is set: each instance's page, scale and offset (lightmap_manifest.h)
+//   MESH_uv.bin           per mesh that got generated lightmap UVs (lightmap_uvgen.h): the mesh with them, in the kiln
+//                         mesh layout
 #pragma once
 
 #include <cstdint>
@@ -33,12 +35,13 @@
 #include "bakers/lightmap/memory_estimate.h"
 #include "bakers/plan/decision.h"
 #include "bakers/scene/scene.h"
+#include "bakers/uvgen/uv_generator.h"
 
 namespace kiln::lightmap {
 
 class RayLog;
 
-inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-8";
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-9";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
 struct EncodedTexture {
@@ -63,6 +66,10 @@ struct LightmapBakeInput {
   // (`resolution` and `resolutions` do not apply), charts are `padding` texels apart (at least 2; atlas.padding is
   // not read) and lightmaps.json is written. 0: no packing, each instance bakes where the scene puts it.
   AtlasOptions atlas;
+  // Lightmap UVs generated (lightmap_uvgen.h) for the meshes whose own are unusable (automatic: none, outside
+  // [0, 1], or overlapping themselves), for every mesh (always) or for none (never); NAME_uv.bin holds each generated
+  // mesh and report.json's generated_uvs its charts and quality.
+  uvgen::GenerateUvs generate_uvs = uvgen::GenerateUvs::automatic;
 
   double target_error = 0.01;  // the error per texel, under error_metric, the adaptive sampling aims at
   ErrorMetric error_metric = ErrorMetric::lightmap;  // what target_error measures (error_metric.h)

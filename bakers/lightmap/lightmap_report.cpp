@@ -166,6 +166,9 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
     for (const LightmapReportEntry& m : report.lightmaps) valid[m.name] = m.error.valid;
     j["atlas"] = Json::parse(atlas_report_json(*report.atlas, valid));
   }
+  if (report.generated_uvs) {
+    j["generated_uvs"] = Json::parse(generated_uvs_json(report.generate_uvs, *report.generated_uvs));
+  }
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
   return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
 }

@@ -15,6 +15,7 @@
 #include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/lightmap/lightmap_image.h"
 #include "bakers/lightmap/lightmap_outputs.h"
+#include "bakers/lightmap/lightmap_uvgen.h"
 #include "bakers/lightmap/memory.h"
 #include "bakers/lightmap/stage_timer.h"
 #include "bakers/lightmap/seams.h"
@@ -52,6 +53,8 @@ struct LightmapReport {
   const DenoiseOptions* denoise = nullptr;  // the denoiser's settings when NAME_irradiance_denoised.exr was asked for
   double denoise_seconds = 0;               // its guides and filter, over every lightmap
   const AtlasPack* atlas = nullptr;         // when the bake packed atlas pages: "atlas", its pages and regions
+  uvgen::GenerateUvs generate_uvs = uvgen::GenerateUvs::automatic;
+  const std::vector<GeneratedMeshUvs>* generated_uvs = nullptr;  // "generated_uvs": the meshes that got them
 };
 
 // The JSON text, ending in a newline.

@@ -49,6 +49,11 @@ atlas pages (none of these: one lightmap per mesh at --resolution):
   --memory-limit BYTES         the most memory the bake may hold, [64M, 1P], e.g. 4G (K, M, G, T: x1024); default
                                and upper bound: the server's --memory-limit. A bake larger than that samples its
                                lightmaps a tile at a time (the same images within the noise; report.json's memory)
+lightmap UVs:
+  --generate-uvs M             auto (default): kilnd generates lightmap UVs for meshes without usable ones (none,
+                               outside [0, 1], or overlapping: mirrored or shared texture UVs); always: for every
+                               mesh; never: a mesh without usable UVs gets no lightmap. Each mesh that got them is
+                               written as MESH_uv.bin (kiln mesh layout) and listed in report.json's generated_uvs
   --max-bounces N              cap on the bounces the planner chooses, [0, 1024]; default 64
   --radiance                   also write NAME_radiance.exr (rho E / pi)
   --ao                         also write NAME_ao.exr (ambient occlusion)
@@ -77,7 +82,7 @@ namespace {
 const char* const kJobFlags[] = {"--env-constant", "--env-rotation", "--env-intensity", "--resolution",
                                  "--target-error", "--max-samples",  "--time-limit",    "--seed",
                                  "--padding",      "--max-bounces",  "--error-metric",  "--texel-density",
-                                 "--page-size",    "--max-pages",    "--memory-limit"};
+                                 "--page-size",    "--max-pages",    "--memory-limit", "--generate-uvs"};
 
 std::string default_name(const Flags& f, const std::string& scene) {
   std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
@@ -213,6 +218,17 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
       throw UsageError("--error-metric: '" + *v + "' is not a metric: lightmap or texel");
     }
   }
+  if (auto v = f.get("--generate-uvs")) {
+    if (*v == "auto") {
+      job->set_generate_uvs(v1::GENERATE_UVS_AUTO);
+    } else if (*v == "always") {
+      job->set_generate_uvs(v1::GENERATE_UVS_ALWAYS);
+    } else if (*v == "never") {
+      job->set_generate_uvs(v1::GENERATE_UVS_NEVER);
+    } else {
+      throw UsageError("--generate-uvs: '" + *v + "' is not a mode: auto, always or never");
+    }
+  }
   if (f.has("--no-preview")) job->set_preview(false);
   if (f.has("--no-stitch-seams")) job->set_stitch_seams(false);
 
@@ -250,6 +266,7 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
   if (flags.directional()) merged.set_directional(true);
   if (flags.denoise()) merged.set_denoise(true);
   if (flags.error_metric() != v1::LIGHTMAP_ERROR_METRIC_DEFAULT) merged.set_error_metric(flags.error_metric());
+  if (flags.generate_uvs() != v1::GENERATE_UVS_DEFAULT) merged.set_generate_uvs(flags.generate_uvs());
   if (flags.has_preview()) merged.set_preview(flags.preview());
   if (flags.has_stitch_seams()) merged.set_stitch_seams(flags.stitch_seams());
   *bake.spec.mutable_lightmap() = std::move(merged);
@@ -272,6 +289,7 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
       {"directional", "--directional"},
       {"denoise", "--denoise"},
       {"error_metric", "--error-metric"},
+      {"generate_uvs", "--generate-uvs"},
       {"preview", "--no-preview"},
       {"stitch_seams", "--no-stitch-seams"},
       {"environment.constant", "--env-constant"},

@@ -439,7 +439,9 @@ class Importer {
       }
       std::string base_name = m->mName.length ? m->mName.C_Str() : "mesh_" + std::to_string(i);
       if (a.lightmap_uv.empty()) {
-        out_.warnings.push_back("mesh " + base_name + ": no UVs for a lightmap; it casts shadows but is not baked");
+        out_.warnings.push_back("mesh " + base_name +
+                                ": no UVs for a lightmap; kilnd generates them (unless the job's generate_uvs is "
+                                "never, when it casts shadows but is not baked)");
       }
       for (unsigned f = 0; f < m->mNumFaces; ++f) {
         const aiFace& face = m->mFaces[f];
@@ -451,7 +453,6 @@ class Importer {
       out->set_name(unique_name(mesh_names, base_name));
       add_blob(encode_mesh_blob(a), out->mutable_geometry());
       mesh_index_.back() = out_.job.meshes_size() - 1;
-      has_lightmap_uv_.push_back(!a.lightmap_uv.empty());
     }
   }
 
@@ -520,7 +521,6 @@ class Importer {
       } else {
         inst->set_lightmap(wire_name(lightmap));
       }
-      if (!has_lightmap_uv_[mesh]) inst->set_bake(false);
     }
     for (unsigned c = 0; c < node->mNumChildren; ++c) instances(node->mChildren[c], world);
   }
@@ -625,7 +625,6 @@ class Importer {
   std::set<std::string> placement_lightmaps_;  // lightmap names given to placements of shared meshes
   std::map<std::pair<const aiNode*, std::string>, std::string> placement_names_;  // (node, mesh) → its lightmap
   std::vector<int> mesh_index_;                            // aiMesh → job mesh, -1 if dropped
-  std::vector<bool> has_lightmap_uv_;                      // job mesh
   std::map<unsigned, int> uses_;                           // aiMesh → nodes referring to it
   std::multimap<std::string, aiMatrix4x4> world_of_node_;  // in the order the nodes are visited
 };

@@ -1420,6 +1420,8 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
                                                                         "texel",
                                                                         "--no-preview",
                                                                         "--no-stitch-seams",
+                                                                        "--generate-uvs",
+                                                                        "always",
                                                                         "--force",
                                                                         "environment_sampling=on"});
   EXPECT_EQ(bake.scene_file, "scene.gltf");
@@ -1442,6 +1444,7 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   EXPECT_EQ(j.error_metric(), v1::LIGHTMAP_ERROR_METRIC_TEXEL);
   EXPECT_FALSE(j.preview());
   EXPECT_FALSE(j.stitch_seams());
+  EXPECT_EQ(j.generate_uvs(), v1::GENERATE_UVS_ALWAYS);
   EXPECT_EQ(j.environment().constant().g(), 0.5);
   EXPECT_EQ(j.environment().intensity(), 2);
   EXPECT_EQ(bake.spec.quality().samples(), 512u);
@@ -1451,12 +1454,14 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   EXPECT_EQ(r.lightmap().resolution, 32);
   EXPECT_TRUE(r.lightmap().denoise);
   EXPECT_FALSE(r.lightmap().stitch_seams);
+  EXPECT_EQ(r.lightmap().generate_uvs, uvgen::GenerateUvs::always);
   EXPECT_EQ(r.lightmap().scene.materials[0].bsdf.specular.alpha_x, 0.2);
   EXPECT_EQ(r.lightmap().scene.lights[1].type, scene::LightShape::directional);
 
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.resolution"), "--resolution");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.denoise"), "--denoise");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.error_metric"), "--error-metric");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.generate_uvs"), "--generate-uvs");
   EXPECT_EQ(lightmap_field_origin(bake, "job.quality.target_error"), "--target-error");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.environment.intensity"), "--env-intensity");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.meshes[0].geometry"), "scene.gltf");

@@ -175,6 +175,19 @@ TEST(SceneImport, ObjWithoutSecondUvSetUsesTheFirstAndInstancesMaterials) {
   EXPECT_TRUE(clay);
 }
 
+// A mesh with no UVs at all is imported to bake (issue 18): kilnd generates its lightmap UVs; the warning says so.
+// Before, its instance was imported with bake false, and the bake refused the scene for want of lightmap UVs.
+TEST(SceneImport, ObjWithoutUvsStillBakesWithGeneratedUvs) {
+  test::TempDir dir("kiln-import");
+  std::ofstream(dir.path() / "bare.obj") << "o bare\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nf 1 4 3 2\n";
+  const client::ImportedScene s = client::import_scene((dir.path() / "bare.obj").string());
+  ASSERT_EQ(s.job.instances_size(), 1);
+  EXPECT_TRUE(!s.job.instances(0).has_bake() || s.job.instances(0).bake());
+  bool said = false;
+  for (const std::string& w : s.warnings) said |= w.find("kilnd generates them") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
 TEST(SceneImport, UnreadableFilesAreErrorsForPeople) {
   test::TempDir dir("kiln-import");
   try {

@@ -114,6 +114,7 @@ v1::JobSpec full_job() {
   j->set_denoise(true);
   j->set_stitch_seams(false);
   j->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_TEXEL);
+  j->set_generate_uvs(v1::GENERATE_UVS_ALWAYS);
   spec.mutable_quality()->set_samples(256);
   spec.mutable_quality()->set_target_error(0.05);
   spec.mutable_quality()->set_time_limit_seconds(30);
@@ -180,6 +181,7 @@ TEST(TranslateLightmap, EveryFieldMapsOntoTheBakersInput) {
   EXPECT_EQ(in.max_bounces, 5);
   EXPECT_TRUE(in.radiance && in.ao && in.directional && in.denoise);
   EXPECT_EQ(in.error_metric, lightmap::ErrorMetric::texel);
+  EXPECT_EQ(in.generate_uvs, uvgen::GenerateUvs::always);
   EXPECT_FALSE(in.preview);
   EXPECT_FALSE(in.stitch_seams);
   EXPECT_EQ(in.max_samples, 256u);
@@ -230,6 +232,7 @@ TEST(TranslateLightmap, DefaultsAreTheDocumentedOnes) {
   EXPECT_EQ(in.max_samples, 4096u);
   EXPECT_EQ(in.target_error, 0.01);
   EXPECT_EQ(in.error_metric, lightmap::ErrorMetric::lightmap);
+  EXPECT_EQ(in.generate_uvs, uvgen::GenerateUvs::automatic);  // the default: only where a mesh has none usable
   EXPECT_TRUE(in.preview);
   EXPECT_TRUE(in.stitch_seams);
 }
@@ -360,6 +363,8 @@ TEST(TranslateLightmap, BadFieldsAreNamedByTheirPath) {
       {"job.force_effects[warp_drive]", [&](v1::JobSpec& s) { (*s.mutable_force_effects())["warp_drive"] = true; }},
       {"job.lightmap.error_metric",
        [&](v1::JobSpec& s) { lm(s)->set_error_metric(static_cast<v1::LightmapErrorMetric>(7)); }},
+      {"job.lightmap.generate_uvs",
+       [&](v1::JobSpec& s) { lm(s)->set_generate_uvs(static_cast<v1::GenerateUvs>(9)); }},
       {"job.lightmap",
        [&](v1::JobSpec& s) {  // 10 blobs of 500 MiB: beyond the 4 GiB a job may read
          for (int i = 0; i < 10; ++i) {
@@ -490,6 +495,7 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
   explicit_defaults.mutable_lightmap()->set_preview(true);
   explicit_defaults.mutable_lightmap()->set_stitch_seams(true);
   explicit_defaults.mutable_lightmap()->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_LIGHTMAP);
+  explicit_defaults.mutable_lightmap()->set_generate_uvs(v1::GENERATE_UVS_AUTO);
   explicit_defaults.mutable_quality()->set_samples(4096);
   EXPECT_EQ(cache_key(translate(plain), "v"), cache_key(translate(explicit_defaults), "v"));
   // Different: any setting, any blob, any scene field, the baker version.
@@ -502,6 +508,7 @@ TEST(TranslateLightmap, CacheKeyFollowsSettingsAndBlobsOnly) {
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_denoise(false); },  // a raw job shares no entry with it
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_stitch_seams(true); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_error_metric(v1::LIGHTMAP_ERROR_METRIC_LIGHTMAP); },
+      [](v1::JobSpec& s) { s.mutable_lightmap()->set_generate_uvs(v1::GENERATE_UVS_NEVER); },
       [](v1::JobSpec& s) { *s.mutable_lightmap()->mutable_meshes(1)->mutable_geometry() = digest('f'); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_lights(0)->mutable_color()->set_r(11); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_materials(1)->mutable_emission()->set_g(13); },

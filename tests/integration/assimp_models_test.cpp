@@ -4,6 +4,10 @@
 // nothing may send a frame protobuf cannot parse (libprotobuf logs an error when it serialises a string field that
 // is not UTF-8, and kilnd drops the request), and every refusal, at import, at submit or in the bake, says why.
 // The package is a CI dependency (deploy/setup.sh); without it the test is skipped, saying so.
+// Issue 18: meshes without usable lightmap UVs get generated ones (generate_uvs AUTO, the default), so no model is
+// refused for want of lightmap UVs alone; before, 38 of the 97 were ("nothing to bake: no instance has a lightmap").
+// Measured: 66 bake (25 before), 29 are refused at import, 2 fail in the bake (every triangle degenerate or
+// non-finite); on a loaded machine 2CylinderEngine.glb (34 meshes) can run out of the 30 s limit in its set-up.
 #include <gtest/gtest.h>
 
 #include <google/protobuf/stubs/logging.h>
@@ -113,6 +117,16 @@ TEST(AssimpModels, EveryModelImportsAndBakesOrIsRefusedSayingWhy) {
     EXPECT_EQ(final.state(), v1::JOB_STATE_FAILED);
     const v1::JobResult r = c.result(id);
     EXPECT_FALSE(r.error().message().empty());
+    // Whatever else a model's meshes lack, lightmap UVs are generated for them: a mesh is left without lightmap UVs
+    // only when none of its triangles can be baked (every one degenerate, non-finite or out of range; the importer
+    // refuses a file without triangles), and then the refusal names that reason too.
+    const std::string& why = r.error().message();
+    if (why.find("no_lightmap_uv") != std::string::npos) {
+      EXPECT_TRUE(why.find("degenerate_triangle") != std::string::npos ||
+                  why.find("non_finite_vertex") != std::string::npos ||
+                  why.find("index_out_of_range") != std::string::npos)
+          << why;
+    }
     // The first line of the reason (a scene check lists every problem after it).
     outcomes["failed in the bake"].push_back(model + ": " +
                                              r.error().message().substr(0, r.error().message().find('\n')));
@@ -129,7 +143,7 @@ TEST(AssimpModels, EveryModelImportsAndBakesOrIsRefusedSayingWhy) {
     for (const std::string& line : list) std::cout << "    " << line << "\n";
   }
   // What issue 19 found broken: the two OBJ files with Latin-1 material names reach kilnd and are answered (one has
-  // no UVs, so nothing to bake), and the FBX whose texture is a TGA (RLE) bakes with it.
+  // no UVs: it bakes with generated ones since issue 18), and the FBX whose texture is a TGA (RLE) bakes with it.
   const auto answered = [&](const std::string& name) {
     for (const char* outcome : {"baked", "failed in the bake"}) {
       for (const std::string& line : outcomes[outcome]) {
@@ -139,7 +153,7 @@ TEST(AssimpModels, EveryModelImportsAndBakesOrIsRefusedSayingWhy) {
     return std::string("not answered by kilnd");
   };
   EXPECT_EQ(answered("OBJ/regr01.obj"), "baked");
-  EXPECT_EQ(answered("OBJ/box_mat_with_spaces.obj"), "failed in the bake");
+  EXPECT_EQ(answered("OBJ/box_mat_with_spaces.obj"), "baked");
   EXPECT_EQ(answered("FBX/box_orphant_embedded_texture.fbx"), "baked");
 }
 

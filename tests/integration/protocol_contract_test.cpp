@@ -247,8 +247,10 @@ v1::JobSpec mesh_job(const v1::Digest& mesh) {
 TEST(ProtocolContract, LightmapUvsAreRequiredAndBadMeshDataIsDroppedAndReported) {
   Daemon d;
   client::Client c = test::connect(d);
-  // No lightmap UVs anywhere: nothing to bake, the job FAILS naming the lightmap job.
-  const v1::SubmitReply none = c.submit(mesh_job(c.upload_blob(mesh_blob(false, {}, {}))));
+  // No lightmap UVs anywhere and none generated: nothing to bake, the job FAILS naming the lightmap job.
+  v1::JobSpec without = mesh_job(c.upload_blob(mesh_blob(false, {}, {})));
+  without.mutable_lightmap()->set_generate_uvs(v1::GENERATE_UVS_NEVER);
+  const v1::SubmitReply none = c.submit(without);
   EXPECT_EQ(c.watch(none.job_id()).state(), v1::JOB_STATE_FAILED);
   const v1::JobResult failed = c.result(none.job_id());
   EXPECT_EQ(failed.error().code(), v1::Error::INVALID_ARGUMENT) << failed.error().message();

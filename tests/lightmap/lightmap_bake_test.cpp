@@ -378,9 +378,10 @@ TEST(LightmapBake, BadInputIsRefusedByName) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("force_effects"), std::string::npos) << e.what();
   }
-  // Nothing with lightmap UVs: a clear error, not an empty result.
+  // Nothing with lightmap UVs, and none to be generated: a clear error, not an empty result.
   in = lightmap_input(s, 16, 0.01);
   in.scene.meshes[0].lightmap_uv.clear();
+  in.generate_uvs = uvgen::GenerateUvs::never;
   EXPECT_THROW(bake_lightmaps(in), bake::InvalidInput);
 }
 
@@ -408,6 +409,7 @@ TEST(LightmapBake, UndecodableBytesAreNamedByField) {
   EXPECT_EQ(invalid_input(in).field(), "environment_image");
   in = lightmap_input(s, 16, 0.01);
   in.scene.meshes[0].lightmap_uv.clear();
+  in.generate_uvs = uvgen::GenerateUvs::never;
   const bake::InvalidInput nothing = invalid_input(in);
   EXPECT_EQ(nothing.field(), "");
   EXPECT_EQ(nothing.problem().rfind("nothing to bake", 0), 0u) << nothing.problem();

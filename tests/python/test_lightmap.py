@@ -105,7 +105,7 @@ class LightmapJobKeywords(unittest.TestCase):
             environment={"image": sky, "rotation_degrees": 90, "intensity": 2},
             material_overrides=[{"name": "oak", "base_color": 0.25}],
             lightmaps={"floor": 64}, resolution=32, padding=2, max_bounces=4, ao=True, preview=False, denoise=True,
-            stitch_seams=False, error_metric="texel", name="keywords", samples=256, target_error=0.05, seed=9, force_effects={"textures": False})
+            stitch_seams=False, error_metric="texel", generate_uvs="never", name="keywords", samples=256, target_error=0.05, seed=9, force_effects={"textures": False})
         j = job.lightmap
         self.assertEqual([m.name for m in j.meshes], ["floor", "wall"])
         self.assertEqual(j.meshes[0].geometry, floor.digest)
@@ -133,6 +133,7 @@ class LightmapJobKeywords(unittest.TestCase):
         self.assertTrue(j.denoise)
         self.assertTrue(j.HasField("stitch_seams") and not j.stitch_seams)
         self.assertEqual(j.error_metric, kiln.pb.LIGHTMAP_ERROR_METRIC_TEXEL)
+        self.assertEqual(j.generate_uvs, kiln.pb.GENERATE_UVS_NEVER)
         self.assertEqual((job.quality.samples, job.quality.seed), (256, 9))
         self.assertEqual(dict(job.force_effects), {"textures": False})
 

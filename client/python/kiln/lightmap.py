@@ -152,6 +152,9 @@ def lightmap_job(meshes, *, instances=None, materials=None, textures=None, light
       resolution, padding, max_bounces, radiance, ao, directional, preview, denoise, stitch_seams, error_metric
       ("lightmap", the default: errors relative to the lightmap's brightness, or "texel": relative to each texel's
       value): as in kiln.proto.
+      generate_uvs: "auto" (the default: kilnd generates lightmap UVs for meshes without usable ones: none, outside
+      [0, 1], or overlapping), "always" (every mesh) or "never"; each mesh that got them comes back as MESH_uv.bin
+      (the kiln mesh layout of kiln.proto, as kiln.mesh() writes it) and in report.json's generated_uvs.
       texel_density (texels per metre), page_size, max_pages: atlas pages, as in kiln.proto: every instance's chart
       packed into pages page0, page1, ... at that density; the outputs are per page, with lightmaps.json (each
       instance's page, scale and offset).
