@@ -8,6 +8,7 @@
 #include <system_error>
 
 #include "client/cli/args.h"
+#include "client/cli/format.h"
 #include "client/cli/job_file.h"
 #include "proto/kiln_build.pb.h"
 
@@ -43,12 +44,12 @@ BakeChecks checks_of(const build::v1::Checks& c, const std::string& at) {
   BakeChecks checks;
   const auto positive = [&](const char* name, double v) {
     if (!(v > 0) || !std::isfinite(v)) {
-      throw UsageError(at + ": checks." + name + ": must be a positive number, got " + std::to_string(v));
+      throw UsageError(at + ": checks." + name + ": must be a positive number, got " + format_number(v));
     }
     return v;
   };
   const auto fraction = [&](const char* name, double v) {
-    if (!(v >= 0 && v <= 1)) throw UsageError(at + ": checks." + name + ": must be in [0, 1], got " + std::to_string(v));
+    if (!(v >= 0 && v <= 1)) throw UsageError(at + ": checks." + name + ": must be in [0, 1], got " + format_number(v));
     return v;
   };
   if (c.has_max_error()) checks.max_error = positive("max_error", c.max_error());
