@@ -73,10 +73,10 @@ void check_reciprocity(double limit, const Json& report, std::vector<CheckFailur
     return;
   }
   if (d.get<double>() <= limit) return;
-  failures.push_back({"checks.max_reciprocity_error",
-                      "checks.max_reciprocity_error: f(o,i) and f(i,o) differ by up to " + number(d.get<double>()) +
-                          " (relative), above the limit " + number(limit) +
-                          "; the model is not reciprocal at these parameters, or raise the limit"});
+  failures.push_back(
+      {"checks.max_reciprocity_error", "checks.max_reciprocity_error: f(o,i) and f(i,o) differ by up to " +
+                                           number(d.get<double>()) + " (relative), above the limit " + number(limit) +
+                                           "; the model is not reciprocal at these parameters, or raise the limit"});
 }
 
 void check_invalid_texels(double limit, const Json& report, std::vector<CheckFailure>& failures) {
@@ -95,12 +95,12 @@ void check_invalid_texels(double limit, const Json& report, std::vector<CheckFai
   }
   const double invalid = 1 - valid / texels;
   if (invalid <= limit) return;
-  failures.push_back({"checks.max_invalid_texels",
-                      "checks.max_invalid_texels: " + percent(invalid) + " of the lightmaps' texels are invalid (" +
-                          format_count(static_cast<std::uint64_t>(texels - valid)) + " of " +
-                          format_count(static_cast<std::uint64_t>(texels)) +
-                          " covered by no triangle), above the limit " + percent(limit) +
-                          "; pack the lightmap UVs tighter, or raise the limit"});
+  failures.push_back({"checks.max_invalid_texels", "checks.max_invalid_texels: " + percent(invalid) +
+                                                       " of the lightmaps' texels are invalid (" +
+                                                       format_count(static_cast<std::uint64_t>(texels - valid)) +
+                                                       " of " + format_count(static_cast<std::uint64_t>(texels)) +
+                                                       " covered by no triangle), above the limit " + percent(limit) +
+                                                       "; pack the lightmap UVs tighter, or raise the limit"});
 }
 
 }  // namespace
@@ -120,13 +120,12 @@ std::vector<CheckFailure> run_checks(const BakeChecks& checks, const v1::JobResu
   if (checks.max_error) {
     const double e = b.error_estimate();
     if (!(e >= 0) || !std::isfinite(e)) {
-      failures.push_back({"checks.max_error",
-                          "checks.max_error: the bake reported no error estimate, so the limit " +
-                              number(*checks.max_error) +
-                              " cannot be checked; give the job a target error or more samples"});
+      failures.push_back({"checks.max_error", "checks.max_error: the bake reported no error estimate, so the limit " +
+                                                  number(*checks.max_error) +
+                                                  " cannot be checked; give the job a target error or more samples"});
     } else if (e > *checks.max_error) {
-      failures.push_back({"checks.max_error", "checks.max_error: error estimate " + number(e) +
-                                                  " is above the limit " + number(*checks.max_error) +
+      failures.push_back({"checks.max_error", "checks.max_error: error estimate " + number(e) + " is above the limit " +
+                                                  number(*checks.max_error) +
                                                   "; lower the job's target error (or raise its samples), or "
                                                   "raise the limit"});
     }

@@ -1,6 +1,5 @@
 #include "client/cli/build_junit.h"
 
-#include <ctime>
 #include <sstream>
 
 #include "client/cli/build_summary.h"
@@ -15,16 +14,6 @@ using Status = BakeOutcome::Status;
 std::string seconds(double s) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3f", s < 0 ? 0.0 : s);
-  return buf;
-}
-
-// ISO 8601 without a zone, as the schema's xs:dateTime takes it (UTC).
-std::string iso_time(double unix_seconds) {
-  const std::time_t t = static_cast<std::time_t>(unix_seconds);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
   return buf;
 }
 
@@ -88,14 +77,13 @@ std::string junit_xml(const BuildPlan& plan, const BuildOutcome& outcome, const 
                       double timestamp_unix, const std::string& hostname) {
   const BuildTotals t = totals_of(outcome);
   const std::string counts = " tests=\"" + std::to_string(plan.bakes.size()) + "\" failures=\"" +
-                             std::to_string(t.failed) + "\" errors=\"" + std::to_string(t.errors) +
-                             "\" skipped=\"" + std::to_string(t.skipped) + "\" time=\"" + seconds(outcome.seconds) +
-                             "\"";
+                             std::to_string(t.failed) + "\" errors=\"" + std::to_string(t.errors) + "\" skipped=\"" +
+                             std::to_string(t.skipped) + "\" time=\"" + seconds(outcome.seconds) + "\"";
   std::ostringstream x;
   x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
   x << "<testsuites name=\"kiln build\"" << counts << ">\n";
   x << "  <testsuite name=\"" << xml_escape(manifest) << "\" id=\"0\" package=\"kiln.build\" hostname=\""
-    << xml_escape(hostname) << "\" timestamp=\"" << iso_time(timestamp_unix) << "\"" << counts << ">\n";
+    << xml_escape(hostname) << "\" timestamp=\"" << format_iso_utc(timestamp_unix) << "\"" << counts << ">\n";
   x << "    <properties>\n"
     << "      <property name=\"cached\" value=\"" << t.cached << "\"/>\n"
     << "      <property name=\"saved_seconds\" value=\"" << seconds(t.saved_seconds) << "\"/>\n"

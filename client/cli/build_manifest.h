@@ -22,11 +22,11 @@ struct BakeChecks {
 
 struct ManifestBake {
   std::string name;
-  std::string origin;                 // "MANIFEST:LINE:COLUMN" of the entry, for messages
-  std::filesystem::path job_file;     // a job file, or empty
-  std::vector<std::string> command;   // the words after `kiln bake`, or empty
-  std::filesystem::path inputs;       // a glob (resolved against the manifest's folder), or empty
-  std::filesystem::path output;       // resolved against the manifest's folder
+  std::string origin;                // "MANIFEST:LINE:COLUMN" of the entry, for messages
+  std::filesystem::path job_file;    // a job file, or empty
+  std::vector<std::string> command;  // the words after `kiln bake`, or empty
+  std::filesystem::path inputs;      // a glob (resolved against the manifest's folder), or empty
+  std::filesystem::path output;      // resolved against the manifest's folder
   std::int32_t priority = 0;
   BakeChecks checks;
 };

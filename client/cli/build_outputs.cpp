@@ -25,7 +25,8 @@ std::optional<std::string> digest_if_size(const fs::path& path, std::uint64_t si
   std::ifstream in(path, std::ios::binary);
   proto::Sha256 hash;
   char buf[64 << 10];
-  while (in.read(buf, sizeof buf).gcount() > 0) hash.update(std::string_view(buf, static_cast<std::size_t>(in.gcount())));
+  while (in.read(buf, sizeof buf).gcount() > 0)
+    hash.update(std::string_view(buf, static_cast<std::size_t>(in.gcount())));
   if (in.bad()) return std::nullopt;
   return hash.finish();
 }
@@ -33,7 +34,8 @@ std::optional<std::string> digest_if_size(const fs::path& path, std::uint64_t si
 // The new folder beside `dir`, removed unless released: a failed write leaves nothing behind.
 class StagingFolder {
  public:
-  explicit StagingFolder(const fs::path& dir) : path_(dir.parent_path() / ("." + dir.filename().string() + ".kiln-new")) {
+  explicit StagingFolder(const fs::path& dir)
+      : path_(dir.parent_path() / ("." + dir.filename().string() + ".kiln-new")) {
     std::error_code ec;
     fs::remove_all(path_, ec);  // left by a build that was killed
     fs::create_directories(path_, ec);
@@ -55,9 +57,8 @@ void fetch_into(Context& ctx, const v1::JobResult& r, const v1::Output& o, const
   std::ofstream f(file, std::ios::binary | std::ios::trunc);
   if (!f) throw Failure(kExitServer, "cannot write " + file.string() + ": " + std::strerror(errno));
   try {
-    connected_client(ctx).fetch(o.digest(), [&](std::string_view data) {
-      f.write(data.data(), static_cast<std::streamsize>(data.size()));
-    });
+    connected_client(ctx).fetch(
+        o.digest(), [&](std::string_view data) { f.write(data.data(), static_cast<std::streamsize>(data.size())); });
   } catch (const client::ServerError& e) {
     throw Failure(kExitServer, "kilnd at " + ctx.server + " could not send " + o.name() + " of job " + r.job_id() +
                                    ": " + describe_server_error(e) + "; run the build again to bake it afresh");
@@ -100,8 +101,7 @@ FolderWrite write_output_folder(Context& ctx, const v1::JobResult& result, const
     same[o.name()] = digest_if_size(dir / o.name(), o.digest().size()) == o.digest().sha256();
   }
   const std::optional<std::string> report = report_json_for(result);
-  const bool report_same =
-      report && digest_if_size(dir / "report.json", report->size()) == proto::sha256_hex(*report);
+  const bool report_same = report && digest_if_size(dir / "report.json", report->size()) == proto::sha256_hex(*report);
   bool all_same = !report || report_same;
   for (const auto& [name, s] : same) all_same = all_same && s;
   if (all_same) {

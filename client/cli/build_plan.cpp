@@ -104,7 +104,8 @@ Flags command_flags(const std::vector<std::string>& words, const fs::path& dir) 
   }
   Flags f = parse_flags(words, specs, "kiln bake " + type);
   for (const RefusedFlag& r : kRefusedFlags) {
-    if (f.has(r.flag)) throw UsageError(std::string("command: ") + r.flag + " has no place in a manifest; use " + r.instead);
+    if (f.has(r.flag))
+      throw UsageError(std::string("command: ") + r.flag + " has no place in a manifest; use " + r.instead);
   }
   for (std::size_t i = 1; i < f.positional.size(); ++i) f.positional[i] = resolve_path(dir, f.positional[i]).string();
   for (const char* path_flag : {"--env", "--job"}) {

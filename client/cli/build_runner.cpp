@@ -72,8 +72,8 @@ class Runner {
         }
       }
     });
-    ctx_.err << "kiln: " << all.size() << " inputs, " << missing.size() << " to upload ("
-             << format_bytes(missing_bytes) << ")\n";
+    ctx_.err << "kiln: " << all.size() << " inputs, " << missing.size() << " to upload (" << format_bytes(missing_bytes)
+             << ")\n";
     ProgressPrinter printer(ctx_.err, ctx_.terminal.progress_in_place, ctx_.terminal.columns);
     std::uint64_t sent = 0;
     guard_connection("uploading the build's inputs", [&] {
@@ -211,8 +211,8 @@ class Runner {
     if (o.status == Status::baked || o.status == Status::cached) {
       ctx_.err << (o.status == Status::cached ? "cached" : "baked") << " (" << format_duration(o.bake_seconds)
                << " of baking, error " << format_error(o.error_estimate) << "), "
-               << (o.files.written ? std::to_string(o.files.written) + " files written" : "no file changed")
-               << " in " << bake.output.string() << "\n";
+               << (o.files.written ? std::to_string(o.files.written) + " files written" : "no file changed") << " in "
+               << bake.output.string() << "\n";
     } else {
       ctx_.err << "FAILED: " << o.failure << "\n";
     }

@@ -74,8 +74,8 @@ class BuildTest : public ::testing::Test {
 
   void make_sky(const std::string& name, int sun_elevation) {
     const std::string sky = (fs::path(KILN_BIN).parent_path() / "kiln-sky").string();
-    const auto r = test::run_command(sky + " --width 16 --sun-elevation " + std::to_string(sun_elevation) +
-                                     " --out " + (tmp_.path() / "skies" / (name + ".exr")).string() + " 2>&1");
+    const auto r = test::run_command(sky + " --width 16 --sun-elevation " + std::to_string(sun_elevation) + " --out " +
+                                     (tmp_.path() / "skies" / (name + ".exr")).string() + " 2>&1");
     ASSERT_EQ(r.status, 0) << r.output;
   }
 
