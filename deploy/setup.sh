@@ -15,6 +15,7 @@ packages=(
   clang-14 libclang-rt-14-dev  # the sanitizer stage and the fuzz targets (deploy/sanitize.sh, tests/fuzz/)
   python3-venv python3-pip python3-setuptools python3-wheel  # the Python client's package and its install test
   help2man  # the man pages, made from each program's --help (cmake/install.cmake)
+  libxml2-utils  # xmllint, which validates `kiln build`'s JUnit report against tests/integration/junit.xsd
   assimp-testmodels  # real models for the importer's test (tests/integration/assimp_models_test.cpp): 21 MB, 74 MB installed
 )
 missing=()

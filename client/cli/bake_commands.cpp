@@ -101,55 +101,12 @@ int cmd_bake_env(Context& ctx, const Flags& f) {
   priority_of(f);
   idempotency_key_of(f);  // usage errors before any upload
   const std::optional<fs::path> dir = out_dir_of(f);
-  for (const std::string& file : bake.files) {
-    std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) {
-      throw UsageError(file + ": no such file (the environment to bake: an equirectangular EXR, HDR, PNG or JPEG)");
-    }
-  }
+  require_environment_files(bake);
   const std::vector<v1::Digest> digests = upload_environment_files(ctx, bake.files);
   if (!bake.files.empty()) set_input_digests(bake, digests);
 
-  // The server names the image's field; the user named a file.
-  auto where = [&](const std::string& field) -> std::string {
-    for (std::size_t i = 0; i < bake.files.size(); ++i) {
-      const std::string face = "job.environment.faces.digests[" + std::to_string(i) + "]";
-      if (field.rfind("job.environment.image", 0) == 0 || field.rfind(face, 0) == 0) return bake.files[i];
-    }
-    return flag_for_field(field);
-  };
+  auto where = [&](const std::string& field) { return environment_field_origin(bake, field); };
   return submit_and_follow_if_waiting(ctx, bake.spec, f, dir, where);
-}
-
-void require_lightmap_files(const LightmapBake& bake) {
-  for (const std::string& file : {bake.scene_file, bake.env_file}) {
-    std::error_code ec;
-    if (!file.empty() && !fs::is_regular_file(file, ec)) {
-      throw UsageError(file + ": no such file (" +
-                       (file == bake.scene_file ? "the scene to bake: glTF, OBJ or FBX"
-                                                : "the environment: an equirectangular EXR, HDR, PNG or JPEG") +
-                       ")");
-    }
-  }
-}
-
-// The scene of `bake`, imported, with what the importer dropped and what it found said on stderr.
-client::ImportedScene import_lightmap_scene(Context& ctx, const LightmapBake& bake) {
-  client::ImportedScene scene;
-  try {
-    scene = client::import_scene(bake.scene_file);
-  } catch (const std::exception& e) {
-    throw Failure(kExitUsage, e.what());
-  }
-  // Warnings quote names from the file as they are: escaped, they show bytes of other encodings and cannot drive
-  // the terminal.
-  for (const std::string& w : scene.warnings) {
-    ctx.err << "kiln: " << bake.scene_file << ": " << proto::printable(w) << "\n";
-  }
-  ctx.err << "kiln: " << bake.scene_file << ": " << scene.job.meshes_size() << " meshes, " << scene.job.instances_size()
-          << " instances, " << scene.job.materials_size() << " materials, " << scene.job.textures_size()
-          << " textures, " << scene.job.lights_size() << " lights\n";
-  return scene;
 }
 
 // Every blob once (the importer keys them by digest), then the environment image; the client asks the server first
@@ -182,7 +139,7 @@ int cmd_bake_lightmap(Context& ctx, const Flags& f) {
   idempotency_key_of(f);  // usage errors before any import or upload
   const std::optional<fs::path> dir = out_dir_of(f);
   require_lightmap_files(bake);
-  const client::ImportedScene scene = import_lightmap_scene(ctx, bake);
+  const client::ImportedScene scene = import_lightmap_scene(ctx.err, bake);
   merge_scene(bake, scene.job);
   upload_lightmap_inputs(ctx, bake, scene);
   // The server names a field; the user wrote a flag, a scene file, an image or a job file.

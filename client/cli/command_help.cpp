@@ -17,6 +17,9 @@ commands:
   bake lightmap SCENE [--env IMAGE | --env-constant R,G,B] [--resolution N] [--target-error E] [options] --out DIR
                         import a glTF, OBJ or FBX scene, upload it and bake its lightmaps (irradiance, validity,
                         error, preview; optionally radiance, AO, SH); with --out, wait and write them into DIR
+  build [MANIFEST] [--jobs N] [--keep-going] [--only NAME...] [--report-junit FILE] [--report-json FILE]
+                        bake every bake of a build manifest (kiln.build.textproto) that changed, check them, write
+                        their output folders, report like a test suite (see `kiln build --help`)
   watch ID              follow a job until it ends, showing its progress
   result ID [--json]    a finished job's outcome: cost, planner decisions, outputs with their digests
   fetch ID --out DIR    write a finished job's outputs and report.json into DIR
@@ -45,6 +48,34 @@ exit status:
   1  the job failed or was cancelled (result, fetch: or has not finished yet)
   2  usage error: bad flags, an unreadable or malformed job file, a job field the server refused, an unknown job id
   3  no connection, the token refused, another server error, or the outputs could not be written
+)";
+
+const char* const kBuildHelp = R"(usage: kiln build [MANIFEST] [--jobs N] [--keep-going] [--only NAME]...
+                  [--report-junit FILE] [--report-json FILE]
+
+Bakes the bakes of a build manifest (MANIFEST, or a folder holding one; default ./kiln.build.textproto: a
+kiln.build.v1.Manifest in protobuf text format, see proto/kiln_build.proto and client/examples/build/). Each bake
+is a job file, the words of a `kiln bake` command, or such a command over the files a glob matches, with an output
+folder; paths are relative to the manifest.
+
+The build uploads the inputs the server lacks (asking for every digest first), submits the bakes, follows them on
+one connection, checks each result against the bake's checks, and writes each output folder whole, in one rename,
+once its bake has succeeded: a failed bake leaves its folder as it was. A bake whose job is unchanged is a cache
+hit, and files already on disk with the right bytes are not rewritten (their modification times stay).
+
+  --jobs N               at most N bakes submitted and unfinished at a time; default all (the server's queue
+                         decides the order they run in)
+  --keep-going           after a bake fails, submit the rest all the same (without: they are skipped, the bakes
+                         already submitted finish)
+  --only NAME            bake only this one (repeatable); a glob's bakes are NAME (all of them) or NAME/STEM
+  --report-junit FILE    write a JUnit XML report: one test case per bake, with its time, its error estimate, and
+                         why it failed (GitLab, Jenkins and GitHub read it)
+  --report-json FILE     write a JSON summary: the totals and each bake's outcome
+
+At the end, a summary on stdout: bakes baked, cached and failed, the time the cache saved, each failure.
+
+exit status: 0 every bake succeeded and passed its checks; 1 a bake failed, missed a check or could not be written;
+2 a usage error (the manifest, a command in it, a missing input); 3 no connection, or it was lost
 )";
 
 const char* const kSubmitHelp = R"(usage: kiln submit JOB.textproto [--wait] [--out DIR] [--priority N]

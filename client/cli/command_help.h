@@ -6,6 +6,7 @@ namespace kiln::cli {
 
 extern const char* const kHelp;
 extern const char* const kSubmitHelp;
+extern const char* const kBuildHelp;
 extern const char* const kWatchHelp;
 extern const char* const kResultHelp;
 extern const char* const kFetchHelp;

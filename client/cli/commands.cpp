@@ -31,6 +31,10 @@ const std::vector<Command>& commands() {
   static const std::vector<Command> kCommands = {
       {"submit", kSubmitHelp, {{"--wait", false}, {"--out"}, {"--priority"}, {"--idempotency-key"}}, cmd_submit},
       {"bake", kBakeMaterialHelp, {}, cmd_bake},
+      {"build",
+       kBuildHelp,
+       {{"--jobs"}, {"--keep-going", false}, {"--only", true, true}, {"--report-junit"}, {"--report-json"}},
+       cmd_build},
       {"watch", kWatchHelp, {}, cmd_watch},
       {"result", kResultHelp, {{"--json", false}}, cmd_result},
       {"fetch", kFetchHelp, {{"--out"}}, cmd_fetch},

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "client/cli/bake_flags.h"
 #include "client/cli/job_flags.h"
 
 namespace kiln::cli {
@@ -179,6 +180,24 @@ void set_input_digests(EnvironmentBake& bake, const std::vector<v1::Digest>& dig
   } else {
     throw std::logic_error("set_input_digests: " + std::to_string(digests.size()) + " digests for this job's source");
   }
+}
+
+void require_environment_files(const EnvironmentBake& bake) {
+  for (const std::string& file : bake.files) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec)) {
+      throw UsageError(file + ": no such file (the environment to bake: an equirectangular EXR, HDR, PNG or JPEG)");
+    }
+  }
+}
+
+std::string environment_field_origin(const EnvironmentBake& bake, const std::string& field) {
+  // The server names the image's field; the user named a file.
+  for (std::size_t i = 0; i < bake.files.size(); ++i) {
+    const std::string face = "job.environment.faces.digests[" + std::to_string(i) + "]";
+    if (field.rfind("job.environment.image", 0) == 0 || field.rfind(face, 0) == 0) return bake.files[i];
+  }
+  return flag_for_field(field);
 }
 
 }  // namespace kiln::cli

@@ -28,6 +28,12 @@ EnvironmentBake environment_bake_from_flags(const std::vector<std::string>& args
 // Puts the uploaded files' digests (in the order of `files`) into the spec.
 void set_input_digests(EnvironmentBake& bake, const std::vector<v1::Digest>& digests);
 
+// UsageError naming the first of the bake's files that does not exist.
+void require_environment_files(const EnvironmentBake& bake);
+
+// Where a field the server refused was given, for people: the image or face file, else the flag.
+std::string environment_field_origin(const EnvironmentBake& bake, const std::string& field);
+
 extern const std::string kBakeEnvHelp;
 
 }  // namespace kiln::cli

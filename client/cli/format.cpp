@@ -97,14 +97,28 @@ std::string json_string(std::string_view s) {
   return out + "\"";
 }
 
-std::string format_time(double unix_seconds) {
-  if (!(unix_seconds > 0) || !std::isfinite(unix_seconds)) return "-";
+namespace {
+
+std::string strftime_of(double unix_seconds, const char* pattern, bool utc) {
   const std::time_t t = static_cast<std::time_t>(unix_seconds);
   std::tm tm{};
-  localtime_r(&t, &tm);
+  if (utc) {
+    gmtime_r(&t, &tm);
+  } else {
+    localtime_r(&t, &tm);
+  }
   char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S", &tm);
+  std::strftime(buf, sizeof buf, pattern, &tm);
   return buf;
 }
+
+}  // namespace
+
+std::string format_time(double unix_seconds) {
+  if (!(unix_seconds > 0) || !std::isfinite(unix_seconds)) return "-";
+  return strftime_of(unix_seconds, "%Y-%m-%d %H:%M:%S", false);
+}
+
+std::string format_iso_utc(double unix_seconds) { return strftime_of(unix_seconds, "%Y-%m-%dT%H:%M:%S", true); }
 
 }  // namespace kiln::cli

@@ -22,5 +22,7 @@ std::string format_error(double e);
 std::string json_string(std::string_view s);
 // Local time of a Unix timestamp: "2026-11-22 14:03:07"; "-" for 0.
 std::string format_time(double unix_seconds);
+// UTC in ISO 8601 without a zone: "2026-11-22T13:03:07" (what JUnit's timestamp, an xs:dateTime, takes).
+std::string format_iso_utc(double unix_seconds);
 
 }  // namespace kiln::cli

@@ -73,14 +73,20 @@ std::string where(int line, int column) { return std::to_string(line + 1) + ":" 
 
 }  // namespace
 
-void parse_job_text(const std::string& text, const std::string& label, v1::JobSpec& spec) {
+void parse_text_message(const std::string& text, const std::string& label, pb::Message& message) {
   pb::TextFormat::Parser parser;
   FirstError errors;
   parser.RecordErrorsTo(&errors);
-  if (!parser.ParseFromString(text, &spec)) {
-    if (!errors.error) throw UsageError(label + ": not a kiln.v1.JobSpec in protobuf text format");
+  if (!parser.ParseFromString(text, &message)) {
+    if (!errors.error) {
+      throw UsageError(label + ": not a " + message.GetDescriptor()->full_name() + " in protobuf text format");
+    }
     throw UsageError(label + ":" + error_position(text, errors) + ": " + *errors.error);
   }
+}
+
+void parse_job_text(const std::string& text, const std::string& label, v1::JobSpec& spec) {
+  parse_text_message(text, label, spec);
   if (spec.job_case() == v1::JobSpec::JOB_NOT_SET) {
     throw UsageError(label +
                      ": no job in the file; it needs one, e.g. `material { ggx { alpha: 0.3 } }` "
@@ -88,27 +94,32 @@ void parse_job_text(const std::string& text, const std::string& label, v1::JobSp
   }
 }
 
-void read_job_file(const std::string& path, v1::JobSpec& spec, std::string& text) {
+std::string read_text_file(const std::string& path, const std::string& what, std::size_t max_bytes) {
   const std::string label = path == "-" ? "<stdin>" : path;
   std::ifstream file;
   std::istream* in = &std::cin;
   if (path != "-") {
     file.open(path, std::ios::binary);
-    if (!file) throw UsageError("cannot read job file " + path + ": " + std::strerror(errno));
+    if (!file) throw UsageError("cannot read " + what + " " + path + ": " + std::strerror(errno));
     in = &file;
   }
   // Read one byte past the limit, so that a too-large file is refused without being read whole.
-  text.clear();
+  std::string text;
   char buf[64 << 10];
-  while (text.size() <= kMaxJobFileBytes && in->read(buf, sizeof buf).gcount() > 0) {
+  while (text.size() <= max_bytes && in->read(buf, sizeof buf).gcount() > 0) {
     text.append(buf, static_cast<std::size_t>(in->gcount()));
   }
-  if (in->bad()) throw UsageError("cannot read job file " + label + ": " + std::strerror(errno));
-  if (text.size() > kMaxJobFileBytes) {
-    throw UsageError(label + ": larger than " + std::to_string(kMaxJobFileBytes >> 20) +
-                     " MiB; a job file holds settings, and large inputs go in blobs");
+  if (in->bad()) throw UsageError("cannot read " + what + " " + label + ": " + std::strerror(errno));
+  if (text.size() > max_bytes) {
+    throw UsageError(label + ": larger than " + std::to_string(max_bytes >> 20) + " MiB; a " + what +
+                     " holds settings, and large inputs go in blobs");
   }
-  parse_job_text(text, label, spec);
+  return text;
+}
+
+void read_job_file(const std::string& path, v1::JobSpec& spec, std::string& text) {
+  text = read_text_file(path, "job file", kMaxJobFileBytes);
+  parse_job_text(text, path == "-" ? "<stdin>" : path, spec);
 }
 
 std::optional<std::string> locate_field(const std::string& text, const std::string& field_path) {

@@ -1,14 +1,26 @@
 // Job files: a kiln.v1.JobSpec in protobuf text format (see client/examples/).
 #pragma once
 
+#include <cstddef>
 #include <optional>
 #include <string>
 
+namespace google::protobuf {
+class Message;
+}
 namespace kiln::v1 {
 class JobSpec;
 }
 
 namespace kiln::cli {
+
+// Parses protobuf text format into `message`. `label` names the file in errors. Throws UsageError
+// "LABEL:LINE:COLUMN: what is wrong" (1-based), pointing at the name of an unknown field rather than past it.
+void parse_text_message(const std::string& text, const std::string& label, google::protobuf::Message& message);
+
+// The text of a file written by people (a job file, a build manifest), refused beyond `max_bytes`; "-" reads
+// standard input. `what` names it in errors ("job file"). Throws UsageError.
+std::string read_text_file(const std::string& path, const std::string& what, std::size_t max_bytes);
 
 // Parses the text of a job file into `spec`. `label` names the file in errors. Throws UsageError
 // "LABEL:LINE:COLUMN: what is wrong" (1-based) for text that is not a JobSpec, or "LABEL: ..." for a spec

@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <ostream>
 #include <sstream>
 #include <string_view>
 
 #include "client/cli/job_file.h"
 #include "client/cli/job_flags.h"
+#include "proto/text.h"
 
 namespace kiln::cli {
 
@@ -317,6 +319,36 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
     return bake.job_file;
   }
   return bake.scene_file;
+}
+
+void require_lightmap_files(const LightmapBake& bake) {
+  for (const std::string& file : {bake.scene_file, bake.env_file}) {
+    std::error_code ec;
+    if (!file.empty() && !std::filesystem::is_regular_file(file, ec)) {
+      throw UsageError(file + ": no such file (" +
+                       (file == bake.scene_file ? "the scene to bake: glTF, OBJ or FBX"
+                                                : "the environment: an equirectangular EXR, HDR, PNG or JPEG") +
+                       ")");
+    }
+  }
+}
+
+client::ImportedScene import_lightmap_scene(std::ostream& err, const LightmapBake& bake) {
+  client::ImportedScene scene;
+  try {
+    scene = client::import_scene(bake.scene_file);
+  } catch (const std::exception& e) {
+    throw Failure(kExitUsage, e.what());
+  }
+  // Warnings quote names from the file as they are: escaped, they show bytes of other encodings and cannot drive
+  // the terminal.
+  for (const std::string& w : scene.warnings) {
+    err << "kiln: " << bake.scene_file << ": " << proto::printable(w) << "\n";
+  }
+  err << "kiln: " << bake.scene_file << ": " << scene.job.meshes_size() << " meshes, " << scene.job.instances_size()
+          << " instances, " << scene.job.materials_size() << " materials, " << scene.job.textures_size()
+          << " textures, " << scene.job.lights_size() << " lights\n";
+  return scene;
 }
 
 }  // namespace kiln::cli

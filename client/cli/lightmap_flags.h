@@ -2,12 +2,14 @@
 // kiln.v1.JobSpec with a lightmap job, and the blobs it refers to, which the command uploads before it submits.
 #pragma once
 
+#include <iosfwd>
 #include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "client/cli/args.h"
+#include "client/import/scene_import.h"
 #include "proto/kiln.pb.h"
 
 namespace kiln::cli {
@@ -38,6 +40,13 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported);
 // Where a field the server refused ("job.lightmap.resolution") was given, for people: a flag, the scene file, the
 // environment image or the job file (with its line when it wrote the field).
 std::string lightmap_field_origin(const LightmapBake& bake, const std::string& field_path);
+
+// UsageError naming the scene or environment file that does not exist.
+void require_lightmap_files(const LightmapBake& bake);
+
+// The scene of `bake`, imported, with what the importer dropped and what it found said on `err`. A scene that
+// cannot be imported is a Failure (kExitUsage) saying why.
+client::ImportedScene import_lightmap_scene(std::ostream& err, const LightmapBake& bake);
 
 extern const std::string kBakeLightmapHelp;
 

@@ -39,7 +39,8 @@ void rename_or_fail(const fs::path& from, const fs::path& to) {
   if (ec) throw Failure(kExitServer, "cannot write " + to.string() + ": " + ec.message());
 }
 
-// Output names that would leave the folder or overwrite each other are refused before anything is written.
+}  // namespace
+
 void check_output_names(const v1::JobResult& r) {
   std::vector<std::string> names;
   for (const auto& o : r.outputs()) {
@@ -54,6 +55,8 @@ void check_output_names(const v1::JobResult& r) {
     names.push_back(o.name());
   }
 }
+
+namespace {
 
 [[noreturn]] void throw_fetch_refused(const Context& ctx, const ServerError& e, const v1::JobResult& r,
                                       const std::string& name, const fs::path& dir) {

@@ -28,6 +28,10 @@ std::optional<std::filesystem::path> out_dir_of(const Flags& f);
 // Writes `bytes` aside and renames them over `path`, so that a reader never sees half a file. Throws Failure.
 void write_file_atomically(const std::filesystem::path& path, const std::string& bytes);
 
+// Output names that would leave the folder or overwrite each other are refused before anything is written: a
+// Failure (kExitServer) naming the job and the name.
+void check_output_names(const v1::JobResult& r);
+
 // Fetches every output of `r` into `dir` and writes report.json. A file is only kept once its bytes matched the
 // digest (the client library verifies them as they arrive; the file is written aside and renamed at the end).
 std::vector<SavedFile> save_outputs(Context& ctx, const v1::JobResult& r, const std::filesystem::path& dir);

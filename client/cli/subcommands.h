@@ -9,6 +9,8 @@ namespace kiln::cli {
 
 // bake_commands.cpp
 int cmd_bake(Context& ctx, const Flags& f);
+// build_command.cpp
+int cmd_build(Context& ctx, const Flags& f);
 // job_commands.cpp
 int cmd_submit(Context& ctx, const Flags& f);
 int cmd_watch(Context& ctx, const Flags& f);

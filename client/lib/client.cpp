@@ -16,8 +16,10 @@
 #include <charconv>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <utility>
 
 #include <google/protobuf/descriptor.h>
@@ -183,6 +185,9 @@ struct Client::Impl {
   v1::Limits limits;
   std::uint64_t next_id = 1;
   bool open = false;
+  // Watches started by start_watch, by request id, and the responses to them read while waiting for another answer.
+  std::map<std::uint64_t, std::string> watches;
+  std::deque<v1::Response> watch_responses;
 
   explicit Impl(Options o) : options(std::move(o)) {
     limits.set_max_frame_bytes(proto::kDefaultMaxFrameBytes);
@@ -193,6 +198,8 @@ struct Client::Impl {
     error_code ignored;
     socket.close(ignored);
     open = false;
+    watches.clear();
+    watch_responses.clear();
   }
 
   [[noreturn]] void fail(const std::string& why) {
@@ -376,8 +383,12 @@ struct Client::Impl {
         }
         throw ConnectionError("the server sent a response without a request id");
       }
-      // Responses to an earlier request the caller abandoned (a watch left by an exception) are skipped.
-      if (response.id() != id) continue;
+      if (response.id() != id) {
+        // Another watch's event is kept for next_watch_event; responses to an earlier request the caller abandoned
+        // (a watch left by an exception) are skipped.
+        if (watches.count(response.id())) watch_responses.push_back(std::move(response));
+        continue;
+      }
       if (response.has_error()) {
         throw ServerError(response.error().code(), response.error().message(), response.error().field());
       }
@@ -554,6 +565,55 @@ v1::JobEvent Client::watch(const std::string& job_id, const std::function<void(c
     if (event.final()) return event;
   }
 }
+
+void Client::start_watch(const std::string& job_id) {
+  Impl& impl = checked_impl();
+  v1::Request request;
+  request.mutable_watch()->set_job_id(job_id);
+  request.set_id(impl.next_id++);
+  impl.send(request);
+  impl.watches.emplace(request.id(), job_id);
+}
+
+Client::WatchEvent Client::next_watch_event() {
+  Impl& impl = checked_impl();
+  if (impl.watches.empty()) throw std::logic_error("next_watch_event: no watch was started");
+  v1::Response response;
+  if (!impl.watch_responses.empty()) {
+    response = std::move(impl.watch_responses.front());
+    impl.watch_responses.pop_front();
+  } else {
+    const auto deadline = Clock::now() + impl.options.read_timeout;
+    for (;;) {
+      response = impl.read_response(deadline);
+      if (response.id() == 0) {
+        impl.close();
+        if (response.has_error()) {
+          throw ServerError(response.error().code(), response.error().message(), response.error().field());
+        }
+        throw ConnectionError("the server sent a response without a request id");
+      }
+      if (impl.watches.count(response.id())) break;
+    }
+  }
+  const auto watch = impl.watches.find(response.id());
+  WatchEvent out;
+  out.job_id = watch->second;
+  if (response.has_error()) {
+    out.error = response.error();
+    impl.watches.erase(watch);
+    return out;
+  }
+  if (response.body_case() != v1::Response::kEvent) {
+    impl.fail("the server answered the watch of job " + out.job_id + " with the wrong kind of response (field " +
+              std::to_string(response.body_case()) + ")");
+  }
+  out.event = response.event();
+  if (out.event.final()) impl.watches.erase(watch);
+  return out;
+}
+
+std::size_t Client::watching() const { return impl_ ? impl_->watches.size() : 0; }
 
 v1::JobState Client::cancel(const std::string& job_id) {
   Impl& impl = checked_impl();

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -113,6 +114,23 @@ class Client {
   // Follows a job until it ends, calling on_event for each event (the first is the job's current state), and
   // returns the final one. Watching again after a broken connection re-attaches.
   v1::JobEvent watch(const std::string& job_id, const std::function<void(const v1::JobEvent&)>& on_event = {});
+  // Following several jobs on this one connection (the protocol lets responses interleave): start_watch sends a
+  // Watch and returns at once; next_watch_event returns the next event of any watch so started, in the order they
+  // arrive, waiting up to Options::read_timeout (the server repeats each watch's latest event every
+  // Limits.heartbeat_seconds). Other requests (result, fetch, submit) may be made meanwhile: the events that arrive
+  // while they wait for their answer are kept for next_watch_event. A watch ends with its final event, or with an
+  // error (WatchEvent::error set: an unknown job, a server shutting down). A broken connection forgets every watch:
+  // start them again on a new Client (the first event is the job's current state, so nothing is missed).
+  struct WatchEvent {
+    std::string job_id;
+    v1::JobEvent event;  // empty when error is set
+    std::optional<v1::Error> error;
+  };
+  void start_watch(const std::string& job_id);
+  WatchEvent next_watch_event();
+  // Watches started and not yet ended.
+  std::size_t watching() const;
+
   // The state the job is in afterwards.
   v1::JobState cancel(const std::string& job_id);
   v1::JobResult result(const std::string& job_id);

@@ -6,7 +6,10 @@
 #include <atomic>
 #include <chrono>
 #include <future>
+#include <map>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "client/lib/client.h"
 #include "proto/digest.h"
@@ -67,6 +70,42 @@ TEST(Daemon, SubmitWatchFetchOverTcpAndUnixSocket) {
     EXPECT_GT(r.report().error_estimate(), 0.0);
     EXPECT_FALSE(r.report().json().empty());
   }
+}
+
+// Several jobs followed on one connection (Client::start_watch, kiln build's way): every job's events arrive, each
+// watch ends with its final event, and events that arrive while another request waits for its answer are kept.
+TEST(Daemon, SeveralWatchesShareOneConnection) {
+  Daemon d;
+  client::Client c = test::connect(d);
+  std::vector<std::string> ids;
+  for (double alpha : {0.21, 0.22, 0.23}) ids.push_back(c.submit(test::ggx_job(alpha, 4096)).job_id());
+  for (const auto& id : ids) c.start_watch(id);
+  EXPECT_EQ(c.watching(), 3u);
+  std::map<std::string, int> events, finals;
+  while (c.watching() > 0) {
+    const client::Client::WatchEvent e = c.next_watch_event();
+    ASSERT_FALSE(e.error) << e.error->message();
+    EXPECT_EQ(e.event.job_id(), e.job_id);
+    ++events[e.job_id];
+    if (e.event.final()) {
+      ++finals[e.job_id];
+      EXPECT_EQ(e.event.state(), v1::JOB_STATE_SUCCEEDED);
+      // A request in between: its answer comes through while the other watches go on.
+      EXPECT_EQ(c.result(e.job_id).state(), v1::JOB_STATE_SUCCEEDED);
+      c.status();
+    }
+  }
+  for (const auto& id : ids) {
+    EXPECT_GE(events[id], 1) << id;
+    EXPECT_EQ(finals[id], 1) << id;
+  }
+  // A watch of an unknown job ends with its error, naming the job.
+  c.start_watch("no-such-job");
+  const client::Client::WatchEvent e = c.next_watch_event();
+  EXPECT_EQ(e.job_id, "no-such-job");
+  ASSERT_TRUE(e.error);
+  EXPECT_EQ(e.error->code(), v1::Error::NOT_FOUND);
+  EXPECT_EQ(c.watching(), 0u);
 }
 
 TEST(Daemon, IdenticalJobIsACacheHitWithTheSameDigests) {

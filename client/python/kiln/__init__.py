@@ -64,6 +64,7 @@ def _load_pb2():
 pb = _load_pb2()
 
 # The modules below need pb loaded first.
+from .build import BuildResult, build  # noqa: E402
 from .client import PROTOCOL_VERSION, Client  # noqa: E402
 from .digests import digest_of  # noqa: E402
 from .errors import ConnectionError, KilnError, ServerError, TimeoutError, TlsError  # noqa: E402
@@ -72,6 +73,7 @@ from .lightmap import Mesh, lightmap_job, mesh  # noqa: E402
 
 __all__ = [
     "PROTOCOL_VERSION",
+    "BuildResult",
     "Client",
     "ConnectionError",
     "KilnError",
@@ -79,6 +81,7 @@ __all__ = [
     "ServerError",
     "TimeoutError",
     "TlsError",
+    "build",
     "digest_of",
     "environment_job",
     "lightmap_job",
