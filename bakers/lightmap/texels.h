@@ -88,7 +88,7 @@ struct RasterOptions {
   // (0, 0) being texel (x0, y0) of the map. Width or height 0: the whole map.
   struct Window {
     int x0 = 0, y0 = 0, width = 0, height = 0;
-  } window;
+  } window{};
   // Optional: only these triangles, by their index in the sequence of the map's instances' triangles (instances in
   // scene order, each its mesh's triangles in order), ascending: a tile's bin (TileBins), so that a tile does not
   // walk every triangle of its page. Null: every triangle.
