@@ -1479,17 +1479,22 @@ TEST(BakeLightmapFlags, FlagsJobFileAndSceneMerge) {
   fs::remove_all(dir);
 }
 
-// The example: --texel-density, --page-size and --max-pages set the job's atlas fields, the daemon's
-// translation takes them, refusals map back to the flags, and the page flags alone are a usage error.
-TEST(BakeLightmapFlags, AtlasFlagsMap) {
-  LightmapBake bake = lightmap_bake_from_flags(std::vector<std::string>{
-      "lightmap", "scene.gltf", "--texel-density", "20", "--page-size", "2048", "--max-pages", "2", "--out", "dir"});
+// Merges an imported scene of one mesh, "floor", into the bake (as the client does after the import).
+void merge_floor_scene(LightmapBake& bake) {
   v1::LightmapJob imported;
   v1::Mesh* m = imported.add_meshes();
   m->set_name("floor");
   m->mutable_geometry()->set_sha256(std::string(64, 'a'));
   m->mutable_geometry()->set_size(100);
   merge_scene(bake, imported);
+}
+
+// The example: --texel-density, --page-size and --max-pages set the job's atlas fields, the daemon's
+// translation takes them, refusals map back to the flags, and the page flags alone are a usage error.
+TEST(BakeLightmapFlags, AtlasFlagsMap) {
+  LightmapBake bake = lightmap_bake_from_flags(std::vector<std::string>{
+      "lightmap", "scene.gltf", "--texel-density", "20", "--page-size", "2048", "--max-pages", "2", "--out", "dir"});
+  merge_floor_scene(bake);
   const v1::LightmapJob& j = bake.spec.lightmap();
   EXPECT_EQ(j.texel_density(), 20);
   EXPECT_EQ(j.page_size(), 2048u);
@@ -1522,12 +1527,7 @@ TEST(BakeLightmapFlags, AtlasFlagsMap) {
 TEST(BakeLightmapFlags, MemoryLimitFlagMaps) {
   LightmapBake bake = lightmap_bake_from_flags(
       std::vector<std::string>{"lightmap", "scene.gltf", "--memory-limit", "3G", "--out", "dir"});
-  v1::LightmapJob imported;
-  v1::Mesh* m = imported.add_meshes();
-  m->set_name("floor");
-  m->mutable_geometry()->set_sha256(std::string(64, 'a'));
-  m->mutable_geometry()->set_size(100);
-  merge_scene(bake, imported);
+  merge_floor_scene(bake);
   EXPECT_EQ(bake.spec.lightmap().memory_limit_bytes(), uint64_t{3} << 30);
   EXPECT_EQ(daemon::translate(bake.spec).lightmap().memory_limit_bytes, uint64_t{3} << 30);
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.memory_limit_bytes"), "--memory-limit");
