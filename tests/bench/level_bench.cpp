@@ -37,6 +37,7 @@
 #include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/scene/scene_check.h"
 #include "bakers/scene/tracer.h"
+#include "tests/bench/byte_size_arg.h"
 #include "tests/bench/level_scene.h"
 #include "tests/bench/ray_workload.h"
 
@@ -61,15 +62,6 @@ struct Args {
   uint64_t limit = 0;
   bool skip_level = false, skip_terrain = false;
 };
-
-// "4G", "512M", "1048576".
-uint64_t parse_bytes(const std::string& text) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  const char unit = end && *end ? *end : ' ';
-  const double scale = unit == 'G' ? 1073741824.0 : unit == 'M' ? 1048576.0 : unit == 'K' ? 1024.0 : 1.0;
-  return static_cast<uint64_t>(v * scale);
-}
 
 Args parse(int argc, char** argv) {
   Args a;

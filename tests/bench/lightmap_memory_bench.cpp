@@ -25,6 +25,7 @@
 
 #include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/lightmap/memory_estimate.h"
+#include "tests/bench/byte_size_arg.h"
 #include "tests/support/test_scenes.h"
 
 namespace {
@@ -35,15 +36,6 @@ double peak_rss_bytes() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return static_cast<double>(u.ru_maxrss) * 1024.0;  // kilobytes on Linux
-}
-
-uint64_t parse_bytes(const std::string& v) {
-  char* end = nullptr;
-  double n = std::strtod(v.c_str(), &end);
-  const std::string unit = end ? end : "";
-  if (unit == "G" || unit == "GiB") n *= 1024.0 * 1024 * 1024;
-  if (unit == "M" || unit == "MiB") n *= 1024.0 * 1024;
-  return static_cast<uint64_t>(n);
 }
 
 scene::Scene level(int pages) {
@@ -78,7 +70,7 @@ int main(int argc, char** argv) {
     };
     if (const char* v = value("--pages=")) pages = std::atoi(v);
     else if (const char* v = value("--size=")) size = std::atoi(v);
-    else if (const char* v = value("--limit=")) limit = parse_bytes(v);
+    else if (const char* v = value("--limit=")) limit = kiln::bench::parse_bytes(v);
     else if (const char* v = value("--time_limit=")) time_limit = std::atof(v);
     else if (const char* v = value("--out=")) out = v;
     else if (a == "--estimate_only") estimate_only = true;
