@@ -17,7 +17,6 @@ using test::add_box;
 using test::add_quad;
 using test::add_sphere;
 using test::lambert_material;
-
 using test::translate_scale;
 
 // A quad instanced four times at different scales, a box (six charts in one mesh atlas) and a sphere.
