@@ -3,7 +3,6 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,12 +17,14 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "bakers/envmap/env_rotation.h"
 #include "bakers/image/color.h"
 #include "bakers/image/image_format.h"
-#include "bakers/image/exr.h"
-#include "bakers/image/png.h"
+#include "bakers/image/image_reader.h"
+#include "bakers/image/oiio_memory.h"
+#include "bakers/image/reader_bytes.h"
 
 namespace kiln::envmap {
 namespace {
@@ -32,34 +33,6 @@ constexpr const char* kAccepted = image::kAcceptedImageFormats;
 using Format = image::ImageFormat;
 
 std::string dims(int64_t w, int64_t h) { return std::to_string(w) + "x" + std::to_string(h); }
-
-// A temporary copy of the bytes for plugins that cannot read from memory; removed when it goes out of scope.
-struct TempFile {
-  std::string path;
-  TempFile(const std::string& bytes, const char* suffix) {
-    const char* dir = std::getenv("TMPDIR");
-    std::string templ = std::string(dir && *dir ? dir : "/tmp") + "/kiln-env-XXXXXX" + suffix;
-    std::vector<char> buf(templ.begin(), templ.end());
-    buf.push_back('\0');
-    const int fd = mkstemps(buf.data(), static_cast<int>(std::strlen(suffix)));
-    if (fd < 0) throw std::runtime_error("decode_environment: could not create a temporary file in " + templ);
-    path.assign(buf.data());
-    size_t done = 0;
-    while (done < bytes.size()) {
-      const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-      if (n <= 0) {
-        ::close(fd);
-        std::remove(path.c_str());
-        throw std::runtime_error("decode_environment: could not write the temporary file " + path);
-      }
-      done += static_cast<size_t>(n);
-    }
-    ::close(fd);
-  }
-  ~TempFile() { std::remove(path.c_str()); }
-  TempFile(const TempFile&) = delete;
-  TempFile& operator=(const TempFile&) = delete;
-};
 
 void check_options(const EnvDecodeOptions& o) {
   if (!std::isfinite(o.intensity) || !(o.intensity > 0.0) || o.intensity > kMaxEnvIntensity) {
@@ -105,25 +78,61 @@ void check_size(int w, int h, int depth, const Format& f, const std::string& who
   }
 }
 
+// The per-pixel passes below run in parallel over blocks of this many pixels (a 2048 × 1024 image: 32 blocks).
+// Every pixel is independent and the reductions (a maximum, integer counts) do not depend on the order, so the
+// results are those of one pass in order.
+constexpr size_t kPixelsPerBlock = size_t{1} << 16;
+
+// fn(first, last) over [0, pixels) in blocks, in parallel, summing the SanitizeReport each block returns.
+template <class Fn>
+SanitizeReport sum_over_blocks(size_t pixels, Fn&& fn) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, pixels, kPixelsPerBlock), SanitizeReport{},
+      [&](const tbb::blocked_range<size_t>& r, SanitizeReport acc) {
+        const SanitizeReport block = fn(r.begin(), r.end());
+        acc.nan += block.nan, acc.inf += block.inf, acc.negative += block.negative;
+        return acc;
+      },
+      [](SanitizeReport a, const SanitizeReport& b) {
+        a.nan += b.nan, a.inf += b.inf, a.negative += b.negative;
+        return a;
+      });
+}
+
+// The largest finite value of the interleaved RGB data (−∞ if none).
+float largest_finite(const std::vector<float>& rgb) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, rgb.size(), 3 * kPixelsPerBlock), -std::numeric_limits<float>::infinity(),
+      [&](const tbb::blocked_range<size_t>& r, float largest) {
+        for (size_t i = r.begin(); i != r.end(); ++i)
+          if (std::isfinite(rgb[i])) largest = std::max(largest, rgb[i]);
+        return largest;
+      },
+      [](float a, float b) { return std::max(a, b); });
+}
+
 // Rule step 1 (see the header): NaN and ±Inf replaced before the colour conversion, counted per texel.
 void sanitize_non_finite(std::vector<float>& rgb, SanitizeReport& report) {
-  float largest = -std::numeric_limits<float>::infinity();
-  for (float v : rgb) {
-    if (std::isfinite(v)) largest = std::max(largest, v);
-  }
+  float largest = largest_finite(rgb);
   if (!std::isfinite(largest)) largest = 0.0f;
-  for (size_t p = 0; p < rgb.size(); p += 3) {
-    bool nan = false, inf = false;
-    for (int c = 0; c < 3; ++c) {
-      float& v = rgb[p + c];
-      if (std::isnan(v))
-        nan = true, v = 0.0f;
-      else if (std::isinf(v))
-        inf = true, v = v > 0 ? largest : 0.0f;
+  const SanitizeReport counts = sum_over_blocks(rgb.size() / 3, [&](size_t first, size_t last) {
+    SanitizeReport block;
+    for (size_t p = first; p < last; ++p) {
+      bool nan = false, inf = false;
+      for (int c = 0; c < 3; ++c) {
+        float& v = rgb[3 * p + c];
+        if (std::isnan(v))
+          nan = true, v = 0.0f;
+        else if (std::isinf(v))
+          inf = true, v = v > 0 ? largest : 0.0f;
+      }
+      block.nan += nan;
+      block.inf += inf;
     }
-    report.nan += nan;
-    report.inf += inf;
-  }
+    return block;
+  });
+  report.nan += counts.nan;
+  report.inf += counts.inf;
 }
 
 }  // namespace
@@ -139,38 +148,7 @@ const Format& detect_format(const std::string& bytes, const std::string& who, Sh
                              "); upload " + (shape == Shape::equirect ? "an equirectangular " : "a square ") +
                              kAccepted + " file");
   }
-  // Before libpng allocates what a chunk claims, and OpenEXR what an attribute claims.
-  if (std::strcmp(format->name, "png") == 0) image::check_png_chunk_lengths(bytes, who);
-  if (std::strcmp(format->name, "openexr") == 0) image::check_exr_attribute_sizes(bytes, who);
   return *format;
-}
-
-// An image reader open on the bytes: through `proxy` when the plugin reads from memory, else through a temporary
-// copy kept in `temp`. Fills `spec` with the header.
-std::unique_ptr<OIIO::ImageInput> open_image(const std::string& bytes, const Format& format,
-                                             OIIO::Filesystem::IOMemReader& proxy, std::unique_ptr<TempFile>& temp,
-                                             OIIO::ImageSpec& spec, const std::string& who) {
-  // With the proxy given, create() looks at the bytes in memory rather than for a file of that name.
-  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::create(format.virtual_name, false, nullptr, &proxy);
-  if (!in) {
-    // Either the reader is missing or (usually) it rejected the start of the bytes.
-    throw std::runtime_error(who + ": could not open the " + std::to_string(bytes.size()) + "-byte " + format.name +
-                             " image (truncated or corrupt?): " + OIIO::geterror() +
-                             "; re-export the file and upload it again");
-  }
-  std::string open_name = format.virtual_name;
-  if (in->supports("ioproxy")) {
-    in->set_ioproxy(&proxy);
-  } else {
-    temp = std::make_unique<TempFile>(bytes, std::strrchr(format.virtual_name, '.'));
-    open_name = temp->path;
-  }
-  if (!in->open(open_name, spec)) {
-    throw std::runtime_error(who + ": could not read the header of the " + std::to_string(bytes.size()) + "-byte " +
-                             format.name + " image (truncated or corrupt?): " + in->geterror() +
-                             "; re-export the file and upload it again");
-  }
-  return in;
 }
 
 // The pixels as interleaved RGB floats: the first three channels, or the grey channel repeated (alpha and the rest
@@ -196,6 +174,24 @@ std::vector<float> read_rgb(OIIO::ImageInput& in, const Format& format, const st
   return data;
 }
 
+// Rule step 2 for one converted pixel: negatives (and non-finite values) to 0, the rest scaled by the intensity.
+Rgb working_radiance(const float* rgb, double intensity, SanitizeReport& counts) {
+  bool nan = false, negative = false;
+  double c[3];
+  for (int k = 0; k < 3; ++k) {
+    const double v = rgb[k];
+    if (!std::isfinite(v))
+      nan = true, c[k] = 0.0;  // cannot happen with kiln's config
+    else if (v < 0.0)
+      negative = true, c[k] = 0.0;
+    else
+      c[k] = v * intensity;
+  }
+  counts.nan += nan;
+  counts.negative += negative;
+  return {c[0], c[1], c[2]};
+}
+
 // env.image from decoded RGB in `space`: non-finite values sanitised, converted to the working space, negatives
 // clamped to 0 and scaled by the intensity (the rule of the header), with the counts in env.sanitized.
 void to_working_radiance(std::vector<float>& data, const std::string& space, const EnvDecodeOptions& options,
@@ -203,24 +199,17 @@ void to_working_radiance(std::vector<float>& data, const std::string& space, con
   const image::ColorConfig& cfg = image::ColorConfig::active();
   const size_t pixels = static_cast<size_t>(env.width) * static_cast<size_t>(env.height);
   sanitize_non_finite(data, env.sanitized);
-  if (space != env.working_space) cfg.convert(data.data(), pixels, 3, space, env.working_space);
   env.image = RgbImage(env.width, env.height);
-  for (size_t p = 0; p < pixels; ++p) {
-    bool nan = false, negative = false;
-    double c[3];
-    for (int k = 0; k < 3; ++k) {
-      const double v = data[3 * p + k];
-      if (!std::isfinite(v))
-        nan = true, c[k] = 0.0;  // rule step 2: cannot happen with kiln's config
-      else if (v < 0.0)
-        negative = true, c[k] = 0.0;
-      else
-        c[k] = v * options.intensity;
-    }
-    env.sanitized.nan += nan;
-    env.sanitized.negative += negative;
-    env.image.pixels[p] = Rgb(c[0], c[1], c[2]);
-  }
+  const SanitizeReport counts = sum_over_blocks(pixels, [&](size_t first, size_t last) {
+    // OpenColorIO's processors convert each pixel on its own and may be applied from several threads.
+    if (space != env.working_space) cfg.convert(&data[3 * first], last - first, 3, space, env.working_space);
+    SanitizeReport block;
+    for (size_t p = first; p < last; ++p)
+      env.image.pixels[p] = working_radiance(&data[3 * p], options.intensity, block);
+    return block;
+  });
+  env.sanitized.nan += counts.nan;
+  env.sanitized.negative += counts.negative;
 }
 
 // Decodes, sanitises and converts one image (see the header); `who` starts every message.
@@ -232,10 +221,12 @@ EnvironmentInput decode_image(const std::string& bytes, const EnvDecodeOptions& 
       !options.color_space.empty() ? options.color_space : (format.is_float ? "lin_rec709" : "srgb_texture");
   check_color_space(cfg, space);
 
-  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  std::unique_ptr<TempFile> temp;
-  OIIO::ImageSpec spec;
-  std::unique_ptr<OIIO::ImageInput> in = open_image(bytes, format, proxy, temp, spec, who);
+  std::string storage;
+  const std::string& readable = image::reader_bytes(bytes, format, who, storage);
+  image::detail::BoundedMemReader proxy(readable.data(), readable.size());
+  std::unique_ptr<image::TempImageFile> temp;
+  std::unique_ptr<OIIO::ImageInput> in = image::open_image_reader(readable, format, proxy, temp, who);
+  const OIIO::ImageSpec& spec = in->spec();
   check_size(spec.width, spec.height, std::max(1, spec.depth), format, who, shape);
   EnvironmentInput env;
   env.format = format.name;

@@ -6,6 +6,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "bakers/image/exr_header.h"
 #include "bakers/image/image_format.h"
 #include "bakers/image/oiio_memory.h"
 
@@ -87,41 +88,6 @@ std::string encode_exr(const FloatImage& image) {
                                  "OpenEXR");
 }
 
-void check_exr_attribute_sizes(const std::string& bytes, const std::string& who) {
-  // After the magic number and the version field: headers of attributes (name NUL, type NUL, int32 size, value),
-  // each ended by a NUL; a multi-part file (flag 0x1000) has several, ended by an empty one. A name or type cut
-  // short by the end of the file is left to OpenEXR, which reports the truncation without allocating.
-  if (bytes.size() < 8) return;
-  const bool multipart = static_cast<unsigned char>(bytes[5]) & 0x10;
-  auto c_string_end = [&](size_t from) { return bytes.find('\0', from); };
-  size_t at = 8;
-  for (bool header_empty = true;; header_empty = true) {
-    while (at < bytes.size() && bytes[at] != '\0') {
-      header_empty = false;
-      const size_t name_end = c_string_end(at);
-      if (name_end == std::string::npos) return;
-      const size_t type_end = c_string_end(name_end + 1);
-      if (type_end == std::string::npos || type_end + 5 > bytes.size()) return;
-      int32_t size = 0;
-      std::memcpy(&size, bytes.data() + type_end + 1, 4);  // little-endian, as x86 and ARM are
-      const size_t value = type_end + 5;
-      if (size < 0 || static_cast<uint64_t>(size) > bytes.size() - value) {
-        std::string name = bytes.substr(at, std::min<size_t>(name_end - at, 64));
-        for (char& c : name) {
-          if (c < 32 || c > 126) c = '?';
-        }
-        throw std::runtime_error(who + ": the EXR header attribute \"" + name + "\" at byte " + std::to_string(at) +
-                                 " declares a value of " + std::to_string(size) + " bytes, but only " +
-                                 std::to_string(bytes.size() - value) +
-                                 " follow it (truncated or corrupt?); re-export the file and upload it again");
-      }
-      at = value + static_cast<size_t>(size);
-    }
-    ++at;  // the NUL that ends this header
-    if (!multipart || header_empty || at >= bytes.size()) return;
-  }
-}
-
 FloatImage decode_exr(const std::string& bytes) {
   // Checked here so that the common mistake (handing over some other file) gets a plain answer.
   static constexpr unsigned char kMagic[4] = {0x76, 0x2f, 0x31, 0x01};
@@ -130,8 +96,8 @@ FloatImage decode_exr(const std::string& bytes) {
                              " bytes are not an OpenEXR image: they start with " + hex_prefix(bytes, 4) +
                              ", an EXR file starts with 76 2f 31 01");
   }
-  check_exr_attribute_sizes(bytes, "decode_exr");
-  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  check_exr_header(bytes, "decode_exr");
+  detail::BoundedMemReader proxy(bytes.data(), bytes.size());
   std::unique_ptr<OIIO::ImageInput> in = detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_exr", "EXR");
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.deep) throw std::runtime_error("decode_exr: deep EXR images are not supported; expected flat pixels");

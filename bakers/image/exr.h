@@ -41,11 +41,4 @@ std::string encode_exr(const FloatImage& image);
 // are not a readable EXR image (not EXR at all, truncated, corrupt, or too large to decode).
 FloatImage decode_exr(const std::string& bytes);
 
-// Throws std::runtime_error naming `who`, the attribute and its offset if an attribute in the header(s) of the EXR
-// file `bytes` (which start with the EXR magic number) declares a size that is negative or larger than the bytes
-// left in the file. OpenEXR sizes a string attribute's value from that field before reading it, so without this
-// check a 485-byte upload claiming a 1.7 GB "capDate" makes the decoder allocate and zero 1.7 GB. decode_exr, the
-// texture decoder and the environment decoder check every EXR so.
-void check_exr_attribute_sizes(const std::string& bytes, const std::string& who);
-
 }  // namespace kiln::image

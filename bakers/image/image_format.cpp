@@ -45,7 +45,7 @@ const ImageFormat* detect_texture_format(const std::string& bytes) {
   static const ImageFormat dds{"dds", "kiln.dds", false, true};
   static const ImageFormat heif{"heif", "kiln.heic", false, true};
   static const ImageFormat sgi{"sgi", "kiln.sgi", false, true};
-  static const ImageFormat psd{"psd", "kiln.psd", false};
+  static const ImageFormat psd{"psd", "kiln.psd", false, true};
   static const ImageFormat gif{"gif", "kiln.gif", false};
   static const ImageFormat webp{"webp", "kiln.webp", false};
   static const ImageFormat pnm{"pnm", "kiln.pnm", false};

@@ -97,7 +97,7 @@ Png8Image decode_png(const std::string& bytes) {
                              " bytes are not a PNG image (a PNG file starts with 89 50 4e 47 0d 0a 1a 0a)");
   }
   check_png_chunk_lengths(bytes, "decode_png");
-  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  detail::BoundedMemReader proxy(bytes.data(), bytes.size());
   std::unique_ptr<OIIO::ImageInput> in = detail::open_or_throw(kVirtualName, proxy, bytes.size(), "decode_png", "PNG");
   const OIIO::ImageSpec& spec = in->spec();
   const uint64_t values =

@@ -1,66 +1,23 @@
 #include "bakers/image/texture_decode.h"
 
-#include <unistd.h>
-
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
-#include <filesystem>
-#include <optional>
 #include <stdexcept>
 
 #include "bakers/image/color.h"
 #include "bakers/image/image_format.h"
+#include "bakers/image/image_reader.h"
 #include "bakers/image/oiio_memory.h"
-#include "bakers/image/exr.h"
-#include "bakers/image/png.h"
+#include "bakers/image/reader_bytes.h"
 
 namespace kiln::image {
 namespace {
 
-// The bytes in a temporary file, removed when this goes, for the readers that read files only (ImageFormat::from_file).
-class TempImageFile {
- public:
-  TempImageFile(const std::string& bytes, const std::string& virtual_name, const std::string& who) {
-    const std::string suffix = virtual_name.substr(virtual_name.find_last_of('.'));
-    std::string pattern = (std::filesystem::temp_directory_path() / ("kiln-texture-XXXXXX" + suffix)).string();
-    const int fd = ::mkstemps(pattern.data(), static_cast<int>(suffix.size()));
-    if (fd < 0) throw std::runtime_error(who + ": cannot make a temporary file to decode it: " + std::strerror(errno));
-    path_ = pattern;
-    size_t done = 0;
-    while (done < bytes.size()) {
-      const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) {
-        const std::string why = std::strerror(errno);
-        ::close(fd);
-        throw std::runtime_error(who + ": cannot write a temporary file to decode it (" + path_ + "): " + why);
-      }
-      done += static_cast<size_t>(n);
-    }
-    ::close(fd);
-  }
-  ~TempImageFile() { ::unlink(path_.c_str()); }
-  TempImageFile(const TempImageFile&) = delete;
-  TempImageFile& operator=(const TempImageFile&) = delete;
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
-
-// The reader on the bytes (from memory through `proxy`, or from `file` for the file-only readers), its header
-// checked against the texture limits.
-std::unique_ptr<OIIO::ImageInput> open_texture(const ImageFormat& format, OIIO::Filesystem::IOMemReader& proxy,
-                                               const TempImageFile* file, const std::string& who) {
-  std::unique_ptr<OIIO::ImageInput> in =
-      file ? OIIO::ImageInput::open(file->path()) : detail::open_from_memory(format.virtual_name, proxy);
-  if (in) in->threads(1);
-  if (!in) {
-    throw std::runtime_error(who + ": could not read the " + std::string(format.name) +
-                             " header (truncated or corrupt?): " + OIIO::geterror());
-  }
+// The reader on the bytes (image_reader.h), its header checked against the texture limits.
+std::unique_ptr<OIIO::ImageInput> open_texture(const std::string& bytes, const ImageFormat& format,
+                                               OIIO::Filesystem::IOMemReader& proxy,
+                                               std::unique_ptr<TempImageFile>& temp, const std::string& who) {
+  std::unique_ptr<OIIO::ImageInput> in = open_image_reader(bytes, format, proxy, temp, who);
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.width < 1 || spec.height < 1 || spec.width > kMaxTextureDimension || spec.height > kMaxTextureDimension ||
       spec.depth > 1) {
@@ -128,17 +85,15 @@ DecodedTexture decode_texture(const std::string& bytes, const std::string& color
                              " bytes are not an image kiln reads (they start with " + hex_prefix(bytes, 8) +
                              "); upload a " + kAcceptedTextureFormats + " file");
   }
-  // Before libpng allocates what a chunk claims, and OpenEXR what an attribute claims.
-  if (std::strcmp(format->name, "png") == 0) check_png_chunk_lengths(bytes, who);
-  if (std::strcmp(format->name, "openexr") == 0) check_exr_attribute_sizes(bytes, who);
+  std::string storage;
+  const std::string& readable = reader_bytes(bytes, *format, who, storage);
   const ColorConfig& config = ColorConfig::active();
   if (!color_space.empty() && !config.has_space(color_space)) {
     throw std::invalid_argument(who + ": colour space '" + color_space + "' is not in the active OpenColorIO config");
   }
-  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  std::optional<TempImageFile> file;
-  if (format->from_file) file.emplace(bytes, format->virtual_name, who);
-  std::unique_ptr<OIIO::ImageInput> in = open_texture(*format, proxy, file ? &*file : nullptr, who);
+  detail::BoundedMemReader proxy(readable.data(), readable.size());
+  std::unique_ptr<TempImageFile> temp;
+  std::unique_ptr<OIIO::ImageInput> in = open_texture(readable, *format, proxy, temp, who);
   // The default colour space follows the pixels: floats (EXR, HDR, and float TIFF, DDS, PFM, ...) are scene-linear,
   // integers (8- and 16-bit) are sRGB-encoded, as texture tools write them.
   const bool float_pixels = format->is_float || in->spec().format.is_floating_point();

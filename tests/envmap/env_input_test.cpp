@@ -137,6 +137,42 @@ TEST(EnvInput, NanInfAndNegativeTexelsAreReplacedAndCounted) {
   EXPECT_EQ(b.image.at(0, 0), Rgb(0));
 }
 
+// The per-pixel passes run in parallel over blocks of 65536 pixels: a 512 × 256 image has two, and every pixel of
+// both must be converted (here from a declared sRGB curve, checked against the formula) and sanitised, with the
+// counts summed over the blocks and the largest finite value (for +Inf) taken over the whole image.
+TEST(EnvInput, EveryBlockOfALargeImageIsConvertedAndSanitised) {
+  image::FloatImage img = make_float(512, 256, 3);
+  for (size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = static_cast<float>((i * 7919) % 1000) / 1000.0f;
+  const float inf = std::numeric_limits<float>::infinity();
+  img.at(511, 255, 1) = 2.5f;                                   // the largest finite value, in the last block
+  img.at(3, 2, 0) = std::numeric_limits<float>::quiet_NaN();    // first block
+  img.at(7, 200, 2) = std::numeric_limits<float>::quiet_NaN();  // second block
+  img.at(9, 1, 1) = inf;
+  img.at(400, 250, 0) = -inf;
+  EnvDecodeOptions opt;
+  opt.color_space = "srgb_texture";
+  const EnvironmentInput env = decode_environment(image::encode_exr(img), opt);
+  EXPECT_EQ(env.sanitized.nan, 2);
+  EXPECT_EQ(env.sanitized.inf, 2);
+  EXPECT_EQ(env.sanitized.negative, 0);
+  // +Inf became 2.5 before the curve: the curve's value at 2.5 (OpenColorIO extends it above 1).
+  EXPECT_NEAR(env.image.at(9, 1).g, srgb_to_linear(2.5), 1e-4 * srgb_to_linear(2.5));
+  EXPECT_EQ(env.image.at(3, 2).r, 0.0);
+  EXPECT_EQ(env.image.at(7, 200).b, 0.0);
+  EXPECT_EQ(env.image.at(400, 250).r, 0.0);
+  // OpenColorIO's CPU processor evaluates the curve in float: 1e-5 absolute is ample (as for the 8-bit PNG).
+  for (int y = 0; y < 256; ++y)
+    for (int x = 0; x < 512; ++x) {
+      if ((x == 3 && y == 2) || (x == 7 && y == 200) || (x == 9 && y == 1) || (x == 400 && y == 250) ||
+          (x == 511 && y == 255))
+        continue;
+      for (int c = 0; c < 3; ++c) {
+        const double expected = srgb_to_linear(img.at(x, y, c));
+        ASSERT_NEAR(env.image.at(x, y)[c], expected, 1e-5) << "pixel (" << x << ", " << y << "), channel " << c;
+      }
+    }
+}
+
 TEST(EnvInput, NegativesMadeByTheColourConversionAreCounted) {
   image::FloatImage img = make_float(4, 2, 3);
   for (size_t i = 0; i < img.pixels.size(); i += 3) img.pixels[i] = 1, img.pixels[i + 1] = 0, img.pixels[i + 2] = 0;

@@ -17,6 +17,8 @@
 #include "bakers/image/exr.h"
 #include "bakers/image/ktx2.h"
 #include "bakers/image/png.h"
+#include "bakers/volume/vdb_file.h"
+#include "bakers/volume/vdb_grid.h"
 #include "client/import/mesh_blob.h"
 #include "proto/digest.h"
 #include "proto/framing.h"
@@ -270,6 +272,16 @@ int main(int argc, char** argv) {
     cube.format = image::Ktx2Image::rgba32f;
     cube.data.assign(6, std::vector<float>(2 * 2 * 4, 0.25f));
     write("ktx2", "rgba32f_cube_2.ktx2", image::encode_ktx2(cube));
+
+    // OpenVDB files (read_vdb): a density grid of a few voxels, and one with an emission grid beside it.
+    auto vdb = [](const std::vector<volume::VdbGrid>& grids) {
+      const std::vector<uint8_t> bytes = volume::write_vdb(grids);
+      return std::string(bytes.begin(), bytes.end());
+    };
+    const volume::VdbGrid density = volume::make_vdb_grid("density", 2, 2, 2, {0.5f, 1, 0, 2, 0.25f, 0, 3, 1}, 0.1);
+    write("vdb", "density_2x2x2.vdb", vdb({density}));
+    write("vdb", "density_and_emission.vdb",
+          vdb({density, volume::make_vdb_grid("emission", 3, 1, 1, {1, 2, 4}, 0.05, {0.5, 0, 0}, {-1, 4, 7})}));
 
     // Job files: the examples, and every spec above as text.
     for (const auto& [name, spec] : specs) {

@@ -7,10 +7,11 @@
 #   --time SECONDS  per target (default 60)
 #   --seeds         regenerate the committed seed corpora (tests/fuzz/corpus/) first, and stop
 #   --no-build      run the programs already built (while another build of DIR is under way)
-#   TARGET          request job_spec mesh_blob exr png texture environment ktx2 job_text scene_import (default: all)
+#   TARGET          request job_spec mesh_blob exr png texture environment ktx2 vdb job_text scene_import (default: all)
 # The corpus each run grows lives in BUILD/fuzz/corpus/TARGET (the committed seeds are read, never written); a crash's
-# input is saved as BUILD/fuzz/artifacts/TARGET/crash-* and the script exits 1. Runs under `nice -n 19`; the table
-# gives wall seconds (libFuzzer's) and CPU seconds (user + system), which differ on a busy machine.
+# input is saved as BUILD/fuzz/artifacts/TARGET/crash-* and the script exits 1. Runs under `nice -n 19` (KILN_FUZZ_NICE
+# sets another niceness); the table gives wall seconds (libFuzzer's) and CPU seconds (user + system), which differ on
+# a busy machine. Two runs may share a build directory (each on its own targets).
 set -euo pipefail
 top="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 build="$top/build-asan"
@@ -24,17 +25,17 @@ while (($#)); do
     --time) seconds="$2"; shift 2 ;;
     --seeds) seeds=1; shift ;;
     --no-build) build_first=0; shift ;;
-    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
     -*) echo "run.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) targets+=("$1"); shift ;;
   esac
 done
-all=(request job_spec mesh_blob exr png texture environment ktx2 job_text scene_import)
+all=(request job_spec mesh_blob exr png texture environment ktx2 vdb job_text scene_import)
 ((${#targets[@]})) || targets=("${all[@]}")
 
 if [ ! -f "$build/CMakeCache.txt" ]; then
   cmake -S "$top" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++-14 \
-    -DKILN_FUZZ=ON >/dev/null
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" -DKILN_FUZZ=ON >/dev/null
 fi
 if ((seeds)); then
   cmake --build "$build" -j "$(nproc)" --target fuzz_make_seeds
@@ -58,9 +59,9 @@ report=()
 # run in this shell (in a subshell it would count the subshell's children).
 cpu_now=0
 read_cpu() {
-  times >"$build/fuzz/.times"
+  times >"$build/fuzz/.times-$$"
   cpu_now="$(awk 'NR == 2 { t = 0; for (i = 1; i <= 2; ++i) { split($i, p, /[ms]/); t += p[1] * 60 + p[2] }
-                            printf "%.0f", t }' "$build/fuzz/.times")"
+                            printf "%.0f", t }' "$build/fuzz/.times-$$")"
 }
 for t in "${targets[@]}"; do
   work="$build/fuzz/corpus/$t"
@@ -75,7 +76,7 @@ for t in "${targets[@]}"; do
   status=0
   read_cpu
   cpu_before=$cpu_now
-  nice -n 19 "$build/fuzz/${t}_fuzz" -max_total_time="$seconds" -timeout=30 -print_final_stats=1 \
+  nice -n "${KILN_FUZZ_NICE:-19}" "$build/fuzz/${t}_fuzz" -max_total_time="$seconds" -timeout=30 -print_final_stats=1 \
     -artifact_prefix="$artifacts/" "${dict[@]}" "$work" "$top/tests/fuzz/corpus/$t" >"$log" 2>&1 || status=$?
   read_cpu
   cpu=$((cpu_now - cpu_before))
@@ -92,6 +93,7 @@ for t in "${targets[@]}"; do
     echo "  $t: the fuzzer stopped with status $status; see $log and $artifacts/"
   fi
   report+=("$(printf '%-14s %10s %8s %8s %8s' "$t" "${runs:-?}" "${secs:-$seconds}" "$cpu" "$crashes")")
+  echo "  $t: ${runs:-?} executions, ${secs:-$seconds} s, $cpu CPU s, $crashes found"
 done
 printf '%-14s %10s %8s %8s %8s\n' target executions seconds cpu_s crashes
 printf '%s\n' "${report[@]}"

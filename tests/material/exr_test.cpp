@@ -1,18 +1,27 @@
 // EXR encoding in memory: exact round trips, the promised compression, and clear errors for bad bytes.
 #include "bakers/image/exr.h"
 
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "bakers/image/oiio_memory.h"
 #include "bakers/math/rng.h"
+#include "tests/support/sanitizers.h"
 
 namespace kiln::image {
 namespace {
@@ -166,6 +175,131 @@ TEST(Exr, InconsistentImagesAreRefusedWithTheReason) {
   img = awkward_image();
   img.width = 0;
   EXPECT_THROW(encode_exr(img), std::invalid_argument);
+}
+
+// Scanline images are read a 64 MiB strip at a time: 2048 x 4100 pixels of two channels (64 MiB and 64 KiB as
+// floats) take two strips. Each pixel holds its own (x, y), so a row put in the wrong place or missed shows.
+TEST(Exr, AnImageLargerThanOneStripIsReadExactly) {
+  FloatImage img;
+  img.width = 2048;
+  img.height = 4100;
+  img.channels = 2;
+  img.channel_names = {"x", "y"};
+  img.pixels.resize(size_t(img.width) * img.height * 2);
+  for (int y = 0; y < img.height; ++y) {
+    for (int x = 0; x < img.width; ++x) {
+      img.pixels[2 * (size_t(y) * img.width + x)] = static_cast<float>(x);
+      img.pixels[2 * (size_t(y) * img.width + x) + 1] = static_cast<float>(y);
+    }
+  }
+  const FloatImage back = decode_exr(encode_exr(img));
+  ASSERT_EQ(back.width, img.width);
+  ASSERT_EQ(back.height, img.height);
+  EXPECT_TRUE(same_bits(plane(back, "x"), plane(img, "x")));
+  EXPECT_TRUE(same_bits(plane(back, "y"), plane(img, "y")));
+}
+
+// A file whose channels are stored in different types (half, float, half) is converted channel by channel.
+TEST(Exr, ChannelsOfDifferentTypesAreEachConverted) {
+  OIIO::ImageSpec spec(3, 2, 3, OIIO::TypeDesc::FLOAT);
+  spec.channelnames = {"a", "b", "c"};
+  spec.channelformats = {OIIO::TypeDesc::HALF, OIIO::TypeDesc::FLOAT, OIIO::TypeDesc::HALF};
+  // Exact in half and float: what comes back must be these values, bit for bit.
+  const std::vector<float> pixels = {0.5f, 1e-7f, -2.0f, 1024.0f, 3.0f, 0.25f, -0.125f, 1e30f, 6.0f,
+                                     0.0f, -1.0f, 2048.0f, 1.5f,  7.0f,  -0.5f, 8.0f,   0.75f, 4.0f};
+  std::vector<unsigned char> buffer;
+  OIIO::Filesystem::IOVecOutput proxy(buffer);
+  auto out = OIIO::ImageOutput::create("t.exr");
+  ASSERT_TRUE(out);
+  ASSERT_TRUE(out->set_ioproxy(&proxy));
+  ASSERT_TRUE(out->open("t.exr", spec)) << out->geterror();
+  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, pixels.data())) << out->geterror();
+  ASSERT_TRUE(out->close());
+  const FloatImage back = decode_exr(std::string(buffer.begin(), buffer.end()));
+  ASSERT_EQ(back.width, 3);
+  ASSERT_EQ(back.channels, 3);
+  for (int c = 0; c < 3; ++c) {
+    std::vector<float> expected;
+    for (int p = 0; p < 6; ++p) expected.push_back(pixels[3 * p + c]);
+    EXPECT_TRUE(same_bits(plane(back, spec.channelnames[c]), expected)) << spec.channelnames[c];
+  }
+}
+
+// This process's address space limited to what it maps now and `extra` bytes more (in a death test's child).
+void limit_address_space(uint64_t extra) {
+  std::ifstream statm("/proc/self/statm");
+  uint64_t pages = 0;
+  statm >> pages;
+  const rlim_t limit = pages * static_cast<uint64_t>(sysconf(_SC_PAGESIZE)) + extra;
+  const rlimit r{limit, limit};
+  setrlimit(RLIMIT_AS, &r);
+}
+
+// The input the exr fuzz target found: 424 bytes declaring 2,097,156 x 2 float pixels of 3 channels (12.6 M values,
+// within the limit). OpenEXR allocated line buffers of 16 such scanlines when the file was opened, and OpenImageIO's
+// read_image a buffer of 256 (6.4 GB), whatever the height: where memory is limited, std::bad_alloc, no clear error.
+// Decoded in a child process whose address space may grow by 2 GiB only, it is refused from its header.
+TEST(ExrDeathTest, AWideImageIsReadWithoutABufferOf256OfItsScanlines) {
+  if (test::kUnderAddressSanitizer)
+    GTEST_SKIP() << "AddressSanitizer maps terabytes of shadow memory: an address-space limit cannot apply";
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  std::ifstream in(KILN_SOURCE_DIR "/tests/fuzz/regressions/exr/read_scanlines_allocates_6_gb.exr", std::ios::binary);
+  const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  ASSERT_EQ(bytes.size(), 424u);
+  EXPECT_EXIT(
+      {
+        limit_address_space(uint64_t{2} << 30);
+        try {
+          decode_exr(bytes);
+          std::fprintf(stderr, "decoded without an error\n");
+          std::exit(1);
+        } catch (const std::runtime_error& e) {
+          std::fprintf(stderr, "%s\n", e.what());
+          std::exit(0);
+        } catch (const std::exception& e) {
+          std::fprintf(stderr, "not a clear error: %s\n", e.what());
+          std::exit(2);
+        }
+      },
+      ::testing::ExitedWithCode(0),
+      "decode_exr: the EXR header at byte 8 declares 2097156 pixels a scanline of 12 bytes each: reading them takes "
+      "more than the limit of 256 MiB for 256 scanlines");
+}
+
+// OpenImageIO 2.4.7's IOMemReader::pread copies from outside its buffer when a damaged EXR's chunk offsets point
+// before or past the upload (the exr fuzz target's finding, tests/fuzz/regressions/exr/). kiln reads through
+// BoundedMemReader, which copies only bytes of the buffer.
+TEST(Exr, TheMemoryReaderNeverReadsOutsideItsBuffer) {
+  const std::string bytes = "0123456789";
+  detail::BoundedMemReader proxy(bytes.data(), bytes.size());
+  char out[16] = {};
+  EXPECT_EQ(proxy.pread(out, 4, 8), 2u) << "a read across the end is cut at the end";
+  EXPECT_EQ(std::string(out, 2), "89");
+  EXPECT_EQ(proxy.pread(out, 4, 10), 0u) << "at the end";
+  EXPECT_EQ(proxy.pread(out, 4, 1000), 0u) << "past the end";
+  EXPECT_EQ(proxy.pread(out, 4, -4), 0u) << "before the start (offset + size wraps to 0)";
+  EXPECT_EQ(proxy.pread(out, std::numeric_limits<size_t>::max(), 3), 7u) << "a size that wraps offset + size";
+  EXPECT_EQ(std::string(out, 7), "3456789");
+  proxy.seek(12);
+  EXPECT_EQ(proxy.read(out, 4), 0u) << "read() after a seek past the end";
+  proxy.seek(6);
+  EXPECT_EQ(proxy.read(out, 16), 4u);
+  EXPECT_EQ(std::string(out, 4), "6789");
+}
+
+// The two inputs of that finding decode to a clear error (under AddressSanitizer: without reading outside them).
+TEST(Exr, DamagedChunkOffsetsAreRefusedWithoutReadingOutsideTheUpload) {
+  for (const char* name : {"exr/iomemreader_pread_overread.exr", "environment/iomemreader_pread_overread.exr"}) {
+    std::ifstream in(std::string(KILN_SOURCE_DIR "/tests/fuzz/regressions/") + name, std::ios::binary);
+    const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    ASSERT_FALSE(bytes.empty()) << name;
+    try {
+      decode_exr(bytes);
+      ADD_FAILURE() << name << " decoded";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("decode_exr"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
