@@ -4,8 +4,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include "bakers/math/constants.h"
 
@@ -19,6 +21,86 @@ Rgb lerp_exact(double t, const Rgb& a, const Rgb& b) { return a + (b - a) * t; }
 double corner_area(double a, double b) { return std::atan2(a * b, std::sqrt(a * a + b * b + 1.0)); }
 
 int clamp_index(double v, int n) { return std::clamp(static_cast<int>(std::floor(v)), 0, n - 1); }
+
+// The equirectangular image's column coordinate px = u W − ½ of a direction (x, y, z) (direction_to_equirect_uv),
+// from x and −z; the poles (x = z = 0) have no longitude and read u = ½.
+double equirect_px(double x, double minus_z, int width) {
+  const double u = (x == 0.0 && minus_z == 0.0) ? 0.5 : 0.5 + std::atan2(x, minus_z) * kInv2Pi;
+  return u * width - 0.5;
+}
+
+// Its row coordinate py = v H − ½ from y and the direction's length.
+double equirect_py(double y, double len, int height) {
+  return std::acos(std::clamp(y / len, -1.0, 1.0)) * kInvPi * height - 0.5;
+}
+
+// Bilinear interpolation at pixel coordinates (px, py), px ∈ [−½, W − ½] (as u ∈ [0, 1] gives), wrapping around
+// in longitude and clamping in latitude. A column index lies in [−1, W]: one addition or subtraction wraps it,
+// where an integer remainder (a division) per tap was most of the resampling's cost.
+Rgb equirect_bilinear_at(const RgbImage& img, double px, double py) {
+  const double fx0 = std::floor(px), fy0 = std::floor(py);
+  const double tx = px - fx0, ty = py - fy0;
+  const int w = img.width;
+  const auto wrap = [w](long long x) { return static_cast<int>(x < 0 ? x + w : x >= w ? x - w : x); };
+  const int x0 = wrap(static_cast<long long>(fx0)), x1 = wrap(static_cast<long long>(fx0) + 1);
+  const int y0 = std::clamp(static_cast<int>(fy0), 0, img.height - 1);
+  const int y1 = std::clamp(static_cast<int>(fy0) + 1, 0, img.height - 1);
+  return lerp_exact(ty, lerp_exact(tx, img.at(x0, y0), img.at(x1, y0)), lerp_exact(tx, img.at(x0, y1), img.at(x1, y1)));
+}
+
+// The equirectangular pixel coordinates of the sub-texel centres of a cube resampled at n sub-texels a side, with
+// the arithmetic of direction_to_equirect_uv on face_uv_to_direction's unnormalised directions (so that every read
+// is bit for bit sample_equirect_bilinear's), each arctangent, arccosine and square root computed once where faces
+// share it. On the side faces (+X, −X, +Z, −Z: x and z are ±1 and ±a, y = −b) the longitude depends on the column
+// alone: px is one arctangent per face and column, for the whole cube. Their latitude acos(−b / |d|) is shared by
+// +X and −X, whose |d|² sums 1 + b² + a², and by +Z and −Z (a² + b² + 1). The top and bottom faces (a, ±1, ±b) share
+// |d|. So a sub-texel position costs 3 square roots, 4 arccosines and 2 arctangents for its six faces, where
+// sample_equirect_bilinear costs 6 of each.
+class EquirectGrid {
+ public:
+  struct Row {
+    std::array<std::vector<double>, kFaceCount> px, py;  // px is filled for the top and bottom faces only
+  };
+
+  EquirectGrid(const RgbImage& img, int n) : width_(img.width), height_(img.height), n_(n) {
+    for (int face : {0, 1, 4, 5}) {
+      side_px_[face].resize(n);
+      for (int col = 0; col < n; ++col) {
+        const Vec3 d = face_uv_to_direction(face, (col + 0.5) / n, 0.5);
+        side_px_[face][col] = equirect_px(d.x, -d.z, width_);
+      }
+    }
+  }
+
+  // The coordinates of sub-row `sub_row` (0 … n − 1) of every face.
+  void row(int sub_row, Row& out) const {
+    for (int face = 0; face < kFaceCount; ++face) {
+      out.px[face].resize(n_);
+      out.py[face].resize(n_);
+    }
+    const double b = 2.0 * ((sub_row + 0.5) / n_) - 1.0;
+    for (int col = 0; col < n_; ++col) {
+      const double a = 2.0 * ((col + 0.5) / n_) - 1.0;
+      const double len_x = std::sqrt(1.0 + b * b + a * a), len_z = std::sqrt(a * a + b * b + 1.0);
+      out.py[0][col] = out.py[1][col] = equirect_py(-b, len_x, height_);
+      out.py[4][col] = out.py[5][col] = equirect_py(-b, len_z, height_);
+      // +Y is (a, 1, b), −Y is (a, −1, −b).
+      const double len_y = std::sqrt(a * a + 1.0 + b * b);
+      out.px[2][col] = equirect_px(a, -b, width_);
+      out.py[2][col] = equirect_py(1.0, len_y, height_);
+      out.px[3][col] = equirect_px(a, b, width_);
+      out.py[3][col] = equirect_py(-1.0, len_y, height_);
+    }
+  }
+
+  double px(int face, int col, const Row& row) const {
+    return face == 2 || face == 3 ? row.px[face][col] : side_px_[face][col];
+  }
+
+ private:
+  int width_, height_, n_;
+  std::array<std::vector<double>, kFaceCount> side_px_;
+};
 
 }  // namespace
 
@@ -44,36 +126,6 @@ Vec3 face_uv_to_direction(int face, double u, double v) {
 
 Vec3 texel_direction(int face, int x, int y, int size) {
   return normalize(face_uv_to_direction(face, (x + 0.5) / size, (y + 0.5) / size));
-}
-
-FaceUv direction_to_face_uv(const Vec3& d) {
-  const double ax = std::fabs(d.x), ay = std::fabs(d.y), az = std::fabs(d.z);
-  FaceUv r;
-  double sc, tc, ma;
-  if (ax >= ay && ax >= az) {
-    // The zero vector has no major axis (ma = 0 would divide by zero): it reads as the centre of +X.
-    if (ax == 0.0) return FaceUv{0, 0.5, 0.5};
-    ma = ax;
-    if (d.x >= 0)
-      r.face = 0, sc = -d.z, tc = -d.y;
-    else
-      r.face = 1, sc = d.z, tc = -d.y;
-  } else if (ay >= az) {
-    ma = ay;
-    if (d.y >= 0)
-      r.face = 2, sc = d.x, tc = d.z;
-    else
-      r.face = 3, sc = d.x, tc = -d.z;
-  } else {
-    ma = az;
-    if (d.z >= 0)
-      r.face = 4, sc = d.x, tc = -d.y;
-    else
-      r.face = 5, sc = -d.x, tc = -d.y;
-  }
-  r.u = 0.5 * (sc / ma + 1.0);
-  r.v = 0.5 * (tc / ma + 1.0);
-  return r;
 }
 
 double face_rect_solid_angle(double a0, double b0, double a1, double b1) {
@@ -159,14 +211,7 @@ Vec3 equirect_uv_to_direction(double u, double v) {
 Rgb sample_equirect_bilinear(const RgbImage& img, const Vec3& dir) {
   double u, v;
   direction_to_equirect_uv(dir, u, v);
-  const double px = u * img.width - 0.5, py = v * img.height - 0.5;
-  const double fx0 = std::floor(px), fy0 = std::floor(py);
-  const double tx = px - fx0, ty = py - fy0;
-  const auto wrap = [w = img.width](long long x) { return static_cast<int>(((x % w) + w) % w); };
-  const int x0 = wrap(static_cast<long long>(fx0)), x1 = wrap(static_cast<long long>(fx0) + 1);
-  const int y0 = std::clamp(static_cast<int>(fy0), 0, img.height - 1);
-  const int y1 = std::clamp(static_cast<int>(fy0) + 1, 0, img.height - 1);
-  return lerp_exact(ty, lerp_exact(tx, img.at(x0, y0), img.at(x1, y0)), lerp_exact(tx, img.at(x0, y1), img.at(x1, y1)));
+  return equirect_bilinear_at(img, u * img.width - 0.5, v * img.height - 0.5);
 }
 
 Cubemap resample_equirect_to_cube(const RgbImage& equirect, int size, int supersampling) {
@@ -179,6 +224,7 @@ Cubemap resample_equirect_to_cube(const RgbImage& equirect, int size, int supers
   const int k = supersampling > 0 ? supersampling
                                   : std::clamp(static_cast<int>(std::ceil(2.0 * equirect.width / (kPi * size))), 2, 32);
   Cubemap cube(size);
+  const EquirectGrid grid(equirect, size * k);
   // The sub-texels' corners lie on one grid of (size k + 1)² points, the same on every face: for each row of texels,
   // the solid angle of the rectangle [0, a] × [0, b] at the grid points it touches (corner_area: two square roots
   // and an arctangent) is computed once for all six faces, and a sub-texel's solid angle is four reads of it
@@ -187,32 +233,39 @@ Cubemap resample_equirect_to_cube(const RgbImage& equirect, int size, int supers
   const double sub = 2.0 / n;
   tbb::parallel_for(tbb::blocked_range<int>(0, size), [&](const tbb::blocked_range<int>& rows) {
     std::vector<double> corner(static_cast<size_t>(k + 1) * (n + 1));
-    std::vector<double> weights(static_cast<size_t>(k) * k);
-    std::vector<Rgb> values(weights.size());
+    EquirectGrid::Row coords;
+    // Per face and texel of the row: the first sub-texel's value, Σ w (L − L0) and Σ w, in the order (j, i).
+    std::array<std::vector<Rgb>, kFaceCount> first, delta;
+    std::array<std::vector<double>, kFaceCount> wsum;
     for (int y = rows.begin(); y != rows.end(); ++y) {
       for (int j = 0; j <= k; ++j)
         for (int i = 0; i <= n; ++i)
           corner[static_cast<size_t>(j) * (n + 1) + i] = corner_area(-1.0 + i * sub, -1.0 + (y * k + j) * sub);
       for (int face = 0; face < kFaceCount; ++face) {
-        for (int x = 0; x < size; ++x) {
-          double wsum = 0;
-          for (int j = 0; j < k; ++j) {
-            const double* c0 = &corner[static_cast<size_t>(j) * (n + 1) + x * k];
-            const double* c1 = c0 + (n + 1);
-            for (int i = 0; i < k; ++i) {
-              const double w = c1[i + 1] - c1[i] - c0[i + 1] + c0[i];
-              const Vec3 d = face_uv_to_direction(face, (x * k + i + 0.5) / n, (y * k + j + 0.5) / n);
-              weights[j * k + i] = w;
-              values[j * k + i] = sample_equirect_bilinear(equirect, d);
-              wsum += w;
-            }
-          }
-          // The weighted mean written as L0 + Σ w (L − L0) / Σ w: exactly L0 when all samples are equal.
-          Rgb delta;
-          for (size_t s = 1; s < values.size(); ++s) delta += (values[s] - values[0]) * weights[s];
-          cube.at(face, x, y) = values[0] + delta / wsum;
-        }
+        first[face].assign(size, Rgb{});
+        delta[face].assign(size, Rgb{});
+        wsum[face].assign(size, 0.0);
       }
+      for (int j = 0; j < k; ++j) {
+        grid.row(y * k + j, coords);
+        const double* c0 = &corner[static_cast<size_t>(j) * (n + 1)];
+        const double* c1 = c0 + (n + 1);
+        for (int face = 0; face < kFaceCount; ++face)
+          for (int x = 0; x < size; ++x)
+            for (int i = 0; i < k; ++i) {
+              const int col = x * k + i;
+              const double w = c1[col + 1] - c1[col] - c0[col + 1] + c0[col];
+              const Rgb value = equirect_bilinear_at(equirect, grid.px(face, col, coords), coords.py[face][col]);
+              // The weighted mean written as L0 + Σ w (L − L0) / Σ w: exactly L0 when all samples are equal.
+              if (j == 0 && i == 0)
+                first[face][x] = value;
+              else
+                delta[face][x] += (value - first[face][x]) * w;
+              wsum[face][x] += w;
+            }
+      }
+      for (int face = 0; face < kFaceCount; ++face)
+        for (int x = 0; x < size; ++x) cube.at(face, x, y) = first[face][x] + delta[face][x] / wsum[face][x];
     }
   });
   return cube;

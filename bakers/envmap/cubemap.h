@@ -32,6 +32,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <functional>
 #include <string_view>
 #include <vector>
@@ -67,8 +68,36 @@ Vec3 face_uv_to_direction(int face, double u, double v);
 // The unit direction through the centre of texel (x, y) of a face of size `size`.
 Vec3 texel_direction(int face, int x, int y, int size);
 // The face and (s, t) of a direction (need not be unit). The zero vector (no direction) maps to the centre of +X;
-// non-finite components are the caller's to reject.
-FaceUv direction_to_face_uv(const Vec3& dir);
+// non-finite components are the caller's to reject. Inline: the prefilter's sampler calls it for every sample.
+inline FaceUv direction_to_face_uv(const Vec3& d) {
+  const double ax = std::fabs(d.x), ay = std::fabs(d.y), az = std::fabs(d.z);
+  FaceUv r;
+  double sc, tc, ma;
+  if (ax >= ay && ax >= az) {
+    // The zero vector has no major axis (ma = 0 would divide by zero): it reads as the centre of +X.
+    if (ax == 0.0) return FaceUv{0, 0.5, 0.5};
+    ma = ax;
+    if (d.x >= 0)
+      r.face = 0, sc = -d.z, tc = -d.y;
+    else
+      r.face = 1, sc = d.z, tc = -d.y;
+  } else if (ay >= az) {
+    ma = ay;
+    if (d.y >= 0)
+      r.face = 2, sc = d.x, tc = d.z;
+    else
+      r.face = 3, sc = d.x, tc = -d.z;
+  } else {
+    ma = az;
+    if (d.z >= 0)
+      r.face = 4, sc = d.x, tc = -d.y;
+    else
+      r.face = 5, sc = -d.x, tc = -d.y;
+  }
+  r.u = 0.5 * (sc / ma + 1.0);
+  r.v = 0.5 * (tc / ma + 1.0);
+  return r;
+}
 
 // Exact solid angle of texel (x, y) on any face of size `size` (the same for all six faces). With the face at distance
 // 1 and plane coordinates (a, b) ∈ [−1, 1]², the solid angle of [0, a] × [0, b] is

@@ -3,8 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 #include <utility>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
 #include "bakers/bake/number_format.h"
 #include "bakers/bake/range_check.h"
@@ -229,8 +235,15 @@ void compute_dfg_table(EnvironmentRun& run) {
   run.end_stage(0.85, "dfg");
 }
 
+// An output whose bytes are still to be encoded: the outputs stage gathers them all, then encodes them in parallel.
+struct PendingOutput {
+  std::string name, media_type, space;
+  std::function<std::string()> encode;
+};
+using PendingOutputs = std::vector<PendingOutput>;
+
 // specular.ktx2: every level and face, RGBA16F, with the conventions in its key/value data.
-void encode_specular_ktx2(EnvironmentRun& run) {
+std::string specular_ktx2(const EnvironmentRun& run) {
   image::Ktx2Image ktx;
   ktx.width = ktx.height = run.in.size;
   ktx.faces = 6;
@@ -254,37 +267,39 @@ void encode_specular_ktx2(EnvironmentRun& run) {
   ktx.key_values["kiln:cubemap_convention"] = std::string(kCubemapConvention);
   ktx.key_values["kiln:equirect_convention"] = std::string(kEquirectConvention);
   ktx.key_values["kiln:color_space"] = run.color_space;
-  run.add_output("specular.ktx2", "image/ktx2", run.color_space, image::encode_ktx2(ktx));
+  return image::encode_ktx2(ktx);
 }
 
 // specular_L{k}_{face}.exr: the same levels as EXR faces.
-void encode_specular_faces(EnvironmentRun& run) {
-  for (int k = 0; k < run.levels; ++k) {
-    const PrefilteredLevel& level = run.chain[k];
-    const std::string what = "specular prefiltered (" + std::string(to_string(run.in.lobe)) + "), level " +
-                             std::to_string(k) + ", roughness " + format_number(level.roughness);
+void specular_faces(const EnvironmentRun& run, PendingOutputs& out) {
+  for (int k = 0; k < run.levels; ++k)
     for (int f = 0; f < 6; ++f) {
-      run.add_output("specular_L" + std::to_string(k) + "_" + std::string(kFaceNames[f]) + ".exr", "image/x-exr",
-                     run.color_space, image::encode_exr(face_image(level.cube, f, what)));
+      const std::string name = "specular_L" + std::to_string(k) + "_" + std::string(kFaceNames[f]) + ".exr";
+      out.push_back({name, "image/x-exr", run.color_space, [&run, k, f] {
+                       const PrefilteredLevel& level = run.chain[k];
+                       const std::string what = "specular prefiltered (" + std::string(to_string(run.in.lobe)) +
+                                                "), level " + std::to_string(k) + ", roughness " +
+                                                format_number(level.roughness);
+                       return image::encode_exr(face_image(level.cube, f, what));
+                     }});
     }
-  }
 }
 
 // irradiance_{face}.exr and sh.txt.
-void encode_diffuse(EnvironmentRun& run) {
-  for (int f = 0; f < 6; ++f) {
-    run.add_output("irradiance_" + std::string(kFaceNames[f]) + ".exr", "image/x-exr", run.color_space,
-                   image::encode_exr(face_image(run.irradiance, f, "irradiance E(n), W/m^2")));
-  }
-  std::string sh_text = std::string(kShIrradianceHeader) + "\n";
-  for (const Rgb& c : run.sh) {
-    sh_text += format_number(c.r) + " " + format_number(c.g) + " " + format_number(c.b) + "\n";
-  }
-  run.add_output("sh.txt", "text/plain", run.color_space, sh_text);
+void diffuse_outputs(const EnvironmentRun& run, PendingOutputs& out) {
+  for (int f = 0; f < 6; ++f)
+    out.push_back({"irradiance_" + std::string(kFaceNames[f]) + ".exr", "image/x-exr", run.color_space,
+                   [&run, f] { return image::encode_exr(face_image(run.irradiance, f, "irradiance E(n), W/m^2")); }});
+  out.push_back({"sh.txt", "text/plain", run.color_space, [&run] {
+                   std::string sh_text = std::string(kShIrradianceHeader) + "\n";
+                   for (const Rgb& c : run.sh)
+                     sh_text += format_number(c.r) + " " + format_number(c.g) + " " + format_number(c.b) + "\n";
+                   return sh_text;
+                 }});
 }
 
 // dfg.exr: (μ, ρ) → scale, bias, energy.
-void encode_dfg(EnvironmentRun& run) {
+std::string dfg_exr(const EnvironmentRun& run) {
   const int size = run.in.dfg_size;
   image::FloatImage image;
   image.width = image.height = size;
@@ -303,25 +318,41 @@ void encode_dfg(EnvironmentRun& run) {
   image.metadata["kiln:channel.scale"] = "scale: the factor on f0 (E ~= f0 * scale + bias)";
   image.metadata["kiln:channel.bias"] = "bias: the term added";
   image.metadata["kiln:channel.energy"] = "scale + bias: the directional albedo with F = 1";
-  run.add_output("dfg.exr", "image/x-exr", "data", image::encode_exr(image));
+  return image::encode_exr(image);
 }
 
-void encode_preview(EnvironmentRun& run) {
+void preview_output(EnvironmentRun& run, PendingOutputs& out) {
   if (!run.in.preview) {
     run.plan(EnvironmentEffect::preview, false, false, "not asked for");
     return;
   }
-  run.add_output("preview.png", "image/png", "", render_preview(run.chain, run.irradiance, *run.dfg, run.color_space));
+  out.push_back({"preview.png", "image/png", "",
+                 [&run] { return render_preview(run.chain, run.irradiance, *run.dfg, run.color_space); }});
   run.plan(EnvironmentEffect::preview, true, false,
            "preview.png: spheres at roughness 0, 0.25, 0.5, 0.75, 1 and a diffuse one");
 }
 
+// Every output file is independent of the others, so all are encoded in parallel on the job's threads (zip
+// compression of the EXR faces, the KTX2 file's half floats and the preview's rendering and PNG are the stage), one
+// task each, then added in a fixed order: the same outputs, in the same order, as one by one.
 void encode_outputs(EnvironmentRun& run) {
-  encode_specular_ktx2(run);
-  encode_specular_faces(run);
-  encode_diffuse(run);
-  encode_dfg(run);
-  encode_preview(run);
+  PendingOutputs pending;
+  pending.push_back({"specular.ktx2", "image/ktx2", run.color_space, [&run] { return specular_ktx2(run); }});
+  specular_faces(run, pending);
+  diffuse_outputs(run, pending);
+  pending.push_back({"dfg.exr", "image/x-exr", "data", [&run] { return dfg_exr(run); }});
+  preview_output(run, pending);
+  std::vector<std::string> bytes(pending.size());
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, pending.size(), 1),
+      [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) bytes[i] = pending[i].encode();
+      },
+      tbb::simple_partitioner());
+  for (size_t i = 0; i < pending.size(); ++i) {
+    PendingOutput& p = pending[i];
+    run.add_output(std::move(p.name), std::move(p.media_type), std::move(p.space), std::move(bytes[i]));
+  }
   run.end_stage(0.95, "outputs");
 }
 

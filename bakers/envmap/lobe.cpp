@@ -140,16 +140,7 @@ double lobe_normalization(brdf::Distribution distribution, double alpha) {
 SplitSumLobe::SplitSumLobe(brdf::Distribution distribution, double alpha)
     : dist_(distribution, alpha, alpha), ggx_(distribution == brdf::Distribution::ggx), alpha2_(alpha * alpha) {}
 
-double SplitSumLobe::weight(const Vec3& n, const Vec3& l) const {
-  const double nl = dot(n, l);
-  if (nl <= 0.0) return 0.0;  // below the horizon of n (and l = −n, where h is undefined)
-  if (ggx_) {
-    // For unit n and l, (n·h)² = (1 + n·l)/2, and GGX's D = α² / (π (1 + (n·h)² (α² − 1))²) (the form of
-    // MicrofacetDistribution::D, multiplied through by α²): no normalisation and no square root. The brute-force
-    // references sum this over every source texel, so it is most of their cost.
-    const double e = 1.0 + 0.5 * (1.0 + nl) * (alpha2_ - 1.0);
-    return alpha2_ * kInvPi / (e * e) * nl;
-  }
+double SplitSumLobe::weight_from_h(const Vec3& n, const Vec3& l, double nl) const {
   const Vec3 h = normalize(n + l);
   // D depends only on n·h for these isotropic lobes: evaluate it in a frame where n is +z.
   const double nh = std::fmin(1.0, dot(n, h));

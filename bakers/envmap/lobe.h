@@ -26,6 +26,8 @@
 
 #include "bakers/brdf/microfacet_distribution.h"
 #include "bakers/brdf/model_spec.h"
+#include "bakers/math/constants.h"
+#include "bakers/math/vec3.h"
 
 namespace kiln::envmap {
 
@@ -60,13 +62,25 @@ std::string lobe_description(EnvLobe lobe);
 double lobe_normalization(brdf::Distribution distribution, double alpha);
 
 // D(h)(n·l) of the lobe around unit n for unit l (0 for n·l ≤ 0, which also excludes l = −n, where h is undefined).
+// Inline: the brute-force references sum it over every source texel, so it is most of their cost.
 class SplitSumLobe {
  public:
   SplitSumLobe(brdf::Distribution distribution, double alpha);
-  double weight(const Vec3& n, const Vec3& l) const;
+  double weight(const Vec3& n, const Vec3& l) const {
+    const double nl = dot(n, l);
+    if (nl <= 0.0) return 0.0;  // below the horizon of n (and l = −n, where h is undefined)
+    if (!ggx_) return weight_from_h(n, l, nl);
+    // For unit n and l, (n·h)² = (1 + n·l)/2, and GGX's D = α² / (π (1 + (n·h)² (α² − 1))²) (the form of
+    // MicrofacetDistribution::D, multiplied through by α²): no normalisation and no square root.
+    const double e = 1.0 + 0.5 * (1.0 + nl) * (alpha2_ - 1.0);
+    return alpha2_ * kInvPi / (e * e) * nl;
+  }
   const brdf::MicrofacetDistribution& distribution() const { return dist_; }
 
  private:
+  // The other lobes: D(h) from the half vector.
+  double weight_from_h(const Vec3& n, const Vec3& l, double nl) const;
+
   brdf::MicrofacetDistribution dist_;
   bool ggx_;
   double alpha2_;

@@ -12,95 +12,17 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "bakers/envmap/level_sampler.h"
 #include "bakers/envmap/lobe.h"
 #include "bakers/envmap/sun.h"
-#include "bakers/math/constants.h"
-#include "bakers/math/rng.h"
-#include "bakers/math/sampling.h"
 
 namespace kiln::envmap {
 namespace {
 
-constexpr int kGroups = 4;                         // independent randomised groups for the noise estimate
 constexpr int kPilotSamples = 64;                  // the first trial when choosing N
 constexpr int kMaxTrials = 6;                      // trials when choosing N
 constexpr double kStepMargin = 1.2;                // N is scaled by (e/target)² times this
 constexpr double kReferenceTexelsPerAlpha = 16.0;  // reference mip size ≥ this / α (box filter ≤ 1/16 of the lobe)
-
-double radical_inverse_base2(uint32_t i) {
-  i = (i << 16u) | (i >> 16u);
-  i = ((i & 0x55555555u) << 1u) | ((i & 0xAAAAAAAAu) >> 1u);
-  i = ((i & 0x33333333u) << 2u) | ((i & 0xCCCCCCCCu) >> 2u);
-  i = ((i & 0x0F0F0F0Fu) << 4u) | ((i & 0xF0F0F0F0u) >> 4u);
-  i = ((i & 0x00FF00FFu) << 8u) | ((i & 0xFF00FF00u) >> 8u);
-  return static_cast<double>(i) * 0x1.0p-32;
-}
-
-// Point i of the M-point Hammersley set, Cranley–Patterson rotated by `shift` (mod 1).
-Point2 hammersley(int i, int m, Point2 shift) {
-  double x = (i + 0.5) / m + shift.x, y = radical_inverse_base2(static_cast<uint32_t>(i)) + shift.y;
-  x -= std::floor(x);
-  y -= std::floor(y);
-  return {x, y};
-}
-
-// The sky's mip chain as the sampler reads it: every face with a one-texel border holding what
-// Cubemap::texel_extended gives beyond its edges, so that a bilinear read is four loads without a branch, and the
-// face and its coordinates are found once for both levels of a trilinear read. Reads are bit for bit those of
-// Cubemap::sample_bilinear (the same texels, the same arithmetic).
-class PaddedMips {
- public:
-  explicit PaddedMips(const std::vector<Cubemap>& mips) : levels_(mips.size()) {
-    for (size_t m = 0; m < mips.size(); ++m) {
-      const Cubemap& c = mips[m];
-      Level& l = levels_[m];
-      l.size = c.size();
-      l.stride = l.size + 2;
-      for (int f = 0; f < kFaceCount; ++f) {
-        std::vector<Rgb>& px = l.faces[f];
-        px.resize(static_cast<size_t>(l.stride) * l.stride);
-        for (int y = -1; y <= l.size; ++y)
-          for (int x = -1; x <= l.size; ++x)
-            px[static_cast<size_t>(y + 1) * l.stride + (x + 1)] = c.texel_extended(f, x, y);
-      }
-    }
-  }
-
-  // Trilinear read at fractional level `lod` (clamped to the chain).
-  Rgb sample_trilinear(const Vec3& dir, double lod) const {
-    const double top = static_cast<double>(levels_.size() - 1);
-    lod = std::clamp(lod, 0.0, top);
-    const int l0 = static_cast<int>(std::floor(lod));
-    const double t = lod - l0;
-    const FaceUv f = direction_to_face_uv(dir);
-    const Rgb a = bilinear(levels_[l0], f);
-    if (t == 0.0 || l0 + 1 >= static_cast<int>(levels_.size())) return a;
-    return lerp(t, a, bilinear(levels_[l0 + 1], f));
-  }
-
- private:
-  struct Level {
-    int size = 0, stride = 0;
-    std::array<std::vector<Rgb>, kFaceCount> faces;  // (size + 2)² texels, row-major, border included
-  };
-
-  // a + t (b − a): Cubemap::sample_bilinear's lerp, exact when a == b.
-  static Rgb lerp_exact(double t, const Rgb& a, const Rgb& b) { return a + (b - a) * t; }
-
-  static Rgb bilinear(const Level& l, const FaceUv& f) {
-    const double px = f.u * l.size - 0.5, py = f.v * l.size - 0.5;
-    const double fx0 = std::floor(px), fy0 = std::floor(py);
-    const double tx = px - fx0, ty = py - fy0;
-    // px, py ∈ [−½, size − ½]: the taps lie in [−1, size], inside the border.
-    const Rgb* row = l.faces[f.face].data() + static_cast<size_t>(static_cast<int>(fy0) + 1) * l.stride +
-                     (static_cast<int>(fx0) + 1);
-    const Rgb top = lerp_exact(tx, row[0], row[1]);
-    const Rgb bottom = lerp_exact(tx, row[l.stride], row[l.stride + 1]);
-    return lerp_exact(ty, top, bottom);
-  }
-
-  std::vector<Level> levels_;
-};
 
 template <class Fn>
 void for_each_texel(int size, Fn&& fn) {
@@ -113,79 +35,25 @@ void for_each_texel(int size, Fn&& fn) {
   });
 }
 
-// Filtered importance sampling of one level: the sample pattern in the local frame (normal +z, v = +z) is the same
-// for every texel, precomputed with its n·l and lod. Sampling h from D(h)(n·h) and reflecting v = n about it gives l
-// with density p(l) = D(h)(n·h)/(4 v·h) = D(h)/4, so Σ L(l_i)(n·l_i) / Σ (n·l_i) converges to L_pre. Each sample
-// reads the sky's mip chain at lod = ½ log2(Ω_s/Ω_p) + 1, Ω_s = 1/(N p(l)), Ω_p = 4π/(6 size0²). The N samples are
-// 4 groups of N/4: the same Hammersley set, each group with its own Cranley–Patterson shift from the seed (the same
-// for every texel, so the output has no per-texel noise); the spread of the group means is the noise estimate.
-class LevelSampler {
- public:
-  LevelSampler(const PaddedMips& mips, int size0, double alpha, brdf::Distribution distribution, int samples,
-               uint64_t seed)
-      : mips_(mips) {
-    const int per_group = (samples + kGroups - 1) / kGroups;
-    const int n_total = per_group * kGroups;
-    const brdf::MicrofacetDistribution dist(distribution, alpha, alpha);
-    const double omega_p = 4.0 * kPi / (6.0 * size0 * size0);  // solid angle of one level-0 source texel (average)
-    Pcg32 rng(0x9e3779b97f4a7c15ULL ^ seed, 0x6a09e667f3bcc909ULL);
-    const Vec3 v{0, 0, 1};
-    for (int g = 0; g < kGroups; ++g) {
-      const Point2 shift{rng.uniform(), rng.uniform()};
-      for (int i = 0; i < per_group; ++i) {
-        const Vec3 h = dist.sample_wh(v, hammersley(i, per_group, shift));
-        const double vh = dot(v, h);
-        const Vec3 l = h * (2.0 * vh) - v;
-        // Below the horizon (n·l ≤ 0) the weight is zero; vh ≤ 0 would make p(l) singular — neither contributes.
-        if (l.z <= 0.0 || vh <= 0.0) continue;
-        const double pdf_l = dist.pdf_wh(v, h) / (4.0 * vh);
-        // A zero density (numerically, far in the tail) would give an infinite Ω_s: read the coarsest level.
-        const double lod = pdf_l > 0.0 ? 0.5 * std::log2(1.0 / (n_total * pdf_l) / omega_p) + 1.0 : 1e9;
-        pattern_[g].push_back({l, l.z, lod});
-      }
+// The sampler's estimates at normal(0 .. count), each handed to store(i, value, relative variance), kSamplerLanes
+// at a time, in parallel (TBB) over blocks; a set cancel flag skips the remaining blocks.
+template <class Normal, class Store>
+void eval_in_lanes(const LevelSampler& sampler, int count, Normal&& normal, Store&& store, bool with_rel_var,
+                   const std::atomic<bool>* cancel) {
+  const int blocks = (count + kSamplerLanes - 1) / kSamplerLanes;
+  tbb::parallel_for(tbb::blocked_range<int>(0, blocks), [&](const tbb::blocked_range<int>& r) {
+    for (int b = r.begin(); b != r.end(); ++b) {
+      if (cancel && cancel->load()) return;  // stop early: the chain is discarded
+      const int first = b * kSamplerLanes, lanes = std::min(kSamplerLanes, count - first);
+      std::array<Vec3, kSamplerLanes> n;
+      std::array<Rgb, kSamplerLanes> value;
+      std::array<double, kSamplerLanes> rel_var{};
+      for (int k = 0; k < lanes; ++k) n[k] = normal(first + k);
+      sampler.eval(n.data(), lanes, value.data(), with_rel_var ? rel_var.data() : nullptr);
+      for (int k = 0; k < lanes; ++k) store(first + k, value[k], rel_var[k]);
     }
-  }
-
-  // The estimate at unit n and its relative squared standard error (of the average channel).
-  Rgb eval(const Vec3& n, double* rel_var) const {
-    const Frame frame = Frame::from_normal(n);
-    Rgb sum_all;
-    double w_all = 0.0;
-    std::array<double, kGroups> group_mean{};
-    for (int g = 0; g < kGroups; ++g) {
-      Rgb sum;
-      double w = 0.0;
-      for (const Sample& s : pattern_[g]) {
-        sum += mips_.sample_trilinear(frame.from_local(s.l), s.lod) * s.nl;
-        w += s.nl;
-      }
-      sum_all += sum;
-      w_all += w;
-      // A group with no sample above the horizon (cannot happen for N/4 ≥ 1, guarded anyway) reads 0.
-      group_mean[g] = w > 0.0 ? (sum / w).average() : 0.0;
-    }
-    const Rgb value = w_all > 0.0 ? sum_all / w_all : Rgb{};
-    if (rel_var) {
-      double mean = 0.0;
-      for (double m : group_mean) mean += m / kGroups;
-      double var = 0.0;
-      for (double m : group_mean) var += (m - mean) * (m - mean) / (kGroups - 1);
-      const double denom = std::abs(value.average());
-      // A zero (black) texel has no relative error.
-      *rel_var = denom > 0.0 ? var / kGroups / (denom * denom) : 0.0;
-    }
-    return value;
-  }
-
- private:
-  struct Sample {
-    Vec3 l;
-    double nl;
-    double lod;
-  };
-  const PaddedMips& mips_;
-  std::array<std::vector<Sample>, kGroups> pattern_;
-};
+  });
+}
 
 // Brute force over every texel of one cube at a few normals (the reference of the checked subset). Each texel's
 // direction, solid angle and radiance are gathered once, in the order the sums visit them.
@@ -269,7 +137,7 @@ double relative_rms(const std::vector<Checked>& subset, const std::vector<Rgb>& 
 
 int round_samples(double n) {
   const double clamped = std::clamp(std::ceil(n), 1.0, static_cast<double>(kMaxSamples));
-  return std::min(kMaxSamples, (static_cast<int>(clamped) + kGroups - 1) / kGroups * kGroups);
+  return std::min(kMaxSamples, (static_cast<int>(clamped) + kSamplerGroups - 1) / kSamplerGroups * kSamplerGroups);
 }
 
 // The lobe of one level: its width α, its weight D(h)(n·l) and that weight's integral W.
@@ -320,7 +188,7 @@ int choose_samples(const PrefilterOptions& opt, const std::function<double(int)>
       if (next >= n * 3 / 4) break;  // not worth another trial
     } else {
       if (n >= kMaxSamples) break;
-      next = std::min(kMaxSamples, std::max(round_samples(n * step), n + kGroups));
+      next = std::min(kMaxSamples, std::max(round_samples(n * step), n + kSamplerGroups));
     }
     if (next == n || next == passed || next == failed) break;
     n = next;
@@ -331,13 +199,20 @@ int choose_samples(const PrefilterOptions& opt, const std::function<double(int)>
 // Every texel of the level with N = level.samples, plus the exact sun; sets the cube and the noise estimate.
 void sample_level(PrefilteredLevel& level, const PaddedMips& padded, int size0, const std::vector<SunTexel>& sun,
                   const LevelLobe& l, int out_size, const PrefilterOptions& opt, uint64_t level_seed) {
-  const LevelSampler sampler(padded, size0, l.alpha, opt.distribution, level.samples, level_seed);
+  const LevelSampler sampler(padded, size0, l.alpha, opt.distribution, level.samples, level_seed, opt.lod_bias);
   level.cube = Cubemap(out_size);
-  std::vector<double> rel_var(static_cast<size_t>(kFaceCount) * out_size * out_size, 0.0);
-  for_each_texel(out_size, [&](int f, int x, int y, int idx) {
-    if (opt.cancel && opt.cancel->load()) return;  // stop early: the chain is discarded
-    level.cube.at(f, x, y) = sampler.eval(texel_direction(f, x, y, out_size), &rel_var[idx]);
-  });
+  const int per_face = out_size * out_size;
+  std::vector<double> rel_var(static_cast<size_t>(kFaceCount) * per_face, 0.0);
+  eval_in_lanes(
+      sampler, kFaceCount * per_face,
+      [&](int idx) {
+        return texel_direction(idx / per_face, idx % per_face % out_size, idx % per_face / out_size, out_size);
+      },
+      [&](int idx, const Rgb& value, double r) {
+        level.cube.at(idx / per_face, idx % per_face % out_size, idx % per_face / out_size) = value;
+        rel_var[idx] = r;
+      },
+      true, opt.cancel);
   add_sun_specular(level.cube, sun, l.lobe, l.w_norm);
   double acc = 0.0;
   for (double r : rel_var) acc += r;
@@ -358,10 +233,11 @@ PrefilteredLevel prefilter_level(const std::vector<Cubemap>& mips, const PaddedM
   std::vector<Rgb> sun_at_subset(subset.size());
   for (size_t i = 0; i < subset.size(); ++i) sun_at_subset[i] = sun_specular_at(sun, l.lobe, l.w_norm, subset[i].n);
   const auto check = [&](int samples) {
-    const LevelSampler sampler(padded, mips[0].size(), alpha, opt.distribution, samples, level_seed);
+    const LevelSampler sampler(padded, mips[0].size(), alpha, opt.distribution, samples, level_seed, opt.lod_bias);
     std::vector<Rgb> values(subset.size());
-    tbb::parallel_for(size_t{0}, subset.size(),
-                      [&](size_t i) { values[i] = sampler.eval(subset[i].n, nullptr) + sun_at_subset[i]; });
+    eval_in_lanes(
+        sampler, static_cast<int>(subset.size()), [&](int i) { return subset[i].n; },
+        [&](int i, const Rgb& value, double) { values[i] = value + sun_at_subset[i]; }, false, opt.cancel);
     level.pilot_samples += samples;
     return relative_rms(subset, values);
   };
@@ -402,6 +278,8 @@ std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& sky, const std::
                                 std::to_string(opt.samples));
   if (!(opt.target_error > 0.0 && opt.target_error <= 1.0))
     throw std::invalid_argument("prefilter_specular: target_error must be in (0, 1]");
+  if (!(opt.lod_bias >= -4.0 && opt.lod_bias <= 4.0))
+    throw std::invalid_argument("prefilter_specular: lod_bias must be in [-4, 4]");
   const std::vector<Cubemap> mips = build_source_mips(sky);
   const PaddedMips padded(mips);
   std::vector<PrefilteredLevel> chain;

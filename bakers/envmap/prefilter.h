@@ -4,8 +4,8 @@
 //     L_pre(n) = ∫ L(l) D(h) (n·l) dω_l / W,    W = ∫ D(h) (n·l) dω_l,    h = (n + l)/|n + l|,
 //
 // so a constant environment stays exactly that constant. The sky is importance sampled with filtered importance
-// sampling (Křivánek & Colbert 2008) in 4 randomised groups; the sun (sun.h) is summed exactly. Each level's
-// error_estimate is max(noise of the groups, error against brute force on a checked subset of texels), and
+// sampling (Křivánek & Colbert 2008) in 4 randomised groups (level_sampler.h); the sun (sun.h) is summed exactly. Each
+// level's error_estimate is max(noise of the groups, error against brute force on a checked subset of texels), and
 // samples = 0 chooses N per level to meet target_error. The derivations, the error estimate and the choice of N are
 // in docs/ENVIRONMENT.md.
 #pragma once
@@ -21,12 +21,17 @@ namespace kiln::envmap {
 
 struct SunTexel;
 
+inline constexpr double kDefaultLodBias = 1.0;
+
 struct PrefilterOptions {
   int levels = 6;    // L ≥ 1; level k has ρ = k/(L − 1)
   int samples = 64;  // N per texel for levels k ≥ 1, rounded up to a multiple of 4; 0: chosen from target_error
   double target_error = 0.01;  // relative RMS error per level aimed at when samples = 0, in (0, 1]
   brdf::Distribution distribution = brdf::Distribution::ggx;
   uint64_t seed = 0;  // the Cranley–Patterson shifts; the same seed gives the same bytes
+  // The b of filtered importance sampling's lod = ½ log2(Ω_s/Ω_p) + b (Křivánek & Colbert 2008 use 1): lower reads
+  // finer mips (less blur, more noise). docs/PERFORMANCE.md compares 1 and 0.5.
+  double lod_bias = kDefaultLodBias;
   // Set (by another thread) to stop early: the chain returned is then incomplete and must be discarded; the caller
   // checks the flag after the call (environment_bake throws bake::BakeCancelled).
   const std::atomic<bool>* cancel = nullptr;
@@ -52,7 +57,7 @@ double prefilter_level_roughness(int level, int levels);
 
 // The whole chain from a sky and its sun (sun.h; an empty sun: the sky is the whole map), in parallel (TBB) over
 // output texels. Throws std::invalid_argument for out_size < 1, levels < 1, samples < 0, a target error outside
-// (0, 1] or an empty source.
+// (0, 1], a lod bias outside [−4, 4] or an empty source.
 std::vector<PrefilteredLevel> prefilter_specular(const Cubemap& sky, const std::vector<SunTexel>& sun, int out_size,
                                                  const PrefilterOptions& options = {});
 // The same without a sun: the whole `source` is importance sampled.
