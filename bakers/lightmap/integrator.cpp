@@ -4,6 +4,7 @@
 #include <cmath>
 #include <utility>
 
+#include "bakers/envmap/sh.h"
 #include "bakers/lightmap/path_sampler.h"
 #include "bakers/lightmap/ray_log.h"
 #include "bakers/math/constants.h"
@@ -13,6 +14,9 @@
 #include "bakers/scene/ray_offset.h"
 #include "bakers/scene/texture_sample.h"
 #include "bakers/scene/tracer.h"
+#include "bakers/volume/medium.h"
+#include "bakers/volume/phase_mixture.h"
+#include "bakers/volume/tracking.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -32,9 +36,25 @@ void add_sh(Rgb sh[4], const Vec3& w, const Rgb& value) {
   sh[3] += value * (c1 * w.x);
 }
 
+// Real orthonormal SH of order 2 (ProbeEstimate): envmap's basis, whose first four are add_sh's.
+void add_sh9(Rgb sh[9], const Vec3& w, const Rgb& value) {
+  const envmap::ShBasis Y = envmap::sh_basis(w);
+  for (int k = 0; k < 9; ++k) sh[k] += value * Y[k];
+}
+
 // The balance heuristic for a sample of density `a` against the other strategy's density `b`.
 double balance(double a, double b) { return a > 0 ? a / (a + b) : 0.0; }
 
+// The last ray of a path through media: where it left from, the normal its direction's MIS weights are taken about
+// (a surface's shading normal; at a scattering point, the direction of travel), its direction's density.
+struct Segment {
+  scene::Ray ray;
+  Vec3 n;
+  double pdf = 0;
+};
+
+// kMedia: the scene has participating media (ctx.medium); without, the walk is the surface walk alone.
+template <bool kMedia>
 struct Walk {
   const TransportContext& ctx;
   PathSampler& sampler;
@@ -79,12 +99,16 @@ struct Walk {
       const scene::LightSource& light = ctx.lights->light(index);
       if (auto h = light.intersect(p, wi, t_hit)) L += light.Le(p, wi, *h) * mis_weight(pdf, index, p, n, wi, *h);
     }
-    if (escaped) {
-      for (int index : ctx.lights->escape_lights()) {
-        const scene::LightHit h;
-        const scene::LightSource& light = ctx.lights->light(index);
-        L += light.Le(p, wi, h) * mis_weight(pdf, index, p, n, wi, h);
-      }
+    if (escaped) L += escaped_radiance(p, n, wi, pdf);
+    return L;
+  }
+  // The radiance of the infinite lights along an escaping ray, MIS-weighted.
+  Rgb escaped_radiance(const Vec3& p, const Vec3& n, const Vec3& wi, double pdf) {
+    Rgb L;
+    for (int index : ctx.lights->escape_lights()) {
+      const scene::LightHit h;
+      const scene::LightSource& light = ctx.lights->light(index);
+      L += light.Le(p, wi, h) * mis_weight(pdf, index, p, n, wi, h);
     }
     return L;
   }
@@ -153,6 +177,11 @@ struct Walk {
     const scene::Ray ray =
         std::isfinite(s.distance) ? scene::spawn_ray_to_front(from, s.point) : scene::spawn_ray_front(from, s.wi);
     if (!visible(ray)) return Rgb{};
+    Rgb Li = s.Li;
+    if constexpr (kMedia) {
+      Li = Li * transmittance(ray);
+      if (!(Li.max() > 0)) return Rgb{};
+    }
     double weight;
     if (s.delta) {
       weight = 1.0 / choice.pmf;
@@ -165,19 +194,20 @@ struct Walk {
                    : 1.0 / p_light;
     }
     if (radiance) {
-      *radiance = s.Li * weight;
+      *radiance = Li * weight;
       *direction = s.wi;
     }
-    return fc * s.Li * weight;
+    return fc * Li * weight;
   }
 
   // Radiance leaving *hit towards wo (world), reflected there at least once: path tracing with next-event
   // estimation; `depth` counts the reflections of the light arriving at the receiver. The two records take turns
   // as the vertex shaded and the next one found (swapped, never copied; a Hit is ~170 bytes).
-  Rgb reflected(scene::Hit* hit_record, scene::Hit* next_record, Vec3 wo) {
-    Rgb L, beta{1.0};
+  // With media, `beta` and `first_depth` carry the path's throughput and reflections on arriving at *hit_record.
+  Rgb reflected(scene::Hit* hit_record, scene::Hit* next_record, Vec3 wo, Rgb beta = Rgb{1.0}, int first_depth = 1) {
+    Rgb L;
     const plan::LightmapPlan& plan = *ctx.plan;
-    for (int depth = 1;; ++depth) {
+    for (int depth = first_depth;; ++depth) {
       const scene::Hit& hit = *hit_record;
       scene::Hit& next = *next_record;
       const ShadingMaterial& m = material(hit);
@@ -228,9 +258,16 @@ struct Walk {
       if (!(beta.max() > 0)) break;         // nothing more can reach the receiver
       const scene::Ray ray = scene::spawn_ray_front(surface, wi);  // dot(wi, ng) > 0, tested above
       const bool found = trace(ray, next);
-      add_lights_along(L, beta, ray.origin, ns, wi, found ? next.t : kInfinity, pdf_wi, !found);
-      if (!found) break;
-      add_emitted(L, beta, next, ray.origin, ns, wi, pdf_wi);
+      if constexpr (kMedia) {
+        Segment segment{ray, ns, pdf_wi};
+        if (!through_media(segment, found, next, beta, L, depth)) break;
+        wi = segment.ray.direction;
+        add_emitted(L, beta, next, segment.ray.origin, segment.n, wi, segment.pdf);
+      } else {
+        add_lights_along(L, beta, ray.origin, ns, wi, found ? next.t : kInfinity, pdf_wi, !found);
+        if (!found) break;
+        add_emitted(L, beta, next, ray.origin, ns, wi, pdf_wi);
+      }
       if (depth + 1 > plan.bounces) break;
       if (plan.russian_roulette && depth >= plan.russian_roulette_depth) {
         const double q = std::max(0.05, 1.0 - beta.max());
@@ -241,6 +278,136 @@ struct Walk {
       std::swap(hit_record, next_record);
     }
     return L;
+  }
+
+  // ---- Participating media ----
+
+  // Transmittance along a shadow ray over [0, tmax), by ratio tracking (an unbiased estimate, in [0, 1] until the
+  // roulette divides it).
+  Rgb transmittance(const scene::Ray& ray) {
+    return volume::ratio_tracking_transmittance(*ctx.medium, ray, ray.tmax, sampler.rng());
+  }
+
+  // Follows `segment` (whose closest hit, if `found`, is in `next`) through the media: each flight is sampled by
+  // delta tracking; a scattering is a vertex (next-event estimation, then phase sampling into a new segment, which
+  // is traced into `next`). Adds to L what the segments see of the media's emission, of the analytic lights and, on
+  // escaping, of the infinite lights. True when the last segment reaches the surface in `next` with throughput beta
+  // (its emission and reflection are the caller's); false when the path ends (absorbed, escaped, out of bounces, or
+  // the roulette).
+  bool through_media(Segment& segment, bool found, scene::Hit& next, Rgb& beta, Rgb& L, int& depth) {
+    for (;;) {
+      const scene::Ray& ray = segment.ray;
+      const double t_hit = found ? next.t : kInfinity;
+      if (ctx.has_analytic_lights) L += beta * analytic_lights_through_media(segment, t_hit);
+      if (!ctx.media_scattering) return attenuated(segment, found, t_hit, beta, L);
+      const volume::FreeFlight f = volume::sample_free_flight(*ctx.medium, ray, t_hit, sampler.rng());
+      L += beta * f.emitted;
+      beta = beta * f.weight;
+      if (f.event == volume::FlightEvent::absorbed || !(beta.max() > 0) || !finite(beta)) return false;
+      if (f.event == volume::FlightEvent::escaped) {
+        if (found) return true;
+        L += beta * escaped_radiance(ray.origin, segment.n, ray.direction, segment.pdf);
+        return false;
+      }
+      if (depth + 1 > ctx.plan->bounces) return false;  // a scattering is a bounce
+      ++depth;
+      const Vec3 wo = -ray.direction;  // unit: every segment's direction is
+      const volume::PhaseMixture phase = phase_at(f.p, f.properties);
+      L += beta * next_event_in_medium(depth, f.p, wo, phase);
+      const volume::PhaseMixture::Sample s = phase.sample(wo, sampler.lobe(depth), sampler.direction(depth));
+      if (!(s.pdf > 0)) return false;
+      beta = beta * s.weight;
+      if (!roulette_survives(beta, depth)) return false;
+      // At a scattering point there is no surface: MIS weights are taken about the direction of travel, which is
+      // also the normal its light samples were drawn about (next_event_in_medium).
+      segment = Segment{scene::Ray{f.p, s.wi, kInfinity}, -wo, s.pdf};
+      found = trace(segment.ray, next);
+    }
+  }
+
+  // Attenuation only: the segment's transmittance (ratio tracking) in place of a free flight; through_media's result.
+  bool attenuated(const Segment& segment, bool found, double t_hit, Rgb& beta, Rgb& L) {
+    const scene::Ray& ray = segment.ray;
+    beta = beta * volume::ratio_tracking_transmittance(*ctx.medium, ray, t_hit, sampler.rng());
+    if (!(beta.max() > 0)) return false;
+    if (found) return true;
+    L += beta * escaped_radiance(ray.origin, segment.n, ray.direction, segment.pdf);
+    return false;
+  }
+
+  // Russian roulette as on surfaces: false ends the path; a survivor's beta is rescaled.
+  bool roulette_survives(Rgb& beta, int depth) {
+    if (!ctx.plan->russian_roulette || depth < ctx.plan->russian_roulette_depth) return true;
+    const double q = std::max(0.05, 1.0 - beta.max());
+    if (sampler.roulette() < q) return false;
+    beta = beta * (1.0 / (1.0 - q));
+    return true;
+  }
+
+  // The rect and disk lights a segment passes before t_hit, attenuated by a ratio-tracking estimate of the
+  // transmittance to each (they do not end the path, so its own free flight cannot stand for it).
+  Rgb analytic_lights_through_media(const Segment& segment, double t_hit) {
+    const scene::Ray& ray = segment.ray;
+    Rgb L;
+    for (int index : ctx.analytic_lights) {
+      const scene::LightSource& light = ctx.lights->light(index);
+      const auto h = light.intersect(ray.origin, ray.direction, t_hit);
+      if (!h) continue;
+      const Rgb Le = light.Le(ray.origin, ray.direction, *h) *
+                     mis_weight(segment.pdf, index, ray.origin, segment.n, ray.direction, *h);
+      if (!(Le.max() > 0)) continue;
+      L += Le * volume::ratio_tracking_transmittance(*ctx.medium, scene::Ray{ray.origin, ray.direction, h->distance},
+                                                     h->distance, sampler.rng());
+    }
+    return L;
+  }
+
+  // The phase function at a scattering point: the medium's lobe, or the mixture where several overlap.
+  volume::PhaseMixture phase_at(const Vec3& p, const volume::MediumProperties& mp) const {
+    volume::PhaseMixture phase;
+    if (ctx.media.size() == 1) {
+      phase.add(ctx.media[0]->g(), mp.sigma_s);
+    } else {
+      for (const volume::Medium* m : ctx.media) phase.add(m->g(), m->at(p).sigma_s);
+    }
+    phase.finish();
+    return phase;
+  }
+
+  // Next-event estimation at a scattering point p (vertex `vertex`, wo towards the previous vertex): one light by
+  // power, one point on it, the phase function for the reflectance, the shadow ray's transmittance, and the balance
+  // heuristic against phase sampling. Light samples are drawn about the direction of travel −wo (a light that
+  // samples a hemisphere about a normal covers the other one by phase sampling alone, weighted 1 there).
+  // (`direction`, when given, receives the light sample's direction.)
+  Rgb next_event_in_medium(int vertex, const Vec3& p, const Vec3& wo, const volume::PhaseMixture& phase,
+                           Vec3* direction = nullptr) {
+    const auto choice = ctx.lights->sample(ctx.lights->single() ? 0.0 : sampler.light_choice(vertex));
+    if (!choice) return Rgb{};
+    const Point2 u = sampler.light_point(vertex);
+    const std::optional<scene::LightSample> s = choice->index == ctx.emissive_light
+                                                    ? ctx.lights->emissive()->sample(p, u)
+                                                    : choice->light->sample_li(p, -wo, u);
+    if (!s || !(s->Li.max() > 0)) return Rgb{};
+    const Rgb f = phase.p(wo, s->wi);
+    if (!(f.max() > 0)) return Rgb{};
+    const scene::Ray ray =
+        std::isfinite(s->distance) ? scene::shadow_ray(p, s->point) : scene::Ray{p, s->wi, kInfinity};
+    if (!visible(ray)) return Rgb{};
+    Rgb T{1.0};
+    if constexpr (kMedia) T = transmittance(ray);  // a probe's next-event estimation in a scene without media
+    if (!(T.max() > 0)) return Rgb{};
+    if (direction) *direction = s->wi;
+    double weight;
+    if (s->delta) {
+      weight = 1.0 / choice->pmf;
+    } else {
+      const double p_light = choice->pmf * s->pdf;
+      if (!(p_light > 0)) return Rgb{};
+      weight = ctx.plan->multiple_importance_sampling && !choice->light->uniform_in_solid_angle(p)
+                   ? 1.0 / (p_light + phase.pdf(wo, s->wi))
+                   : 1.0 / p_light;
+    }
+    return f * s->Li * T * weight;
   }
 };
 
@@ -306,9 +473,55 @@ std::vector<ShadingMaterial> shading_materials(const scene::Scene& scene, const 
   return out;
 }
 
-IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, PathSampler& sampler) {
+namespace {
+
+// Where a sampled ray from the receiver or a probe first met a surface.
+struct FirstHit {
+  bool found = false;
+  double t = kInfinity;
+  bool front_face = true;
+};
+
+// The radiance arriving at the ray's origin along the sampled ray (density pdf, MIS weights about n): what it meets
+// through the media, the lights along it, the surface it reaches, emitting and reflecting up to the plan's bounces.
+template <bool kMedia>
+Rgb incoming_radiance(Walk<kMedia>& walk, const scene::Ray& ray, const Vec3& n, double pdf, FirstHit& first) {
+  const TransportContext& ctx = walk.ctx;
+  // Left uninitialised (~350 bytes a sample otherwise): the tracer writes every field of a record it reports a
+  // hit in, and nothing reads one it has not.
+  union HitRecords {
+    scene::Hit records[2];
+    HitRecords() {}
+  } slots;
+  scene::Hit(&records)[2] = slots.records;
+  scene::Hit& hit = records[0];
+  const bool found = walk.trace(ray, hit);
+  first = found ? FirstHit{true, hit.t, hit.front_face} : FirstHit{};
+  Rgb L;
+  if constexpr (kMedia) {
+    // Through the media first: the path may scatter before it reaches a surface.
+    Segment segment{ray, n, pdf};
+    Rgb beta{1.0};
+    int depth = 0;
+    if (walk.through_media(segment, found, hit, beta, L, depth)) {
+      const Vec3 w = segment.ray.direction;
+      walk.add_emitted(L, beta, hit, segment.ray.origin, segment.n, w, segment.pdf);
+      if (depth + 1 <= ctx.plan->bounces) L += walk.reflected(&records[0], &records[1], -w, beta, depth + 1);
+    }
+  } else {
+    walk.add_lights_along(L, Rgb{1.0}, ray.origin, n, ray.direction, found ? hit.t : kInfinity, pdf, !found);
+    if (found) {
+      walk.add_emitted(L, Rgb{1.0}, hit, ray.origin, n, ray.direction, pdf);
+      if (ctx.plan->bounces >= 1) L += walk.reflected(&records[0], &records[1], -ray.direction);
+    }
+  }
+  return L;
+}
+
+template <bool kMedia>
+IrradianceEstimate estimate(const TransportContext& ctx, const Receiver& r, PathSampler& sampler) {
   IrradianceEstimate out;
-  Walk walk{ctx, sampler, out};
+  Walk<kMedia> walk{ctx, sampler, out};
   const scene::SurfacePoint& surface = r.surface;
   const Frame frame = Frame::from_normal(r.ns);
   auto cosine = [&](const Vec3& wi) { return Rgb{std::max(0.0, dot(wi, r.ns))}; };
@@ -327,22 +540,9 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   if (local.z > 0 && dot(wi, surface.ng) > 0) {
     const double pdf = local.z * kInvPi;
     const scene::Ray ray = scene::spawn_ray_front(surface, wi);  // dot(wi, ng) > 0, tested above
-    // Left uninitialised (~350 bytes a sample otherwise): the tracer writes every field of a record it reports a
-    // hit in, and nothing reads one it has not.
-    union HitRecords {
-      scene::Hit records[2];
-      HitRecords() {}
-    } slots;
-    scene::Hit(&records)[2] = slots.records;
-    scene::Hit& hit = records[0];
-    const bool found = walk.trace(ray, hit);
-    Rgb L;
-    walk.add_lights_along(L, Rgb{1.0}, ray.origin, r.ns, wi, found ? hit.t : kInfinity, pdf, !found);
-    if (found) {
-      walk.add_emitted(L, Rgb{1.0}, hit, ray.origin, r.ns, wi, pdf);
-      if (ctx.plan->bounces >= 1) L += walk.reflected(&records[0], &records[1], -wi);
-    }
-    out.ao = (!found || (ctx.ao_distance > 0 && hit.t > ctx.ao_distance)) ? 1.0 : 0.0;
+    FirstHit first;
+    const Rgb L = incoming_radiance(walk, ray, r.ns, pdf, first);
+    out.ao = (!first.found || (ctx.ao_distance > 0 && first.t > ctx.ao_distance)) ? 1.0 : 0.0;
     E += L * kPi;  // L cos θ / pdf with pdf = cos θ / π
     if (ctx.directional) add_sh(out.sh, wi, L / pdf);
   }
@@ -358,6 +558,49 @@ IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiv
   }
   out.E = E;
   return out;
+}
+
+}  // namespace
+
+IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, PathSampler& sampler) {
+  return ctx.medium ? estimate<true>(ctx, r, sampler) : estimate<false>(ctx, r, sampler);
+}
+
+namespace {
+
+template <bool kMedia>
+ProbeEstimate probe(const TransportContext& ctx, const Vec3& p, PathSampler& sampler) {
+  IrradianceEstimate counts;
+  Walk<kMedia> walk{ctx, sampler, counts};
+  ProbeEstimate out;
+  // The probe as an isotropic sensor: f = 1/(4π) over the sphere, the density of a uniform direction.
+  volume::PhaseMixture sensor;
+  sensor.add(0.0, Rgb{1.0});
+  sensor.finish();
+  const Vec3 up{0, 1, 0};
+  Vec3 wi;
+  const Rgb nee = walk.next_event_in_medium(0, p, -up, sensor, &wi);  // f·Li·w/p
+  if (nee.max() > 0) add_sh9(out.sh, wi, nee * (4 * kPi));
+  const Vec3 w = sample_uniform_sphere(sampler.direction(0));
+  FirstHit first;
+  const Rgb L = incoming_radiance(walk, scene::Ray{p, w, kInfinity}, up, kInv4Pi, first);
+  out.back_face = first.found && !first.front_face;
+  add_sh9(out.sh, w, L * (4 * kPi));
+  out.rays = counts.rays;
+  for (const Rgb& c : out.sh) {
+    if (finite(c)) continue;
+    // One bad sample must not poison a probe: dropped whole, and said.
+    for (Rgb& z : out.sh) z = Rgb{};
+    out.dropped = true;
+    break;
+  }
+  return out;
+}
+
+}  // namespace
+
+ProbeEstimate estimate_probe(const TransportContext& ctx, const Vec3& p, PathSampler& sampler) {
+  return ctx.medium ? probe<true>(ctx, p, sampler) : probe<false>(ctx, p, sampler);
 }
 
 }  // namespace kiln::lightmap

@@ -8,8 +8,12 @@
 //     sees of a light (emissive triangle, rect or disk light, sun disc, environment), unweighted for the light
 //     reflected by the surface it hits (estimated by the same two strategies at that vertex, recursively, up to
 //     plan.bounces reflections, with Russian roulette after plan.russian_roulette_depth).
-// Delta lights (points, spots, delta suns) are reached only by light sampling (w = 1). Everything returned is finite:
-// a non-finite contribution (a bug, or an input the scene check missed) is dropped and counted, never accumulated.
+// Delta lights (points, spots, delta suns) are reached only by light sampling (w = 1).
+// With media (ctx.medium), every ray segment samples a free flight by delta tracking (volume/tracking.h): a
+// scattering event is a path vertex with next-event estimation through the phase function and phase sampling,
+// combined by the balance heuristic; shadow rays carry ratio-tracking transmittance; a scattering counts as a bounce.
+// Everything returned is finite: a non-finite contribution (a bug, or an input the scene check missed) is dropped and
+// counted, never accumulated.
 #pragma once
 
 #include <cstdint>
@@ -28,6 +32,9 @@ namespace kiln::scene {
 class Tracer;
 class SceneLights;
 }  // namespace kiln::scene
+namespace kiln::volume {
+class Medium;
+}  // namespace kiln::volume
 
 namespace kiln::lightmap {
 
@@ -62,6 +69,14 @@ struct TransportContext {
   double ao_distance = 0;     // > 0: a cosine ray that travels this far counts as unoccluded
   bool directional = false;   // estimate the SH of incoming radiance too (IrradianceEstimate::sh; else left zero)
   RayLog* ray_log = nullptr;  // benchmarks only (ray_log.h): receives every ray traced
+  // Participating media (docs/MEDIA.md): `medium` is what paths are tracked through (the one medium, or a
+  // volume::MediumSum of several) and `media` each medium, for the phase function where they overlap. Null: no
+  // media, and the walk is exactly the one without them (a separate instantiation, no test on any ray).
+  const volume::Medium* medium = nullptr;
+  std::vector<const volume::Medium*> media;
+  // False: attenuation only (the plan's MediaMode::attenuation): every segment and shadow ray is attenuated by its
+  // transmittance, and nothing scatters or emits.
+  bool media_scattering = true;
   // Filled by prepare_context():
   std::vector<int> analytic_lights;  // indices into `lights` of rect and disk lights (not scene geometry)
   bool has_analytic_lights = false;  // !analytic_lights.empty(), tested on every ray
@@ -93,5 +108,17 @@ struct IrradianceEstimate {
 
 // One sample of every estimate at `r`, with `sampler` supplying the random numbers (path_sampler.h).
 IrradianceEstimate estimate_irradiance(const TransportContext& ctx, const Receiver& r, PathSampler& sampler);
+
+// One sample of the order-2 SH of the radiance arriving at a free point p (a light probe: no surface there), by the
+// same transport: the probe is an isotropic sensor, estimated by next-event estimation (lights sampled about +Y) and
+// a uniformly sampled direction, combined by the balance heuristic. Real orthonormal SH in world coordinates:
+// Y00; Y1−1 ∝ y, Y10 ∝ z, Y11 ∝ x; Y2−2 ∝ xy, Y2−1 ∝ yz, Y20 ∝ 3z² − 1, Y21 ∝ xz, Y22 ∝ x² − y².
+struct ProbeEstimate {
+  Rgb sh[9];
+  bool back_face = false;  // the sampled direction's first hit is a back face (a probe inside geometry sees them)
+  uint32_t rays = 0;
+  bool dropped = false;  // a non-finite contribution was discarded (sh left zero)
+};
+ProbeEstimate estimate_probe(const TransportContext& ctx, const Vec3& p, PathSampler& sampler);
 
 }  // namespace kiln::lightmap

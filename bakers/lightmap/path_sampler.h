@@ -44,6 +44,8 @@ class PathSampler {
   Point2 direction(int vertex) { return two(vertex, Dimension::direction); }
   double lobe(int vertex) { return one(vertex, Dimension::lobe); }
   double roulette() { return rng_.uniform32(); }
+  // The pseudo-random stream itself, for the tracking estimators through media (volume/tracking.h).
+  Pcg32& rng() { return rng_; }
   // A cosine-weighted direction around +z (pdf cos θ/π): through the stratified map at the quasi-random vertices,
   // by rejection (no trigonometry) deeper.
   Vec3 cosine_direction(int vertex) {

@@ -41,6 +41,10 @@ const char* effect_name(LightmapEffect effect) {
       return "russian_roulette";
     case LightmapEffect::light_tracing:
       return "light_tracing";
+    case LightmapEffect::participating_media:
+      return "participating_media";
+    case LightmapEffect::media_scattering:
+      return "media_scattering";
   }
   return "unknown";
 }

@@ -26,8 +26,10 @@ enum class LightmapEffect {
   textures,
   russian_roulette,
   light_tracing,
+  participating_media,
+  media_scattering,
 };
-inline constexpr int kLightmapEffectCount = static_cast<int>(LightmapEffect::light_tracing) + 1;
+inline constexpr int kLightmapEffectCount = static_cast<int>(LightmapEffect::media_scattering) + 1;
 
 // Every effect, in declaration order.
 const std::array<LightmapEffect, kLightmapEffectCount>& lightmap_effects();

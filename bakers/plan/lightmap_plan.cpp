@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -232,6 +233,10 @@ struct Planning {
   const double budget;  // of bias, per pruning
   const SceneFacts facts;
   LightmapPlan plan;
+  // Participating media, decided before the bounces (their albedo counts) and light tracing (which they rule out),
+  // recorded after it (the decisions follow lightmap_effects()).
+  MediaMode media_planned = MediaMode::none;
+  std::string media_reason, scattering_reason;
 
   void decide(LightmapEffect effect, bool planned, const std::string& reason) {
     plan.decisions.push_back(kiln::plan::decide(effect_name(effect), planned, reason, options.force_effects));
@@ -306,12 +311,20 @@ void decide_mis(Planning& s) {
                         : "only delta lights (points, spots, delta suns): light sampling alone");
 }
 
-// The smallest k with ρ_max^(k+1) ≤ budget.
+// The share of the light a scattering medium carries into each further scattering, as the planner estimates it: the
+// single-scattering albedo times what the media take from typical light paths (upper end: + 2 standard errors).
+double media_albedo(const Planning& s) {
+  if (s.plan.media_mode != MediaMode::scattering) return 0;
+  const MediaAnalysis& a = s.plan.media_analysis;
+  return a.albedo * std::min(1.0, a.extinction + 2 * a.extinction_error);
+}
+
+// The smallest k with ρ^(k+1) ≤ budget, ρ the larger of ρ_max and the media's share per scattering.
 void decide_bounces(Planning& s) {
   LightmapPlan& p = s.plan;
   const int max_bounces = s.options.max_bounces;
   std::string why;
-  const double rho = p.albedo_max;
+  const double rho = std::max(p.albedo_max, media_albedo(s));
   if (!(rho > 0)) {
     p.bounces = 0;
     why = "no used material reflects light (rho_max = 0)";
@@ -327,7 +340,82 @@ void decide_bounces(Planning& s) {
           " of the light unsimulated (budget " + format_number(s.budget) + " = target/4)";
     if (needed > max_bounces) why += "; capped by max_bounces, above the budget";
   }
+  if (media_albedo(s) > p.albedo_max) why += " (rho: the media's scattering albedo x the light they take)";
   s.decide(LightmapEffect::indirect_bounces, p.bounces > 0, why);
+}
+
+// ---- Participating media ----
+
+// The value an effect will have: the job's forcing, else the planner's.
+bool final_value(const Planning& s, LightmapEffect effect, bool planned) {
+  const auto it = s.options.force_effects.find(effect_name(effect));
+  return it == s.options.force_effects.end() ? planned : it->second;
+}
+
+// Two significant digits: estimates from a few hundred paths, for people.
+std::string rounded(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2g", v);
+  return text;
+}
+
+// What the media take from typical light paths, for people.
+std::string taken(const MediaAnalysis& a) {
+  return "the media take " + rounded(a.extinction) + " +- " + rounded(a.extinction_error) + " of the light along " +
+         std::to_string(a.paths) + " sampled light paths";
+}
+
+// The planner's mode and its reasons: skipped where they take less than the budget from typical light paths,
+// attenuation only where what they scatter (albedo × that) is below it, in full otherwise; emitting media in full.
+void plan_media_mode(Planning& s, const MediaAnalysis& a) {
+  std::string skipped;
+  for (const std::string& why : a.skipped) skipped += "; " + why;
+  const double budget = s.budget, ext = std::min(1.0, a.extinction + 2 * a.extinction_error);
+  if (a.active.empty()) {
+    s.media_reason = (s.options.media.empty() ? "no participating media" : "no medium touches the scene") + skipped;
+    s.scattering_reason = "no media simulated";
+    return;
+  }
+  if (!a.emissive && ext <= budget) {
+    s.media_reason = taken(a) + " (at most " + rounded(ext) + " <= the budget " + format_number(budget) +
+                     " = target/4): skipped" + skipped;
+    s.scattering_reason = "no media simulated";
+    return;
+  }
+  s.media_planned = MediaMode::attenuation;
+  s.media_reason = taken(a) + (a.emissive ? "; some medium emits" : "") + skipped;
+  const double scattered = a.albedo * ext;
+  if (!a.emissive && scattered <= budget) {
+    s.scattering_reason = "they scatter at most " + rounded(scattered) + " (albedo " + rounded(a.albedo) + " x " +
+                          rounded(ext) + ", <= the budget " + format_number(budget) +
+                          "): attenuation only, every ray's transmittance without in-scattering";
+    return;
+  }
+  s.media_planned = MediaMode::scattering;
+  s.scattering_reason = a.emissive ? "some medium emits: free flights collect its emission and scatter"
+                                   : "they scatter " + rounded(scattered) + " (albedo " + rounded(a.albedo) + " x " +
+                                         rounded(ext) + ") of the light";
+}
+
+void plan_media(Planning& s) {
+  if (!s.options.media.empty()) {
+    s.plan.media_analysis = analyse_media(s.scene, *s.options.media_inputs, s.options.media);
+  }
+  const MediaAnalysis& a = s.plan.media_analysis;
+  plan_media_mode(s, a);
+  using E = LightmapEffect;
+  const bool on = final_value(s, E::participating_media, s.media_planned != MediaMode::none);
+  const bool scatter = final_value(s, E::media_scattering, s.media_planned == MediaMode::scattering);
+  // Forced on, there must be a medium to simulate: media outside the scene stay skipped.
+  s.plan.media_mode = a.active.empty() || !on ? MediaMode::none
+                      : scatter               ? MediaMode::scattering
+                                              : MediaMode::attenuation;
+  if (s.plan.media_mode != MediaMode::none) s.plan.media = a.active_index;
+}
+
+void decide_media(Planning& s) {
+  s.decide(LightmapEffect::participating_media, s.media_planned != MediaMode::none, s.media_reason);
+  s.decide(LightmapEffect::media_scattering, s.media_planned == MediaMode::scattering, s.scattering_reason);
 }
 
 void decide_specular(Planning& s) {
@@ -391,6 +479,10 @@ std::string light_tracing_obstacle(const Planning& s) {
     return "the texel error metric asks every texel, however dark, for the same relative error, which rays from the "
            "lights cannot aim at";
   }
+  if (s.plan.media_mode != MediaMode::none) {
+    return "the scene has participating media, which rays from the lights are not tracked through (only gathered "
+           "paths sample them)";
+  }
   if (s.options.tiled) {
     return "the bake is tiled to fit its memory limit, and rays from the lights deposit into every texel of every "
            "page, whose sums (128 bytes a texel) it would have to hold all at once";
@@ -443,6 +535,18 @@ bool follows_the_scene(LightmapEffect effect) {
 
 }  // namespace
 
+const char* to_string(MediaMode mode) {
+  switch (mode) {
+    case MediaMode::none:
+      return "none";
+    case MediaMode::attenuation:
+      return "attenuation";
+    case MediaMode::scattering:
+      return "scattering";
+  }
+  return "none";
+}
+
 bool LightmapPlan::enabled(LightmapEffect effect) const { return enabled(effect_name(effect)); }
 
 bool LightmapPlan::enabled(const std::string& effect) const {
@@ -457,6 +561,7 @@ LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions&
   const double budget = kBudgetShare * options.target_error;
   Planning s{scene, options, budget, gather(scene), {}};
   analyse_materials(s);
+  plan_media(s);
   decide_lights(s);
   decide_environment(s);
   decide_mis(s);
@@ -466,6 +571,7 @@ LightmapPlan plan_lightmap(const scene::Scene& scene, const LightmapPlanOptions&
   decide_textures(s);
   decide_russian_roulette(s);
   decide_light_tracing(s);
+  decide_media(s);
   follow_forced(s);
   apply(s.plan);
   return std::move(s.plan);
@@ -481,8 +587,11 @@ LightmapPlan full_plan(const scene::Scene& scene, const LightmapPlanOptions& opt
   for (Decision& d : p.decisions) {
     const LightmapEffect effect = *parse_lightmap_effect(d.effect);
     if (follows_the_scene(effect)) continue;
-    // Light tracing is a way to simulate, not an effect: the reference gathers everything.
-    d.enabled = effect != LightmapEffect::light_tracing;
+    // Light tracing is a way to simulate, not an effect: the reference gathers everything. Media: all that touch
+    // the scene, in full.
+    d.enabled = effect == LightmapEffect::participating_media || effect == LightmapEffect::media_scattering
+                    ? !planned.media_analysis.active.empty()
+                    : effect != LightmapEffect::light_tracing;
     d.reason = d.enabled ? "full simulation: everything on" : "full simulation: every texel gathers all its light";
   }
   if (!p.environment_sampling || scene.environment.constant) {  // no image: nothing to build a map of
@@ -491,6 +600,8 @@ LightmapPlan full_plan(const scene::Scene& scene, const LightmapPlanOptions& opt
     }
   }
   for (MaterialAnalysis& a : p.materials) a.glossy = a.used && a.specular_albedo > 0;
+  p.media_mode = planned.media_analysis.active.empty() ? MediaMode::none : MediaMode::scattering;
+  p.media = planned.media_analysis.active_index;
   apply(p);
   p.russian_roulette = p.bounces > p.russian_roulette_depth;
   return p;

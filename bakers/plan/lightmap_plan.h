@@ -16,6 +16,7 @@
 
 #include "bakers/plan/decision.h"
 #include "bakers/plan/lightmap_effect.h"
+#include "bakers/plan/media_analysis.h"
 #include "bakers/scene/scene.h"
 
 namespace kiln::plan {
@@ -32,7 +33,17 @@ struct LightmapPlanOptions {
   // The bake samples its pages a tile at a time to fit its memory limit (lightmap_bake.h): light tracing, which
   // deposits into any texel of any page, would need its sums for every texel at once.
   bool tiled = false;
+  // Participating media (docs/MEDIA.md): as the job gives them, and built (the same order). The planner decides
+  // whether they are simulated, and how (MediaMode); light tracing does not track its rays through them.
+  const std::vector<volume::MediumInput>* media_inputs = nullptr;
+  std::vector<const volume::Medium*> media;
 };
+
+// How participating media are simulated: not at all (absent, outside the scene, or too thin to matter), as
+// attenuation only (every ray's transmittance, no scattering: the light they scatter is left out), or in full (free
+// flights, in-scattering, multiple scattering up to the bounce count).
+enum class MediaMode { none, attenuation, scattering };
+const char* to_string(MediaMode mode);
 
 // What the planner found out about one material of the scene.
 struct MaterialAnalysis {
@@ -61,6 +72,9 @@ struct LightmapPlan {
   int russian_roulette_depth = 3;  // bounces taken with certainty before the roulette starts
   // Indirect light by rays from the lights (bakers/lightmap/light_tracing.h); texels then gather direct light only.
   bool light_tracing = false;
+  MediaMode media_mode = MediaMode::none;
+  std::vector<int> media;                   // indices into the options' media of those simulated (none: empty)
+  MediaAnalysis media_analysis;             // what the decision was made from
   double albedo_max = 0;                    // ρ_max over the used materials
   std::vector<MaterialAnalysis> materials;  // parallel to Scene::materials
 

@@ -5,17 +5,13 @@
 
 #include "bakers/math/constants.h"
 #include "bakers/scene/ray_offset.h"
+#include "bakers/scene/transform_determinant.h"
 
 namespace kiln::scene {
 
 namespace {
 
 bool emits(const Rgb& L) { return !usable_emission(L).is_black(); }
-
-double determinant(const Transform& t) {
-  const auto& m = t.m;
-  return m[0] * (m[5] * m[10] - m[6] * m[9]) - m[1] * (m[4] * m[10] - m[6] * m[8]) + m[2] * (m[4] * m[9] - m[5] * m[8]);
-}
 
 }  // namespace
 

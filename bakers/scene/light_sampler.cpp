@@ -8,8 +8,9 @@
 
 namespace kiln::scene {
 
-double scene_bounding_radius(const Scene& scene) {
-  Vec3 lo{kInfinity, kInfinity, kInfinity}, hi = -lo;
+bool scene_box(const Scene& scene, Vec3& lo, Vec3& hi) {
+  lo = {kInfinity, kInfinity, kInfinity};
+  hi = -lo;
   bool any = false;
   const auto grow = [&](const Vec3& p) {
     if (!is_finite(p)) return;  // NaN vertices are reported elsewhere; they must not poison the bound
@@ -24,7 +25,12 @@ double scene_bounding_radius(const Scene& scene) {
   for (const Light& l : scene.lights) {
     if (l.type != LightShape::directional) grow(l.position);
   }
-  if (!any) return 1.0;
+  return any;
+}
+
+double scene_bounding_radius(const Scene& scene) {
+  Vec3 lo, hi;
+  if (!scene_box(scene, lo, hi)) return 1.0;
   const double r = 0.5 * length(hi - lo);
   // A scene that is a single point has no size: 1 keeps the infinite lights' power (π R² E) non-zero.
   return (r > 0 && std::isfinite(r)) ? r : 1.0;

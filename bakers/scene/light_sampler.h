@@ -36,6 +36,8 @@ struct LightSamplingOptions {
 // The radius of a sphere about the centre of the scene's world-space bounding box that holds every instanced vertex
 // and every finite light's position; 1 for an empty scene (so that power() of infinite lights stays meaningful).
 double scene_bounding_radius(const Scene& scene);
+// The world-space box of every instanced vertex and every finite light's position (lo, hi); false for an empty scene.
+bool scene_box(const Scene& scene, Vec3& lo, Vec3& hi);
 
 // Builds the light source of one scene light (the conventions of scene.h); never null.
 std::unique_ptr<LightSource> make_light(const Light& light);

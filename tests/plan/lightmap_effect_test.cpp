@@ -24,7 +24,9 @@ TEST(LightmapEffect, NamesAreStableAndInOrder) {
                                              "anisotropy",
                                              "textures",
                                              "russian_roulette",
-                                             "light_tracing"};
+                                             "light_tracing",
+                                             "participating_media",
+                                             "media_scattering"};
   EXPECT_EQ(lightmap_effect_names(), expected);
   ASSERT_EQ(lightmap_effects().size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) EXPECT_EQ(effect_name(lightmap_effects()[i]), expected[i]);

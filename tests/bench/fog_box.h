@@ -1,0 +1,34 @@
+// The scene of the media and probe benchmarks: the bundled Cornell box (tests/support/test_scenes.h) under its
+// ceiling patch and the low sun through its open side of client/examples/scenes/cornell_box_fog.textproto, and that
+// example's fog filling the box (sigma_a 0.02, sigma_s 0.16-0.2 per metre, g 0.6).
+#pragma once
+
+#include "bakers/volume/medium_input.h"
+#include "tests/support/test_scenes.h"
+
+namespace kiln::bench {
+
+inline scene::Scene cornell_box_with_sun() {
+  scene::Scene s = test::cornell_box();
+  scene::Light sun;
+  sun.type = scene::LightShape::directional;
+  sun.direction = normalize(Vec3{0.25, -0.45, -1});
+  sun.angular_diameter = 0.00935;
+  sun.color = Rgb{6, 5.6, 5};
+  s.lights.push_back(sun);
+  return s;
+}
+
+inline volume::MediumInput example_fog() {
+  volume::HomogeneousMediumSpec spec;
+  spec.sigma_a = Rgb{0.02};
+  spec.sigma_s = Rgb{0.16, 0.18, 0.2};
+  spec.g = 0.6;
+  spec.box = volume::Bounds3{{-1, 0, -1}, {1, 2, 1}};
+  volume::MediumInput fog;
+  fog.name = "fog";
+  fog.spec = spec;
+  return fog;
+}
+
+}  // namespace kiln::bench
