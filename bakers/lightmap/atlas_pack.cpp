@@ -18,6 +18,9 @@ namespace {
 constexpr int kMinPadding = 2;
 // The bisection over the density factor stops at 2⁻²⁰ of it: far below what a texel of rounding changes.
 constexpr int kFitSteps = 20;
+// A page shrunk to its content keeps a side of a multiple of 4 texels: block-compressed formats (BC6H, ASTC 4×4) code
+// 4 × 4 blocks.
+constexpr int kPageMultiple = 4;
 
 // The lightmap-UV rectangle and area of a mesh's baked triangles.
 struct MeshChart {
@@ -114,6 +117,17 @@ struct Placement {
   ChartSize size;
 };
 
+// Tallest first, then widest, then by instance: a full order, so the packing is deterministic.
+std::vector<size_t> packing_order(const std::vector<Chart>& charts, const std::vector<Placement>& placed) {
+  std::vector<size_t> order(charts.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return std::make_tuple(-placed[a].size.h, -placed[a].size.w, charts[a].region) <
+           std::make_tuple(-placed[b].size.h, -placed[b].size.w, charts[b].region);
+  });
+  return order;
+}
+
 // Places every chart at density factor f; false as soon as more than max_pages pages would be needed.
 bool place_all(const std::vector<Chart>& charts, double f, const AtlasOptions& o, int padding,
                std::vector<Placement>& out, int& pages, const bake::StopCheck& stop) {
@@ -126,17 +140,11 @@ bool place_all(const std::vector<Chart>& charts, double f, const AtlasOptions& o
     if (++pages > o.max_pages) return false;
     out[i].page = pages - 1;
   }
-  // Tallest first, then widest, then by instance: a full order, so the packing is deterministic.
-  std::vector<size_t> order;
-  for (size_t i = 0; i < charts.size(); ++i)
-    if (!charts[i].own_page) order.push_back(i);
-  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return std::make_tuple(-out[a].size.h, -out[a].size.w, charts[a].region) <
-           std::make_tuple(-out[b].size.h, -out[b].size.w, charts[b].region);
-  });
+  const std::vector<size_t> order = packing_order(charts, out);
   std::vector<std::pair<int, Skyline>> shared;  // page index, skyline
   for (size_t n = 0; n < order.size(); ++n) {
     if (n % 1024 == 0) stop.check();
+    if (charts[order[n]].own_page) continue;
     Placement& p = out[order[n]];
     const int w = p.size.w + padding, h = p.size.h + padding;
     bool placed = false;
@@ -158,6 +166,54 @@ bool place_all(const std::vector<Chart>& charts, double f, const AtlasOptions& o
   return true;
 }
 
+// The allocations' positions in a square of `side` texels, packed in this order; false if one does not fit.
+bool skyline_pack(const std::vector<Placement*>& items, int padding, int side, std::vector<std::array<int, 2>>& xy) {
+  Skyline sky(side);
+  xy.resize(items.size());
+  for (size_t i = 0; i < items.size(); ++i) {
+    const int w = items[i]->size.w + padding, h = items[i]->size.h + padding;
+    if (w > side || h > side || !sky.find(w, h, xy[i][0], xy[i][1])) return false;
+    sky.place(xy[i][0], xy[i][1], w, h);
+  }
+  return true;
+}
+
+// Moves a page's allocations (in their packing order) into the smallest square, a multiple of kPageMultiple texels on
+// a side and below `size`, that the skyline packer fits them in; returns its side (`size` when none is smaller).
+// Packing is not monotone in the side, so the bisection keeps the smallest side it saw fit, and only sides it tried.
+int shrink_page(const std::vector<Placement*>& items, int padding, int size) {
+  double area = 0;
+  int largest = 0;
+  for (const Placement* p : items) {
+    area += static_cast<double>(p->size.w + padding) * (p->size.h + padding);
+    largest = std::max({largest, p->size.w + padding, p->size.h + padding});
+  }
+  const int lower = std::max(largest, static_cast<int>(std::ceil(std::sqrt(area))));
+  int lo = (lower + kPageMultiple - 1) / kPageMultiple, hi = (size - 1) / kPageMultiple;
+  int best = size;
+  std::vector<std::array<int, 2>> xy, best_xy;
+  while (lo <= hi) {
+    const int mid = (lo + hi) / 2;
+    if (skyline_pack(items, padding, mid * kPageMultiple, xy)) {
+      best = mid * kPageMultiple;
+      best_xy = xy;
+      hi = mid - 1;
+    } else {
+      lo = mid + 1;
+    }
+  }
+  for (size_t i = 0; i < best_xy.size(); ++i) items[i]->x = best_xy[i][0], items[i]->y = best_xy[i][1];
+  return best;
+}
+
+// Every page shrunk to its content (shrink_page), its allocations taken in the order place_all packed them.
+void shrink_pages(std::vector<Placement>& placed, const std::vector<Chart>& charts, int padding,
+                  std::vector<AtlasPage>& pages) {
+  std::vector<std::vector<Placement*>> by_page(pages.size());
+  for (size_t i : packing_order(charts, placed)) by_page[static_cast<size_t>(placed[i].page)].push_back(&placed[i]);
+  for (size_t p = 0; p < pages.size(); ++p) pages[p].size = shrink_page(by_page[p], padding, pages[p].size);
+}
+
 }  // namespace
 
 std::optional<bake::InvalidInput> check_atlas_options(const AtlasOptions& o) {
@@ -174,6 +230,19 @@ std::optional<bake::InvalidInput> check_atlas_options(const AtlasOptions& o) {
 }
 
 std::string atlas_page_name(int page) { return "page" + std::to_string(page); }
+
+double page_texels(const AtlasPack& pack) {
+  double texels = 0;
+  for (const AtlasPage& p : pack.pages) texels += static_cast<double>(p.size) * static_cast<double>(p.size);
+  return texels;
+}
+
+double chart_area_fraction(const AtlasPack& pack) {
+  double charts = 0;
+  for (const AtlasPage& p : pack.pages) charts += p.chart_texels;
+  const double texels = page_texels(pack);
+  return texels > 0 ? charts / texels : 0.0;
+}
 
 AtlasPack pack_atlas(const scene::CheckedScene& checked, const AtlasOptions& o, const bake::StopCheck& stop) {
   if (auto e = check_atlas_options(o)) throw *e;
@@ -221,8 +290,8 @@ AtlasPack pack_atlas(const scene::CheckedScene& checked, const AtlasOptions& o, 
     c.k_asked = r.density_asked * std::sqrt(r.world_area / mc.uv_area);
     c.own_page = io.own_page;
     if (!std::isfinite(c.k_asked)) {
-      r.note = "its density does not fit a double (world area " + bake::format_number(r.world_area) +
-               ", UV area " + bake::format_number(mc.uv_area) + "): not baked";
+      r.note = "its density does not fit a double (world area " + bake::format_number(r.world_area) + ", UV area " +
+               bake::format_number(mc.uv_area) + "): not baked";
       continue;
     }
     charts.push_back(c);
@@ -257,7 +326,7 @@ AtlasPack pack_atlas(const scene::CheckedScene& checked, const AtlasOptions& o, 
   int page_count = 0;
   for (const Placement& p : placed) page_count = std::max(page_count, p.page + 1);
   for (int p = 0; p < page_count; ++p) pack.pages.push_back({atlas_page_name(p), o.page_size, {}, 0, false});
-  const double page = o.page_size;
+  if (!o.uniform_pages) shrink_pages(placed, charts, pack.padding, pack.pages);
   const int margin = pack.padding / 2;
   for (size_t i = 0; i < charts.size(); ++i) {
     const Chart& c = charts[i];
@@ -269,6 +338,7 @@ AtlasPack pack_atlas(const scene::CheckedScene& checked, const AtlasOptions& o, 
     r.width = p.size.w;
     r.height = p.size.h;
     const double k = p.size.k;
+    const double page = pack.pages[p.page].size;
     r.scale_offset = {k / page, k / page, (r.x - k * c.u0) / page, (r.y - k * c.v0) / page};
     r.density = k * std::sqrt(r.uv_area / r.world_area);
     r.chart_texels = r.uv_area * k * k;

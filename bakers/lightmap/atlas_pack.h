@@ -26,6 +26,12 @@
 // order). Pages are named "page0", "page1", ... in the order they open: plain ASCII, no path separator, so the output
 // files are PAGE_irradiance.exr and so on.
 //
+// ## Page sizes
+// A page is then shrunk to the smallest square, a multiple of 4 texels on a side, that the same packer fits its
+// charts in (in the same order): the last page of a level, partly filled, or a page of its own, takes the texels its
+// charts need rather than page_size². The densities stay as packed; only the charts' positions and the page's side
+// change. `uniform_pages` keeps every page at page_size (for an engine that stores the pages in one texture array).
+//
 // ## More than max_pages
 // Every density is then multiplied by the largest factor (found by bisection, to 2⁻²⁰) at which the charts fit in
 // max_pages, and the factor is reported: the bake delivers the highest density that fits rather than failing a job
@@ -55,33 +61,34 @@ struct AtlasInstanceOptions {
 };
 
 struct AtlasOptions {
-  double texel_density = 0;  // texels per metre of surface (per scene unit); > 0 packs, 0 does not
-  int page_size = 1024;      // texels on a side of every page
-  int padding = 4;           // texels between charts; at least 2 are used
-  int max_pages = 16;        // most pages
+  double texel_density = 0;    // texels per metre of surface (per scene unit); > 0 packs, 0 does not
+  int page_size = 1024;        // texels on a side of every page
+  int padding = 4;             // texels between charts; at least 2 are used
+  int max_pages = 16;          // most pages
+  bool uniform_pages = false;  // every page page_size on a side; false: each shrunk to its content (## Page sizes)
   // By index into the input scene's instances (CheckedScene::source_instance maps the checked scene's to them).
   std::map<uint32_t, AtlasInstanceOptions> instances;
 };
 
 // One instance's place in the atlas.
 struct AtlasRegion {
-  uint32_t instance = 0;         // into the checked scene's instances
-  uint32_t source_instance = 0;  // into the input scene's instances
-  int page = -1;                 // into AtlasPack::pages; -1: not packed (`note` says why), not baked
-  int x = 0, y = 0;              // the chart's top-left texel in the page (padding not included)
-  int width = 0, height = 0;     // the chart's texels
+  uint32_t instance = 0;                           // into the checked scene's instances
+  uint32_t source_instance = 0;                    // into the input scene's instances
+  int page = -1;                                   // into AtlasPack::pages; -1: not packed (`note` says why), not baked
+  int x = 0, y = 0;                                // the chart's top-left texel in the page (padding not included)
+  int width = 0, height = 0;                       // the chart's texels
   std::array<double, 4> scale_offset{1, 1, 0, 0};  // {s_u, s_v, o_u, o_v}: uv_page = (s_u·u + o_u, s_v·v + o_v)
-  double density_asked = 0;   // texels per metre asked for (the instance's or the job's)
-  double density = 0;         // reached: k·√(A_uv / A_w)
-  double world_area = 0;      // A_w, square metres
-  double uv_area = 0;         // A_uv, in the mesh's lightmap-UV units
-  double chart_texels = 0;    // A_uv·k²: the texels its triangles cover, in texel² units
-  std::string note;           // why it was not packed, or why its density is below the one asked for; else empty
+  double density_asked = 0;                        // texels per metre asked for (the instance's or the job's)
+  double density = 0;                              // reached: k·√(A_uv / A_w)
+  double world_area = 0;                           // A_w, square metres
+  double uv_area = 0;                              // A_uv, in the mesh's lightmap-UV units
+  double chart_texels = 0;                         // A_uv·k²: the texels its triangles cover, in texel² units
+  std::string note;  // why it was not packed, or why its density is below the one asked for; else empty
 };
 
 struct AtlasPage {
   std::string name;
-  int size = 0;                   // texels on a side
+  int size = 0;                   // texels on a side: page_size, or less for a page shrunk to its content
   std::vector<uint32_t> regions;  // into AtlasPack::regions, in instance order
   double chart_texels = 0;        // Σ of its regions' chart_texels
   bool own_page = false;          // holds one own_page instance
@@ -102,20 +109,24 @@ std::optional<bake::InvalidInput> check_atlas_options(const AtlasOptions& option
 // "page<N>".
 std::string atlas_page_name(int page);
 
+// The texels of all the pack's pages, and the fraction of them its charts cover by their UV area (its efficiency;
+// 0 for a pack without pages).
+double page_texels(const AtlasPack& pack);
+double chart_area_fraction(const AtlasPack& pack);
+
 // The regions and pages of the checked scene's baking instances. Throws bake::InvalidInput("max_pages", ...) when
 // the charts cannot fit in max_pages pages even at one texel each, and for options out of range ("texel_density",
 // "page_size", "padding", "max_pages", "instances[I].texel_density"); polls `stop` every block of instances.
-AtlasPack pack_atlas(const scene::CheckedScene& checked, const AtlasOptions& options,
-                     const bake::StopCheck& stop = {});
+AtlasPack pack_atlas(const scene::CheckedScene& checked, const AtlasOptions& options, const bake::StopCheck& stop = {});
 
 // Puts the pack into the scene (the checked scene packed): each packed instance bakes into its page with its scale
 // and offset; the others are not baked.
 void apply_atlas(const AtlasPack& pack, scene::Scene& scene);
 
 // The scene check of a bake that packs: the instances' own lightmap names and scales and offsets are dropped (the
-// packer names and places them, so no lightmap is renamed for its file name), the scene is checked, packed and placed (apply_atlas), and only then checked for overlapping
-// lightmap UVs, so the report has the overlaps of the pages as baked (a mesh whose own UVs overlap), not of the
-// placement the packer replaced. `pack` receives the pack.
+// packer names and places them, so no lightmap is renamed for its file name), the scene is checked, packed and placed
+// (apply_atlas), and only then checked for overlapping lightmap UVs, so the report has the overlaps of the pages as
+// baked (a mesh whose own UVs overlap), not of the placement the packer replaced. `pack` receives the pack.
 scene::CheckedScene check_and_pack_scene(scene::Scene scene, const AtlasOptions& options, const bake::StopCheck& stop,
                                          AtlasPack& pack);
 

@@ -4,11 +4,17 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
+
+#include "bakers/math/constants.h"
+#include "bakers/scene/transform_determinant.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -30,7 +36,7 @@ struct Point2d {
 // Whether triangles a and b (counter-clockwise in 2D) overlap with a positive area: no edge of either separates
 // them by more than -tol (touching along an edge or at a vertex is not overlapping).
 bool interiors_overlap(const Point2d (&a)[3], const Point2d (&b)[3], double tol) {
-  const auto separated = [tol](const Point2d (&p)[3], const Point2d (&q)[3]) {
+  const auto separated = [tol](const Point2d(&p)[3], const Point2d(&q)[3]) {
     for (int e = 0; e < 3; ++e) {
       const Point2d& s = p[e];
       const Point2d& t = p[(e + 1) % 3];
@@ -68,7 +74,165 @@ bool for_each_cell(const Grid& grid, const Vec3& a, const Vec3& b, Visit visit) 
   return false;
 }
 
+// For each vertex, the lowest-numbered vertex at the same position: the mesh's connectivity when it splits its
+// vertices along UV seams or hard edges. "The same" is to 1e-9 of the mesh's size (the positions rounded to that
+// grid): a pole made of sin(π) ≠ 0 is one point, and nothing a texel apart is merged.
+std::vector<uint32_t> canonical_vertices(const scene::Mesh& mesh) {
+  Vec3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+  for (const Vec3& p : mesh.positions) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  const double cell = 1e-9 * length(hi - lo);
+  // A mesh of one point, or beyond double range: exact positions.
+  const bool grid = cell > 0 && std::isfinite(cell);
+  std::vector<std::array<double, 3>> key(mesh.positions.size());
+  for (size_t v = 0; v < key.size(); ++v) {
+    const Vec3& p = mesh.positions[v];
+    key[v] = grid ? std::array<double, 3>{std::round((p.x - lo.x) / cell), std::round((p.y - lo.y) / cell),
+                                          std::round((p.z - lo.z) / cell)}
+                  : std::array<double, 3>{p.x, p.y, p.z};
+  }
+  std::vector<uint32_t> order(mesh.positions.size());
+  for (uint32_t v = 0; v < order.size(); ++v) order[v] = v;
+  const auto less = [&](uint32_t a, uint32_t b) { return key[a] < key[b]; };
+  std::stable_sort(order.begin(), order.end(), less);
+  std::vector<uint32_t> canonical(order.size());
+  for (size_t i = 0; i < order.size(); ++i)
+    canonical[order[i]] = i > 0 && !less(order[i - 1], order[i]) ? canonical[order[i - 1]] : order[i];
+  return canonical;
+}
+
+// Whether every edge (by position) of the triangles with three distinct positions is used once in each direction:
+// a closed surface, consistently oriented. A zero-area triangle with three distinct positions fails it (it has no
+// side to be outside of).
+bool closed_and_oriented(const scene::Mesh& mesh, const std::vector<uint32_t>& canonical) {
+  std::unordered_map<uint64_t, uint32_t> directed;
+  const auto key = [](uint32_t a, uint32_t b) { return (uint64_t{a} << 32) | b; };
+  const size_t nt = mesh.indices.size() / 3;
+  for (size_t t = 0; t < nt; ++t) {
+    const uint32_t v[3] = {canonical[mesh.indices[3 * t]], canonical[mesh.indices[3 * t + 1]],
+                           canonical[mesh.indices[3 * t + 2]]};
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // collapsed (a pole's fan): no edge, no area
+    const Vec3& p0 = mesh.positions[v[0]];
+    if (!(length(cross(mesh.positions[v[1]] - p0, mesh.positions[v[2]] - p0)) > 0)) return false;
+    for (int e = 0; e < 3; ++e) ++directed[key(v[e], v[(e + 1) % 3])];
+  }
+  for (const auto& [k, n] : directed) {
+    const auto reverse = directed.find(key(static_cast<uint32_t>(k & 0xffffffffu), static_cast<uint32_t>(k >> 32)));
+    if (n != 1 || reverse == directed.end() || reverse->second != 1) return false;
+  }
+  return !directed.empty();
+}
+
+// The inverse of an affine transform (its 3×3 part invertible: scene_check refuses singular ones).
+scene::Transform inverse(const scene::Transform& t) {
+  const auto& m = t.m;
+  const double det = scene::determinant(t);
+  const double c[9] = {m[5] * m[10] - m[6] * m[9], m[2] * m[9] - m[1] * m[10], m[1] * m[6] - m[2] * m[5],
+                       m[6] * m[8] - m[4] * m[10], m[0] * m[10] - m[2] * m[8], m[2] * m[4] - m[0] * m[6],
+                       m[4] * m[9] - m[5] * m[8],  m[1] * m[8] - m[0] * m[9],  m[0] * m[5] - m[1] * m[4]};
+  scene::Transform r;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r.m[4 * i + j] = c[3 * i + j] / det;
+    r.m[4 * i + 3] = -(r.m[4 * i] * m[3] + r.m[4 * i + 1] * m[7] + r.m[4 * i + 2] * m[11]);
+  }
+  return r;
+}
+
+// Per triangle, 1 where it meets another at a point (by position) with normals 90° or more apart; with
+// `concave_only`, only where one has a corner in front of the other's plane (a valley, not a ridge). Such a crease
+// puts a point on it, lifted off one triangle along its normal, behind the other: the probe would see that one's back.
+std::vector<uint8_t> sharp_creases(const scene::Mesh& mesh, const std::vector<uint32_t>& canonical, bool concave_only) {
+  const size_t nt = mesh.indices.size() / 3;
+  const auto corner = [&](size_t t, int k) -> const Vec3& { return mesh.positions[mesh.indices[3 * t + k]]; };
+  std::vector<Vec3> unit(nt);
+  for (size_t t = 0; t < nt; ++t) unit[t] = normalize(cross(corner(t, 1) - corner(t, 0), corner(t, 2) - corner(t, 0)));
+  // In front of the other's plane by more than 1e-9 of its edge: rounding is far below, a texel far above.
+  const auto in_front = [&](size_t a, size_t b) {
+    for (int k = 0; k < 3; ++k)
+      if (dot(unit[a], corner(b, k) - corner(a, 0)) > 1e-9 * length(corner(a, 1) - corner(a, 0))) return true;
+    return false;
+  };
+  std::vector<uint32_t> first(mesh.positions.size() + 1, 0);
+  for (uint32_t i : mesh.indices) ++first[canonical[i] + 1];
+  for (size_t v = 1; v < first.size(); ++v) first[v] += first[v - 1];
+  std::vector<uint32_t> incident(mesh.indices.size()), fill(first.begin(), first.end() - 1);
+  for (size_t k = 0; k < mesh.indices.size(); ++k) incident[fill[canonical[mesh.indices[k]]]++] = k / 3;
+  std::vector<uint8_t> flagged(nt, 0);
+  for (size_t v = 0; v + 1 < first.size(); ++v) {
+    for (uint32_t i = first[v]; i < first[v + 1]; ++i) {
+      for (uint32_t j = i + 1; j < first[v + 1]; ++j) {
+        const size_t a = incident[i], b = incident[j];
+        if (dot(unit[a], unit[b]) > 0) continue;
+        if (!concave_only || in_front(a, b) || in_front(b, a)) flagged[a] = flagged[b] = 1;
+      }
+    }
+  }
+  return flagged;
+}
+
 }  // namespace
+
+// Closed, oriented, every triangle facing away from the centre c (its plane has c strictly behind it), and the solid
+// angles the triangles subtend at c summing to 4π: then each direction from c meets the surface once, so the surface
+// is a radial graph around c (no fold, no self-intersection, no second shell) and c is inside.
+bool is_star_shaped_closed(const scene::Mesh& mesh) { return star_centre(mesh).has_value(); }
+
+std::optional<Vec3> star_centre(const scene::Mesh& mesh) {
+  const std::vector<uint32_t> canonical = canonical_vertices(mesh);
+  if (!closed_and_oriented(mesh, canonical)) return std::nullopt;
+  const size_t nt = mesh.indices.size() / 3;
+  Vec3 c{};
+  double area = 0;
+  for (size_t t = 0; t < nt; ++t) {
+    const Vec3 &a = mesh.positions[mesh.indices[3 * t]], &b = mesh.positions[mesh.indices[3 * t + 1]],
+               &d = mesh.positions[mesh.indices[3 * t + 2]];
+    const double w = length(cross(b - a, d - a));
+    c = c + (a + b + d) * (w / 3);
+    area += w;
+  }
+  if (!(area > 0) || !std::isfinite(area)) return std::nullopt;
+  c = c * (1 / area);
+  double solid_angle = 0;
+  for (size_t t = 0; t < nt; ++t) {
+    const Vec3 a = mesh.positions[mesh.indices[3 * t]] - c, b = mesh.positions[mesh.indices[3 * t + 1]] - c,
+               d = mesh.positions[mesh.indices[3 * t + 2]] - c;
+    const Vec3 n = cross(b - a, d - a);
+    const double ln = length(n);
+    if (!(ln > 0)) continue;  // collapsed: it subtends nothing
+    // Facing away from c by more than rounding: 1e-9 of the distance, far above double rounding, far below a texel.
+    if (!(dot(n, a) > 1e-9 * ln * length(a))) return std::nullopt;
+    // Van Oosterom and Strackee's solid angle of the triangle (a, b, d) seen from the origin.
+    const double la = length(a), lb = length(b), ld = length(d);
+    solid_angle += 2 * std::atan2(dot(a, cross(b, d)), la * lb * ld + dot(a, b) * ld + dot(a, d) * lb + dot(b, d) * la);
+  }
+  // One shell covers the sphere of directions once (4π); two would cover it twice. 1e-6: rounding of the sum.
+  if (!(std::abs(solid_angle - 4 * kPi) < 1e-6 * 4 * kPi)) return std::nullopt;
+  return c;
+}
+
+bool inside_star_shaped(const scene::Mesh& mesh, const Vec3& centre, const Vec3& q) {
+  const Vec3 d = q - centre;
+  const size_t nt = mesh.indices.size() / 3;
+  for (size_t t = 0; t < nt; ++t) {
+    const Vec3 a = mesh.positions[mesh.indices[3 * t]] - centre, b = mesh.positions[mesh.indices[3 * t + 1]] - centre,
+               e = mesh.positions[mesh.indices[3 * t + 2]] - centre;
+    // The triangle whose cone from the centre holds d (each faces away from the centre: the three triple products
+    // have the sign of its normal's dot with a, positive).
+    if (dot(d, cross(a, b)) < 0 || dot(d, cross(b, e)) < 0 || dot(d, cross(e, a)) < 0) continue;
+    const Vec3 n = cross(b - a, e - a);
+    const double along = dot(n, d);
+    if (!(along > 0)) continue;  // collapsed, or d along its edge
+    // The surface crosses the ray centre + s·d at s = (n·a)/(n·d): q (s = 1) is inside when the crossing is beyond.
+    return dot(n, a) >= along;
+  }
+  return true;  // no triangle's cone holds d (rounding at an edge shared by two): inside, so probed
+}
+
+std::vector<uint8_t> sharp_valley_triangles(const scene::Mesh& mesh) {
+  return sharp_creases(mesh, canonical_vertices(mesh), true);
+}
 
 bool is_convex_mesh(const scene::Mesh& mesh) {
   const size_t nt = mesh.indices.size() / 3;
@@ -129,27 +293,8 @@ bool is_height_field(const scene::Mesh& mesh) {
   // other's plane too. A sharper valley puts it behind its neighbour (a crease of a coarse, steep terrain: the probe
   // sees the neighbour's back), which the argument above needs to exclude.
   {
-    std::vector<uint32_t> order(mesh.positions.size());
-    for (uint32_t v = 0; v < order.size(); ++v) order[v] = v;
-    const auto less = [&](uint32_t a, uint32_t b) {
-      const Vec3 &p = mesh.positions[a], &q = mesh.positions[b];
-      return p.x != q.x ? p.x < q.x : p.y != q.y ? p.y < q.y : p.z < q.z;
-    };
-    std::sort(order.begin(), order.end(), less);
-    std::vector<uint32_t> canonical(order.size());
-    for (size_t i = 0; i < order.size(); ++i)
-      canonical[order[i]] = i > 0 && !less(order[i - 1], order[i]) ? canonical[order[i - 1]] : order[i];
-    std::vector<uint32_t> first(mesh.positions.size() + 1, 0);
-    for (uint32_t i : mesh.indices) ++first[canonical[i] + 1];
-    for (size_t v = 1; v < first.size(); ++v) first[v] += first[v - 1];
-    std::vector<uint32_t> incident(mesh.indices.size()), fill(first.begin(), first.end() - 1);
-    for (size_t k = 0; k < mesh.indices.size(); ++k) incident[fill[canonical[mesh.indices[k]]]++] = k / 3;
-    std::vector<Vec3> unit(nt);
-    for (size_t t = 0; t < nt; ++t) unit[t] = normalize(tri_cross(t));
-    for (size_t v = 0; v + 1 < first.size(); ++v)
-      for (uint32_t i = first[v]; i < first[v + 1]; ++i)
-        for (uint32_t j = i + 1; j < first[v + 1]; ++j)
-          if (!(dot(unit[incident[i]], unit[incident[j]]) > 0)) return false;
+    const std::vector<uint8_t> creases = sharp_creases(mesh, canonical_vertices(mesh), false);
+    if (std::find(creases.begin(), creases.end(), 1) != creases.end()) return false;
   }
   // Project along d onto a basis (e1, e2) with e1 × e2 = d: every triangle is counter-clockwise there.
   const Frame frame = Frame::from_normal(d);
@@ -228,7 +373,7 @@ bool is_height_field(const scene::Mesh& mesh) {
 }
 
 LeakScope::LeakScope(const scene::Scene& scene, const LeakScopeOptions& options, const bake::StopCheck& stop)
-    : options_(options) {
+    : scene_(scene), options_(options) {
   if (!(options.margin_texels > 0) || !std::isfinite(options.margin_texels))
     throw std::invalid_argument("leak scope: margin_texels must be finite and > 0");
   if (options.chunk_triangles < 1) throw std::invalid_argument("leak scope: chunk_triangles must be >= 1");
@@ -237,28 +382,48 @@ LeakScope::LeakScope(const scene::Scene& scene, const LeakScopeOptions& options,
   for (const scene::Instance& inst : scene.instances)
     if (inst.bake) baked[static_cast<size_t>(inst.mesh)] = 1;
   self_hiding_.assign(nm, 1);
+  convex_.assign(nm, 0);
+  star_centre_.assign(nm, std::nullopt);
+  valley_triangles_.assign(nm, {});
   for (size_t m = 0; m < nm; ++m) {
-    if (!baked[m] || scene.meshes[m].indices.empty()) continue;
+    if (scene.meshes[m].indices.empty()) continue;
     stop.check();
-    if (is_convex_mesh(scene.meshes[m])) {
+    // Every mesh's convexity: a convex mesh may hide another instance's points only from inside it.
+    convex_[m] = is_convex_mesh(scene.meshes[m]);
+    if (!baked[m]) continue;
+    if (convex_[m]) {
       self_hiding_[m] = 0;
       ++summary_.convex_meshes;
     } else if (is_height_field(scene.meshes[m])) {
       self_hiding_[m] = 0;
       ++summary_.height_field_meshes;
+    } else if (const std::optional<Vec3> centre = star_centre(scene.meshes[m])) {
+      self_hiding_[m] = 0;
+      star_centre_[m] = *centre;
+      ++summary_.star_shaped_meshes;
+      valley_triangles_[m] = sharp_valley_triangles(scene.meshes[m]);
+      for (uint8_t v : valley_triangles_[m]) summary_.valley_triangles += v;
     } else {
       ++summary_.probed_meshes;
     }
   }
   const size_t per_chunk = static_cast<size_t>(options.chunk_triangles);
+  winding_.reserve(scene.instances.size());
   for (size_t k = 0; k < scene.instances.size(); ++k) {
     stop.check();
     const scene::Instance& inst = scene.instances[k];
+    winding_.push_back(scene::determinant(inst.to_world) < 0 ? -1 : 1);
+    to_object_.push_back(star_centre_[static_cast<size_t>(inst.mesh)] ? inverse(inst.to_world) : scene::Transform{});
     const scene::Mesh& mesh = scene.meshes[static_cast<size_t>(inst.mesh)];
     const size_t nt = mesh.indices.size() / 3;
     for (size_t t0 = 0; t0 < nt; t0 += per_chunk) {
-      Chunk c{{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}, static_cast<uint32_t>(k)};
-      for (size_t i = 3 * t0; i < 3 * std::min(nt, t0 + per_chunk); ++i) {
+      const size_t t1 = std::min(nt, t0 + per_chunk);
+      Chunk c{{INFINITY, INFINITY, INFINITY},
+              {-INFINITY, -INFINITY, -INFINITY},
+              static_cast<uint32_t>(k),
+              static_cast<uint32_t>(t0),
+              static_cast<uint32_t>(t1 - t0)};
+      for (size_t i = 3 * t0; i < 3 * t1; ++i) {
         const Vec3 w = inst.to_world.point(mesh.positions[mesh.indices[i]]);
         c.lower = {std::min(c.lower.x, w.x), std::min(c.lower.y, w.y), std::min(c.lower.z, w.z)};
         c.upper = {std::max(c.upper.x, w.x), std::max(c.upper.y, w.y), std::max(c.upper.z, w.z)};
@@ -314,13 +479,59 @@ void LeakScope::build_grid() {
   }
 }
 
-// Whether the sample lies within its margin of a chunk of another instance.
+// Whether the chunk's triangles may show p a back face: p behind, or within `margin` in front of, the plane of one of
+// them (in world space, front as the tracer's: the winding's normal, turned by a mirroring transform). Of a convex
+// mesh, only when p is behind or within the margin of every one: a single plane with p farther in front puts p
+// outside the whole mesh by more than the margin, where no part of it can hide p.
+bool LeakScope::may_hide(const Chunk& chunk, const Vec3& p, double margin) const {
+  const scene::Instance& inst = scene_.instances[chunk.instance];
+  const scene::Mesh& mesh = scene_.meshes[static_cast<size_t>(inst.mesh)];
+  const double winding = winding_[chunk.instance];
+  // A closed star-shaped mesh shows a point outside it only front faces (a ray from outside a closed surface meets a
+  // front face first): it may hide only the points inside it. The test is exact in its object space.
+  if (const std::optional<Vec3>& centre = star_centre_[static_cast<size_t>(inst.mesh)]) {
+    return inside_star_shaped(mesh, *centre, to_object_[chunk.instance].point(p));
+  }
+  const bool convex = convex_[static_cast<size_t>(inst.mesh)] != 0;
+  for (size_t t = chunk.first_triangle; t < size_t{chunk.first_triangle} + chunk.triangles; ++t) {
+    const Vec3 a = inst.to_world.point(mesh.positions[mesh.indices[3 * t]]);
+    const Vec3 b = inst.to_world.point(mesh.positions[mesh.indices[3 * t + 1]]);
+    const Vec3 c = inst.to_world.point(mesh.positions[mesh.indices[3 * t + 2]]);
+    const Vec3 n = cross(b - a, c - a) * winding;
+    const double ln = length(n);
+    // A zero or non-finite normal (a degenerate triangle) has no plane: it keeps the chunk's probe, and is no
+    // witness that p is outside a convex mesh.
+    if (!(ln > 0) || !std::isfinite(ln)) {
+      if (!convex) return true;
+      continue;
+    }
+    const bool far_in_front = dot(n, p - a) > margin * ln;
+    if (convex && far_in_front) return false;
+    if (!convex && !far_in_front) return true;
+  }
+  return convex;
+}
+
+// Whether the sample lies within its margin of a chunk of another instance that may hide it (may_hide).
 bool LeakScope::near_other_instance(const TexelSample& s) const {
   const Vec3& p = s.position;
   const double m = options_.margin_texels * static_cast<double>(s.texel_world_size);
+  // A closed star-shaped instance answers for its whole mesh, not the chunk: tested once per sample, however many of
+  // its chunks are near.
+  uint32_t star_tested = UINT32_MAX;
+  bool star_hides = false;
   const auto near = [&](const Chunk& ch) {
-    return ch.instance != s.triangle.instance && p.x >= ch.lower.x - m && p.x <= ch.upper.x + m &&
-           p.y >= ch.lower.y - m && p.y <= ch.upper.y + m && p.z >= ch.lower.z - m && p.z <= ch.upper.z + m;
+    if (ch.instance == s.triangle.instance ||
+        !(p.x >= ch.lower.x - m && p.x <= ch.upper.x + m && p.y >= ch.lower.y - m && p.y <= ch.upper.y + m &&
+          p.z >= ch.lower.z - m && p.z <= ch.upper.z + m)) {
+      return false;
+    }
+    if (!star_centre_[static_cast<size_t>(scene_.instances[ch.instance].mesh)]) return may_hide(ch, p, m);
+    if (ch.instance != star_tested) {
+      star_tested = ch.instance;
+      star_hides = may_hide(ch, p, m);
+    }
+    return star_hides;
   };
   if (grid_.n[0] == 0) return std::any_of(chunks_.begin(), chunks_.end(), near);
   const Vec3 reach{m, m, m};
@@ -337,7 +548,9 @@ std::vector<uint8_t> LeakScope::probe_mask(std::span<const TexelSample> samples,
     stop.check();
     for (size_t j = r.begin(); j < r.end(); ++j) {
       const TexelSample& s = samples[j];
-      mask[j] = self_hiding_[s.triangle.mesh] || near_other_instance(s);
+      const std::vector<uint8_t>& valleys = valley_triangles_[s.triangle.mesh];
+      mask[j] = self_hiding_[s.triangle.mesh] ||
+                (s.triangle.triangle < valleys.size() && valleys[s.triangle.triangle]) || near_other_instance(s);
     }
   });
   return mask;

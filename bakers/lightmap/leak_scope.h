@@ -8,13 +8,29 @@
 //     box of a closed mesh is outside the mesh and sees its front faces; an open surface (a one-sided wall) seen
 //     from behind hides the points just behind it, within `margin_texels` texel sizes (a texel straddling it).
 //     Back faces of J farther away are J's open side seen from afar, which a probe would wrongly take for a leak.
-//     "Near" is tested against the boxes of chunks of `chunk_triangles` consecutive triangles of J (in world
-//     space), so a point on a large terrain is probed near the rocks on it but not everywhere in the terrain's
-//     box, and a rock's top is not probed for the terrain under it.
+//     "Near" is tested against chunks of `chunk_triangles` consecutive triangles of J (in world space): p must lie
+//     within the margin of the chunk's box, and behind or within the margin of the plane of one of its triangles.
+//     A ray from a point in front of a triangle's plane can meet only that triangle's front face, so a chunk whose
+//     every triangle has p more than the margin in front of it cannot show p a back face. A point on a large
+//     terrain is thus probed near the rocks on it but not everywhere in the terrain's box, and a rock's side
+//     standing above the terrain is not probed for the terrain under it (only its foot, within the margin of the
+//     ground or sunk into it). When J is convex, one plane of its with p farther in front than the margin puts p
+//     outside all of J by more than that, so then no chunk of J counts: the ground beside a crate is not probed.
+//     When J is closed and star-shaped (below), only the points inside it: from outside a closed surface a ray
+//     meets a front face first, whatever the distance (tested exactly, in J's object space, along the ray from
+//     its centre).
+//     A point sunk deeper than the boxes of the chunks above it reach is not probed
+//     either: it lies under the ground, where no view of the scene sees it.
 //   - Its own instance cannot show a point back faces (of the point's hemisphere, where the probe looks) when its
 //     mesh is
 //       convex: every triangle has the whole mesh on or behind its plane (a plane, a box, a cylinder), so every ray
 //       leaving a triangle to its front stays in front of the mesh; or
+//       closed and star-shaped: a closed, consistently oriented surface around a centre from which every triangle
+//       faces away and which it surrounds once (a rock, a sphere, a statue's rounded body): a point lifted off it
+//       is outside the solid, and a ray from outside a closed surface meets a front face first. Except on the
+//       triangles of a valley sharper than 90° (two meeting at a point with normals 90° or more apart, one with a
+//       corner in front of the other's plane), where a point on the crease lifted along one's normal is behind the
+//       other: those triangles' points are probed; or
 //       a height field: some direction d has n·d > 0 for every triangle normal n, the triangles' projections along
 //       d do not overlap (a terrain), and triangles that meet have normals less than 90° apart; a point lifted off
 //       the surface along its triangle's normal is then above the surface (in front of every neighbour's plane too),
@@ -28,6 +44,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -47,13 +64,16 @@ struct LeakScopeOptions {
 struct LeakScopeSummary {
   size_t convex_meshes = 0;        // cannot hide their own points: convex
   size_t height_field_meshes = 0;  // cannot hide their own points: a height field
+  size_t star_shaped_meshes = 0;   // cannot hide their own points: closed and star-shaped
+  size_t valley_triangles = 0;     // of those meshes, the triangles of sharp valleys, probed
   size_t probed_meshes = 0;        // may hide their own points: probed everywhere
   size_t chunks = 0;               // boxes the proximity test holds
 };
 
 class LeakScope {
  public:
-  // Polls `stop` and throws what its check() throws. The scene must be clean (scene::check_scene's output).
+  // Polls `stop` and throws what its check() throws. The scene must be clean (scene::check_scene's output), and
+  // outlive the scope: the chunks' triangles are read from it.
   LeakScope(const scene::Scene& scene, const LeakScopeOptions& options = {}, const bake::StopCheck& stop = {});
 
   // Per sample: 1 where it may leak and must be probed, 0 where it cannot (above). Parallel, deterministic.
@@ -67,6 +87,8 @@ class LeakScope {
   struct Chunk {
     Vec3 lower, upper;
     uint32_t instance;
+    uint32_t first_triangle;  // the chunk holds triangles [first_triangle, first_triangle + triangles)
+    uint32_t triangles;
   };
   // A uniform grid over the chunks' boxes, built once: a sample looks up the cells its own reach overlaps.
   struct ChunkGrid {
@@ -78,16 +100,30 @@ class LeakScope {
   };
   void build_grid();
   bool near_other_instance(const TexelSample& s) const;
+  bool may_hide(const Chunk& chunk, const Vec3& p, double margin) const;
 
+  const scene::Scene& scene_;
   LeakScopeOptions options_;
+  std::vector<int8_t> winding_;       // by instance: +1, or −1 where its transform mirrors (det < 0) the front side
   std::vector<uint8_t> self_hiding_;  // by mesh
+  std::vector<uint8_t> convex_;       // by mesh
+  std::vector<std::optional<Vec3>> star_centre_;        // by mesh: closed star-shaped meshes' centres (object space)
+  std::vector<scene::Transform> to_object_;             // by instance, of those meshes' instances: world to object
+  std::vector<std::vector<uint8_t>> valley_triangles_;  // by mesh and triangle: probed (closed star-shaped meshes)
   std::vector<Chunk> chunks_;
   ChunkGrid grid_;
   LeakScopeSummary summary_;
 };
 
-// Exposed for tests: the two mesh properties above (object space, clean mesh).
+// Exposed for tests: the three mesh properties above (object space, clean mesh).
 bool is_convex_mesh(const scene::Mesh& mesh);
 bool is_height_field(const scene::Mesh& mesh);
+bool is_star_shaped_closed(const scene::Mesh& mesh);
+// Its centre when it is closed and star-shaped (the area-weighted centroid of its triangles), else nullopt.
+std::optional<Vec3> star_centre(const scene::Mesh& mesh);
+// Whether the point q lies inside the closed star-shaped mesh around `centre` (on its surface counts as inside).
+bool inside_star_shaped(const scene::Mesh& mesh, const Vec3& centre, const Vec3& q);
+// Per triangle, 1 where it is part of a valley sharper than 90°.
+std::vector<uint8_t> sharp_valley_triangles(const scene::Mesh& mesh);
 
 }  // namespace kiln::lightmap

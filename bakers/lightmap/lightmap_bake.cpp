@@ -31,6 +31,7 @@
 #include "bakers/lightmap/lightmap_uvgen.h"
 #include "bakers/lightmap/memory.h"
 #include "bakers/lightmap/memory_estimate.h"
+#include "bakers/lightmap/probe_outputs.h"
 #include "bakers/lightmap/seams.h"
 #include "bakers/lightmap/stage_timer.h"
 #include "bakers/lightmap/texel_guides.h"
@@ -40,6 +41,7 @@
 #include "bakers/scene/light_sampler.h"
 #include "bakers/scene/scene_check.h"
 #include "bakers/scene/tracer.h"
+#include "bakers/volume/medium_sum.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -71,11 +73,14 @@ struct LightmapBakeRun {
   std::string stage = "scene";  // the set-up stage running, for the time limit's message
   double last_fraction = 0;     // the progress reported so far, which never decreases
 
-  scene::CheckedScene checked;  // the scene as baked: textures and environment decoded, then cleaned
-  std::optional<AtlasPack> atlas;  // when the input packs atlas pages
-  std::vector<GeneratedMeshUvs> generated_uvs;  // the meshes that got generated lightmap UVs
-  std::vector<std::string> output_names;  // of every output handed over so far, in order
-  std::string color_space;      // the working space every output is in
+  scene::CheckedScene checked;                    // the scene as baked: textures and environment decoded, then cleaned
+  std::optional<AtlasPack> atlas;                 // when the input packs atlas pages
+  std::vector<GeneratedMeshUvs> generated_uvs;    // the meshes that got generated lightmap UVs
+  std::vector<std::string> output_names;          // of every output handed over so far, in order
+  std::string color_space;                        // the working space every output is in
+  std::vector<volume::MediumInput> media_inputs;  // the input's, fog given the scene's box
+  std::vector<std::unique_ptr<volume::Medium>> media;  // those, built (their grids checked) before the plan
+  std::unique_ptr<volume::MediumSum> medium_sum;       // when several media are simulated: what paths track
   plan::LightmapPlan plan;
   std::unique_ptr<scene::Tracer> tracer;
   std::unique_ptr<scene::SceneLights> lights;
@@ -86,8 +91,9 @@ struct LightmapBakeRun {
   TransportContext direct_ctx;
   std::unique_ptr<LightTracer> light_tracer;
   std::vector<LightmapState> maps;
+  std::optional<ProbeVolumeResult> probes;  // when the input asks for probes, once baked
   LightmapMemoryEstimate memory;  // as planned: untiled, or the tile size (memory.tile_size)
-  uint64_t dropped = 0;  // estimates dropped over all passes
+  uint64_t dropped = 0;           // estimates dropped over all passes
   LightmapBakeResult result;
   LightmapReport report;
 
@@ -188,7 +194,11 @@ void prepare_scene(LightmapBakeRun& run) {
 // The texels on a side of lightmap `name` (a file stem of the checked scene, whose settings the job gives under its
 // input name), or of an atlas page.
 int lightmap_resolution(const LightmapBakeRun& run, const std::string& name) {
-  if (run.atlas) return run.in.atlas.page_size;  // every atlas page
+  if (run.atlas) {
+    for (const AtlasPage& page : run.atlas->pages)
+      if (page.name == name) return page.size;
+    return run.in.atlas.page_size;
+  }
   const auto it = run.in.resolutions.find(run.checked.input_lightmap_name(name));
   return it != run.in.resolutions.end() ? it->second : run.in.resolution;
 }
@@ -203,6 +213,7 @@ LightmapJobSize output_size(const LightmapBakeInput& in, bool streamed) {
   size.denoise = in.denoise;
   size.preview = in.preview;
   size.streamed = streamed;
+  size.probes = in.probes.enabled() ? in.probes.max_probes : 0;
   return size;
 }
 
@@ -214,7 +225,7 @@ LightmapJobSize job_size(const LightmapBakeRun& run) {
   const LightmapBakeInput& in = run.in;
   const scene::Scene& s = run.scene();
   LightmapJobSize size = output_size(in, static_cast<bool>(run.control.output_sink));
-  for (const std::string& name : lightmap_names(s)) {
+  for (const std::string& name : in.lightmaps ? lightmap_names(s) : std::vector<std::string>{}) {
     const auto side = static_cast<uint64_t>(lightmap_resolution(run, name));
     size.lightmap_texels.push_back(side * side);
   }
@@ -235,8 +246,8 @@ LightmapJobSize job_size(const LightmapBakeRun& run) {
 
 void plan_memory(LightmapBakeRun& run) {
   const LightmapJobSize size = job_size(run);
-  run.memory = run.in.tile_size > 0 ? estimate_memory(size, run.in.tile_size)
-                                    : plan_memory(size, run.in.memory_limit_bytes);
+  run.memory =
+      run.in.tile_size > 0 ? estimate_memory(size, run.in.tile_size) : plan_memory(size, run.in.memory_limit_bytes);
   LightmapBakeResult::Memory& m = run.result.memory;
   m.limit_bytes = run.in.memory_limit_bytes;
   m.estimate_bytes = run.memory.total;
@@ -246,7 +257,22 @@ void plan_memory(LightmapBakeRun& run) {
 
 // ---- 2b. The plan ----
 
+// The input's media, built; fog (a homogeneous medium without a box) fills the scene's box: beyond the scene it would
+// take all light from infinitely far (the sun, the sky) on its infinitely long way in.
+void build_media(LightmapBakeRun& run) {
+  std::vector<volume::MediumInput>& inputs = run.media_inputs;
+  inputs = run.in.media;  // grids are shared handles: no voxel is copied
+  volume::Bounds3 box;
+  const bool bounded = scene::scene_box(run.scene(), box.lo, box.hi);
+  for (volume::MediumInput& m : inputs) {
+    auto* fog = std::get_if<volume::HomogeneousMediumSpec>(&m.spec);
+    if (fog && !fog->box && bounded) fog->box = box;
+  }
+  run.media = volume::make_media(inputs);
+}
+
 void plan_bake(LightmapBakeRun& run) {
+  build_media(run);
   plan::LightmapPlanOptions options;
   options.target_error = run.in.target_error;
   options.max_bounces = run.in.max_bounces;
@@ -254,11 +280,22 @@ void plan_bake(LightmapBakeRun& run) {
   options.directional = run.in.directional;
   options.per_texel_error = run.in.error_metric == ErrorMetric::texel;
   options.tiled = run.memory.tile_size > 0;
+  options.media_inputs = &run.media_inputs;
+  for (const auto& m : run.media) options.media.push_back(m.get());
   run.plan = run.in.full_simulation ? plan::full_plan(run.scene(), options) : plan::plan_lightmap(run.scene(), options);
   run.result.plan = run.plan.decisions;
 }
 
 // ---- 3. Tracer, lights, materials ----
+
+// The media the plan simulates; paths track the one medium itself (its majorant grid skips empty space), or their
+// sum.
+void set_media(LightmapBakeRun& run, TransportContext& ctx) {
+  for (int i : run.plan.media) ctx.media.push_back(run.media[i].get());
+  ctx.media_scattering = run.plan.media_mode == plan::MediaMode::scattering;
+  if (ctx.media.size() > 1) run.medium_sum = std::make_unique<volume::MediumSum>(ctx.media);
+  ctx.medium = run.medium_sum ? run.medium_sum.get() : ctx.media.empty() ? nullptr : ctx.media[0];
+}
 
 void prepare_transport(LightmapBakeRun& run) {
   const scene::Scene& s = run.scene();
@@ -290,6 +327,7 @@ void prepare_transport(LightmapBakeRun& run) {
   ctx.materials = &run.materials;
   ctx.ray_log = run.in.ray_log;
   ctx.directional = run.in.directional;
+  set_media(run, ctx);
   prepare_context(ctx);
   if (run.in.ao) {
     // AO within a tenth of the scene's size: the usual contact-shadow scale, and independent of the scene's unit.
@@ -557,16 +595,6 @@ class OutputStream {
   std::vector<std::string>& names_;
 };
 
-// The per-texel results a page keeps for the outputs asked for.
-ResultChannels result_channels(const LightmapBakeInput& in) {
-  ResultChannels c;
-  c.ao = in.ao;
-  c.directional = in.directional;
-  c.radiance = in.radiance;
-  c.guides = in.denoise;
-  return c;
-}
-
 // One lightmap's images, in a fixed order, and its entry in the report; each image leaves as soon as it is encoded.
 void write_lightmap(LightmapBakeRun& run, const LightmapResults& r, const LeakReport& leaks,
                     const LightmapMemory& memory) {
@@ -610,6 +638,7 @@ void write_report(LightmapBakeRun& run) {
   report.dropped_samples = run.dropped;
   report.color_space = run.color_space;
   report.plan = &run.plan;
+  report.media = &run.media_inputs;
   report.tracer_triangles = run.tracer->triangle_count();
   report.tracer_stored_triangles = run.tracer->stored_triangle_count();
   report.tracer_instances = run.tracer->instanced_instance_count();
@@ -646,6 +675,43 @@ bake::InvalidInput out_of_time_in_set_up(const LightmapBakeRun& run) {
           " s), before any texel was sampled; raise it, or lower the resolution or the scene's size");
 }
 
+// ---- 7. Light probes (probe_volume.h), after the lightmaps or instead of them ----
+
+// Places and samples the probes, hands their outputs over and keeps their result for the report. After lightmaps
+// the time limit has had its share: placement then stops only at a cancel, and every probe still gets min_samples.
+void bake_probes(LightmapBakeRun& run) {
+  const LightmapBakeInput& in = run.in;
+  const StageTimer timer(run.report.stages, "probes");
+  run.stage = "probe placement";
+  ProbeSamplingOptions o;
+  o.stopping = sampling_options(run);
+  o.cancel = run.control.cancel;
+  const double start = in.lightmaps ? 0.95 : 0.05, span = in.lightmaps ? 0.04 : 0.9;
+  o.progress = [&](double done, double error) { run.progress(start + span * done, "probes", error); };
+  run.probes = bake_probe_volume(run.ctx, in.probes, o, in.lightmaps ? run.cancel_only : run.stop);
+  run.result.samples += run.probes->samples;
+  run.result.rays += run.probes->rays;
+  run.dropped += run.probes->dropped;
+  run.report.probes = &*run.probes;
+  OutputStream outputs(run.control, run.result.outputs, run.output_names);
+  for (bake::BakeOutput& out : probe_volume_outputs(*run.probes, run.color_space)) outputs.push_back(std::move(out));
+}
+
+// A probes job: the probes' error is the bake's.
+void bake_probes_only(LightmapBakeRun& run) {
+  try {
+    bake_probes(run);
+  } catch (const bake::OutOfTime&) {
+    throw out_of_time_in_set_up(run);
+  }
+  LightmapBakeResult& result = run.result;
+  result.error_estimate = run.probes->rms_error;
+  if (result.error_estimate >= 0) result.curve.push_back({seconds_since(run.t0), result.samples, result.error_estimate});
+  result.seconds = seconds_since(run.t0);
+  write_report(run);
+  run.progress(1.0, "done", result.error_estimate);
+}
+
 void write_outputs(LightmapBakeRun& run) {
   std::vector<LightmapMemory> memory;
   uint64_t held = 0;
@@ -666,12 +732,12 @@ void write_outputs(LightmapBakeRun& run) {
     write_lightmap(run, r, m.leaks, memory[i]);
   }
   timer.reset();  // recorded before the report that lists it
+  if (run.in.probes.enabled()) bake_probes(run);
   run.result.seconds = seconds_since(run.t0);
   write_report(run);
   if (run.atlas) write_manifest(run);
   run.progress(1.0, "done", run.result.error_estimate);
 }
-
 
 // ---- Tiled: a page a tile at a time (memory_estimate.h's plan) ----
 
@@ -735,30 +801,177 @@ bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOption
                  const LeakScope& scope, LightmapTexels& texels, LeakReport& leaks) {
   try {
     run.stage = "rasterization of lightmap '" + page.name + "'";
+    std::optional<StageTimer> timer(std::in_place, run.report.stages, "rasterization");
     texels = rasterize_lightmap(run.scene(), page.name, raster, run.stop);
     match_tracer_offsets(texels, *run.tracer);
     run.stage = "leak probes of lightmap '" + page.name + "'";
+    timer.emplace(run.report.stages, "leak_probes");
     const std::vector<uint8_t> probe = scope.probe_mask(texels.samples, run.stop);
     leaks = fix_leaks(texels, query, LeakOptions{}, run.stop, &probe);
     return true;
   } catch (const bake::OutOfTime&) {
     if (run.result.samples == 0) throw;  // before the first sample: the set-up ran out (out_of_time_in_set_up)
   }
+  const StageTimer timer(run.report.stages, "rasterization");
   texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
   match_tracer_offsets(texels, *run.tracer);
   leaks = LeakReport{};
   return false;
 }
 
-void bake_tiles(LightmapBakeRun& run) {
-  const LightmapBakeInput& in = run.in;
+// What the tiles of a bake share while they are baked one after another.
+struct TileRun {
+  LightmapBakeRun& run;
+  const std::vector<std::vector<uint8_t>>& bake_mask;
+  const LeakScope& scope;
+  const TracerRayQuery query;
+  const SamplingOptions options;
+  const BakeStateBytes state_bytes;
+  double total_coverage = 0;  // the UV area of every tile of every page
+  double remaining = 0;       // of the tiles not yet sampled
+  ErrorTotals done;           // over the tiles sampled so far, each as it ended
+};
+
+// A page's tally while its tiles are baked.
+struct PageTally {
+  LeakReport leaks;
+  size_t samples = 0, valid = 0;
+  uint64_t held = 0;                      // the most held at once: a tile's state and the page's results
+  std::pair<double, size_t> prior{0, 0};  // the brightness of its tiles so far (luminance_sum)
+};
+
+void add_leaks(LeakReport& into, const LeakReport& tile) {
+  into.samples += tile.samples;
+  into.pruned += tile.pruned;
+  into.moved += tile.moved;
+  into.invalidated += tile.invalidated;
+  into.texels_invalidated += tile.texels_invalidated;
+  into.rays += tile.rays;
+}
+
+// The tile's texels, leaks resolved when it is to be sampled (`sample`); before the deadline only.
+LightmapTexels tile_texels_to_bake(TileRun& t, const TiledPage& page, const RasterOptions& raster, LeakReport& leaks,
+                                   bool& sample) {
+  LightmapBakeRun& run = t.run;
+  LightmapTexels texels;
+  try {
+    sample = Clock::now() < t.options.deadline && tile_texels(run, page, raster, t.query, t.scope, texels, leaks);
+    if (!sample && texels.width == 0) {
+      const StageTimer timer(run.report.stages, "rasterization");
+      texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
+      match_tracer_offsets(texels, *run.tracer);
+    }
+  } catch (const bake::OutOfTime&) {
+    throw out_of_time_in_set_up(run);
+  }
+  run.check_cancel();
+  return texels;
+}
+
+// Samples a tile that covers `share` of the pages' UV area until its share of the time left or its target.
+void sample_tile(TileRun& t, std::vector<LightmapState>& tile, double share) {
+  LightmapBakeRun& run = t.run;
+  SamplingOptions o = t.options;
+  o.deadline = tile_deadline(t.options.deadline, share, t.remaining);
+  const double before = (t.total_coverage - t.remaining) / std::max(t.total_coverage, 1e-300);
+  const double weight = share / std::max(t.total_coverage, 1e-300);
+  const StageTimer timer(run.report.stages, "passes");
+  run_passes(run, tile, o, false, [&](uint64_t pass) {
+    const ErrorTotals e = error_totals(run, tile);
+    run.progress(0.05 + 0.9 * (before + weight * e.done()),
+                 "tile " + std::to_string(run.result.memory.tiles) + ", pass " + std::to_string(pass + 1), e.rms());
+  });
+  t.done.add(error_totals(run, tile));
+  run.result.curve.push_back({seconds_since(run.t0), run.result.samples, t.done.rms()});
+}
+
+// Rasterizes, probes, samples (before the deadline) and collects tile k of page `pi` into the page's results.
+void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults& results, ChartIds& charts,
+               PageTally& tally) {
+  LightmapBakeRun& run = t.run;
+  RasterOptions raster;
+  raster.width = raster.height = page.size;
+  raster.bake_mask = &t.bake_mask;
+  raster.window = page.bins.window(k);
+  raster.triangles = &page.bins.triangles[k];
+  LeakReport leaks;
+  bool sample = false;
+  LightmapTexels texels = tile_texels_to_bake(t, page, raster, leaks, sample);
+  run.result.rays += leaks.rays;
+  run.result.probe_rays += leaks.rays;
+  add_leaks(tally.leaks, leaks);
+  tally.samples += texels.samples.size();
+  tally.valid += texels.valid_count();
+  std::vector<LightmapState> tile;
+  tile.push_back(make_lightmap_state(page.name, std::move(texels), leaks, run.in.ao, run.in.directional));
+  LightmapState& m = tile.front();
+  m.page = static_cast<uint32_t>(pi);
+  m.x0 = raster.window.x0;
+  m.y0 = raster.window.y0;
+  m.page_width = page.size;
+  m.image.set_brightness_prior(tally.prior.first, tally.prior.second);
+  const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
+  tally.held = std::max(tally.held, lightmap_memory(m.texels, t.state_bytes).total_bytes + results_bytes);
+  ++run.result.memory.tiles;
+  const double share = page.bins.coverage[k];
+  if (sample) {
+    sample_tile(t, tile, share);
+  } else {
+    ++run.result.memory.tiles_unsampled;
+  }
+  t.remaining -= share;
+  const std::pair<double, size_t> lum = luminance_sum(m.image);
+  tally.prior = {tally.prior.first + lum.first, tally.prior.second + lum.second};
+  collect_results(m, m.x0, m.y0, {&run.scene(), &run.materials, &charts}, results);
+  run.check_cancel();
+}
+
+// Bakes page `pi` a tile at a time and writes its outputs.
+void bake_page(TileRun& t, TiledPage& page, size_t pi) {
+  LightmapBakeRun& run = t.run;
+  LightmapResults results(page.name, page.size, page.size, result_channels(run.in));
+  ChartIds charts(run.scene());
+  PageTally tally;
+  for (size_t k = 0; k < page.bins.tile_count(); ++k) {
+    if (page.bins.triangles[k].empty()) continue;  // no triangle: every texel stays invalid
+    bake_tile(t, page, pi, k, results, charts, tally);
+  }
+  page.bins = TileBins{};
+  run.result.memory.held_peak_bytes = std::max(run.result.memory.held_peak_bytes, tally.held);
+  run.cancel_only.check();
+  LightmapMemory memory = lightmap_memory(results.texel_count(), tally.samples, tally.valid, t.state_bytes);
+  memory.total_bytes = tally.held;
+  const StageTimer timer(run.report.stages, "outputs");
+  write_lightmap(run, results, tally.leaks, memory);
+}
+
+// The error curve's last point, over every texel of every page under each page's final brightness, the estimate
+// (unknown, −1, when no tile was sampled, as in sample_adaptively), the report and the manifest.
+void finish_tiles(LightmapBakeRun& run) {
   LightmapBakeResult& result = run.result;
+  ErrorTotals final_totals;
+  for (const LightmapReportEntry& e : run.report.lightmaps) final_totals.add(e.error);
+  if (final_totals.estimated > 0) {
+    result.curve.push_back({seconds_since(run.t0), result.samples, final_totals.rms()});
+  }
+  result.error_estimate = result.curve.empty() ? -1.0 : std::max(-1.0, result.curve.back().error);
+  if (run.in.probes.enabled()) bake_probes(run);
+  result.seconds = seconds_since(run.t0);
+  write_report(run);
+  if (run.atlas) write_manifest(run);
+  run.progress(1.0, "done", result.error_estimate);
+}
+
+void bake_tiles(LightmapBakeRun& run) {
   std::vector<std::vector<uint8_t>> bake_mask;
   for (const auto& t : run.checked.triangles) bake_mask.push_back(t.bake);
   std::vector<TiledPage> pages;
   std::optional<LeakScope> scope;
   try {
-    pages = bin_pages(run, bake_mask);
+    {
+      const StageTimer timer(run.report.stages, "tile_binning");
+      pages = bin_pages(run, bake_mask);
+    }
     const StageTimer timer(run.report.stages, "leak_scope");
     run.stage = "leak scope";
     scope.emplace(run.scene(), LeakScopeOptions{}, run.stop);
@@ -766,106 +979,19 @@ void bake_tiles(LightmapBakeRun& run) {
   } catch (const bake::OutOfTime&) {
     throw out_of_time_in_set_up(run);
   }
-  double remaining = 0;
+  TileRun t{run,
+            bake_mask,
+            *scope,
+            TracerRayQuery(*run.tracer, run.scene(), run.in.ray_log),
+            sampling_options(run),
+            lightmap_state_bytes(run.in.ao, run.in.directional, false)};
   for (const TiledPage& p : pages) {
-    for (double c : p.bins.coverage) remaining += c;
+    for (double c : p.bins.coverage) t.remaining += c;
   }
-  const double total_coverage = remaining;
+  t.total_coverage = t.remaining;
   run.progress(0.05, "tiles", -1);
-  const TracerRayQuery query(*run.tracer, run.scene(), in.ray_log);
-  const SamplingOptions options = sampling_options(run);
-  const BakeStateBytes state_bytes = lightmap_state_bytes(in.ao, in.directional, false);
-  ErrorTotals done;  // over the tiles sampled so far, each as it ended
-  for (size_t pi = 0; pi < pages.size(); ++pi) {
-    TiledPage& page = pages[pi];
-    LightmapResults results(page.name, page.size, page.size, result_channels(in));
-    const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
-    ChartIds charts(run.scene());
-    LeakReport leaks;
-    size_t samples = 0, valid = 0;
-    uint64_t page_held = 0;
-    std::pair<double, size_t> prior{0.0, 0};
-    for (size_t k = 0; k < page.bins.tile_count(); ++k) {
-      if (page.bins.triangles[k].empty()) continue;  // no triangle: every texel stays invalid
-      RasterOptions raster;
-      raster.width = raster.height = page.size;
-      raster.bake_mask = &bake_mask;
-      raster.window = page.bins.window(k);
-      raster.triangles = &page.bins.triangles[k];
-      LightmapTexels texels;
-      LeakReport tile_leaks;
-      bool sample = false;
-      try {
-        sample = Clock::now() < options.deadline && tile_texels(run, page, raster, query, *scope, texels, tile_leaks);
-        if (!sample && texels.width == 0) {
-          texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
-          match_tracer_offsets(texels, *run.tracer);
-        }
-      } catch (const bake::OutOfTime&) {
-        throw out_of_time_in_set_up(run);
-      }
-      run.check_cancel();
-      result.rays += tile_leaks.rays;
-      result.probe_rays += tile_leaks.rays;
-      leaks.samples += tile_leaks.samples;
-      leaks.moved += tile_leaks.moved;
-      leaks.invalidated += tile_leaks.invalidated;
-      leaks.texels_invalidated += tile_leaks.texels_invalidated;
-      leaks.rays += tile_leaks.rays;
-      samples += texels.samples.size();
-      valid += texels.valid_count();
-      std::vector<LightmapState> tile;
-      tile.push_back(make_lightmap_state(page.name, std::move(texels), tile_leaks, in.ao, in.directional));
-      LightmapState& m = tile.front();
-      m.page = static_cast<uint32_t>(pi);
-      m.x0 = raster.window.x0;
-      m.y0 = raster.window.y0;
-      m.page_width = page.size;
-      m.image.set_brightness_prior(prior.first, prior.second);
-      const uint64_t tile_held = lightmap_memory(m.texels, state_bytes).total_bytes;
-      page_held = std::max(page_held, tile_held + results_bytes);
-      ++result.memory.tiles;
-      const double share = page.bins.coverage[k];
-      if (sample) {
-        SamplingOptions o = options;
-        o.deadline = tile_deadline(options.deadline, share, remaining);
-        const double before = (total_coverage - remaining) / std::max(total_coverage, 1e-300);
-        const double weight = share / std::max(total_coverage, 1e-300);
-        run_passes(run, tile, o, false, [&](uint64_t pass) {
-          const ErrorTotals e = error_totals(run, tile);
-          run.progress(0.05 + 0.9 * (before + weight * e.done()),
-                       "tile " + std::to_string(result.memory.tiles) + ", pass " + std::to_string(pass + 1), e.rms());
-        });
-        done.add(error_totals(run, tile));
-        result.curve.push_back({seconds_since(run.t0), result.samples, done.rms()});
-      } else {
-        ++result.memory.tiles_unsampled;
-      }
-      remaining -= share;
-      const std::pair<double, size_t> lum = luminance_sum(m.image);
-      prior = {prior.first + lum.first, prior.second + lum.second};
-      collect_results(m, m.x0, m.y0, {&run.scene(), &run.materials, &charts}, results);
-      run.check_cancel();
-    }
-    page.bins = TileBins{};
-    result.memory.held_peak_bytes = std::max(result.memory.held_peak_bytes, page_held);
-    run.cancel_only.check();
-    LightmapMemory memory = lightmap_memory(results.texel_count(), samples, valid, state_bytes);
-    memory.total_bytes = page_held;
-    write_lightmap(run, results, leaks, memory);
-  }
-  // The last point: over every texel of every page, under each page's final brightness.
-  ErrorTotals final_totals;
-  for (const LightmapReportEntry& e : run.report.lightmaps) final_totals.add(e.error);
-  if (final_totals.estimated > 0) {
-    result.curve.push_back({seconds_since(run.t0), result.samples, final_totals.rms()});
-  }
-  // Unknown (−1) when no tile was sampled, as in sample_adaptively.
-  result.error_estimate = result.curve.empty() ? -1.0 : std::max(-1.0, result.curve.back().error);
-  result.seconds = seconds_since(run.t0);
-  write_report(run);
-  if (run.atlas) write_manifest(run);
-  run.progress(1.0, "done", result.error_estimate);
+  for (size_t pi = 0; pi < pages.size(); ++pi) bake_page(t, pages[pi], pi);
+  finish_tiles(run);
 }
 
 }  // namespace
@@ -898,7 +1024,11 @@ std::optional<bake::InvalidInput> validate(const LightmapBakeInput& in) {
   if (!in.textures.empty() && !in.scene.textures.empty()) {
     return InvalidInput("textures", "give textures either decoded in the scene or encoded, not both");
   }
+  if (auto e = check_range("media", static_cast<double>(in.media.size()), bounds::kLightmapMedia.real())) return e;
   if (auto e = plan::check_forced_names(in.force_effects, plan::lightmap_effect_names())) return e;
+  if (in.probes.enabled() || !in.lightmaps) {
+    if (auto e = validate(in.probes)) return e;
+  }
   if (in.full_simulation && !in.force_effects.empty()) {
     return InvalidInput("force_effects", "a full simulation simulates everything; leave force_effects empty");
   }
@@ -919,11 +1049,13 @@ LightmapBakeResult bake_lightmaps(const LightmapBakeInput& in, const bake::BakeC
       plan_bake(run);
     }
     prepare_transport(run);
-    if (run.memory.tile_size == 0) rasterize_texels(run);
+    if (run.in.lightmaps && run.memory.tile_size == 0) rasterize_texels(run);
   } catch (const bake::OutOfTime&) {
     throw out_of_time_in_set_up(run);
   }
-  if (run.memory.tile_size > 0) {
+  if (!run.in.lightmaps) {
+    bake_probes_only(run);
+  } else if (run.memory.tile_size > 0) {
     bake_tiles(run);
   } else {
     sample_adaptively(run);

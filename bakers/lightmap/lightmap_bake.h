@@ -16,6 +16,8 @@
 //   lightmaps.json        when atlas.texel_density is set: each instance's page, scale and offset (lightmap_manifest.h)
 //   MESH_uv.bin           per mesh that got generated lightmap UVs (lightmap_uvgen.h): the mesh with them, in the kiln
 //                         mesh layout
+//   probes.vdb, probes_preview.png  when `probes` is enabled: light probes of the same scene (probe_outputs.h), baked
+//                         after the lightmaps, before report.json (whose "probes" object describes them)
 #pragma once
 
 #include <cstdint>
@@ -33,15 +35,17 @@
 #include "bakers/lightmap/denoise.h"
 #include "bakers/lightmap/error_metric.h"
 #include "bakers/lightmap/memory_estimate.h"
+#include "bakers/lightmap/probe_volume.h"
 #include "bakers/plan/decision.h"
 #include "bakers/scene/scene.h"
 #include "bakers/uvgen/uv_generator.h"
+#include "bakers/volume/medium_input.h"
 
 namespace kiln::lightmap {
 
 class RayLog;
 
-inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-9";
+inline constexpr const char* kLightmapBakerVersion = "kiln-lightmap-10";
 
 // A texture as uploaded: decoded by the bake (OpenImageIO) into scene.textures, in this order.
 struct EncodedTexture {
@@ -57,6 +61,9 @@ struct LightmapBakeInput {
   std::vector<EncodedTexture> textures;
   std::string environment_image;  // an encoded equirectangular image, or empty
   envmap::EnvDecodeOptions environment_decode;
+  // Participating media (docs/MEDIA.md), at most bounds::kLightmapMedia.hi; their coefficients add where they
+  // overlap. Grid media hold their grids, read from the VDB blob before the bake.
+  std::vector<volume::MediumInput> media;
 
   int resolution = 256;                    // texels on a side of every lightmap, [4, 8192]
   std::map<std::string, int> resolutions;  // per lightmap name, overriding `resolution`
@@ -100,6 +107,12 @@ struct LightmapBakeInput {
   // (plan_memory), holding only a tile's sampling state and a page's results (lightmap_results.h); light tracing is
   // then off. Tiles give the same answer as a whole page within the noise, not the same bytes.
   uint64_t memory_limit_bytes = 0;
+  // Light probes of the same scene (probe_volume.h), sampled to target_error under error_metric with min_samples to
+  // max_samples estimates each, after the lightmaps; every probe gets min_samples whatever the time limit.
+  ProbeVolumeOptions probes;
+  // false: no lightmap, only the probes (a probes job): meshes need no lightmap UVs, and probes must be enabled.
+  bool lightmaps = true;
+
   // Tests and benchmarks only, not part of a job: tiles of this many texels on a side whatever the memory limit
   // says, [kMinTileSize, 16384]; 0: as the memory limit decides.
   int tile_size = 0;

@@ -35,15 +35,11 @@ Json region_json(const AtlasPack& pack, const AtlasRegion& r) {
 
 // Totals over the pages.
 Json overall_json(const AtlasPack& pack, const std::map<std::string, size_t>& valid_texels) {
-  double charts = 0, texels = 0;
-  size_t valid = 0;
-  for (const AtlasPage& p : pack.pages) {
-    charts += p.chart_texels;
-    valid += valid_of(valid_texels, p.name);
-    texels += static_cast<double>(p.size) * static_cast<double>(p.size);
-  }
+  const double texels = page_texels(pack);
   if (!(texels > 0)) return {{"chart_area", 0}, {"valid_texels", 0}};
-  return {{"chart_area", charts / texels}, {"valid_texels", static_cast<double>(valid) / texels}};
+  size_t valid = 0;
+  for (const AtlasPage& p : pack.pages) valid += valid_of(valid_texels, p.name);
+  return {{"chart_area", chart_area_fraction(pack)}, {"valid_texels", static_cast<double>(valid) / texels}};
 }
 
 std::string dump(const Json& j) { return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n"; }

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 
 #include "bakers/lightmap/lightmap_manifest.h"
+#include "bakers/lightmap/media_report.h"
+#include "bakers/lightmap/probe_outputs.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -52,12 +54,18 @@ Json lightmap_json(const LightmapReportEntry& m) {
   if (m.seams) {
     const SeamReport& s = *m.seams;
     // Mismatches: |bilinear lookup on one side − on the other| over the lightmap's brightness (seams.h).
-    j["seams"] = {{"stitched", true},          {"edges", s.seams},
-                  {"non_manifold_edges", s.non_manifold}, {"left_out", s.left_out},
-                  {"lookup_pairs", s.samples}, {"texels_changed", s.texels_changed},
-                  {"mismatch_max_before", s.mismatch_before}, {"mismatch_max_after", s.mismatch_after},
-                  {"mismatch_rms_before", s.rms_before}, {"mismatch_rms_after", s.rms_after},
-                  {"iterations", s.iterations}, {"converged", s.converged},
+    j["seams"] = {{"stitched", true},
+                  {"edges", s.seams},
+                  {"non_manifold_edges", s.non_manifold},
+                  {"left_out", s.left_out},
+                  {"lookup_pairs", s.samples},
+                  {"texels_changed", s.texels_changed},
+                  {"mismatch_max_before", s.mismatch_before},
+                  {"mismatch_max_after", s.mismatch_after},
+                  {"mismatch_rms_before", s.rms_before},
+                  {"mismatch_rms_after", s.rms_after},
+                  {"iterations", s.iterations},
+                  {"converged", s.converged},
                   {"seconds", s.seconds}};
   } else {
     j["seams"] = {{"stitched", false}};
@@ -156,10 +164,15 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   const LeakScopeSummary& ls = report.leak_scope;
   j["leak_scope"] = {{"convex_meshes", ls.convex_meshes},
                      {"height_field_meshes", ls.height_field_meshes},
+                     {"star_shaped_meshes", ls.star_shaped_meshes},
+                     {"valley_triangles", ls.valley_triangles},
                      {"probed_meshes", ls.probed_meshes},
                      {"chunks", ls.chunks},
-                     {"rule", "probed only near other instances (a texel of their chunks' boxes) or on meshes that "
-                              "can hide their own points (neither convex nor a height field)"}};
+                     {"rule",
+                      "probed only near other instances (a texel of their chunks' boxes) or on meshes that "
+                      "can hide their own points (neither convex, nor a height field, nor closed and star-shaped; and "
+                      "the triangles of "
+                      "sharp valleys of the last)"}};
   j["scene_problems"] = {{"total", report.scene_problems}, {"listed", result.skipped}};
   if (report.atlas) {
     std::map<std::string, size_t> valid;
@@ -169,6 +182,8 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   if (report.generated_uvs) {
     j["generated_uvs"] = Json::parse(generated_uvs_json(report.generate_uvs, *report.generated_uvs));
   }
+  if (report.media && !report.media->empty()) j["media"] = Json::parse(media_report_json(*report.plan, *report.media));
+  if (report.probes) j["probes"] = Json::parse(probe_report_json(*report.probes));
   // Names come from the scene: bytes that are not UTF-8 are replaced rather than failing the bake.
   return j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
 }

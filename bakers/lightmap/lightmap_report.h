@@ -55,6 +55,8 @@ struct LightmapReport {
   const AtlasPack* atlas = nullptr;         // when the bake packed atlas pages: "atlas", its pages and regions
   uvgen::GenerateUvs generate_uvs = uvgen::GenerateUvs::automatic;
   const std::vector<GeneratedMeshUvs>* generated_uvs = nullptr;  // "generated_uvs": the meshes that got them
+  const std::vector<volume::MediumInput>* media = nullptr;       // "media" (media_report.h) when the job has any
+  const ProbeVolumeResult* probes = nullptr;                      // "probes" (probe_outputs.h) when it baked any
 };
 
 // The JSON text, ending in a newline.

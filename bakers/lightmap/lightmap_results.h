@@ -31,6 +31,13 @@ struct ResultChannels {
   bool guides = false;  // the denoiser's (texel_guides.h)
 };
 
+// The channels for the outputs a job asks for: `outputs` is anything with the flags ao, directional, radiance and
+// denoise (a bake's input, or the job size a memory estimate is made from).
+template <class Outputs>
+ResultChannels result_channels(const Outputs& outputs) {
+  return ResultChannels{outputs.ao, outputs.directional, outputs.radiance, outputs.denoise};
+}
+
 class LightmapResults {
  public:
   // Every texel invalid until set.

@@ -61,12 +61,7 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   const double per_texel_held =
       sizeof(uint32_t) + LightmapImage::kBytesPerTexel + state.per_texel + kSamplesPerTexel * per_sample;
   const double per_texel_outputs = output_channels(job) * kOutputBytesPerChannel;
-  ResultChannels channels;
-  channels.ao = job.ao;
-  channels.directional = job.directional;
-  channels.radiance = job.radiance;
-  channels.guides = job.denoise;
-  e.results_bytes_per_texel = static_cast<double>(LightmapResults::bytes_per_texel(channels));
+  e.results_bytes_per_texel = static_cast<double>(LightmapResults::bytes_per_texel(result_channels(job)));
   // The set-up's transient for one lightmap (or tile) at a time: the fragments, twice while sorted, or the leak
   // results.
   const double per_texel_transient =
@@ -93,7 +88,8 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   const double encoded = static_cast<double>(job.texture_blob_bytes + job.environment_blob_bytes);
   e.input_bytes =
       static_cast<uint64_t>(static_cast<double>(job.mesh_blob_bytes) + encoded + kDecodedBytesPerEncodedByte * encoded);
-  e.total = e.scene_bytes + e.input_bytes + static_cast<uint64_t>(page_bytes) + outputs_held;
+  if (job.probes > 0) e.probe_bytes = job.probes * kProbeBytes + job.traced_triangles * kProbePlacementBytesPerTriangle;
+  e.total = e.scene_bytes + e.input_bytes + e.probe_bytes + static_cast<uint64_t>(page_bytes) + outputs_held;
   if (tile_size == 0) {
     e.bytes_per_texel = per_texel_held + (job.streamed ? 0.0 : per_texel_outputs);
     for (uint64_t texels : job.lightmap_texels) {

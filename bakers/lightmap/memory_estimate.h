@@ -37,12 +37,21 @@ struct LightmapJobSize {
   uint64_t environment_blob_bytes = 0;    // the encoded environment image
   bool ao = false, directional = false, radiance = false, denoise = false, preview = true;
   bool streamed = false;  // the outputs go to a sink page by page (the daemon) rather than back with the result
+  uint64_t probes = 0;    // light probes, at most (probe_volume.h: ProbeVolumeOptions::max_probes); 0: none
 };
+
+// What a light probe holds at the bake's peak: its replica sums (1.8 KiB), its summary, position and lattice index,
+// and its 29 values in probes.vdb's trees (leaf nodes of 8³ voxels, assumed at least an eighth full where probes
+// cluster near geometry) and in the file's bytes, copied twice as they are encoded.
+inline constexpr uint64_t kProbeBytes = 4096;
+// The probe placement's world-space copy of each traced triangle (three points).
+inline constexpr uint64_t kProbePlacementBytesPerTriangle = 72;
 
 struct LightmapMemoryEstimate {
   std::vector<uint64_t> lightmap_bytes;  // per lightmap, in the order given: what its texels cost
   uint64_t scene_bytes = 0;              // the meshes decoded and the tracer
   uint64_t input_bytes = 0;              // the blobs and the decoded textures and environment
+  uint64_t probe_bytes = 0;              // the light probes and their placement, when the job bakes any
   uint64_t total = 0;                    // the peak: the sum of the above and the largest set-up transient
   double bytes_per_texel = 0;            // of a lightmap, with the outputs asked for (untiled)
   double bytes_per_triangle = 0;         // traced

@@ -506,6 +506,8 @@ class Importer {
       if (mesh < 0) continue;
       v1::Instance* inst = out_.job.add_instances();
       inst->set_mesh(static_cast<uint32_t>(mesh));
+      // The node's name, for people: lightmaps.json and the report list each instance by it.
+      if (node->mName.length) inst->set_name(wire_name(node->mName.C_Str()));
       // aiMatrix4x4 is row-major with the translation in the last column: the first three rows are kiln's 3×4.
       const float rows[12] = {world.a1, world.a2, world.a3, world.a4, world.b1, world.b2,
                               world.b3, world.b4, world.c1, world.c2, world.c3, world.c4};

@@ -2,20 +2,21 @@
 // meshes, ~1 M triangles in all, a sun and a sky) and a lone 1 M-triangle terrain.
 //
 //   level_bench [--quads=N] [--instances=N] [--meshes=N] [--detail=N] [--prop-resolution=N]
-//               [--terrain-resolution=N] [--time-limit=S] [--skip-level] [--skip-terrain]
-//               [--texel-density=D [--page-size=N] [--max-pages=K]] [--limit=BYTES]
+//               [--terrain-resolution=N] [--time-limit=S] [--skip-level] [--skip-terrain] [--skip-tracers]
+//               [--texel-density=D [--page-size=N] [--max-pages=K] [--pack-only]] [--limit=BYTES]
 //
 // The level:
 //   1. the tracer built three ways (scene::Instancing: every instance flattened; shared meshes instanced, the
 //      default; every mesh instanced): build CPU and wall seconds, memory (Tracer::memory_bytes: Embree's memory
-//      monitor and the tracer's arrays), triangles traced and held;
+//      monitor and the tracer's arrays), triangles traced and held (--skip-tracers leaves 1 and 2 out, so that the
+//      process's peak RSS is the bake's);
 //   2. closest-hit rays per CPU-second through each (incoherent rays in the level's box, tests/bench/ray_workload.h,
 //      one at a time on both cores);
 //   3. a short bake (--time-limit): report.json's stages, samples, rays, texels, rates. Without --texel-density:
 //      the terrain at --terrain-resolution, each prop mesh's atlas at --prop-resolution, every instance in a cell of
 //      its mesh's atlas. With it: every instance packed into atlas pages at D texels per metre (--page-size, default
 //      2048; --max-pages, default 64), and the packing's pages and efficiency. --limit (e.g. 4G) bounds the bake's
-//      memory (tiles when the pages do not fit).
+//      memory (tiles when the pages do not fit). --pack-only packs the pages and reports them without baking.
 // The terrain: one 1 M-triangle height field (--quads 708: 2·708² triangles) at 1024² with the time limit: its
 // stages and that samples are taken (no leak probe: it cannot leak, leak_scope.h).
 //
@@ -30,10 +31,11 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <nlohmann/json.hpp>
 
+#include "bakers/lightmap/atlas_pack.h"
 #include "bakers/lightmap/lightmap_bake.h"
 #include "bakers/scene/scene_check.h"
 #include "bakers/scene/tracer.h"
@@ -60,7 +62,7 @@ struct Args {
   double texel_density = 0;
   int page_size = 2048, max_pages = 64;
   uint64_t limit = 0;
-  bool skip_level = false, skip_terrain = false;
+  bool skip_level = false, skip_terrain = false, skip_tracers = false, pack_only = false;
 };
 
 Args parse(int argc, char** argv) {
@@ -74,20 +76,38 @@ Args parse(int argc, char** argv) {
       if (s.rfind(f, 0) != 0) return std::nullopt;
       return std::atof(s.c_str() + f.size());
     };
-    if (auto v = value("--quads")) a.level.terrain_quads = static_cast<int>(*v);
-    else if (auto v2 = value("--instances")) a.level.instances = static_cast<int>(*v2);
-    else if (auto v3 = value("--meshes")) a.level.meshes = static_cast<int>(*v3);
-    else if (auto v4 = value("--detail")) a.level.prop_detail = static_cast<int>(*v4);
-    else if (auto v5 = value("--prop-resolution")) a.prop_resolution = static_cast<int>(*v5);
-    else if (auto v6 = value("--terrain-resolution")) a.terrain_resolution = static_cast<int>(*v6);
-    else if (auto v7 = value("--terrain-quads")) a.terrain_quads = static_cast<int>(*v7);
-    else if (auto v8 = value("--time-limit")) a.time_limit = *v8;
-    else if (auto v9 = value("--texel-density")) a.texel_density = *v9;
-    else if (auto v10 = value("--page-size")) a.page_size = static_cast<int>(*v10);
-    else if (auto v11 = value("--max-pages")) a.max_pages = static_cast<int>(*v11);
-    else if (s.rfind("--limit=", 0) == 0) a.limit = parse_bytes(s.substr(8));
-    else if (s == "--skip-level") a.skip_level = true;
-    else if (s == "--skip-terrain") a.skip_terrain = true;
+    if (auto v = value("--quads"))
+      a.level.terrain_quads = static_cast<int>(*v);
+    else if (auto v2 = value("--instances"))
+      a.level.instances = static_cast<int>(*v2);
+    else if (auto v3 = value("--meshes"))
+      a.level.meshes = static_cast<int>(*v3);
+    else if (auto v4 = value("--detail"))
+      a.level.prop_detail = static_cast<int>(*v4);
+    else if (auto v5 = value("--prop-resolution"))
+      a.prop_resolution = static_cast<int>(*v5);
+    else if (auto v6 = value("--terrain-resolution"))
+      a.terrain_resolution = static_cast<int>(*v6);
+    else if (auto v7 = value("--terrain-quads"))
+      a.terrain_quads = static_cast<int>(*v7);
+    else if (auto v8 = value("--time-limit"))
+      a.time_limit = *v8;
+    else if (auto v9 = value("--texel-density"))
+      a.texel_density = *v9;
+    else if (auto v10 = value("--page-size"))
+      a.page_size = static_cast<int>(*v10);
+    else if (auto v11 = value("--max-pages"))
+      a.max_pages = static_cast<int>(*v11);
+    else if (s.rfind("--limit=", 0) == 0)
+      a.limit = parse_bytes(s.substr(8));
+    else if (s == "--skip-level")
+      a.skip_level = true;
+    else if (s == "--skip-terrain")
+      a.skip_terrain = true;
+    else if (s == "--skip-tracers")
+      a.skip_tracers = true;
+    else if (s == "--pack-only")
+      a.pack_only = true;
     else {
       std::fprintf(stderr, "level_bench: unknown argument '%s' (see the top of tests/bench/level_bench.cpp)\n",
                    s.c_str());
@@ -98,7 +118,9 @@ Args parse(int argc, char** argv) {
 }
 
 const char* name(scene::Instancing i) {
-  return i == scene::Instancing::none ? "flattened" : i == scene::Instancing::shared ? "shared instanced" : "all instanced";
+  return i == scene::Instancing::none     ? "flattened"
+         : i == scene::Instancing::shared ? "shared instanced"
+                                          : "all instanced";
 }
 
 void tracers(const scene::Scene& clean) {
@@ -132,17 +154,24 @@ void tracers(const scene::Scene& clean) {
 void bake_and_report(const char* what, lightmap::LightmapBakeInput in) {
   const double c0 = cpu_seconds(), w0 = wall_seconds();
   lightmap::LightmapBakeResult r;
+  // The outputs stream out page by page as kilnd takes them (its store writes each one): counted here and let go,
+  // so that the bake's memory plan and the process's peak RSS are a daemon's.
+  bake::BakeControl control;
+  std::string report_bytes;
+  uint64_t output_bytes = 0;
+  control.output_sink = [&](bake::BakeOutput&& o) {
+    output_bytes += o.bytes.size();
+    if (o.name == "report.json") report_bytes = std::move(o.bytes);
+  };
   try {
-    r = lightmap::bake_lightmaps(in);
+    r = lightmap::bake_lightmaps(in, control);
   } catch (const bake::InvalidInput& e) {  // the time limit ran out in the set-up: say where
     std::printf("\n%s: failed after %.1f s wall, %.1f s CPU: %s: %s\n", what, wall_seconds() - w0, cpu_seconds() - c0,
                 e.field().c_str(), e.problem().c_str());
     return;
   }
   const double cpu = cpu_seconds() - c0, wall = wall_seconds() - w0;
-  nlohmann::json report;
-  for (const bake::BakeOutput& o : r.outputs)
-    if (o.name == "report.json") report = nlohmann::json::parse(o.bytes);
+  const nlohmann::json report = nlohmann::json::parse(report_bytes);
   double texels = 0;
   size_t lightmaps = 0;
   for (const auto& m : report["lightmaps"]) {
@@ -159,7 +188,8 @@ void bake_and_report(const char* what, lightmap::LightmapBakeInput in) {
       if (st["stage"] == "passes") return st["seconds"].get<double>();
     return 0.0;
   }();
-  std::printf("\n%s: %zu lightmaps, %.0f valid texels, %.1f s wall, %.1f s CPU\n", what, lightmaps, texels, wall, cpu);
+  std::printf("\n%s: %zu lightmaps, %.0f valid texels, %.1f s wall, %.1f s CPU, %.1f MB of outputs streamed\n", what,
+              lightmaps, texels, wall, cpu, output_bytes / 1048576.0);
   std::printf("  samples %llu, rays %llu (leak probes %llu), error estimate %s\n",
               static_cast<unsigned long long>(r.samples), static_cast<unsigned long long>(r.rays),
               static_cast<unsigned long long>(r.probe_rays),
@@ -167,13 +197,18 @@ void bake_and_report(const char* what, lightmap::LightmapBakeInput in) {
   std::printf("  leak probes: %.0f sample points probed, %.0f pruned; tracer %.1f MB, %s triangles traced, %s held\n",
               probed, pruned, report["tracer"]["memory_bytes"].get<double>() / 1048576.0,
               report["tracer"]["triangles"].dump().c_str(), report["tracer"]["stored_triangles"].dump().c_str());
+  const auto& scope = report["leak_scope"];
+  std::printf("  leak scope: meshes convex %s, height fields %s, closed star-shaped %s, probed everywhere %s\n",
+              scope["convex_meshes"].dump().c_str(), scope["height_field_meshes"].dump().c_str(),
+              scope["star_shaped_meshes"].dump().c_str(), scope["probed_meshes"].dump().c_str());
   if (report.contains("atlas")) {
     const auto& at = report["atlas"];
-    std::printf("  atlas: %s pages, %zu instances packed, density scale %s, chart area %.3f and valid texels %.3f "
-                "of the pages' texels, packed in %.2f s\n",
-                at["pages"].dump().c_str(), at["regions"].size(), at["density_scale"].dump().c_str(),
-                at["efficiency"]["chart_area"].get<double>(), at["efficiency"]["valid_texels"].get<double>(),
-                at["seconds"].get<double>());
+    std::printf(
+        "  atlas: %s pages, %zu instances packed, density scale %s, chart area %.3f and valid texels %.3f "
+        "of the pages' texels, packed in %.2f s\n",
+        at["pages"].dump().c_str(), at["regions"].size(), at["density_scale"].dump().c_str(),
+        at["efficiency"]["chart_area"].get<double>(), at["efficiency"]["valid_texels"].get<double>(),
+        at["seconds"].get<double>());
   }
   if (report.contains("memory")) std::printf("  memory: %s\n", report["memory"].dump().c_str());
   std::printf("  %-22s %9s %9s\n", "stage", "seconds", "fraction");
@@ -181,10 +216,28 @@ void bake_and_report(const char* what, lightmap::LightmapBakeInput in) {
     std::printf("  %-22s %9.3f %9.3f\n", st["stage"].get<std::string>().c_str(), st["seconds"].get<double>(),
                 st["fraction"].get<double>());
   if (passes > 0) {
-    std::printf("  rate in the passes: %.3g samples/s, %.3g texels/s (valid texels over the passes' seconds), %.3g "
-                "rays/s over the bake\n",
-                r.samples / passes, texels / passes, r.rays / std::max(r.seconds, 1e-9));
+    std::printf(
+        "  rate in the passes: %.3g samples/s, %.3g texels/s (valid texels over the passes' seconds), %.3g "
+        "rays/s over the bake\n",
+        r.samples / passes, texels / passes, r.rays / std::max(r.seconds, 1e-9));
   }
+}
+
+// The atlas pages of the bake's input alone: their count and sides, and the charts' texels over the pages' texels.
+void pack_and_report(const lightmap::LightmapBakeInput& in) {
+  const double c0 = cpu_seconds();
+  lightmap::AtlasPack pack;
+  lightmap::check_and_pack_scene(in.scene, in.atlas, {}, pack);
+  std::string sides;
+  for (const lightmap::AtlasPage& p : pack.pages) sides += (sides.empty() ? "" : " ") + std::to_string(p.size);
+  size_t packed = 0;
+  for (const lightmap::AtlasRegion& r : pack.regions) packed += r.page >= 0;
+  std::printf(
+      "\natlas at %g texels/m, pages of %d^2 at most, padding %d%s: %zu pages (sides %s), %zu instances "
+      "packed, density scale %g, chart area %.3f of the pages' %.0f texels; %.2f s CPU with the scene check\n",
+      in.atlas.texel_density, in.atlas.page_size, pack.padding, in.atlas.uniform_pages ? ", uniform" : "",
+      pack.pages.size(), sides.c_str(), packed, pack.density_scale, lightmap::chart_area_fraction(pack),
+      lightmap::page_texels(pack), cpu_seconds() - c0);
 }
 
 lightmap::LightmapBakeInput short_bake(scene::Scene s, int resolution, double time_limit) {
@@ -219,7 +272,7 @@ int main(int argc, char** argv) {
     const scene::CheckedScene checked = scene::check_scene(level);
     std::printf("scene check: %.2f s CPU, %lld problems\n", bench::cpu_seconds() - c0,
                 static_cast<long long>(checked.report.total()));
-    bench::tracers(checked.scene);
+    if (!a.skip_tracers) bench::tracers(checked.scene);
     lightmap::LightmapBakeInput in = bench::short_bake(level, a.prop_resolution, a.time_limit);
     in.memory_limit_bytes = a.limit;
     if (a.texel_density > 0) {
@@ -234,7 +287,13 @@ int main(int argc, char** argv) {
     } else {
       in.resolutions["terrain"] = a.terrain_resolution;
     }
-    bench::bake_and_report("level bake", in);
+    if (a.pack_only && a.texel_density > 0) {
+      bench::pack_and_report(in);
+      in.atlas.uniform_pages = true;
+      bench::pack_and_report(in);
+    } else {
+      bench::bake_and_report("level bake", in);
+    }
   }
   if (!a.skip_terrain) {
     bench::LevelOptions o;

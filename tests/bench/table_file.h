@@ -2,6 +2,8 @@
 #pragma once
 
 #include <cstdio>
+#include <cstring>
+#include <functional>
 #include <string>
 
 namespace kiln::bench {
@@ -18,6 +20,21 @@ inline int write_table_file(const std::string& table, const std::string& path) {
   std::fputs(table.c_str(), f);
   std::fclose(f);
   return 0;
+}
+
+// The whole main of a benchmark that prints one table: its only flag is --table_out=FILE.
+inline int table_bench_main(int argc, char** argv, const char* name, const std::function<std::string()>& table) {
+  std::string table_out;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strncmp(argv[i], "--table_out=", 12) != 0) {
+      std::fprintf(stderr, "usage: %s [--table_out=FILE]\n", name);
+      return 2;
+    }
+    table_out = argv[i] + 12;
+  }
+  const std::string t = table();
+  std::fputs(t.c_str(), stdout);
+  return write_table_file(t, table_out);
 }
 
 }  // namespace kiln::bench

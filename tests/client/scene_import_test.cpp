@@ -542,7 +542,7 @@ TEST(SceneImport, GltfEmissiveMaterialsTakeTheirStrengthByIndex) {
   EXPECT_NO_THROW(translated(j));
 }
 
-TEST(SceneImport, GltfMeshPlacedByTwoNodesGetsALightmapOfItsOwnPerNode) {
+TEST(SceneImport, GltfMeshPlacedByTwoNodesGetsALightmapOfItsOwnPerNodeAndItsName) {
   test::TempDir dir("kiln-import");
   GltfScene g;
   g.materials = {R"({"name": "m"})"};
@@ -556,6 +556,10 @@ TEST(SceneImport, GltfMeshPlacedByTwoNodesGetsALightmapOfItsOwnPerNode) {
   EXPECT_EQ(s.job.instances(1).lightmap(), "quad0@Post/A#1");
   EXPECT_EQ(s.job.instances(2).lightmap(), "quad0@Other");
   EXPECT_EQ(s.job.instances(0).mesh(), s.job.instances(1).mesh());
+  // Each instance is named by its node, as it was written (lightmaps.json lists instances by it).
+  EXPECT_EQ(s.job.instances(0).name(), "Post/A");
+  EXPECT_EQ(s.job.instances(1).name(), "Post/A");
+  EXPECT_EQ(s.job.instances(2).name(), "Other");
   // kilnd's scene check turns each into a plain file name of its own.
   const daemon::BakeRequest r = translated(s.job);
   const auto* in = std::get_if<lightmap::LightmapBakeInput>(&r.input);

@@ -165,6 +165,53 @@ TEST(AtlasPack, PerInstanceDensityAndOwnPage) {
   EXPECT_EQ(p.pages.size(), 2u);
 }
 
+// Each page shrinks to the smallest square (a multiple of 4 texels) that holds its charts; the densities and chart
+// sizes stay; with uniform_pages every page keeps page_size. An own page is its chart and padding, rounded up to 4.
+TEST(AtlasPack, PagesShrinkToTheirChartsUnlessUniform) {
+  const scene::Scene s = mixed_scene();
+  AtlasOptions o;
+  o.texel_density = 10;
+  o.page_size = 512;
+  o.instances[4].own_page = true;  // the box
+  const scene::CheckedScene checked = checked_scene(s);
+  const AtlasPack shrunk = pack_atlas(checked, o);
+  o.uniform_pages = true;
+  const AtlasPack uniform = pack_atlas(checked, o);
+  ASSERT_EQ(shrunk.pages.size(), uniform.pages.size());
+  for (const AtlasPage& page : uniform.pages) EXPECT_EQ(page.size, 512);
+  double page_texels = 0, uniform_texels = 0;
+  for (size_t p = 0; p < shrunk.pages.size(); ++p) {
+    const AtlasPage& page = shrunk.pages[p];
+    EXPECT_EQ(page.size % 4, 0);
+    EXPECT_LT(page.size, 512) << page.name << " holds a few small charts";
+    // No square smaller than the charts' padded area holds them.
+    double padded = 0;
+    for (uint32_t r : page.regions) {
+      const AtlasRegion& region = shrunk.regions[r];
+      padded += static_cast<double>(region.width + shrunk.padding) * (region.height + shrunk.padding);
+    }
+    EXPECT_GE(page.size, std::sqrt(padded));
+    page_texels += static_cast<double>(page.size) * page.size;
+    uniform_texels += 512.0 * 512.0;
+  }
+  for (size_t i = 0; i < shrunk.regions.size(); ++i) {
+    const AtlasRegion &a = shrunk.regions[i], &b = uniform.regions[i];
+    EXPECT_EQ(a.page, b.page);
+    EXPECT_EQ(a.width, b.width);
+    EXPECT_EQ(a.height, b.height);
+    EXPECT_EQ(a.density, b.density);
+  }
+  const AtlasRegion& box = shrunk.regions[4];
+  const int own = shrunk.pages[box.page].size;
+  EXPECT_EQ(own, (std::max(box.width, box.height) + shrunk.padding + 3) / 4 * 4);
+  EXPECT_EQ(box.x, shrunk.padding / 2);
+  EXPECT_LT(page_texels, uniform_texels / 4);
+  expect_disjoint_and_inside(shrunk);
+  expect_charts_in_regions(checked, shrunk);
+  expect_disjoint_and_inside(uniform);
+  expect_charts_in_regions(checked, uniform);
+}
+
 // A chart larger than a page is shrunk to fit it, and says so.
 TEST(AtlasPack, AChartLargerThanAPageIsClampedAndReported) {
   scene::Scene s;
@@ -346,7 +393,8 @@ TEST(AtlasPack, CornellBoxEfficiency) {
       rects += static_cast<double>(r.width) * r.height;
       padded += static_cast<double>(r.width + p.padding) * (r.height + p.padding);
     }
-    const double page_texels = static_cast<double>(p.pages.size()) * size * size;
+    double page_texels = 0;
+    for (const AtlasPage& page : p.pages) page_texels += static_cast<double>(page.size) * page.size;
     std::printf("%7.2f texels/m, %4d^2 pages: %zu pages, charts %5.1f %%, chart rectangles %5.1f %%, with padding "
                 "%5.1f %%\n",
                 density * p.density_scale, size, p.pages.size(), 100 * charts / page_texels,

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -26,29 +27,43 @@ nlohmann::json report_of(const LightmapBakeResult& r) {
   return nlohmann::json::parse(test::find_output(r, "report.json").bytes);
 }
 
-TEST(LightmapStages, EveryStageIsTimedInTheReport) {
-  LightmapBakeInput in = test::lightmap_input(floor_under_sky(), 16, 0.05);
-  const LightmapBakeResult r = bake_lightmaps(in);
+// Each stage of `expected` appears once in the report, with its seconds and its fraction of the bake's; the stages
+// do not overlap, and the report is written after them: their sum stays within the bake's time, and covers most of it.
+void expect_stages_timed(const LightmapBakeResult& r, std::initializer_list<const char*> expected) {
   const nlohmann::json report = report_of(r);
   ASSERT_TRUE(report.contains("stages"));
   std::set<std::string> names;
   double sum = 0;
   for (const auto& st : report["stages"]) {
-    names.insert(st["stage"].get<std::string>());
+    EXPECT_TRUE(names.insert(st["stage"].get<std::string>()).second) << "each stage once: " << st["stage"];
     const double s = st["seconds"].get<double>();
     EXPECT_GE(s, 0.0);
     EXPECT_NEAR(st["fraction"].get<double>(), s / r.seconds, 1e-12);
     sum += s;
   }
-  for (const char* stage : {"scene", "plan", "tracer", "lights", "leak_scope", "rasterization", "leak_probes",
-                            "light_tracing_setup", "passes", "outputs"}) {
-    EXPECT_EQ(names.count(stage), 1u) << stage;
-  }
-  // The stages do not overlap, and the report is written after them: their sum stays within the bake's time.
+  for (const char* stage : expected) EXPECT_EQ(names.count(stage), 1u) << stage;
   EXPECT_LE(sum, r.seconds);
   EXPECT_GT(sum, 0.5 * r.seconds);
+}
+
+TEST(LightmapStages, EveryStageIsTimedInTheReport) {
+  LightmapBakeInput in = test::lightmap_input(floor_under_sky(), 16, 0.05);
+  const LightmapBakeResult r = bake_lightmaps(in);
+  expect_stages_timed(r, {"scene", "plan", "tracer", "lights", "leak_scope", "rasterization", "leak_probes",
+                          "light_tracing_setup", "passes", "outputs"});
   EXPECT_GE(r.error_estimate, 0.0);
-  EXPECT_EQ(report["error_estimate"].get<double>(), r.error_estimate);
+  EXPECT_EQ(report_of(r)["error_estimate"].get<double>(), r.error_estimate);
+}
+
+// A bake in tiles (tile_size 16 on a 32² floor: 4 tiles) times the same stages, summed over its tiles, and the binning
+// of the triangles into tiles; it has no light tracing.
+TEST(LightmapStages, EveryStageOfATiledBakeIsTimedInTheReport) {
+  LightmapBakeInput in = test::lightmap_input(floor_under_sky(), 32, 0.05);
+  in.tile_size = 16;
+  const LightmapBakeResult r = bake_lightmaps(in);
+  ASSERT_TRUE(report_of(r)["memory"]["tiled"].get<bool>());
+  expect_stages_timed(r, {"scene", "plan", "tracer", "lights", "tile_binning", "leak_scope", "rasterization",
+                          "leak_probes", "passes", "outputs"});
 }
 
 // The set-up finishes within the limit, then the progress callback (at the end of the set-up, stage "texels") holds
