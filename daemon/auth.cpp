@@ -36,19 +36,22 @@ bool equal_constant_time(std::string_view stored, std::string_view attempt) {
 
 }  // namespace
 
-TokenSet TokenSet::load(const std::string& path) {
+void check_owner_only(const std::string& path, const std::string& what, const std::string& how_to_create) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) {
-    throw std::runtime_error("token file " + path + ": cannot read it (" + std::strerror(errno) +
-                             "); create it with one token per line and mode 0600");
+    throw std::runtime_error(what + " " + path + ": cannot read it (" + std::strerror(errno) + "); " + how_to_create);
   }
-  if (!S_ISREG(st.st_mode)) throw std::runtime_error("token file " + path + ": is not a regular file");
+  if (!S_ISREG(st.st_mode)) throw std::runtime_error(what + " " + path + ": is not a regular file");
   if ((st.st_mode & 077) != 0) {
     char mode[8];
     std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
-    throw std::runtime_error("token file " + path + ": others can access it (mode " + mode +
+    throw std::runtime_error(what + " " + path + ": others can access it (mode " + mode +
                              "); refusing to use it. Run: chmod 600 " + path);
   }
+}
+
+TokenSet TokenSet::load(const std::string& path) {
+  check_owner_only(path, "token file", "create it with one token per line and mode 0600");
   std::ifstream in(path);
   if (!in) throw std::runtime_error("token file " + path + ": cannot open it (" + std::strerror(errno) + ")");
   std::vector<std::string> tokens;

@@ -8,6 +8,10 @@
 
 namespace kiln::daemon {
 
+// Refuses a secret's file that is missing, not a regular file, or open to others (group or world bits), with a
+// message naming `what` and the path and saying how to fix it. For the token file and the farm's Redis password.
+void check_owner_only(const std::string& path, const std::string& what, const std::string& how_to_create);
+
 class TokenSet {
  public:
   // Reads one token per line (blank lines and lines starting with '#' are ignored; surrounding spaces are trimmed).

@@ -14,11 +14,41 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "daemon/auth.h"
 #include "daemon/kilnd_config.pb.h"
 #include "proto/byte_size.h"
 
 namespace kiln::daemon {
 namespace {
+
+// --workers 0 is a node that only accepts jobs: alone, nothing would ever run them.
+void check_accept_only(const Config& c) {
+  if (c.workers == 0 && c.cluster.empty()) {
+    throw std::invalid_argument(
+        "--workers 0 (a node that only accepts jobs) needs --cluster: alone, kilnd would never run its jobs");
+  }
+}
+
+// The farm's settings: a URL the Redis client parses, a lease in range, a node name usable as a consumer's.
+void check_cluster(const Config& c) {
+  if (c.cluster.empty()) return;
+  if (c.cluster.size() > 1024) throw std::invalid_argument("cluster: at most 1024 bytes");
+  if (!(c.cluster_lease_seconds >= 1 && c.cluster_lease_seconds <= 3600)) {
+    throw std::invalid_argument("cluster_lease_seconds: must be in [1, 3600]");
+  }
+  for (char ch : c.node_name) {
+    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_' && ch != '.' && ch != ':') {
+      throw std::invalid_argument("node_name: letters, digits and - _ . : only, got '" + c.node_name + "'");
+    }
+  }
+  if (c.node_name.size() > 64) throw std::invalid_argument("node_name: at most 64 characters");
+  if (!(c.cluster_job_retention_seconds >= 0 && c.cluster_job_retention_seconds <= 3650 * 86400.0)) {
+    throw std::invalid_argument("cluster_job_retention_seconds: must be in [0, 3650 days] (0: keep every record)");
+  }
+  if (!(c.cluster_eviction_grace_seconds >= 0 && c.cluster_eviction_grace_seconds <= 365 * 86400.0)) {
+    throw std::invalid_argument("cluster_eviction_grace_seconds: must be in [0, 365 days]");
+  }
+}
 
 class CollectErrors : public google::protobuf::io::ErrorCollector {
  public:
@@ -65,6 +95,11 @@ double parse_seconds(const std::string& flag, const std::string& text) {
   return v;
 }
 
+// As parse_seconds, where 0 means "none" (no expiry, no grace).
+double parse_seconds_or_zero(const std::string& flag, const std::string& text) {
+  return text == "0" ? 0.0 : parse_seconds(flag, text);
+}
+
 // A size in bytes, optionally with a binary suffix: "512M", "6G".
 uint64_t parse_bytes(const std::string& flag, const std::string& text) {
   constexpr uint64_t kMax = uint64_t{1} << 50;
@@ -102,8 +137,26 @@ const std::vector<Flag>& flags() {
        [](Config& c, const std::string& v) { c.tls_client_ca = v; }},
       {"--insecure-tcp", "insecure_tcp", "allow a non-loopback --listen without TLS (tokens in clear)",
        [](Config& c, const std::string&) { c.insecure_tcp = true; }, false},
-      {"--workers", "workers", "jobs that run at once [1, 256]",
-       [](Config& c, const std::string& v) { c.workers = parse_unsigned("--workers", v, 1, 256); }},
+      {"--workers", "workers", "jobs that run at once [1, 256]; 0: a farm node that only accepts (--cluster)",
+       [](Config& c, const std::string& v) { c.workers = parse_unsigned("--workers", v, 0, 256); }},
+      {"--cluster", "cluster", "farm mode: the nodes' Redis, redis://HOST:PORT[/DB] or unix:PATH (docs/SCALING.md)",
+       [](Config& c, const std::string& v) { c.cluster = v; }},
+      {"--cluster-password-file", "cluster_password_file", "farm mode: file with Redis's password (mode 0600)",
+       [](Config& c, const std::string& v) { c.cluster_password_file = v; }},
+      {"--node-name", "node_name", "farm mode: this node's name, unique in the farm (default HOSTNAME-PID)",
+       [](Config& c, const std::string& v) { c.node_name = v; }},
+      {"--cluster-lease", "cluster_lease_seconds", "farm mode: seconds before a silent node's jobs run elsewhere",
+       [](Config& c, const std::string& v) { c.cluster_lease_seconds = parse_seconds("--cluster-lease", v); }},
+      {"--cluster-job-retention", "cluster_job_retention_seconds",
+       "farm mode: seconds a finished job's record stays in Redis after its last use, 0 = forever",
+       [](Config& c, const std::string& v) {
+         c.cluster_job_retention_seconds = parse_seconds_or_zero("--cluster-job-retention", v);
+       }},
+      {"--cluster-eviction-grace", "cluster_eviction_grace_seconds",
+       "farm mode: seconds after its last use a blob is safe from the store limit",
+       [](Config& c, const std::string& v) {
+         c.cluster_eviction_grace_seconds = parse_seconds_or_zero("--cluster-eviction-grace", v);
+       }},
       {"--threads", "threads", "baking threads in total, 0 = all cores [0, 1024]",
        [](Config& c, const std::string& v) { c.threads = parse_unsigned("--threads", v, 0, 1024); }},
       {"--store-limit-bytes", "store_limit_bytes", "evict least recently used results past this size, 0 = none",
@@ -187,6 +240,31 @@ void load_config_file(const std::string& path, Config& config) {
     config.partial_upload_max_age_seconds = file.partial_upload_max_age_seconds();
   }
   if (file.has_max_crash_restarts()) config.max_crash_restarts = file.max_crash_restarts();
+  if (file.has_cluster()) config.cluster = file.cluster();
+  if (file.has_cluster_password_file()) config.cluster_password_file = file.cluster_password_file();
+  if (file.has_node_name()) config.node_name = file.node_name();
+  if (file.has_cluster_lease_seconds()) config.cluster_lease_seconds = file.cluster_lease_seconds();
+  if (file.has_cluster_job_retention_seconds()) {
+    config.cluster_job_retention_seconds = file.cluster_job_retention_seconds();
+  }
+  if (file.has_cluster_eviction_grace_seconds()) {
+    config.cluster_eviction_grace_seconds = file.cluster_eviction_grace_seconds();
+  }
+}
+
+std::string read_cluster_password(const Config& config) {
+  if (config.cluster_password_file.empty()) return {};
+  check_owner_only(config.cluster_password_file, "cluster_password_file",
+                   "write Redis's password (its requirepass) on its first line, mode 0600");
+  std::ifstream in(config.cluster_password_file);
+  std::string line;
+  std::getline(in, line);
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+  if (line.empty()) {
+    throw std::runtime_error("cluster_password_file " + config.cluster_password_file +
+                             ": its first line is empty; write Redis's password there");
+  }
+  return line;
 }
 
 CommandLine parse_command_line(const std::vector<std::string>& args) {
@@ -218,6 +296,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
     if (i + 1 >= args.size()) throw std::invalid_argument(a + ": missing value");
     flag->set(cl.config, args[++i]);
   }
+  check_accept_only(cl.config);
   return cl;
 }
 
@@ -245,7 +324,9 @@ void validate(const Config& c) {
         "(the Unix socket stays plain)");
   }
   if (c.store.empty()) throw std::invalid_argument("--store: a folder is required");
-  if (c.workers < 1 || c.workers > 256) throw std::invalid_argument("workers: must be in [1, 256]");
+  if (c.workers > 256) throw std::invalid_argument("workers: must be in [1, 256] (0 with --cluster)");
+  check_accept_only(c);
+  check_cluster(c);
   if (c.max_connections < 1 || c.max_connections > 10000) {
     throw std::invalid_argument("max_connections: must be in [1, 10000]");
   }

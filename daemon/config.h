@@ -42,6 +42,15 @@ struct Config {
   uint32_t max_crash_restarts = 3;
   // A partial upload untouched this long is deleted (its client gave up), at start and while running.
   double partial_upload_max_age_seconds = 86400;
+  // Farm mode (docs/SCALING.md): the Redis that the farm's nodes share (redis://HOST:PORT[/DB] or unix:PATH[?db=N]);
+  // empty: one kilnd alone, with SQLite. `store` is then the folder every node mounts.
+  std::string cluster;
+  std::string cluster_password_file;  // Redis's password (requirepass), in a file only its owner can read
+  std::string node_name;              // this node's name in the farm; empty: HOSTNAME-PID
+  double cluster_lease_seconds = 10;  // a job whose node stopped renewing this long runs again elsewhere
+  // Finished jobs unused this long leave Redis (0: never); blobs used this recently are never evicted.
+  double cluster_job_retention_seconds = 30 * 86400.0;
+  double cluster_eviction_grace_seconds = 3600;
 };
 
 // What the command line asked for besides the configuration.
@@ -49,6 +58,9 @@ struct CommandLine {
   Config config;
   bool help = false;
 };
+
+// The password in cluster_password_file (its first line), refusing a file that others may read. Empty without one.
+std::string read_cluster_password(const Config& config);
 
 // Reads the text-format file into `config`, field by field (fields the file leaves out keep their value).
 // Throws std::runtime_error naming the file and the line on a syntax error or an unknown field.

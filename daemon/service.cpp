@@ -6,7 +6,11 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include <unistd.h>
+
 #include "bakers/lightmap/memory_estimate.h"
+#include "daemon/cluster/farm.h"
+#include "daemon/cluster/farm_housekeeper.h"
 #include "daemon/log.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/store/job_db.h"
@@ -59,6 +63,8 @@ v1::Error::Code to_code(store::StoreErrc e) {
       return v1::Error::RESOURCE_EXHAUSTED;
     case store::StoreErrc::io:
       return v1::Error::INTERNAL;
+    case store::StoreErrc::unavailable:
+      return v1::Error::UNAVAILABLE;
   }
   return v1::Error::INTERNAL;
 }
@@ -133,28 +139,74 @@ v1::JobEvent event_of(const store::JobRecord& r) {
 
 Service::Service(const Config& config, TokenSet tokens) : config_(config), tokens_(std::move(tokens)) {
   std::filesystem::create_directories(config_.store);
-  // The database first: its lock keeps a second kilnd out of the store before the blob store cleans its tmp/.
-  store::JobDbOptions db_options;
-  db_options.max_crash_restarts = static_cast<int>(config_.max_crash_restarts);
-  db_ = std::make_unique<store::JobDb>(std::filesystem::path(config_.store) / "jobs.sqlite", db_options);
   store::BlobStoreOptions blob_options;
   blob_options.max_blob_size = config_.max_blob_bytes;
+  if (config_.cluster.empty()) {
+    // The database first: its lock keeps a second kilnd out of the store before the blob store cleans its tmp/.
+    store::JobDbOptions db_options;
+    db_options.max_crash_restarts = static_cast<int>(config_.max_crash_restarts);
+    auto db = std::make_unique<store::JobDb>(std::filesystem::path(config_.store) / "jobs.sqlite", db_options);
+    local_db_ = db.get();
+    db_ = std::move(db);
+  } else {
+    join_farm(blob_options);
+  }
   blobs_ = std::make_unique<store::BlobStore>(std::filesystem::path(config_.store), blob_options);
   remove_abandoned_uploads("at start");
-  queue_ = std::make_unique<store::JobQueue>();
-  const store::Recovery recovery = db_->recover_unfinished();
-  for (const store::JobRecord& r : recovery.queued) queue_->push(r.id, r.priority, r.seq);
-  for (const store::JobRecord& r : recovery.gave_up) log_line("job " + r.id, "not run again: " + r.error);
-  if (!recovery.queued.empty()) {
-    log_line("store " + config_.store,
-             std::to_string(recovery.queued.size()) + " job(s) left unfinished by the previous run are queued again");
-  }
+  if (local_db_) recover_local_jobs();
+  if (farm_node_) start_farm_retention();
   if (config_.memory_limit_bytes == 0) config_.memory_limit_bytes = default_memory_limit();
   memory_ = std::make_unique<MemoryBudget>(config_.memory_limit_bytes);
   log_line("start", "memory limit for the running jobs: " + lightmap::format_bytes(config_.memory_limit_bytes));
   workers_ = std::make_unique<Workers>(config_, *db_, *blobs_, *queue_, *memory_);
   workers_->start();
   sweeper_ = std::thread([this] { sweep_uploads(); });
+}
+
+void Service::recover_local_jobs() {
+  queue_ = std::make_unique<store::JobQueue>();
+  const store::Recovery recovery = local_db_->recover_unfinished();
+  for (const store::JobRecord& r : recovery.queued) queue_->push(r.id, r.priority, r.seq);
+  for (const store::JobRecord& r : recovery.gave_up) log_line("job " + r.id, "not run again: " + r.error);
+  if (!recovery.queued.empty()) {
+    log_line("store " + config_.store,
+             std::to_string(recovery.queued.size()) + " job(s) left unfinished by the previous run are queued again");
+  }
+}
+
+void Service::join_farm(store::BlobStoreOptions& blob_options) {
+  if (config_.node_name.empty()) {
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    config_.node_name = std::string(host) + "-" + std::to_string(::getpid());
+  }
+  cluster::FarmConfig farm;
+  farm.url = config_.cluster;
+  farm.password = read_cluster_password(config_);
+  farm.node = config_.node_name;
+  farm.lease = std::chrono::milliseconds(std::llround(config_.cluster_lease_seconds * 1000));
+  farm.max_crash_restarts = static_cast<int>(config_.max_crash_restarts);
+  farm.max_queued_jobs = config_.max_queued_jobs;
+  farm.log = log_line;
+  cluster::Farm joined = cluster::join_farm(std::move(farm));
+  db_ = std::move(joined.records);
+  queue_ = std::move(joined.queue);
+  farm_node_ = std::move(joined.node);
+  // The nodes share the store: each writes, and cleans at start, only its own temporary files.
+  blob_options.tmp_subdir = std::filesystem::path("tmp") / config_.node_name;
+  log_line("farm " + config_.cluster, "joined as node " + config_.node_name + " with " +
+                                          std::to_string(config_.workers) + " worker(s), store " + config_.store);
+}
+
+void Service::start_farm_retention() {
+  cluster::FarmRetentionOptions o;
+  o.node = config_.node_name;
+  o.store_limit_bytes = config_.store_limit_bytes;
+  o.eviction_grace_seconds = config_.cluster_eviction_grace_seconds;
+  o.job_retention_seconds = config_.cluster_job_retention_seconds;
+  // Expiry needs no haste (records are kept for days); a store limit is also asked for after each submit.
+  constexpr std::chrono::seconds kPeriod{30};
+  housekeeper_ = std::make_unique<cluster::FarmHousekeeper>(farm_node_, *blobs_, o, kPeriod);
 }
 
 void Service::remove_abandoned_uploads(const char* when) {
@@ -211,6 +263,7 @@ void Service::shutdown(std::chrono::duration<double> grace) {
     if (queue_->running() > 0) abandon_running_jobs();
   }
   workers_->join();
+  housekeeper_.reset();
   {
     std::lock_guard lock(sweep_mutex_);
     sweep_stop_ = true;
@@ -328,6 +381,7 @@ void Service::hello(SessionInfo& s, const v1::Request& req, v1::Response& resp) 
   r->add_job_types("material");
   r->add_job_types("environment");
   r->add_job_types("lightmap");
+  r->add_job_types("probes");
 }
 
 std::chrono::milliseconds Service::hello_failed(const SessionInfo& s) {
@@ -375,6 +429,7 @@ void Service::blob_put(const v1::Request& req, v1::Response& resp) {
   reply->set_received(received);
   if (received == id.size) {
     blobs_->complete(id);  // verifies the digest; DATA_LOSS discards the partial
+    if (housekeeper_) housekeeper_->stored(id.digest);  // the farm's retention sees it used, and not evicted
     reply->set_complete(true);
   }
 }
@@ -469,7 +524,11 @@ bool Service::outputs_stored(const v1::JobResult& result, const std::string& job
 }
 
 void Service::enforce_retention() {
-  const store::RetentionReport r = store::enforce_retention(*db_, *blobs_, config_.store_limit_bytes);
+  if (housekeeper_) {
+    housekeeper_->poke();
+    return;
+  }
+  const store::RetentionReport r = store::enforce_retention(*local_db_, *blobs_, config_.store_limit_bytes);
   if (!r.blobs.removed.empty()) {
     log_line("store " + config_.store, "evicted " + std::to_string(r.blobs.removed.size()) + " blob(s), " +
                                            std::to_string(r.blobs.bytes_freed) + " bytes, " +

@@ -26,8 +26,15 @@ class Response;
 
 namespace kiln::store {
 class BlobStore;
+struct BlobStoreOptions;
 class JobDb;
+class JobRecords;
 }  // namespace kiln::store
+
+namespace kiln::cluster {
+class FarmNode;
+class FarmHousekeeper;
+}  // namespace kiln::cluster
 
 namespace kiln::daemon {
 
@@ -90,11 +97,18 @@ class Service {
   // True if every output of a cached result is still in the store; otherwise marks the results that refer to the
   // missing one as evicted (they leave the cache) and returns false.
   bool outputs_stored(const v1::JobResult& result, const std::string& job_id);
-  // Evicts least recently used results past the store limit (under the submit lock).
+  // Evicts least recently used results past the store limit (under the submit lock); in a farm, asks for a pass of
+  // the farm's retention (cluster::FarmHousekeeper), which runs on one node at a time.
   void enforce_retention();
   // The last resort of a shutdown: re-queues in the database the jobs whose bakes did not stop at their cancel,
   // and exits the process without joining their threads.
   [[noreturn]] void abandon_running_jobs();
+  // One kilnd alone: the jobs the previous run left queued or running are queued again.
+  void recover_local_jobs();
+  // Farm mode (config.cluster): the records and queue in Redis, this node's own temporary files in the shared store.
+  void join_farm(store::BlobStoreOptions& blob_options);
+  // Farm mode: the node's retention thread (record expiry, the shared store's limit), once the store is open.
+  void start_farm_retention();
   // Deletes partial uploads older than partial_upload_max_age_seconds, logging what it removed.
   void remove_abandoned_uploads(const char* when);
   // The sweeper thread: remove_abandoned_uploads every quarter of the age (1 s to 1 h) until shutdown.
@@ -103,8 +117,10 @@ class Service {
   Config config_;
   TokenSet tokens_;
   std::unique_ptr<store::BlobStore> blobs_;
-  std::unique_ptr<store::JobDb> db_;
-  std::unique_ptr<store::JobQueue> queue_;
+  // One node's SQLite store, or nothing in a farm (whose records are in Redis): retention and recovery use it.
+  store::JobDb* local_db_ = nullptr;
+  std::unique_ptr<store::JobRecords> db_;
+  std::unique_ptr<store::WorkQueue> queue_;
   std::unique_ptr<MemoryBudget> memory_;  // before the workers, which hold reservations of it
   std::unique_ptr<Workers> workers_;
   std::mutex submit_mutex_;  // submits and retention do not interleave (see store::enforce_retention)
@@ -116,6 +132,8 @@ class Service {
   bool sweep_stop_ = false;
   std::thread sweeper_;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+  std::shared_ptr<cluster::FarmNode> farm_node_;  // farm mode only
+  std::unique_ptr<cluster::FarmHousekeeper> housekeeper_;  // farm mode only; stopped before the store closes
 };
 
 }  // namespace kiln::daemon

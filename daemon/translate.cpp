@@ -36,12 +36,21 @@ InvalidField lightmap_input_error(const BakeRequest& r, const bake::InvalidInput
   for (const BlobRef& ref : r.inputs) {
     if (!part.empty() && ref.field.find(part) != std::string::npos) return InvalidField(ref.field, problem.problem());
   }
+  // A probes job: its settings' fields under its volume, the rest under its scene.
+  if (!r.lightmap().lightmaps) {
+    if (field.rfind("probes.", 0) == 0) return InvalidField("job.probes.volume" + field.substr(6), problem.problem());
+    return detail::baker_problem("job.probes.scene", problem);
+  }
   return detail::baker_problem("job.lightmap", problem);
 }
 
 }  // namespace
 
-const char* job_type(const BakeRequest& request) { return kJobTypes[request.input.index()]; }
+const char* job_type(const BakeRequest& request) {
+  const auto* lightmap = std::get_if<lightmap::LightmapBakeInput>(&request.input);
+  if (lightmap && !lightmap->lightmaps) return "probes";
+  return kJobTypes[request.input.index()];
+}
 
 BakeRequest translate(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs) {
   BakeRequest r;
@@ -64,8 +73,11 @@ BakeRequest translate(const kiln::v1::JobSpec& spec, const store::BlobStore* blo
     case kiln::v1::JobSpec::kLightmap:
       detail::translate_lightmap(spec, blobs, r);
       break;
+    case kiln::v1::JobSpec::kProbes:
+      detail::translate_probes(spec, blobs, r);
+      break;
     default:
-      throw InvalidField("job", "no job given: set material, environment or lightmap");
+      throw InvalidField("job", "no job given: set material, environment, lightmap or probes");
   }
   return r;
 }

@@ -51,6 +51,7 @@ inline constexpr uint64_t kMaxInputBlobBytes = uint64_t{512} << 20;
 struct LightmapMemoryBasis {
   lightmap::LightmapJobSize size;
   std::string texel_field, scene_field, input_field;
+  std::string probe_field;  // when the job bakes probes: their max_probes
   size_t lightmaps = 0;  // lightmaps, or atlas pages when `pages`
   bool pages = false;
   uint64_t texels = 0;
@@ -90,8 +91,9 @@ struct BakeRequest {
   }
 };
 
-// The job type of a request as the protocol and the job database spell it: "material", "environment" or
-// "lightmap". It is also the spec's field that holds the job ("job.material").
+// The job type of a request as the protocol and the job database spell it: "material", "environment", "lightmap"
+// or "probes" (a lightmap input that bakes no lightmap). It is also the spec's field that holds the job
+// ("job.material").
 const char* job_type(const BakeRequest& request);
 
 // Validates the whole spec and translates it. Throws InvalidField. With `blobs`, the input blobs the spec names

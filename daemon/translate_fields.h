@@ -18,6 +18,7 @@ class Color;
 class Digest;
 class Layered;
 class MaterialJob;
+class ProbeVolume;
 }  // namespace kiln::v1
 
 namespace kiln::daemon::detail {
@@ -64,5 +65,11 @@ void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs);
 std::string lightmap_canonical_text(const BakeRequest& r);
 // The lightmap job's estimate and tiles under `limit` (0: none), from r.lightmap_memory.
 void plan_lightmap_memory(BakeRequest& r, uint64_t limit);
+
+// Light probes (translate_probes.cpp): a ProbeVolume's settings at path `p`; the probes job into r.input (a lightmap
+// input that bakes no lightmap; its canonical text is the lightmap job's); the probes' line of a canonical text.
+void probe_volume(const kiln::v1::ProbeVolume& v, const std::string& p, lightmap::ProbeVolumeOptions& out);
+void translate_probes(const kiln::v1::JobSpec& spec, const store::BlobStore* blobs, BakeRequest& r);
+std::string probes_canonical_text(const lightmap::ProbeVolumeOptions& p);
 
 }  // namespace kiln::daemon::detail

@@ -9,6 +9,8 @@
 
 #include "bakers/bake/number_format.h"
 #include "bakers/lightmap/memory_estimate.h"
+#include "bakers/scene/scene_check.h"
+#include "bakers/volume/vdb_file.h"
 #include "daemon/mesh_blob_decode.h"
 #include "daemon/store/blob_store.h"
 #include "daemon/translate_fields.h"
@@ -212,10 +214,147 @@ void environment(const kiln::v1::SceneEnvironment& e, const std::string& path, c
   }
 }
 
+const std::string kPath = "job.lightmap";
+
+// ---- Participating media ----
+
+// An axis-aligned box: both corners given and finite, lo ≤ hi on every axis.
+volume::Bounds3 medium_box(const kiln::v1::MediumBox& b, const std::string& p) {
+  if (!b.has_lo()) throw InvalidField(p + ".lo", "required: the box's lowest corner");
+  if (!b.has_hi()) throw InvalidField(p + ".hi", "required: the box's highest corner");
+  const volume::Bounds3 box{vector(b.lo(), p + ".lo"), vector(b.hi(), p + ".hi")};
+  if (box.empty()) {
+    throw InvalidField(p + ".hi", "must be at least lo on every axis, got lo (" + format_number(box.lo.x) + ", " +
+                                      format_number(box.lo.y) + ", " + format_number(box.lo.z) + "), hi (" +
+                                      format_number(box.hi.x) + ", " + format_number(box.hi.y) + ", " +
+                                      format_number(box.hi.z) + ")");
+  }
+  return box;
+}
+
+// A VDB medium's placement: 0 or 12 values, each within the coordinate bound, and invertible.
+scene::Transform medium_transform(const kiln::v1::VdbMedium& v, const std::string& p) {
+  scene::Transform t;
+  if (v.transform_size() == 0) return t;
+  if (v.transform_size() != 12) {
+    throw InvalidField(p,
+                       "0 or 12 values (a row-major 3x4 affine transform), got " + std::to_string(v.transform_size()));
+  }
+  for (int k = 0; k < 12; ++k) {
+    check_range(at(p, k), v.transform(k), kCoordinate);
+    t.m[k] = v.transform(k);
+  }
+  if (!scene::usable_transform(t)) throw InvalidField(p, "is singular: the medium would have no volume");
+  return t;
+}
+
+// The grids' names: the density's (default "density") and the emission's (optional, another grid).
+void grid_names(const kiln::v1::VdbMedium& v, const std::string& p, volume::MediumInput& out) {
+  check_name(v.density_grid(), p + ".density_grid");
+  check_name(v.emission_grid(), p + ".emission_grid");
+  if (!v.density_grid().empty()) out.density_grid = v.density_grid();
+  out.emission_grid = v.emission_grid();
+  if (out.emission_grid == out.density_grid) {
+    throw InvalidField(p + ".emission_grid", "names the density grid '" + out.density_grid +
+                                                 "'; the emission is a grid of its own (or leave it out)");
+  }
+}
+
+// A density grid from a VDB blob, read by the worker (load_lightmap_inputs).
+void vdb_medium(const kiln::v1::Medium& m, const std::string& p, const store::BlobStore* blobs, BakeRequest& r,
+                volume::MediumInput& out) {
+  const kiln::v1::VdbMedium& v = m.vdb();
+  if (!v.has_file()) throw InvalidField(p + ".file", "required: the digest of the uploaded .vdb file");
+  BlobRef ref = input_blob(v.file(), p + ".file", blobs);
+  if (ref.size > static_cast<uint64_t>(bounds::kVdbBytes.hi)) {
+    throw InvalidField(p + ".file", "at most " + std::to_string(bounds::kVdbBytes.hi >> 20) + " MiB, got " +
+                                        std::to_string(ref.size) + " bytes");
+  }
+  r.inputs.push_back(std::move(ref));
+  grid_names(v, p, out);
+  volume::GridMediumSpec spec;
+  spec.to_world = medium_transform(v, p + ".transform");
+  // With an emission grid and no colour, the grid holds the radiance itself.
+  spec.Le_scale = Rgb{v.emission_grid().empty() || m.has_emission() ? 0.0 : 1.0};
+  out.spec = std::move(spec);
+}
+
+// The region: fog everywhere, a box, or a grid.
+void medium_region(const kiln::v1::Medium& m, const std::string& p, const store::BlobStore* blobs, BakeRequest& r,
+                   volume::MediumInput& out) {
+  using M = kiln::v1::Medium;
+  switch (m.region_case()) {
+    case M::kFog:
+      if (!m.fog()) throw InvalidField(p + ".fog", "false is no region: true fills the scene, or give box or vdb");
+      out.spec = volume::HomogeneousMediumSpec{};
+      return;
+    case M::kBox: {
+      volume::HomogeneousMediumSpec spec;
+      spec.box = medium_box(m.box(), p + ".box");
+      out.spec = spec;
+      return;
+    }
+    case M::kVdb:
+      return vdb_medium(m, p + ".vdb", blobs, r, out);
+    case M::REGION_NOT_SET:
+      break;
+  }
+  throw InvalidField(p, "no region given: set fog (true: everywhere), box (lo, hi) or vdb (an uploaded .vdb file)");
+}
+
+// One medium: its region, then the coefficients, phase asymmetry and emission every kind has.
+volume::MediumInput medium(const kiln::v1::Medium& m, const std::string& p, const store::BlobStore* blobs,
+                           BakeRequest& r) {
+  volume::MediumInput out;
+  check_name(m.name(), p + ".name");
+  out.name = m.name();
+  medium_region(m, p, blobs, r, out);
+  const Rgb sigma_a = m.has_sigma_a() ? color(m.sigma_a(), p + ".sigma_a", bounds::kMediumCoefficient) : Rgb{};
+  const Rgb sigma_s = m.has_sigma_s() ? color(m.sigma_s(), p + ".sigma_s", bounds::kMediumCoefficient) : Rgb{};
+  check_range(p + ".g", m.g(), bounds::kMediumAsymmetry);
+  const std::optional<Rgb> emission =
+      m.has_emission() ? std::optional(color(m.emission(), p + ".emission", bounds::kMediumEmission)) : std::nullopt;
+  auto fill = [&](auto& spec) {
+    spec.sigma_a = sigma_a;
+    spec.sigma_s = sigma_s;
+    spec.g = m.g();
+  };
+  if (auto* h = std::get_if<volume::HomogeneousMediumSpec>(&out.spec)) {
+    fill(*h);
+    if (emission) h->Le = *emission;
+  } else {
+    auto& g = std::get<volume::GridMediumSpec>(out.spec);
+    fill(g);
+    if (emission) g.Le_scale = *emission;
+  }
+  return out;
+}
+
+void media(const kiln::v1::LightmapJob& j, const store::BlobStore* blobs, BakeRequest& r) {
+  check_count(j.media_size(), static_cast<int>(bounds::kLightmapMedia.hi), kPath + ".media", "media");
+  for (int i = 0; i < j.media_size(); ++i) {
+    r.lightmap().media.push_back(medium(j.media(i), at(kPath + ".media", i), blobs, r));
+  }
+}
+
+// The grids of the VDB blob at `ref` (a medium's vdb.file) into its medium; a blob that does not read, or lacks or
+// misrepresents a grid, is the blob's field at fault.
+void load_vdb_grids(const BlobRef& ref, const std::string& bytes, volume::MediumInput& m) {
+  std::vector<std::string> names{m.density_grid};
+  if (!m.emission_grid.empty()) names.push_back(m.emission_grid);
+  std::vector<volume::VdbGrid> grids;
+  try {
+    grids = volume::read_vdb({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, names);
+  } catch (const bake::InvalidInput& e) {
+    throw InvalidField(ref.field, e.field() == "bytes" ? e.problem() : e.field() + ": " + e.problem());
+  }
+  auto& spec = std::get<volume::GridMediumSpec>(m.spec);
+  spec.density = grids[0];
+  if (grids.size() > 1) spec.emission = grids[1];
+}
+
 // The index in "job.lightmap.meshes[12].geometry".
 std::size_t index_in(const std::string& field) { return std::stoul(field.substr(field.find('[') + 1)); }
-
-const std::string kPath = "job.lightmap";
 
 void check_counts(const kiln::v1::LightmapJob& j) {
   check_count(j.meshes_size(), kMaxMeshes, kPath + ".meshes", "meshes");
@@ -416,6 +555,9 @@ void atlas_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput&
   if (!j.has_texel_density()) {
     if (j.has_page_size()) throw InvalidField(kPath + ".page_size", "needs texel_density: pages are what it packs");
     if (j.has_max_pages()) throw InvalidField(kPath + ".max_pages", "needs texel_density: pages are what it packs");
+    if (j.has_uniform_pages()) {
+      throw InvalidField(kPath + ".uniform_pages", "needs texel_density: pages are what it packs");
+    }
     for (int i = 0; i < j.instances_size(); ++i) {
       const std::string p = at(kPath + ".instances", i);
       if (j.instances(i).has_texel_density()) {
@@ -431,6 +573,7 @@ void atlas_settings(const kiln::v1::LightmapJob& j, lightmap::LightmapBakeInput&
   const uint64_t page_texels = static_cast<uint64_t>(a.page_size) * static_cast<uint64_t>(a.page_size);
   a.max_pages = static_cast<int>(std::min<uint64_t>(kDefaultMaxPages, kMaxTotalTexels / page_texels));
   set_count(j.has_max_pages(), j.max_pages(), kPath + ".max_pages", bounds::kAtlasMaxPages, a.max_pages);
+  a.uniform_pages = j.uniform_pages();
   if (static_cast<uint64_t>(a.max_pages) * page_texels > kMaxTotalTexels) {
     throw InvalidField(kPath + ".max_pages", std::to_string(a.max_pages) + " pages of " + std::to_string(a.page_size) +
                                                  "^2 texels exceed the job's " + std::to_string(kMaxTotalTexels) +
@@ -601,6 +744,7 @@ void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>
   basis.lightmaps = packing ? size.lightmap_texels.size() : lightmap_names.size();
   basis.pages = packing;
   basis.texels = texels;
+  if (in.probes.enabled()) basis.probe_field = kPath + ".probes.max_probes";
   r.lightmap_memory = basis;
   plan_lightmap_memory(r, in.memory_limit_bytes);
 }
@@ -621,7 +765,9 @@ void plan_lightmap_memory(BakeRequest& r, uint64_t limit) {
   for (uint64_t b : e.lightmap_bytes) texel_bytes += b;
   r.memory_bytes = e.total;
   // The part that costs most names the field to lower.
-  if (texel_bytes >= e.scene_bytes && texel_bytes >= e.input_bytes) {
+  if (!basis.probe_field.empty() && e.probe_bytes >= std::max({texel_bytes, e.scene_bytes, e.input_bytes})) {
+    r.memory_field = basis.probe_field;
+  } else if (texel_bytes >= e.scene_bytes && texel_bytes >= e.input_bytes) {
     r.memory_field = largest_field;
   } else if (e.scene_bytes >= e.input_bytes) {
     r.memory_field = basis.scene_field;
@@ -638,6 +784,9 @@ void plan_lightmap_memory(BakeRequest& r, uint64_t limit) {
                   tiles + " (" + lightmap::format_bytes(texel_bytes) + "), up to " +
                   std::to_string(size.traced_triangles) + " traced triangles (" + lightmap::format_bytes(e.scene_bytes) +
                   " with the meshes), inputs " + lightmap::format_bytes(e.input_bytes);
+  if (size.probes > 0) {
+    r.memory_note += ", up to " + std::to_string(size.probes) + " light probes (" + lightmap::format_bytes(e.probe_bytes) + ")";
+  }
 }
 
 namespace {
@@ -673,6 +822,8 @@ std::string scene_hash(const kiln::v1::LightmapJob& j) {
   scene_part.clear_texel_density();
   scene_part.clear_page_size();
   scene_part.clear_max_pages();
+  scene_part.clear_uniform_pages();
+  scene_part.clear_probes();
   std::string bytes;
   {
     google::protobuf::io::StringOutputStream stream(&bytes);
@@ -696,10 +847,12 @@ void translate_lightmap(const kiln::v1::JobSpec& spec, const store::BlobStore* b
   const std::set<std::string> lightmap_names = instances(j, sc);
   lights(j, sc);
   if (j.has_environment()) environment(j.environment(), kPath + ".environment", blobs, r);
+  media(j, blobs, r);
   atlas_settings(j, in);
   resolutions(j, lightmap_names, in);
   check_texels(lightmap_names, in);
   bake_settings(j, in);
+  if (j.has_probes()) probe_volume(j.probes(), kPath + ".probes", in.probes);
   lightmap_quality(spec.quality(), in);
   in.force_effects = forced_effects(spec);
   check_total_input(r);
@@ -717,6 +870,8 @@ void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs) {
       in.scene.meshes.at(i) = decode_mesh_blob(bytes, ref.field, in.scene.meshes.at(i).name);
     } else if (ref.field.find(".textures[") != std::string::npos) {
       in.textures.at(index_in(ref.field)).bytes = std::move(bytes);
+    } else if (ref.field.find(".media[") != std::string::npos) {
+      load_vdb_grids(ref, bytes, in.media.at(index_in(ref.field)));
     } else {
       in.environment_image = std::move(bytes);
     }
@@ -750,7 +905,10 @@ std::string lightmap_canonical_text(const BakeRequest& r) {
   if (in.atlas.texel_density > 0) {
     o << "texel_density=" << format_number(in.atlas.texel_density) << "\npage_size=" << in.atlas.page_size
       << "\nmax_pages=" << in.atlas.max_pages << "\n";
+    if (in.atlas.uniform_pages) o << "uniform_pages=1\n";
   }
+  // Only with probes, so that the keys of jobs without them stay what they were (a probes job's type differs).
+  if (in.probes.enabled()) o << probes_canonical_text(in.probes);
   return o.str();
 }
 

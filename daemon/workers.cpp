@@ -34,7 +34,7 @@ struct Baked {
   std::vector<v1::PlanDecision> plan;
 };
 
-Workers::Workers(const Config& config, store::JobDb& db, store::BlobStore& blobs, store::JobQueue& queue,
+Workers::Workers(const Config& config, store::JobRecords& db, store::BlobStore& blobs, store::WorkQueue& queue,
                  MemoryBudget& memory)
     : config_(config), db_(db), blobs_(blobs), queue_(queue), memory_(memory) {
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -61,9 +61,10 @@ void Workers::join() {
 
 void Workers::run(std::stop_token stop) {
   while (!stop.stop_requested()) {
+    std::unique_lock admission(admission_);
     std::optional<store::QueuedJob> job = queue_.pop(stop);
     if (!job) return;
-    run_one(job->id, job->cancel, stop);
+    run_one(job->id, job->cancel, stop, admission);
   }
 }
 
@@ -81,6 +82,8 @@ std::string describe_output(const std::string& n) {
   if (n == "sh.txt") return "nine RGB irradiance coefficients (order-2 spherical harmonics)";
   if (n == "dfg.exr") return "the DFG table: split-sum scale, bias and energy over (mu, roughness)";
   if (n == "preview.png") return "a preview: spheres of several roughnesses lit by the environment";
+  if (n == "probes.vdb") return "light probes: order-2 SH of radiance per probe, validity and error (OpenVDB grids)";
+  if (n == "probes_preview.png") return "a layer of light probes as white spheres lit by them, for people";
   // Lightmap outputs, NAME_<kind>.<ext> for each lightmap NAME (lightmap_bake.h).
   auto ends = [&](const char* tail) {
     const std::string t = tail;
@@ -203,7 +206,8 @@ v1::JobResult job_result(const std::string& id, const store::JobRecord& record, 
 
 }  // namespace
 
-void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel, std::stop_token stop) {
+void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel, std::stop_token stop,
+                      std::unique_lock<std::mutex>& admission) {
   const auto t0 = std::chrono::steady_clock::now();
   // The request first: its memory estimate decides when the job may run.
   BakeRequest request;
@@ -212,10 +216,13 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
     if (!queued) throw std::runtime_error("the job's record is gone from the database");
     request = request_of(*queued);
   } catch (const std::exception& e) {
+    admission.unlock();
     record_failure(id, e.what());
     return;
   }
-  if (!wait_for_memory(id, request, *cancel, stop)) return;
+  const bool reserved = wait_for_memory(id, request, *cancel, stop);
+  admission.unlock();
+  if (!reserved) return;
   const MemoryReservation reservation(memory_, request.memory_bytes);
   std::optional<store::JobRecord> record = start_running(id);
   if (!record) return;

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -13,8 +14,8 @@
 
 namespace kiln::store {
 class BlobStore;
-class JobDb;
-class JobQueue;
+class JobRecords;
+class WorkQueue;
 struct JobRecord;
 }  // namespace kiln::store
 
@@ -28,7 +29,7 @@ class Workers {
  public:
   // A job runs once its memory estimate fits in `memory` beside the running jobs'; until then it waits (still
   // queued in the database, its watchers told why).
-  Workers(const Config& config, store::JobDb& db, store::BlobStore& blobs, store::JobQueue& queue,
+  Workers(const Config& config, store::JobRecords& db, store::BlobStore& blobs, store::WorkQueue& queue,
           MemoryBudget& memory);
   ~Workers();  // stop(), then join
 
@@ -41,7 +42,9 @@ class Workers {
  private:
   void run(std::stop_token stop);
   // One job, from the queue to its end: running, baked, then succeeded, cancelled (or re-queued) or failed.
-  void run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel, std::stop_token stop);
+  // `admission` (held since the pop) is released once the job holds its memory or has ended.
+  void run_one(const std::string& id, const std::shared_ptr<std::atomic<bool>>& cancel, std::stop_token stop,
+               std::unique_lock<std::mutex>& admission);
   // Waits until the request's memory estimate fits; false (the job's end recorded) if it was cancelled meanwhile or
   // the daemon is stopping (the job then stays queued for the next start).
   bool wait_for_memory(const std::string& id, const BakeRequest& request, const std::atomic<bool>& cancel,
@@ -57,10 +60,13 @@ class Workers {
   void record_failure(const std::string& id, const std::string& what);
 
   Config config_;
-  store::JobDb& db_;
+  store::JobRecords& db_;
   store::BlobStore& blobs_;
-  store::JobQueue& queue_;
+  store::WorkQueue& queue_;
   MemoryBudget& memory_;
+  // Held from a pop until that job holds its memory: jobs take memory in the queue's order (priority, then
+  // arrival), so a job waiting for room is not overtaken by one popped after it, and none waits forever.
+  std::mutex admission_;
   std::atomic<bool> requeue_{false};
   int threads_per_job_ = 1;
   std::vector<std::jthread> threads_;

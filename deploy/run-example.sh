@@ -56,5 +56,6 @@ kiln status || true
 echo
 echo "kiln: outputs are in $out/<example>/ (EXR tables, MERL where asked, preview.png, report.json) and $out/sky_env/ (the"
 echo "     prefiltered specular cube as KTX2 and EXR faces, irradiance, SH, DFG table, preview.png, report.json) and"
-echo "     $out/cornell_box/ (per mesh: irradiance, validity and error EXRs, a preview PNG; report.json)"
+echo "     $out/cornell_box/ (per mesh: irradiance, validity and error EXRs, a preview PNG; report.json) and"
+echo "     $out/cornell_box_probes/ (light probes of the foggy box: probes.vdb, probes_preview.png, report.json)"
 exit $status

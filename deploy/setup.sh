@@ -16,6 +16,7 @@ packages=(
   python3-venv python3-pip python3-setuptools python3-wheel  # the Python client's package and its install test
   help2man  # the man pages, made from each program's --help (cmake/install.cmake)
   libxml2-utils  # xmllint, which validates `kiln build`'s JUnit report against tests/integration/junit.xsd
+  redis-server libhiredis-dev  # kilnd's farm mode (daemon/cluster/, docs/SCALING.md) and its tests' real Redis
   assimp-testmodels  # real models for the importer's test (tests/integration/assimp_models_test.cpp): 21 MB, 74 MB installed
 )
 missing=()

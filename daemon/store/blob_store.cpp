@@ -1,6 +1,7 @@
 #include "daemon/store/blob_store.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -39,6 +40,8 @@ std::string_view to_string(StoreErrc code) {
       return "resource exhausted";
     case StoreErrc::io:
       return "I/O error";
+    case StoreErrc::unavailable:
+      return "unavailable";
   }
   return "unknown";
 }
@@ -115,6 +118,43 @@ class Fd {
   int fd_;
 };
 
+// A partial upload opened and held under an exclusive flock, so that nodes sharing the store (each with its own
+// stripes) never interleave their appends, a completion, a discard or a sweep on it. The file found at the path
+// after the lock is taken must be the one locked: a holder that was waited for may have renamed it into place or
+// deleted it, and a write to that file would land in an installed blob or nowhere. On NFS, Linux takes flock as a
+// byte-range lock of the whole file on the server (NLM or NFSv4), so it holds across machines too.
+enum class PartialLock { held, absent, busy };
+PartialLock lock_partial(const fs::path& part, bool create, bool wait, int* fd_out) {
+  for (;;) {
+    const int fd = ::open(part.c_str(), O_RDWR | O_CLOEXEC | (create ? O_CREAT : 0), 0644);
+    if (fd < 0) {
+      if (errno == ENOENT) return PartialLock::absent;
+      throw_errno(errno, "cannot open partial upload " + part.string());
+    }
+    Fd guard(fd);
+    int r;
+    while ((r = ::flock(fd, LOCK_EX | (wait ? 0 : LOCK_NB))) != 0 && errno == EINTR) {
+    }
+    if (r != 0) {
+      if (errno == EWOULDBLOCK) return PartialLock::busy;
+      throw_errno(errno, "cannot lock partial upload " + part.string());
+    }
+    struct stat held {}, now {};
+    if (::fstat(fd, &held) == 0 && ::stat(part.c_str(), &now) == 0 && held.st_ino == now.st_ino &&
+        held.st_dev == now.st_dev) {
+      *fd_out = ::dup(fd);  // the lock belongs to the open file, which the duplicate keeps open
+      if (*fd_out < 0) throw_errno(errno, "cannot keep partial upload " + part.string() + " open");
+      return PartialLock::held;
+    }
+  }
+}
+
+uint64_t size_of(int fd, const fs::path& file) {
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) throw_errno(errno, "cannot inspect " + file.string());
+  return static_cast<uint64_t>(st.st_size);
+}
+
 // Writes everything or throws; `written` reports how far it got, for resumable uploads.
 void pwrite_all(int fd, std::string_view data, uint64_t offset, const fs::path& file, uint64_t* written) {
   size_t done = 0;
@@ -176,12 +216,13 @@ BlobStore::BlobStore(fs::path dir, BlobStoreOptions options) : dir_(std::move(di
   create_dir(dir_ / "blobs");
   create_dir(dir_ / "partial");
   create_dir(dir_ / "tmp");
+  if (options_.tmp_subdir != "tmp") create_dir(dir_ / options_.tmp_subdir);
   create_dir(dir_ / "corrupt");
   // Whole-file writes that a crash interrupted: never renamed into place, so nobody was told they exist. A file
   // whose writer (named in it) is another live process is left alone, in case two daemons were pointed here; the
   // job database's lock then stops the second one.
   std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir_ / "tmp", ec)) {
+  for (const auto& e : fs::directory_iterator(dir_ / options_.tmp_subdir, ec)) {
     std::string name = e.path().filename().string();
     long pid = 0;
     if (name.size() > 65 && name[64] == '.') pid = std::strtol(name.c_str() + 65, nullptr, 10);
@@ -221,16 +262,17 @@ uint64_t BlobStore::received(const BlobId& id) {
   std::lock_guard lock(stripe(id.digest));
   if (contains(id)) return id.size;
   fs::path part = partial_path(id.digest);
-  FileStat st = stat_path(part);
-  if (!st.exists) return 0;
-  if (st.size > id.size) {
+  int fd = -1;
+  if (lock_partial(part, false, true, &fd) != PartialLock::held) return 0;
+  Fd file(fd);
+  const uint64_t have = size_of(fd, part);
+  if (have > id.size) {
     // Longer than this declaration: it came from an upload that declared another size, and cannot be a prefix of
     // this blob. It holds nothing anyone was promised, so start over.
-    std::error_code ec;
-    fs::remove(part, ec);
+    if (::ftruncate(fd, 0) != 0) throw_errno(errno, "cannot empty " + part.string());
     return 0;
   }
-  return st.size;
+  return have;
 }
 
 uint64_t BlobStore::append(const BlobId& id, uint64_t offset, std::string_view data) {
@@ -242,11 +284,21 @@ uint64_t BlobStore::append(const BlobId& id, uint64_t offset, std::string_view d
                      describe(id) + " is already stored complete; there is nothing left to upload");
   }
   fs::path part = partial_path(id.digest);
-  FileStat st = stat_path(part);
-  uint64_t have = st.exists ? st.size : 0;
-  if (have > id.size) {  // see received()
+  // Held until the chunk is written: another node appending, completing or sweeping the same digest waits.
+  // Absent only when there is nothing to write (no file is created for an empty append).
+  int fd = -1;
+  lock_partial(part, !data.empty(), true, &fd);
+  Fd file(fd);
+  // Under the lock, again: a node we waited for may have completed the blob (its partial renamed into place).
+  if (fd >= 0 && contains(id)) {
     std::error_code ec;
-    fs::remove(part, ec);
+    fs::remove(part, ec);  // what this open made, or another upload's leftover: a complete blob needs neither
+    throw StoreError(StoreErrc::failed_precondition,
+                     describe(id) + " is already stored complete; there is nothing left to upload");
+  }
+  uint64_t have = fd >= 0 ? size_of(fd, part) : 0;
+  if (have > id.size) {  // see received()
+    if (::ftruncate(fd, 0) != 0) throw_errno(errno, "cannot empty " + part.string());
     have = 0;
   }
   if (offset != have)
@@ -259,9 +311,6 @@ uint64_t BlobStore::append(const BlobId& id, uint64_t offset, std::string_view d
                                                   std::to_string(data.size()) + " bytes at offset " +
                                                   std::to_string(offset) + " would go past the declared size");
   if (data.empty()) return offset;
-  int fd = ::open(part.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
-  if (fd < 0) throw_errno(errno, "cannot open partial upload " + part.string());
-  Fd file(fd);
   uint64_t written = 0;
   try {
     pwrite_all(fd, data, offset, part, &written);
@@ -291,20 +340,16 @@ void BlobStore::complete(const BlobId& id) {
   check_declared(id);
   std::lock_guard lock(stripe(id.digest));
   fs::path part = partial_path(id.digest);
+  // The empty blob has no chunks to append: its (empty) partial is made here, so it goes the way of any other.
+  int fd = -1;
+  const PartialLock got_lock = lock_partial(part, id.size == 0 && !contains(id), true, &fd);
+  Fd file(fd);
   std::error_code ec;
   if (contains(id)) {
-    fs::remove(part, ec);  // a second upload of a blob someone else finished first
+    if (got_lock == PartialLock::held) fs::remove(part, ec);  // a second upload of a blob someone finished first
     return;
   }
-  FileStat st = stat_path(part);
-  if (!st.exists && id.size == 0) {
-    // The empty blob has no chunks to append; create its (empty) partial so it goes the same way as any other.
-    int fd = ::open(part.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
-    if (fd < 0) throw_errno(errno, "cannot create " + part.string());
-    ::close(fd);
-    st = stat_path(part);
-  }
-  uint64_t have = st.exists ? st.size : 0;
+  const uint64_t have = fd >= 0 ? size_of(fd, part) : 0;
   if (have < id.size)
     throw StoreError(StoreErrc::failed_precondition, "upload of " + describe(id) +
                                                          " is not finished: " + std::to_string(have) +
@@ -318,21 +363,20 @@ void BlobStore::complete(const BlobId& id) {
                          " bytes received hash to " + got.digest +
                          ", so they are not this blob. The upload was discarded; upload the blob again from offset 0");
   }
-  {
-    int fd = ::open(part.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) throw_errno(errno, "cannot open " + part.string() + " to sync it");
-    Fd file(fd);
-    fsync_or_throw(fd, part);
-  }
+  fsync_or_throw(fd, part);
   crash_point("blob.complete");
-  install(part, id);
+  install(part, id);  // still under the lock: a node waiting to append finds the blob complete
 }
 
 void BlobStore::discard_partial(const BlobId& id) {
   check_declared(id);
   std::lock_guard lock(stripe(id.digest));
+  const fs::path part = partial_path(id.digest);
+  int fd = -1;
+  if (lock_partial(part, false, true, &fd) != PartialLock::held) return;
+  Fd file(fd);
   std::error_code ec;
-  fs::remove(partial_path(id.digest), ec);
+  fs::remove(part, ec);
 }
 
 size_t BlobStore::remove_partials_older_than(std::chrono::seconds max_age) {
@@ -343,11 +387,16 @@ size_t BlobStore::remove_partials_older_than(std::chrono::seconds max_age) {
     std::string name = e.path().filename().string();
     if (name.size() != 64 + 5 || name.substr(64) != ".part" || !is_lower_hex_digest(name.substr(0, 64))) continue;
     std::lock_guard lock(stripe(name.substr(0, 64)));
-    FileStat st = stat_path(e.path());  // again, under the lock: an append may just have touched it
-    if (st.exists && st.mtime < cutoff) {
-      std::error_code rec;
-      if (fs::remove(e.path(), rec)) ++removed;
-    }
+    // A partial another node (or thread) holds is being written now: alive, whatever its age said a moment ago.
+    int fd = -1;
+    if (lock_partial(e.path(), false, false, &fd) != PartialLock::held) continue;
+    Fd file(fd);
+    struct stat st {};
+    const bool stale = ::fstat(fd, &st) == 0 && static_cast<double>(st.st_mtim.tv_sec) +
+                                                         1e-9 * static_cast<double>(st.st_mtim.tv_nsec) <
+                                                     cutoff;
+    std::error_code rec;
+    if (stale && fs::remove(e.path(), rec)) ++removed;
   }
   return removed;
 }
@@ -360,7 +409,7 @@ BlobId BlobStore::put(std::string_view bytes) {
     touch(id);
     return id;
   }
-  fs::path tmp = dir_ / "tmp" / (id.digest + "." + unique_suffix() + ".tmp");
+  fs::path tmp = dir_ / options_.tmp_subdir / (id.digest + "." + unique_suffix() + ".tmp");
   int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) throw_errno(errno, "cannot create " + tmp.string());
   try {
@@ -560,7 +609,8 @@ uint64_t BlobStore::size_on_disk() const {
 }
 
 EvictionReport BlobStore::evict_to(uint64_t limit_bytes, const std::unordered_set<std::string>& pinned,
-                                   const std::unordered_map<std::string, double>& last_used) {
+                                   const std::unordered_map<std::string, double>& last_used,
+                                   const EvictConfirm& confirm) {
   std::lock_guard elock(evict_mu_);
   EvictionReport report;
   std::vector<Entry> entries = scan_blobs(dir_ / "blobs");
@@ -578,6 +628,7 @@ EvictionReport BlobStore::evict_to(uint64_t limit_bytes, const std::unordered_se
   });
   for (const auto& c : candidates) {
     if (total <= limit_bytes) break;
+    if (confirm && !confirm(c.id, c.mtime)) continue;
     std::error_code ec;
     bool removed;
     {

@@ -3,7 +3,9 @@
 //
 // Layout under the store directory DIR:
 //   DIR/blobs/ab/abcdef…      complete, verified blobs (the first two hex digits shard the directory)
-//   DIR/partial/<digest>.part uploads in progress; an upload broken half-way resumes at the file's length
+//   DIR/partial/<digest>.part uploads in progress; an upload broken half-way resumes at the file's length. Each is
+//                             touched only under an exclusive flock on it, so processes sharing DIR (a farm's
+//                             nodes) never interleave their appends, completions and sweeps
 //   DIR/tmp/                  whole-file writes before their rename; anything here after a crash is deleted on open
 //   DIR/corrupt/              blobs that failed verification when read, kept for inspection, never served
 // A blob appears under blobs/ only by an atomic rename of a file that was verified and fsynced, followed by an
@@ -14,6 +16,7 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -34,6 +37,7 @@ enum class StoreErrc {
   data_loss,            // bytes do not match their digest, or a stored file is damaged
   resource_exhausted,   // the disk is full
   io,                   // the operating system refused (permissions, I/O error)
+  unavailable,          // a farm's shared service (Redis) cannot be reached now; retry, or use another node
 };
 std::string_view to_string(StoreErrc code);
 
@@ -62,6 +66,9 @@ BlobId make_blob_id(std::string_view digest, uint64_t size);
 struct BlobStoreOptions {
   // Declared sizes above this are refused before anything is written.
   uint64_t max_blob_size = uint64_t{64} << 30;
+  // Where whole-file writes wait for their rename, under DIR, and the folder cleaned at open. A farm's nodes share
+  // DIR, so each has its own ("tmp/NODE"): one node's open must not delete another's write in progress.
+  std::filesystem::path tmp_subdir = "tmp";
 };
 
 struct BlobUsage {
@@ -102,7 +109,8 @@ class BlobStore {
   void complete(const BlobId& id);
   // Drops a partial upload (a client that gave up). Complete blobs are not touched.
   void discard_partial(const BlobId& id);
-  // Deletes partial uploads untouched for longer than max_age (clients that never came back). Returns how many.
+  // Deletes partial uploads untouched for longer than max_age (clients that never came back), except one that
+  // another process is writing now (its flock is held). Returns how many.
   size_t remove_partials_older_than(std::chrono::seconds max_age);
 
   // --- Whole writes (bake results) ---
@@ -133,8 +141,12 @@ class BlobStore {
   // Removes unpinned blobs, least recently used first, until the complete blobs total at most limit_bytes. A blob's
   // last use is last_used[digest] (seconds since the Unix epoch) when given, else its modification time (set when it
   // was written or touched). Pinned blobs are never removed, even if the limit cannot be met without them.
+  // `confirm`, if given, is asked immediately before each removal with the blob and its last use, and a false
+  // answer keeps the blob (a farm checks its pins again in Redis: they may have changed since the snapshot).
+  using EvictConfirm = std::function<bool(const BlobId&, double last_used)>;
   EvictionReport evict_to(uint64_t limit_bytes, const std::unordered_set<std::string>& pinned,
-                          const std::unordered_map<std::string, double>& last_used);
+                          const std::unordered_map<std::string, double>& last_used,
+                          const EvictConfirm& confirm = {});
 
  private:
   std::filesystem::path blob_path(const std::string& digest) const;

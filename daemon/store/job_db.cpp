@@ -66,11 +66,6 @@ std::string new_job_id() {
   return out;
 }
 
-namespace {
-
-constexpr size_t kMaxIdempotencyKey = 256;
-
-// Digest lists are stored as comma-separated lowercase hex: plain text, readable with the sqlite3 shell.
 std::string join_digests(const std::vector<std::string>& v) {
   std::string out;
   for (const auto& d : v) {
@@ -91,6 +86,10 @@ std::vector<std::string> split_digests(const std::string& s) {
   }
   return out;
 }
+
+namespace {
+
+constexpr size_t kMaxIdempotencyKey = 256;
 
 void check_digests(const std::vector<std::string>& v, const char* field) {
   for (size_t i = 0; i < v.size(); ++i) {
@@ -314,23 +313,6 @@ std::optional<JobRecord> find_by_key_locked(sqlite3* db, const fs::path& file, s
 
 std::string shown_id(std::string_view id) { return "job " + std::string(id.substr(0, 80)); }
 
-// What insert() refuses before touching the database.
-void check_new_job(const NewJob& job) {
-  if (job.type.empty()) throw StoreError(StoreErrc::invalid_argument, "job type is empty; name the kind of bake");
-  if (job.spec_key.empty())
-    throw StoreError(StoreErrc::invalid_argument, "job spec_key is empty; it must identify the canonical spec");
-  if (job.idempotency_key) {
-    if (job.idempotency_key->empty())
-      throw StoreError(StoreErrc::invalid_argument, "idempotency key is empty; leave it unset or give a value");
-    if (job.idempotency_key->size() > kMaxIdempotencyKey)
-      throw StoreError(StoreErrc::invalid_argument,
-                       "idempotency key is " + std::to_string(job.idempotency_key->size()) + " bytes long; at most " +
-                           std::to_string(kMaxIdempotencyKey) + " are allowed");
-  }
-  check_digests(job.input_digests, "input_digests");
-  if (job.cached) check_digests(job.cached->output_digests, "cached.output_digests");
-}
-
 int64_t next_seq(sqlite3* db, const fs::path& file) {
   Stmt s(db, file, "SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs");
   s.step();
@@ -347,6 +329,22 @@ std::string unused_id(sqlite3* db, const fs::path& file) {
 }
 
 }  // namespace
+
+void check_new_job(const NewJob& job) {
+  if (job.type.empty()) throw StoreError(StoreErrc::invalid_argument, "job type is empty; name the kind of bake");
+  if (job.spec_key.empty())
+    throw StoreError(StoreErrc::invalid_argument, "job spec_key is empty; it must identify the canonical spec");
+  if (job.idempotency_key) {
+    if (job.idempotency_key->empty())
+      throw StoreError(StoreErrc::invalid_argument, "idempotency key is empty; leave it unset or give a value");
+    if (job.idempotency_key->size() > kMaxIdempotencyKey)
+      throw StoreError(StoreErrc::invalid_argument,
+                       "idempotency key is " + std::to_string(job.idempotency_key->size()) + " bytes long; at most " +
+                           std::to_string(kMaxIdempotencyKey) + " are allowed");
+  }
+  check_digests(job.input_digests, "input_digests");
+  if (job.cached) check_digests(job.cached->output_digests, "cached.output_digests");
+}
 
 InsertOutcome JobDb::insert(const NewJob& job) {
   check_new_job(job);

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "daemon/store/blob_store.h"
+#include "daemon/store/job_records.h"
 
 namespace kiln::store {
 
@@ -87,7 +88,7 @@ struct JobDbOptions {
 
 // Thread-safe: one connection, guarded by a mutex. Only one process may open a database at a time (a lock file
 // next to it says so); a second gets a clear error instead of two daemons running the same jobs.
-class JobDb {
+class JobDb : public JobRecords {
  public:
   static constexpr int kSchemaVersion = 1;
 
@@ -95,7 +96,7 @@ class JobDb {
   // failed_precondition if another process holds it or it was written by a newer kilnd, data_loss if the file is not
   // a database, io otherwise. Never deletes or rewrites a file it does not understand.
   explicit JobDb(const std::filesystem::path& file, JobDbOptions options = {});
-  ~JobDb();
+  ~JobDb() override;
   JobDb(const JobDb&) = delete;
   JobDb& operator=(const JobDb&) = delete;
 
@@ -105,29 +106,30 @@ class JobDb {
   // Records a new job: queued, or succeeded at once if job.cached is set. With an idempotency key already in use
   // for the same spec_key, returns that job with created = false; for a different spec_key, throws already_exists.
   // invalid_argument for a missing type or spec_key, a malformed digest, or an empty or over-long key.
-  InsertOutcome insert(const NewJob& job);
-  std::optional<JobRecord> get(std::string_view id);
+  InsertOutcome insert(const NewJob& job) override;
+  std::optional<JobRecord> get(std::string_view id) override;
   std::optional<JobRecord> find_by_idempotency_key(std::string_view key);
   // The result cache: the newest succeeded job with this key whose outputs have not been evicted.
-  std::optional<JobRecord> find_succeeded_by_spec_key(std::string_view spec_key);
+  std::optional<JobRecord> find_succeeded_by_spec_key(std::string_view spec_key) override;
 
   // State changes. Each returns the updated record; not_found for an unknown id; failed_precondition (naming the
   // job's current state) for a change its state does not allow:
-  JobRecord mark_running(std::string_view id);  // queued → running; counts an attempt
+  JobRecord mark_running(std::string_view id) override;  // queued → running; counts an attempt
   JobRecord mark_succeeded(std::string_view id, std::string_view result,
-                           const std::vector<std::string>& output_digests);  // running → succeeded
-  JobRecord mark_failed(std::string_view id, std::string_view error);        // queued or running → failed
-  JobRecord mark_cancelled(std::string_view id);                             // queued or running → cancelled
-  JobRecord mark_queued(std::string_view id);  // running → queued (a graceful shutdown hands it back)
+                           const std::vector<std::string>& output_digests) override;  // running → succeeded
+  JobRecord mark_failed(std::string_view id, std::string_view error) override;        // queued or running → failed
+  JobRecord mark_cancelled(std::string_view id) override;                             // queued or running → cancelled
+  JobRecord mark_queued(std::string_view id) override;  // running → queued (a graceful shutdown hands it back)
 
   // Newest first, without spec and result; only `state` if given; only seq < before_seq if given (paging).
-  std::vector<JobRecord> list(size_t limit, std::optional<JobState> state = {}, std::optional<int64_t> before_seq = {});
+  std::vector<JobRecord> list(size_t limit, std::optional<JobState> state = {},
+                              std::optional<int64_t> before_seq = {}) override;
   // At startup: every job that was running when the daemon stopped goes back to queued (or, after
   // max_crash_restarts interrupted runs, to failed). Returns what the queue must hold.
   Recovery recover_unfinished();
-  JobCounts counts();
+  JobCounts counts() override;
   // Marks a job's result as used (a cache hit or a fetch). Returns false for an unknown id.
-  bool touch(std::string_view id, std::optional<double> when = {});
+  bool touch(std::string_view id, std::optional<double> when = {}) override;
 
   // --- Retention ---
   // Succeeded, not yet evicted results, least recently used first, without spec and result.
@@ -138,7 +140,7 @@ class JobDb {
   std::unordered_map<std::string, double> blob_last_used();
   // Marks as evicted every succeeded result that refers to one of these (removed) blobs, so the cache stops
   // answering with it and a fetch says why. Returns how many.
-  size_t mark_results_evicted(const std::unordered_set<std::string>& removed_digests);
+  size_t mark_results_evicted(const std::unordered_set<std::string>& removed_digests) override;
 
  private:
   struct Impl;
@@ -147,6 +149,14 @@ class JobDb {
   JobDbOptions options_;
   std::mutex mu_;
 };
+
+// Digest lists as comma-separated lowercase hex: plain text, readable with the sqlite3 shell and redis-cli alike.
+std::string join_digests(const std::vector<std::string>& digests);
+std::vector<std::string> split_digests(const std::string& joined);
+
+// What an insert refuses before it touches the store (a missing type or spec_key, an empty or over-long idempotency
+// key, a malformed digest): throws StoreError(invalid_argument) naming the field. The farm's job records use it too.
+void check_new_job(const NewJob& job);
 
 // A new job id: 128 bits from the operating system's random source, as 32 lowercase hex digits.
 std::string new_job_id();

@@ -74,53 +74,73 @@ class Subscription {
   std::shared_ptr<State> state_;
 };
 
-// Thread-safe: any member may be called from any thread at the same time.
-class JobQueue {
+// The queue as the service and the workers use it. JobQueue (below) is one node's; the farm's (daemon/cluster/)
+// claims from Redis and keeps a JobQueue for what is only its node's business (docs/SCALING.md). See JobQueue for
+// each member's contract. Implementations are thread-safe.
+class WorkQueue {
  public:
   using Callback = std::function<void(const Progress&)>;
+  virtual ~WorkQueue() = default;
 
+  virtual bool push(const std::string& id, int32_t priority, int64_t seq) = 0;
+  virtual std::optional<QueuedJob> pop(std::stop_token stop = {}) = 0;
+  virtual CancelOutcome cancel(std::string_view id) = 0;
+  virtual std::shared_ptr<std::atomic<bool>> cancel_flag(std::string_view id) = 0;
+  virtual size_t size() const = 0;
+  virtual size_t running() const = 0;
+  virtual std::vector<std::string> running_ids() const = 0;
+  virtual void shutdown() = 0;
+  virtual bool is_shut_down() const = 0;
+  virtual void publish(std::string_view id, Progress progress) = 0;
+  virtual void finish(std::string_view id, Progress final_progress) = 0;
+  virtual Subscription subscribe(std::string_view id, Callback callback) = 0;
+};
+
+// Thread-safe: any member may be called from any thread at the same time.
+class JobQueue : public WorkQueue {
+ public:
   JobQueue();
-  ~JobQueue();  // shuts down; subscriptions outlive it safely (they go quiet)
+  ~JobQueue() override;  // shuts down; subscriptions outlive it safely (they go quiet)
   JobQueue(const JobQueue&) = delete;
   JobQueue& operator=(const JobQueue&) = delete;
 
   // Queues a job and starts tracking it (cancel flag, progress "queued"). Every job pushed stays tracked until
   // finish(id), whether it ran, was removed or was cancelled. Returns false, changing nothing, if the id is already
   // tracked or after shutdown().
-  bool push(const std::string& id, int32_t priority, int64_t seq);
+  bool push(const std::string& id, int32_t priority, int64_t seq) override;
   // Blocks until a job is available, then returns it (it is now running, and its watchers are told so). Returns
   // nothing once `stop` is requested or the queue is shut down.
-  std::optional<QueuedJob> pop(std::stop_token stop = {});
+  std::optional<QueuedJob> pop(std::stop_token stop = {}) override;
   // Non-blocking pop.
   std::optional<QueuedJob> try_pop();
   // Takes a waiting job out of the queue (still tracked until finish()). False if it was not waiting.
   bool remove(std::string_view id);
   // Removes a waiting job (and sets its flag), or sets a running job's cancel flag.
-  CancelOutcome cancel(std::string_view id);
+  CancelOutcome cancel(std::string_view id) override;
   // The cancel flag of a queued or running job.
-  std::shared_ptr<std::atomic<bool>> cancel_flag(std::string_view id);
+  std::shared_ptr<std::atomic<bool>> cancel_flag(std::string_view id) override;
 
-  size_t size() const;     // jobs waiting
-  size_t running() const;  // jobs popped and not yet finished
+  size_t size() const override;     // jobs waiting
+  size_t running() const override;  // jobs popped and not yet finished
   bool is_queued(std::string_view id) const;
-  std::vector<std::string> running_ids() const;  // e.g. to signal them at a shutdown's grace deadline
+  std::vector<std::string> running_ids() const override;  // e.g. to signal them at a shutdown's grace deadline
 
   // Wakes every pop() (they return nothing) and refuses further pushes. Jobs still waiting stay queued in the
   // database and run after the next start.
-  void shutdown();
-  bool is_shut_down() const;
+  void shutdown() override;
+  bool is_shut_down() const override;
 
   // --- Progress ---
   // Records the job's latest progress (non-finite numbers become unknown, fraction is clamped to [0, 1]) and
   // notifies its watchers. Ignored for a job that is not tracked.
-  void publish(std::string_view id, Progress progress);
+  void publish(std::string_view id, Progress progress) override;
   // Publishes the final state, then stops tracking the job: later subscribe() calls get nothing, and the daemon
   // answers those from the database. Record the final state in the database first, so no watcher misses it.
-  void finish(std::string_view id, Progress final_progress);
+  void finish(std::string_view id, Progress final_progress) override;
   std::optional<Progress> latest(std::string_view id) const;
   // Watches a tracked job; the callback receives the latest snapshot at once (from this call) and then as
   // described at Subscription. Returns an empty handle if the job is not tracked (finished or unknown).
-  Subscription subscribe(std::string_view id, Callback callback);
+  Subscription subscribe(std::string_view id, Callback callback) override;
 
   struct Impl;  // opaque: defined in job_queue.cpp
 

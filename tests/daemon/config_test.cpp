@@ -183,10 +183,87 @@ TEST(Config, TlsFilesGoTogether) {
             std::string::npos);
 }
 
+TEST(Config, FarmSettingsComeFromFlagsOrTheFile) {
+  const std::string f = write_file("farm.conf",
+                                   "cluster: \"redis://10.0.0.5:6379/2\"\nnode_name: \"bake-07\"\n"
+                                   "cluster_lease_seconds: 20\nworkers: 0\n");
+  Config c = parse_command_line({"--config", f, "--socket", "s", "--listen", ""}).config;
+  EXPECT_EQ(c.cluster, "redis://10.0.0.5:6379/2");
+  EXPECT_EQ(c.node_name, "bake-07");
+  EXPECT_EQ(c.cluster_lease_seconds, 20);
+  EXPECT_EQ(c.workers, 0u);  // an accept-only node: allowed in a farm
+  EXPECT_NO_THROW(validate(c));
+  c = parse_command_line({"--cluster", "unix:/run/redis.sock", "--workers", "0", "--node-name", "a"}).config;
+  EXPECT_EQ(c.cluster, "unix:/run/redis.sock");
+  auto refused = [](Config bad, const std::string& fragment) {
+    bad.socket = "s";
+    bad.listen.clear();
+    try {
+      validate(bad);
+      ADD_FAILURE() << "accepted: " << fragment;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  };
+  Config lease = c;
+  lease.cluster_lease_seconds = 0.5;
+  refused(lease, "cluster_lease_seconds: must be in [1, 3600]");
+  Config name = c;
+  name.node_name = "a/b";
+  refused(name, "node_name");
+  // A farm enforces the store limit (docs/FARM.md, "Retention"), within its retention settings' ranges.
+  Config retention = c;
+  retention.socket = "s";
+  retention.listen.clear();
+  retention.store_limit_bytes = 1 << 30;
+  EXPECT_NO_THROW(validate(retention));
+  retention.cluster_job_retention_seconds = -1;
+  refused(retention, "cluster_job_retention_seconds");
+  retention.cluster_job_retention_seconds = 0;  // kept forever
+  retention.cluster_eviction_grace_seconds = 400 * 86400.0;
+  refused(retention, "cluster_eviction_grace_seconds");
+  const Config kept = parse_command_line({"--cluster", "unix:/r.sock", "--cluster-job-retention", "0",
+                                          "--cluster-eviction-grace", "600"})
+                          .config;
+  EXPECT_EQ(kept.cluster_job_retention_seconds, 0);
+  EXPECT_EQ(kept.cluster_eviction_grace_seconds, 600);
+  Config alone = c;
+  alone.cluster.clear();
+  refused(alone, "--workers 0");
+}
+
+TEST(Config, TheShippedFarmNodeConfigIsValid) {
+  Config c;
+  load_config_file(std::string(KILN_SOURCE_DIR) + "/deploy/kilnd-farm.conf", c);
+  EXPECT_EQ(c.cluster, "redis://redis.farm.lan:6379/0");
+  EXPECT_EQ(c.store, "/srv/kiln-store");  // the path deploy/kilnd-farm@.service waits for and may write
+  EXPECT_FALSE(c.cluster_password_file.empty());
+  EXPECT_NO_THROW(validate(c));
+}
+
+TEST(Config, TheRedisPasswordFileMustBeTheOwnersAlone) {
+  Config c;
+  EXPECT_EQ(read_cluster_password(c), "");  // no file, no password
+  c.cluster_password_file = write_file("redis-password", "s3cret\n");
+  std::filesystem::permissions(c.cluster_password_file, std::filesystem::perms::owner_read |
+                                                            std::filesystem::perms::owner_write |
+                                                            std::filesystem::perms::group_read);
+  try {
+    read_cluster_password(c);
+    ADD_FAILURE() << "a group-readable password file was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("chmod 600"), std::string::npos) << e.what();
+  }
+  std::filesystem::permissions(c.cluster_password_file,
+                               std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  EXPECT_EQ(read_cluster_password(c), "s3cret");
+}
+
 TEST(Config, HelpListsEveryFlag) {
   const std::string u = usage();
   for (const char* f : {"--config", "--listen", "--socket", "--store", "--token-file", "--workers", "--threads",
-                        "--tls-cert", "--tls-key", "--tls-client-ca", "--insecure-tcp"}) {
+                        "--tls-cert", "--tls-key", "--tls-client-ca", "--insecure-tcp", "--cluster",
+                        "--cluster-password-file", "--node-name", "--cluster-lease"}) {
     EXPECT_NE(u.find(f), std::string::npos) << f;
   }
   EXPECT_TRUE(parse_command_line({"--workers", "bad", "--help"}).help);  // --help wins over a bad flag

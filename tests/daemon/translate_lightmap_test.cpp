@@ -549,6 +549,10 @@ TEST(TranslateLightmap, AtlasFieldsMapOntoTheBakersInput) {
   EXPECT_EQ(in.atlas.texel_density, 20);
   EXPECT_EQ(in.atlas.page_size, 512);
   EXPECT_EQ(in.atlas.max_pages, 8);
+  EXPECT_FALSE(in.atlas.uniform_pages);
+  v1::JobSpec uniform = atlas_job();
+  uniform.mutable_lightmap()->set_uniform_pages(true);
+  EXPECT_TRUE(translate(uniform).lightmap().atlas.uniform_pages);
   ASSERT_EQ(in.atlas.instances.size(), 2u);
   EXPECT_EQ(in.atlas.instances.at(0).texel_density, 40);
   EXPECT_FALSE(in.atlas.instances.at(0).own_page);
@@ -609,6 +613,13 @@ TEST(TranslateLightmap, BadAtlasFieldsAreNamedByTheirPath) {
          lm(s)->clear_texel_density();
          lm(s)->clear_page_size();
        }},
+      {"job.lightmap.uniform_pages",
+       [&](v1::JobSpec& s) {
+         lm(s)->clear_texel_density();
+         lm(s)->clear_page_size();
+         lm(s)->clear_max_pages();
+         lm(s)->set_uniform_pages(true);
+       }},
       {"job.lightmap.instances[0].texel_density",
        [&](v1::JobSpec& s) {
          lm(s)->clear_texel_density();
@@ -633,6 +644,7 @@ TEST(TranslateLightmap, AtlasSettingsAreInTheCacheKey) {
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_texel_density(21); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_page_size(256); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->set_max_pages(7); },
+      [](v1::JobSpec& s) { s.mutable_lightmap()->set_uniform_pages(true); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_instances(0)->set_texel_density(41); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_instances(1)->set_own_page(false); },
       [](v1::JobSpec& s) { s.mutable_lightmap()->mutable_instances(0)->set_name("right tile"); },

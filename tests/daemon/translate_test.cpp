@@ -140,7 +140,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadSpec{"material { layered { specular_weight: 0.3 specular { ggx { } } } }",
                 "job.material.layered.specular_weight", "COMBINE_WEIGHTS only"},
         BadSpec{"material { }", "job.material", "no model given"},
-        BadSpec{"", "job", "no job given: set material, environment or lightmap"},
+        BadSpec{"", "job", "no job given: set material, environment, lightmap or probes"},
         BadSpec{"material { ggx { } table_mu: 0 }", "job.material.table_mu", "got 0"},
         BadSpec{"material { ggx { } table_mu: 100000 }", "job.material.table_mu", "got 100000"},
         BadSpec{"material { ggx { } table_roughness: 1 }", "job.material.table_roughness", "got 1"},

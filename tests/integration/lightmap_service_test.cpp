@@ -23,6 +23,7 @@
 #include "proto/digest.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
+#include "tests/integration/kiln_cli_run.h"
 #include "tests/integration/service_client.h"
 #include "tests/support/run_command.h"
 
@@ -33,33 +34,18 @@ namespace fs = std::filesystem;
 using client::Client;
 using test::connect;
 using test::Daemon;
+using test::read;
 
 fs::path source_dir() { return fs::path(KILN_SOURCE_DIR); }
 
 #ifdef KILN_BIN
-struct CliRun {
-  int status = -1;
-  std::string said;
-};
-
-CliRun kiln(const Daemon& d, const std::string& args) {
-  const fs::path token = d.dir() / "cli-token";
-  if (!fs::exists(token)) std::ofstream(token) << d.token() << "\n";
-  const std::string command =
-      std::string(KILN_BIN) + " --server " + d.tcp() + " --token-file " + token.string() + " " + args + " 2>&1";
-  const test::CommandResult r = test::run_command(command);
-  return {r.status, r.output};
-}
+using test::CliRun;
+using test::kiln;
 
 std::string job_id(const std::string& said) {
   std::smatch m;
   if (!std::regex_search(said, m, std::regex("submitted job ([0-9a-f]+)"))) return "";
   return m[1];
-}
-
-std::string read(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
 TEST(LightmapService, KilnBakeLightmapWritesValidOutputsAndTheSecondRunIsACacheHit) {
@@ -200,9 +186,12 @@ TEST(LightmapService, TexelDensityBakesAtlasPagesWithAManifest) {
   for (const nlohmann::json& page : manifest["pages"]) {
     const std::string name = page["name"];
     pages.insert(name);
-    EXPECT_EQ(page["size"], 64);
+    // Each page is page_size at most, shrunk to its charts in steps of 4 texels.
+    const int size = page["size"];
+    EXPECT_LE(size, 64);
+    EXPECT_EQ(size % 4, 0);
     const image::FloatImage irradiance = image::decode_exr(read(out / (name + "_irradiance.exr")));
-    EXPECT_EQ(irradiance.width, 64) << name;
+    EXPECT_EQ(irradiance.width, size) << name;
     for (const char* kind : {"_validity.exr", "_error.exr", "_preview.png"}) {
       EXPECT_TRUE(fs::exists(out / (name + kind))) << name << kind;
     }
@@ -273,11 +262,7 @@ TEST(LightmapService, CorruptMeshBlobsAndBadFieldsAreClearErrorsAndTheDaemonGoes
   // Still serving: it lists lightmap jobs among its types and reports its status.
   const v1::ServerStatus status = c.status();
   EXPECT_GE(status.jobs_failed(), 1u);
-  Client fresh(d.tcp());
-  bool lightmap = false;
-  const v1::HelloReply hello = fresh.hello(d.token());
-  for (const std::string& t : hello.job_types()) lightmap |= t == "lightmap";
-  EXPECT_TRUE(lightmap);
+  EXPECT_TRUE(test::serves_job_type(d, "lightmap"));
 }
 
 }  // namespace

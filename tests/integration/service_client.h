@@ -18,6 +18,15 @@ inline client::Client connect(const Daemon& d, bool unix_socket = false) {
   return c;
 }
 
+// Whether a fresh connection's Hello lists `type` among the job types the server bakes.
+inline bool serves_job_type(const Daemon& d, const std::string& type) {
+  client::Client fresh(d.tcp());
+  const v1::HelloReply hello = fresh.hello(d.token());
+  for (const std::string& t : hello.job_types())
+    if (t == type) return true;
+  return false;
+}
+
 inline v1::JobSpec ggx_job(double alpha, uint64_t samples = 1024, int table = 8) {
   v1::JobSpec spec;
   spec.set_name("ggx " + std::to_string(alpha));
