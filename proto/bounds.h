@@ -71,4 +71,27 @@ inline constexpr WholeRange kAtlasMaxPages{1, 4096};
 // The most memory a bake may hold, bytes: 64 MiB to 1 PiB.
 inline constexpr WholeRange kLightmapMemoryLimit{int64_t{1} << 26, int64_t{1} << 50};
 
+// --- Participating media (LightmapJob.media; docs/MEDIA.md) ---------------------------------------------------------
+inline constexpr WholeRange kLightmapMedia{0, 16};  // media in one job
+// sigma_a and sigma_s each channel, per metre (per scene unit); for a VDB medium, per unit of density. 1e6 m^-1 is a
+// mean free path of a micrometre: opaque at any scene scale.
+inline constexpr Range kMediumCoefficient{0.0, 1e6};
+// Henyey-Greenstein asymmetry g; +-1 (a Dirac delta) is accepted and narrowed by the phase function.
+inline constexpr Range kMediumAsymmetry{-1.0, 1.0};
+inline constexpr Range kMediumEmission{0.0, 1e6};  // emitted radiance Le (or the scale of an emission grid)
+// A VDB blob: its bytes, the active voxels of each grid read from it, the extent of a grid's active voxels in voxels
+// along each axis, and the world-space size of a voxel (the grid's own transform, before the medium's).
+inline constexpr WholeRange kVdbBytes{1, int64_t{256} << 20};
+inline constexpr WholeRange kVdbActiveVoxels{0, int64_t{1} << 26};
+inline constexpr WholeRange kVdbExtentVoxels{1, 1 << 16};
+inline constexpr Range kVdbVoxelSize{0.0, 1e6, true};
+
+// --- Light probes (ProbeVolume, in a ProbesJob or LightmapJob.probes; docs/PROBES.md) -------------------------------
+inline constexpr WholeRange kProbeRegions{0, 16};            // boxes in one volume
+inline constexpr Range kProbeCoordinate{-1e9, 1e9};          // each coordinate of a region's corners
+inline constexpr Range kProbeSpacing{0.0, 1e6, true};        // between neighbouring probes, scene units
+inline constexpr Range kProbeMaxDistance{0.0, 1e6};          // from the nearest triangle
+inline constexpr WholeRange kProbeCount{1, int64_t{1} << 22};  // max_probes: 2^22 probes: 16 GiB by the estimate
+inline constexpr int64_t kDefaultMaxProbes = int64_t{1} << 18;
+
 }  // namespace kiln::bounds

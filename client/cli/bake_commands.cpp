@@ -9,6 +9,7 @@
 #include "client/cli/follow.h"
 #include "client/cli/interrupt.h"
 #include "client/cli/lightmap_flags.h"
+#include "client/cli/probes_flags.h"
 #include "client/cli/outputs.h"
 #include "client/cli/progress.h"
 #include "client/cli/subcommands.h"
@@ -129,6 +130,12 @@ void upload_lightmap_inputs(Context& ctx, LightmapBake& bake, const client::Impo
           bake.env_file,
           [&](std::uint64_t done, std::uint64_t all) { printer.transfer(env_label, done, all, steady_seconds()); });
     }
+    if (!bake.vdb_file.empty()) {
+      const std::string vdb_label = "upload " + fs::path(bake.vdb_file).filename().string();
+      set_vdb_digest(bake, connected_client(ctx).upload_file(bake.vdb_file, [&](std::uint64_t done, std::uint64_t all) {
+        printer.transfer(vdb_label, done, all, steady_seconds());
+      }));
+    }
   });
   printer.finish();
 }
@@ -144,6 +151,21 @@ int cmd_bake_lightmap(Context& ctx, const Flags& f) {
   upload_lightmap_inputs(ctx, bake, scene);
   // The server names a field; the user wrote a flag, a scene file, an image or a job file.
   auto where = [&](const std::string& field) { return lightmap_field_origin(bake, field); };
+  return submit_and_follow_if_waiting(ctx, bake.spec, f, dir, where);
+}
+
+// `kiln bake probes`: the lightmap bake's scene, made a probes job once merged.
+int cmd_bake_probes(Context& ctx, const Flags& f) {
+  LightmapBake bake = lightmap_bake_from_flags(f);
+  priority_of(f);
+  idempotency_key_of(f);
+  const std::optional<fs::path> dir = out_dir_of(f);
+  require_lightmap_files(bake);
+  const client::ImportedScene scene = import_lightmap_scene(ctx.err, bake);
+  merge_scene(bake, scene.job);
+  upload_lightmap_inputs(ctx, bake, scene);
+  make_probes_job(bake.spec);
+  auto where = [&](const std::string& field) { return probes_field_origin(bake, field); };
   return submit_and_follow_if_waiting(ctx, bake.spec, f, dir, where);
 }
 
@@ -170,10 +192,11 @@ int cmd_bake(Context& ctx, const Flags& f) {
   }
   if (f.positional[0] == "env" || f.positional[0] == "environment") return cmd_bake_env(ctx, f);
   if (f.positional[0] == "lightmap") return cmd_bake_lightmap(ctx, f);
+  if (f.positional[0] == "probes") return cmd_bake_probes(ctx, f);
   if (f.positional[0] != "material") {
     throw UsageError("unknown job type '" + f.positional[0] +
-                     "': `kiln bake` bakes material, env or lightmap (see `kiln bake material --help`, `kiln bake env "
-                     "--help`, `kiln bake lightmap --help`)");
+                     "': `kiln bake` bakes material, env, lightmap or probes (see `kiln bake material --help`, `kiln "
+                     "bake env --help`, `kiln bake lightmap --help`, `kiln bake probes --help`)");
   }
   return cmd_bake_material(ctx, f);
 }

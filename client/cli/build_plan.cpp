@@ -14,6 +14,7 @@
 #include "client/cli/env_flags.h"
 #include "client/cli/job_file.h"
 #include "client/cli/lightmap_flags.h"
+#include "client/cli/probes_flags.h"
 #include "client/lib/client.h"
 
 namespace kiln::cli {
@@ -62,6 +63,8 @@ std::string job_type_of(const v1::JobSpec& spec) {
       return "environment";
     case v1::JobSpec::kLightmap:
       return "lightmap";
+    case v1::JobSpec::kProbes:
+      return "probes";
     default:
       return "job";
   }
@@ -99,8 +102,10 @@ Flags command_flags(const std::vector<std::string>& words, const fs::path& dir) 
     specs = bake_env_flag_specs();
   } else if (type == "lightmap") {
     specs = bake_lightmap_flag_specs();
+  } else if (type == "probes") {
+    specs = bake_probes_flag_specs();
   } else {
-    throw UsageError("command: unknown bake type '" + type + "': expected material, env or lightmap");
+    throw UsageError("command: unknown bake type '" + type + "': expected material, env, lightmap or probes");
   }
   Flags f = parse_flags(words, specs, "kiln bake " + type);
   for (const RefusedFlag& r : kRefusedFlags) {
@@ -108,7 +113,7 @@ Flags command_flags(const std::vector<std::string>& words, const fs::path& dir) 
       throw UsageError(std::string("command: ") + r.flag + " has no place in a manifest; use " + r.instead);
   }
   for (std::size_t i = 1; i < f.positional.size(); ++i) f.positional[i] = resolve_path(dir, f.positional[i]).string();
-  for (const char* path_flag : {"--env", "--job"}) {
+  for (const char* path_flag : {"--env", "--job", "--vdb"}) {
     if (auto it = f.values.find(path_flag); it != f.values.end()) {
       for (auto& v : it->second) v = resolve_path(dir, v).string();
     }
@@ -144,8 +149,14 @@ void plan_lightmap(PlannedBake& bake, const Flags& f, BuildPlan& plan, std::ostr
     *lightmap->spec.mutable_lightmap()->mutable_environment()->mutable_image() =
         add_file_blob(plan, lightmap->env_file);
   }
+  if (!lightmap->vdb_file.empty()) set_vdb_digest(*lightmap, add_file_blob(plan, lightmap->vdb_file));
+  // `probes SCENE ...`: the same scene, made a probes job.
+  const bool probes = f.positional[0] == "probes";
+  if (probes) make_probes_job(lightmap->spec);
   bake.spec = lightmap->spec;
-  bake.where = [lightmap](const std::string& field) { return lightmap_field_origin(*lightmap, field); };
+  bake.where = [lightmap, probes](const std::string& field) {
+    return probes ? probes_field_origin(*lightmap, field) : lightmap_field_origin(*lightmap, field);
+  };
 }
 
 void plan_job_file(PlannedBake& bake, const fs::path& file) {
@@ -171,7 +182,7 @@ PlannedBake plan_one(const ManifestBake& m, const std::string& name, const std::
     const Flags f = command_flags(words, manifest.dir);
     if (words[0] == "material") {
       plan_material(bake, f);
-    } else if (words[0] == "lightmap") {
+    } else if (words[0] == "lightmap" || words[0] == "probes") {
       plan_lightmap(bake, f, plan, err);
     } else {
       plan_environment(bake, f, plan);

@@ -18,7 +18,7 @@ namespace kiln::cli {
 struct PlannedBake {
   std::string name;    // the manifest's, NAME/STEM for a glob's file
   std::string origin;  // "MANIFEST:LINE:COLUMN" of its entry
-  std::string type;    // the JobSpec's job: "material", "environment" or "lightmap"
+  std::string type;    // the JobSpec's job: "material", "environment", "lightmap" or "probes"
   v1::JobSpec spec;    // with its inputs' digests
   std::filesystem::path output;
   std::int32_t priority = 0;

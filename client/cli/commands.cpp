@@ -10,6 +10,7 @@
 #include "client/cli/context.h"
 #include "client/cli/env_flags.h"
 #include "client/cli/lightmap_flags.h"
+#include "client/cli/probes_flags.h"
 #include "client/cli/subcommands.h"
 
 namespace kiln::cli {
@@ -110,6 +111,7 @@ std::string bake_type_of(const std::vector<std::string>& rest) {
 // The help of `command` (for `kiln bake`, of the bake type).
 const char* help_of(const Command& command, const std::string& bake_type) {
   if (is_env_type(bake_type)) return kBakeEnvHelp.c_str();
+  if (bake_type == "probes") return kBakeProbesHelp.c_str();
   return bake_type == "lightmap" ? kBakeLightmapHelp.c_str() : command.help;
 }
 
@@ -141,6 +143,7 @@ bool asks_for_help(const std::vector<std::string>& rest) {
 std::vector<FlagSpec> flag_specs_of(const Command& command, const std::string& bake_type) {
   if (std::string(command.name) == "bake") {
     if (is_env_type(bake_type)) return bake_env_flag_specs();
+    if (bake_type == "probes") return bake_probes_flag_specs();
     return bake_type == "lightmap" ? bake_lightmap_flag_specs() : bake_material_flag_specs();
   }
   std::vector<FlagSpec> specs = command.flags;
@@ -152,6 +155,7 @@ std::vector<FlagSpec> flag_specs_of(const Command& command, const std::string& b
 std::string full_name_of(const std::string& name, const std::string& bake_type) {
   if (name != "bake") return "kiln " + name;
   if (is_env_type(bake_type)) return "kiln bake env";
+  if (bake_type == "probes") return "kiln bake probes";
   return bake_type == "lightmap" ? "kiln bake lightmap" : "kiln bake material";
 }
 

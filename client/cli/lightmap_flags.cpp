@@ -9,6 +9,7 @@
 
 #include "client/cli/job_file.h"
 #include "client/cli/job_flags.h"
+#include "client/cli/probes_flags.h"
 #include "proto/text.h"
 
 namespace kiln::cli {
@@ -48,6 +49,8 @@ atlas pages (none of these: one lightmap per mesh at --resolution):
   --page-size N                texels on a side of a page, [16, 8192]; default 1024
   --max-pages N                most pages, [1, 4096]; default 4 (fewer for pages above 2048^2); charts that do not fit
                                are all scaled down to fit, and the report says by how much
+  --uniform-pages              every page --page-size on a side (for a texture array); default: each page the
+                               smallest square (a multiple of 4 texels) that holds its charts
   --memory-limit BYTES         the most memory the bake may hold, [64M, 1P], e.g. 4G (K, M, G, T: x1024); default
                                and upper bound: the server's --memory-limit. A bake larger than that samples its
                                lightmaps a tile at a time (the same images within the noise; report.json's memory)
@@ -66,9 +69,20 @@ lightmap UVs:
   --no-preview                 do not render NAME_preview.png
   --no-stitch-seams            write the texels along seams as baked: do not adjust them so that bilinear lookups on
                                both sides of an edge that lies on two chart borders agree (stitching is on by default)
+light probes (docs/PROBES.md), baked in the same job: probes.vdb, probes_preview.png:
+  --probes S                   bake light probes S scene units apart, (0, 1e6], within --max-distance of geometry
+  --max-distance D             probes only within D of a triangle, [0, 1e6]; default 2 x spacing
+  --max-probes N               [1, 4194304]; default 262144 (more double the spacing; the report says so)
+  --region LX,LY,LZ,HX,HY,HZ   a box to fill with probes (repeatable, at most 16); default: the scene's bounds grown
+                               by --max-distance
+participating media (docs/MEDIA.md):
+  --fog SA,SS[,G]              fog filling the scene: absorption and scattering coefficients per metre (grey), each
+                               in [0, 1e6], and the Henyey-Greenstein asymmetry G in [-1, 1] (default 0); coloured
+                               coefficients, boxes and VDB media go in the job file's media
+  --vdb FILE.vdb               an OpenVDB file, uploaded, for the job file's vdb media that give no file digest
   --job FILE.textproto         a kiln.v1.LightmapJob in protobuf text format merged over the imported scene: its
                                material_overrides (any material by name, with any model of the BRDF library), lights
-                               (point, spot, directional sun, rect, disk) and environment are added, its settings
+                               (point, spot, directional sun, rect, disk), media and environment are added, its settings
                                used where no flag is given; meshes, instances, materials and textures come from SCENE
   --force EFFECT=on|off        make the planner simulate or skip an effect, by the name its plan reports (repeatable)
   --name TEXT                  a name for people in `kiln jobs` (default: the scene file and its flags)
@@ -81,19 +95,24 @@ example:
 
 namespace {
 
-const char* const kJobFlags[] = {"--env-constant", "--env-rotation", "--env-intensity", "--resolution",
-                                 "--target-error", "--max-samples",  "--time-limit",    "--seed",
-                                 "--padding",      "--max-bounces",  "--error-metric",  "--texel-density",
-                                 "--page-size",    "--max-pages",    "--memory-limit", "--generate-uvs"};
+const char* const kJobFlags[] = {
+    "--env-constant", "--env-rotation", "--env-intensity", "--resolution",   "--target-error", "--max-samples",
+    "--time-limit",   "--seed",         "--padding",       "--max-bounces",  "--error-metric", "--texel-density",
+    "--page-size",    "--max-pages",    "--memory-limit",  "--generate-uvs", "--fog"};
 
 std::string default_name(const Flags& f, const std::string& scene) {
-  std::string name = "lightmap " + std::filesystem::path(scene).filename().string();
+  std::string name = f.positional[0] + " " + std::filesystem::path(scene).filename().string();
   if (auto v = f.get("--env")) name += " env=" + std::filesystem::path(*v).filename().string();
   name += given_flag_words(f, kJobFlags);
-  for (const char* flag : {"--radiance", "--ao", "--directional", "--denoise", "--no-preview", "--no-stitch-seams"}) {
+  for (const char* flag :
+       {"--radiance", "--ao", "--directional", "--denoise", "--no-preview", "--no-stitch-seams", "--uniform-pages"}) {
     if (f.has(flag)) name += " " + std::string(flag + 2);
   }
   if (auto v = f.get("--job")) name += " job=" + std::filesystem::path(*v).filename().string();
+  if (auto v = f.get("--vdb")) name += " vdb=" + std::filesystem::path(*v).filename().string();
+  for (const char* flag : {"--spacing", "--probes", "--max-distance", "--max-probes", "--region"}) {
+    for (const std::string& v : f.all(flag)) name += " " + std::string(flag + 2) + "=" + v;
+  }
   return name;
 }
 
@@ -164,12 +183,54 @@ void set_environment(const Flags& f, LightmapBake& bake) {
   }
 }
 
+// --fog SA,SS[,G]: a grey medium filling the scene.
+void add_fog(const Flags& f, LightmapBake& bake) {
+  const auto v = f.get("--fog");
+  if (!v) return;
+  std::vector<std::string> parts;
+  std::stringstream ss(*v);
+  for (std::string item; std::getline(ss, item, ',');) parts.push_back(item);
+  if (!v->empty() && v->back() == ',') parts.push_back("");
+  if (parts.size() != 2 && parts.size() != 3) {
+    throw UsageError("--fog: expected SIGMA_A,SIGMA_S or SIGMA_A,SIGMA_S,G (per metre; G the phase asymmetry), got '" +
+                     *v + "'");
+  }
+  v1::Medium* fog = bake.spec.mutable_lightmap()->add_media();
+  fog->set_name("fog");
+  fog->set_fog(true);
+  parse_color("--fog", parts[0], bounds::kMediumCoefficient, fog->mutable_sigma_a());
+  parse_color("--fog", parts[1], bounds::kMediumCoefficient, fog->mutable_sigma_s());
+  if (parts.size() == 3) fog->set_g(parse_number_in("--fog", parts[2], bounds::kMediumAsymmetry));
+}
+
+// --vdb FILE: the job file must have a vdb medium that waits for it, and no flag medium can use it.
+void check_vdb_file(const Flags& f, LightmapBake& bake) {
+  const auto v = f.get("--vdb");
+  if (!v) return;
+  bake.vdb_file = *v;
+  for (const v1::Medium& m : bake.overlay.media()) {
+    if (m.has_vdb() && !m.vdb().has_file()) return;
+  }
+  throw UsageError(
+      "--vdb: no medium uses it: add to the job file a medium with `vdb { density_grid: \"density\" }` "
+      "and no file, which --vdb's file then fills");
+}
+
 }  // namespace
 
+void set_vdb_digest(LightmapBake& bake, const v1::Digest& digest) {
+  for (v1::Medium& m : *bake.spec.mutable_lightmap()->mutable_media()) {
+    if (m.has_vdb() && !m.vdb().has_file()) *m.mutable_vdb()->mutable_file() = digest;
+  }
+}
+
 std::vector<FlagSpec> bake_lightmap_flag_specs() {
-  return bake_flag_specs({"--name", "--out", "--priority", "--idempotency-key", "--env", "--job"}, kJobFlags,
-                         {"--radiance", "--ao", "--directional", "--denoise", "--no-preview", "--no-stitch-seams",
-                          "--wait"});
+  std::vector<FlagSpec> specs =
+      bake_flag_specs({"--name", "--out", "--priority", "--idempotency-key", "--env", "--job", "--vdb"}, kJobFlags,
+                      {"--radiance", "--ao", "--directional", "--denoise", "--no-preview", "--no-stitch-seams",
+                       "--uniform-pages", "--wait"});
+  for (FlagSpec& s : lightmap_probe_flag_specs()) specs.push_back(std::move(s));
+  return specs;
 }
 
 LightmapBake lightmap_bake_from_flags(const std::vector<std::string>& args) {
@@ -193,6 +254,8 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
   v1::LightmapJob* job = bake.spec.mutable_lightmap();
 
   set_environment(f, bake);
+  add_fog(f, bake);
+  check_vdb_file(f, bake);
   if (f.has("--resolution")) job->set_resolution(whole_flag(f, "--resolution", bounds::kLightmapResolution));
   if (f.has("--padding")) job->set_padding(whole_flag(f, "--padding", bounds::kLightmapPadding));
   if (f.has("--max-bounces")) job->set_max_bounces(whole_flag(f, "--max-bounces", bounds::kMaxBounces));
@@ -200,7 +263,8 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
     job->set_texel_density(parse_number_in("--texel-density", *v, bounds::kTexelDensity));
   if (f.has("--page-size")) job->set_page_size(whole_flag(f, "--page-size", bounds::kAtlasPageSize));
   if (f.has("--max-pages")) job->set_max_pages(whole_flag(f, "--max-pages", bounds::kAtlasMaxPages));
-  for (const char* flag : {"--page-size", "--max-pages"}) {
+  if (f.has("--uniform-pages")) job->set_uniform_pages(true);
+  for (const char* flag : {"--page-size", "--max-pages", "--uniform-pages"}) {
     if (f.has(flag) && !job->has_texel_density() && !bake.overlay.has_texel_density()) {
       throw UsageError(std::string(flag) + ": sizes atlas pages; add --texel-density D to pack them");
     }
@@ -231,8 +295,11 @@ LightmapBake lightmap_bake_from_flags(const Flags& f) {
       throw UsageError("--generate-uvs: '" + *v + "' is not a mode: auto, always or never");
     }
   }
-  if (f.has("--no-preview")) job->set_preview(false);
+  const bool probes_job = f.positional[0] == "probes";
+  if (f.has("--no-preview") && !probes_job) job->set_preview(false);
   if (f.has("--no-stitch-seams")) job->set_stitch_seams(false);
+  set_probe_flags(f, probes_job, bake.overlay.has_probes(), bake.probe_flags);
+  if (bake.probe_flags.ByteSizeLong() > 0) *job->mutable_probes() = bake.probe_flags;
 
   v1::Quality* q = bake.spec.mutable_quality();
   if (auto v = f.get("--max-samples")) {
@@ -256,12 +323,14 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
   // The flags: their settings over the job file's (an environment from the flags replaces the job file's whole).
   const v1::LightmapJob& flags = bake.spec.lightmap();
   if (flags.has_environment()) *merged.mutable_environment() = flags.environment();
+  for (const v1::Medium& m : flags.media()) *merged.add_media() = m;  // --fog, after the job file's
   if (flags.has_resolution()) merged.set_resolution(flags.resolution());
   if (flags.has_padding()) merged.set_padding(flags.padding());
   if (flags.has_max_bounces()) merged.set_max_bounces(flags.max_bounces());
   if (flags.has_texel_density()) merged.set_texel_density(flags.texel_density());
   if (flags.has_page_size()) merged.set_page_size(flags.page_size());
   if (flags.has_max_pages()) merged.set_max_pages(flags.max_pages());
+  if (flags.has_uniform_pages()) merged.set_uniform_pages(flags.uniform_pages());
   if (flags.has_memory_limit_bytes()) merged.set_memory_limit_bytes(flags.memory_limit_bytes());
   if (flags.radiance()) merged.set_radiance(true);
   if (flags.ao()) merged.set_ao(true);
@@ -271,6 +340,7 @@ void merge_scene(LightmapBake& bake, const v1::LightmapJob& imported) {
   if (flags.generate_uvs() != v1::GENERATE_UVS_DEFAULT) merged.set_generate_uvs(flags.generate_uvs());
   if (flags.has_preview()) merged.set_preview(flags.preview());
   if (flags.has_stitch_seams()) merged.set_stitch_seams(flags.stitch_seams());
+  if (flags.has_probes()) merge_probe_flags(flags.probes(), *merged.mutable_probes());
   *bake.spec.mutable_lightmap() = std::move(merged);
 }
 
@@ -278,6 +348,12 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
   const std::string prefix = "job.lightmap.";
   auto starts = [&](const std::string& p) { return field.rfind(prefix + p, 0) == 0; };
   if (starts("environment.image") && !bake.env_file.empty()) return bake.env_file;
+  if (starts("media[")) {
+    // --fog's medium comes after the job file's.
+    const int i = std::stoi(field.substr(prefix.size() + 6));
+    if (i >= bake.overlay.media_size()) return "--fog";
+    if (field.find(".vdb.file") != std::string::npos && !bake.overlay.media(i).vdb().has_file()) return bake.vdb_file;
+  }
   static const std::pair<const char*, const char*> kFlags[] = {
       {"resolution", "--resolution"},
       {"padding", "--padding"},
@@ -285,6 +361,7 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
       {"texel_density", "--texel-density"},
       {"page_size", "--page-size"},
       {"max_pages", "--max-pages"},
+      {"uniform_pages", "--uniform-pages"},
       {"memory_limit_bytes", "--memory-limit"},
       {"radiance", "--radiance"},
       {"ao", "--ao"},
@@ -294,6 +371,7 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
       {"generate_uvs", "--generate-uvs"},
       {"preview", "--no-preview"},
       {"stitch_seams", "--no-stitch-seams"},
+      {"probes.spacing", "--probes"},
       {"environment.constant", "--env-constant"},
       {"environment.rotation_degrees", "--env-rotation"},
       {"environment.intensity", "--env-intensity"},
@@ -322,12 +400,13 @@ std::string lightmap_field_origin(const LightmapBake& bake, const std::string& f
 }
 
 void require_lightmap_files(const LightmapBake& bake) {
-  for (const std::string& file : {bake.scene_file, bake.env_file}) {
+  for (const std::string& file : {bake.scene_file, bake.env_file, bake.vdb_file}) {
     std::error_code ec;
     if (!file.empty() && !std::filesystem::is_regular_file(file, ec)) {
       throw UsageError(file + ": no such file (" +
                        (file == bake.scene_file ? "the scene to bake: glTF, OBJ or FBX"
-                                                : "the environment: an equirectangular EXR, HDR, PNG or JPEG") +
+                        : file == bake.env_file ? "the environment: an equirectangular EXR, HDR, PNG or JPEG"
+                                                : "--vdb: an OpenVDB file") +
                        ")");
     }
   }
@@ -346,8 +425,8 @@ client::ImportedScene import_lightmap_scene(std::ostream& err, const LightmapBak
     err << "kiln: " << bake.scene_file << ": " << proto::printable(w) << "\n";
   }
   err << "kiln: " << bake.scene_file << ": " << scene.job.meshes_size() << " meshes, " << scene.job.instances_size()
-          << " instances, " << scene.job.materials_size() << " materials, " << scene.job.textures_size()
-          << " textures, " << scene.job.lights_size() << " lights\n";
+      << " instances, " << scene.job.materials_size() << " materials, " << scene.job.textures_size() << " textures, "
+      << scene.job.lights_size() << " lights\n";
   return scene;
 }
 

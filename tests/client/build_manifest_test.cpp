@@ -97,7 +97,7 @@ TEST_F(Manifests, CommandsAreKilnBakeLinesWithoutTheFlagsABuildGives) {
   EXPECT_EQ(error_of("bake { name: \"a\" command: \"material --model ggx --alpha 2\" output: \"o\" }", true),
             f + ":1:1: bake \"a\": --alpha: must be in (0, 1], got 2");
   EXPECT_EQ(error_of("bake { name: \"a\" command: \"probe x\" output: \"o\" }", true),
-            f + ":1:1: bake \"a\": command: unknown bake type 'probe': expected material, env or lightmap");
+            f + ":1:1: bake \"a\": command: unknown bake type 'probe': expected material, env, lightmap or probes");
   EXPECT_EQ(error_of("bake { name: \"a\" command: \"env sky.exr\" output: \"o\" }", true),
             f + ":1:1: bake \"a\": " + (tmp_.path() / "sky.exr").string() +
                 ": no such file (the environment to bake: an equirectangular EXR, HDR, PNG or JPEG)");

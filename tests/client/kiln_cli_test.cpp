@@ -32,6 +32,7 @@
 #include "client/cli/format.h"
 #include "client/cli/job_file.h"
 #include "client/cli/lightmap_flags.h"
+#include "client/cli/probes_flags.h"
 #include "client/cli/progress.h"
 #include "client/cli/report.h"
 #include "daemon/translate.h"
@@ -1506,8 +1507,16 @@ TEST(BakeLightmapFlags, AtlasFlagsMap) {
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.texel_density"), "--texel-density");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.page_size"), "--page-size");
   EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.max_pages"), "--max-pages");
+  EXPECT_FALSE(j.has_uniform_pages());
+  LightmapBake uniform = lightmap_bake_from_flags(std::vector<std::string>{
+      "lightmap", "scene.gltf", "--texel-density", "20", "--uniform-pages", "--out", "dir"});
+  merge_floor_scene(uniform);
+  EXPECT_TRUE(uniform.spec.lightmap().uniform_pages());
+  EXPECT_TRUE(daemon::translate(uniform.spec).lightmap().atlas.uniform_pages);
+  EXPECT_EQ(lightmap_field_origin(uniform, "job.lightmap.uniform_pages"), "--uniform-pages");
   for (const auto& [args, flag] : std::vector<std::pair<std::vector<std::string>, std::string>>{
            {{"--page-size", "512"}, "--page-size"},
+           {{"--uniform-pages"}, "--uniform-pages"},
            {{"--texel-density", "20", "--max-pages", "0"}, "--max-pages"},
            {{"--texel-density", "0"}, "--texel-density"},
            {{"--texel-density", "20", "--page-size", "8"}, "--page-size"}}) {
@@ -1539,6 +1548,119 @@ TEST(BakeLightmapFlags, MemoryLimitFlagMaps) {
       EXPECT_EQ(std::string(e.what()).rfind("--memory-limit", 0), 0u) << e.what();
     }
   }
+}
+
+// --fog adds a grey fog after the job file's media, the daemon's translation takes both, --vdb fills the job file's
+// vdb medium that gives no file, refusals map back to the flag or the job file, and malformed values are usage
+// errors naming --fog.
+TEST(BakeLightmapFlags, MediaFromTheFogFlagAndTheJobFile) {
+  const fs::path dir = fs::temp_directory_path() / ("kiln-media-flags-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path job = dir / "job.textproto";
+  std::ofstream(job) << "media { name: \"smoke\" vdb { density_grid: \"density\" } sigma_s { r: 2 g: 2 b: 2 } }\n"
+                        "media { name: \"mist\" box { lo { x: -1 } hi { x: 1 y: 1 z: 1 } } sigma_a { r: 0.5 } }\n";
+  LightmapBake bake = lightmap_bake_from_flags(std::vector<std::string>{
+      "lightmap", "scene.gltf", "--job", job.string(), "--fog", "0.01,0.05,0.3", "--vdb", "smoke.vdb"});
+  EXPECT_EQ(bake.vdb_file, "smoke.vdb");
+  merge_floor_scene(bake);
+  v1::Digest d;
+  d.set_sha256(std::string(64, 'c'));
+  d.set_size(4000);
+  set_vdb_digest(bake, d);
+  const v1::LightmapJob& j = bake.spec.lightmap();
+  ASSERT_EQ(j.media_size(), 3);
+  EXPECT_EQ(j.media(0).vdb().file().sha256(), d.sha256());
+  EXPECT_TRUE(j.media(2).fog());  // the flag's, last
+  EXPECT_EQ(j.media(2).sigma_a().g(), 0.01);
+  EXPECT_EQ(j.media(2).sigma_s().b(), 0.05);
+  EXPECT_EQ(j.media(2).g(), 0.3);
+  const daemon::BakeRequest r = daemon::translate(bake.spec);
+  ASSERT_EQ(r.lightmap().media.size(), 3u);
+  EXPECT_EQ(std::get<volume::HomogeneousMediumSpec>(r.lightmap().media[1].spec).sigma_a.r, 0.5);
+  EXPECT_EQ(std::get<volume::HomogeneousMediumSpec>(r.lightmap().media[2].spec).sigma_s.g, 0.05);
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.media[2].g"), "--fog");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.media[0].vdb.file"), "smoke.vdb");
+  EXPECT_EQ(lightmap_field_origin(bake, "job.lightmap.media[1].sigma_a.r"), job.string() + ":2:75");
+  for (const std::string bad : {"1", "1,2,3,4", "-1,0", "0,0,2", "a,b"}) {
+    try {
+      lightmap_bake_from_flags(std::vector<std::string>{"lightmap", "scene.gltf", "--fog", bad});
+      ADD_FAILURE() << "took --fog " << bad;
+    } catch (const UsageError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("--fog", 0), 0u) << e.what();
+    }
+  }
+  try {  // no medium waits for the file
+    lightmap_bake_from_flags(std::vector<std::string>{"lightmap", "scene.gltf", "--vdb", "smoke.vdb"});
+    ADD_FAILURE() << "took --vdb without a vdb medium";
+  } catch (const UsageError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--vdb", 0), 0u) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+
+// `kiln bake probes`: the probe flags over a job file's probes block become a probes job whose scene is the lightmap
+// bake's, the daemon's translation takes it, refusals map back to the flag or the file, and lightmap-only flags and a
+// missing spacing are usage errors. `--probes` on a lightmap bake sets the lightmap job's probes.
+TEST(BakeProbesFlags, FlagsAndJobFileBecomeAProbesJob) {
+  const fs::path dir = fs::temp_directory_path() / ("kiln-probes-flags-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path job = dir / "job.textproto";
+  std::ofstream(job) << "probes { max_distance: 3 max_probes: 5000 }\n";
+  auto bake_of = [](const std::vector<std::string>& args) {
+    return lightmap_bake_from_flags(parse_flags(args, bake_probes_flag_specs(), "kiln bake probes"));
+  };
+  LightmapBake bake = bake_of({"probes", "scene.gltf", "--job", job.string(), "--spacing", "0.5", "--max-distance",
+                               "1.5", "--region", "-1,0,-1,1,2,1", "--target-error", "0.05"});
+  merge_floor_scene(bake);
+  make_probes_job(bake.spec);
+  ASSERT_TRUE(bake.spec.has_probes());
+  const v1::ProbeVolume& v = bake.spec.probes().volume();
+  EXPECT_EQ(v.spacing(), 0.5);
+  EXPECT_EQ(v.max_distance(), 1.5);  // the flag over the file
+  EXPECT_EQ(v.max_probes(), 5000u);  // the file's
+  ASSERT_EQ(v.regions_size(), 1);
+  EXPECT_EQ(v.regions(0).hi().y(), 2);
+  EXPECT_FALSE(bake.spec.probes().scene().has_probes());
+  EXPECT_EQ(bake.spec.probes().scene().meshes(0).name(), "floor");
+  const daemon::BakeRequest r = daemon::translate(bake.spec);
+  EXPECT_STREQ(daemon::job_type(r), "probes");
+  EXPECT_EQ(r.lightmap().probes.spacing, 0.5);
+  EXPECT_EQ(probes_field_origin(bake, "job.probes.volume.spacing"), "--spacing");
+  EXPECT_EQ(probes_field_origin(bake, "job.probes.volume.regions[0].hi"), "--region");
+  EXPECT_EQ(probes_field_origin(bake, "job.probes.volume.max_probes"), job.string() + ":1:26");
+  EXPECT_EQ(probes_field_origin(bake, "job.quality.target_error"), "--target-error");
+  EXPECT_EQ(probes_field_origin(bake, "job.probes.scene.meshes[0].geometry"), "scene.gltf");
+  auto usage = [&](const std::vector<std::string>& args) -> std::string {
+    try {
+      LightmapBake b = bake_of(args);
+      merge_floor_scene(b);
+      make_probes_job(b.spec);
+    } catch (const UsageError& e) {
+      return e.what();
+    }
+    return "(accepted)";
+  };
+  EXPECT_EQ(usage({"probes", "scene.gltf"}).rfind("--spacing: missing", 0), 0u);
+  EXPECT_EQ(usage({"probes", "scene.gltf", "--spacing", "0"}).rfind("--spacing", 0), 0u);
+  EXPECT_EQ(usage({"probes", "scene.gltf", "--spacing", "1", "--region", "0,0,0,1,1"}).rfind("--region", 0), 0u);
+  // A lightmap-only flag is not one of `kiln bake probes`'s.
+  EXPECT_NE(usage({"probes", "scene.gltf", "--spacing", "1", "--resolution", "8"}).find("--resolution"),
+            std::string::npos);
+
+  LightmapBake both = lightmap_bake_from_flags(
+      std::vector<std::string>{"lightmap", "scene.gltf", "--probes", "0.25", "--max-probes", "100"});
+  merge_floor_scene(both);
+  EXPECT_EQ(both.spec.lightmap().probes().spacing(), 0.25);
+  EXPECT_EQ(both.spec.lightmap().probes().max_probes(), 100u);
+  EXPECT_EQ(lightmap_field_origin(both, "job.lightmap.probes.spacing"), "--probes");
+  try {
+    lightmap_bake_from_flags(std::vector<std::string>{"lightmap", "scene.gltf", "--max-distance", "1"});
+    ADD_FAILURE() << "took --max-distance without --probes";
+  } catch (const UsageError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--max-distance", 0), 0u) << e.what();
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace

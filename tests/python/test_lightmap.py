@@ -148,12 +148,31 @@ class LightmapJobKeywords(unittest.TestCase):
         floor = floor_mesh()
         job = kiln.lightmap_job([floor], instances=[{"mesh": "floor", "name": "left", "texel_density": 40},
                                                     {"mesh": 0, "name": "right", "own_page": True}],
-                                texel_density=20, page_size=2048, max_pages=3)
+                                texel_density=20, page_size=2048, max_pages=3, uniform_pages=True)
         j = job.lightmap
-        self.assertEqual((j.texel_density, j.page_size, j.max_pages), (20.0, 2048, 3))
+        self.assertEqual((j.texel_density, j.page_size, j.max_pages, j.uniform_pages), (20.0, 2048, 3, True))
         self.assertEqual((j.instances[0].name, j.instances[0].texel_density), ("left", 40.0))
         self.assertTrue(j.instances[1].own_page)
         self.assertFalse(j.instances[1].HasField("texel_density"))
+
+    def test_media_keywords(self):
+        floor = floor_mesh()
+        smoke = kiln.pb.Digest(sha256="c" * 64, size=4000)
+        job = kiln.lightmap_job([floor], media=[
+            {"name": "haze", "fog": True, "sigma_a": 0.01, "sigma_s": (0.1, 0.2, 0.3), "g": 0.5},
+            {"box": {"lo": (-1, 0, -1), "hi": (1, 2, 1)}, "emission": 2},
+            {"vdb": {"file": smoke, "emission_grid": "heat", "transform": [[2, 0, 0, 1], [0, 2, 0, 0], [0, 0, 2, 0]]},
+             "sigma_s": 1}])
+        m = job.lightmap.media
+        self.assertEqual(len(m), 3)
+        self.assertTrue(m[0].fog)
+        self.assertEqual((m[0].sigma_a.g, m[0].sigma_s.b, m[0].g), (0.01, 0.3, 0.5))
+        self.assertEqual((m[1].box.lo.x, m[1].box.hi.y, m[1].emission.r), (-1, 2, 2))
+        self.assertEqual(m[2].vdb.file, smoke)
+        self.assertEqual(list(m[2].vdb.transform), [2, 0, 0, 1, 0, 2, 0, 0, 0, 0, 2, 0])
+        self.assertEqual(m[2].vdb.emission_grid, "heat")
+        with self.assertRaisesRegex(TypeError, r"job.lightmap.media\[0\]: Medium has no field 'fgo'"):
+            kiln.lightmap_job([floor], media=[{"fgo": True}])
 
     def test_mistakes_name_their_field(self):
         floor = floor_mesh()
@@ -169,6 +188,27 @@ class LightmapJobKeywords(unittest.TestCase):
             kiln.lightmap_job([])
         with self.assertRaisesRegex(TypeError, r"job.lightmap.meshes\[0\]"):
             kiln.lightmap_job(["floor"])
+
+
+class ProbesKeywords(unittest.TestCase):
+    """kiln.probes_job: the scene as lightmap_job builds it, the probe settings in a ProbesJob's volume."""
+
+    def test_scene_and_volume(self):
+        floor = floor_mesh()
+        job = kiln.probes_job([floor], spacing=0.5, max_distance=1.5, regions=[((0, 0, -1), (1, 1, 0))],
+                              environment=1, lights=[{"point": {"position": (0, 2, 0)}}], target_error=0.1)
+        self.assertEqual(job.WhichOneof("job"), "probes")
+        self.assertEqual(job.probes.scene.meshes[0].name, "floor")
+        self.assertEqual(len(job.probes.scene.lights), 1)
+        v = job.probes.volume
+        self.assertEqual((v.spacing, v.max_distance), (0.5, 1.5))
+        self.assertFalse(v.HasField("max_probes"))
+        self.assertEqual((v.regions[0].lo.z, v.regions[0].hi.y), (-1, 1))
+        self.assertEqual(job.quality.target_error, 0.1)
+        with self.assertRaisesRegex(TypeError, r"job.probes.volume.regions\[0\]: expected \(lo, hi\)"):
+            kiln.probes_job([floor], spacing=0.5, regions=[(0, 0, 0)])
+        both = kiln.lightmap_job([floor], probes={"spacing": 0.25, "regions": [{"lo": (0, 0, -1), "hi": (1, 1, 0)}]})
+        self.assertEqual(both.lightmap.probes.spacing, 0.25)
 
 
 class LightmapAgainstKilnd(unittest.TestCase):
@@ -310,14 +350,46 @@ class LightmapAgainstKilnd(unittest.TestCase):
         regions = [i["region"] for i in manifest["instances"]]
         self.assertEqual([(r["width"], r["height"]) for r in regions], [(8, 8), (8, 8)])
         self.assertNotEqual((regions[0]["x"], regions[0]["y"]), (regions[1]["x"], regions[1]["y"]))
+        # The page shrinks to its two charts (8 texels and 2 of padding each, side by side): 20 texels a side.
+        size = manifest["pages"][0]["size"]
+        self.assertEqual(size, 20)
         with open(os.path.join(out, "page0_irradiance.exr"), "rb") as f:
             irradiance = read_exr(f.read())
+        self.assertEqual((irradiance.width, irradiance.height), (size, size))
         for instance in manifest["instances"]:
             # The texel at the centre of each floor's UV square, by the manifest's scale and offset: E = π.
             u = 0.5 * instance["scale"][0] + instance["offset"][0]
             v = 0.5 * instance["scale"][1] + instance["offset"][1]
-            x, y = int(u * 32), int(v * 32)
+            x, y = int(u * size), int(v * size)
             self.assertAlmostEqual(irradiance.at("G", x, y), math.pi, delta=1e-5, msg=(instance["name"], x, y))
+
+    def test_floor_under_the_sun_through_an_absorbing_box_follows_beers_law(self):
+        # A sun of irradiance E at angle t from the vertical through a box of absorbing haze d deep: every texel gets
+        # E cos t exp(-sigma_a d / cos t), through the service end to end (the medium in the job, the plan in the
+        # report). Transmittance by ratio tracking through a homogeneous absorber is a yes/no per estimate, so the
+        # texels are noisy: their mean is compared, within 4.5 standard errors of it taken from their spread
+        # (64 texels: Student's t with 63 degrees of freedom exceeds 4.5 with probability 3e-5), plus 1e-5 relative.
+        n, e_sun, t, depth, sigma_a = 8, 2.0, 0.5, 0.6, (0.2, 0.5, 1.0)
+        floor = floor_mesh()
+        self.c.upload_blob(floor.data)
+        job = kiln.lightmap_job(
+            [floor], resolution=n, padding=0, target_error=1e-4, samples=64, seed=3, name="python haze",
+            lights=[{"name": "sun", "color": e_sun,
+                     "directional": {"direction": (math.sin(t), -math.cos(t), 0), "angular_diameter": 0}}],
+            media=[{"name": "haze", "box": {"lo": (-20, -1, -20), "hi": (20, depth, 20)}, "sigma_a": sigma_a}])
+        _, irradiance, validity, _, report = self.bake(job, n, os.path.join(self.out, "haze"))
+        for c, channel in enumerate("RGB"):
+            values = [irradiance.at(channel, x, y) for y in range(n) for x in range(n) if validity.at("Y", x, y) == 1]
+            self.assertEqual(len(values), n * n)
+            mean = sum(values) / len(values)
+            sd = math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1))
+            expected = e_sun * math.cos(t) * math.exp(-sigma_a[c] * depth / math.cos(t))
+            self.assertLessEqual(abs(mean - expected), 4.5 * sd / math.sqrt(len(values)) + 1e-5 * expected,
+                                 (channel, mean, expected, sd))
+        plan = {d["effect"]: d["enabled"] for d in report["plan"]}
+        self.assertTrue(plan["participating_media"])
+        self.assertFalse(plan["media_scattering"])  # it scatters nothing: attenuation only
+        self.assertEqual(report["media"]["mode"], "attenuation")
 
     def test_a_corrupt_python_mesh_fails_naming_its_field(self):
         floor = floor_mesh()
@@ -331,6 +403,29 @@ class LightmapAgainstKilnd(unittest.TestCase):
         self.assertEqual(result.error.code, pb.Error.INVALID_ARGUMENT, result.error.message)
         self.assertEqual(result.error.field, "job.lightmap.meshes[0].geometry")
 
+
+
+class ProbesAgainstKilnd(unittest.TestCase):
+    def test_probes_job_round_trip(self):
+        """A probes job over a floor under a constant sky of 1: probes.vdb, its preview and a report with counts."""
+        c = test_client.DAEMON.client()
+        self.addCleanup(c.close)
+        out = tempfile.mkdtemp(prefix="kiln_py_probes_")
+        self.addCleanup(shutil.rmtree, out, True)
+        floor = floor_mesh()
+        c.upload_blob(floor.data)
+        job = kiln.probes_job([floor], spacing=0.25, regions=[((0, 0, -1), (1, 0.5, 0))], environment=1,
+                              target_error=0.2)
+        reply = c.submit(job)
+        final = c.watch(reply.job_id)
+        self.assertEqual(final.state, pb.JOB_STATE_SUCCEEDED, final.message + test_client.DAEMON.log())
+        names = {os.path.basename(p) for p in c.fetch_outputs(reply.job_id, out)}
+        self.assertEqual(names, {"probes.vdb", "probes_preview.png", "report.json"})
+        with open(os.path.join(out, "report.json")) as f:
+            counts = json.load(f)["probes"]["counts"]
+        # The region above the unit floor: 4 x 2 x 4 cells, each within max_distance (2 x 0.25) of the floor.
+        self.assertEqual(counts["placed"], 4 * 2 * 4)
+        self.assertEqual(counts["valid"], counts["placed"])
 
 if __name__ == "__main__":
     unittest.main()

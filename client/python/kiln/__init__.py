@@ -69,7 +69,7 @@ from .client import PROTOCOL_VERSION, Client  # noqa: E402
 from .digests import digest_of  # noqa: E402
 from .errors import ConnectionError, KilnError, ServerError, TimeoutError, TlsError  # noqa: E402
 from .jobs import environment_job, load_job, material_job, parse_job, state_name  # noqa: E402
-from .lightmap import Mesh, lightmap_job, mesh  # noqa: E402
+from .lightmap import Mesh, lightmap_job, mesh, probes_job  # noqa: E402
 
 __all__ = [
     "PROTOCOL_VERSION",
@@ -90,5 +90,6 @@ __all__ = [
     "mesh",
     "parse_job",
     "pb",
+    "probes_job",
     "state_name",
 ]

@@ -126,7 +126,7 @@ def _index_of(value, names, what, path):
 
 
 def lightmap_job(meshes, *, instances=None, materials=None, textures=None, lights=None, environment=None,
-                 material_overrides=None, lightmaps=None, name="", samples=None, target_error=None,
+                 material_overrides=None, lightmaps=None, media=None, name="", samples=None, target_error=None,
                  time_limit_seconds=None, seed=None, force_effects=None, **settings):
     """A kiln.pb.JobSpec for a lightmap bake, from keyword arguments that mirror kiln.proto's LightmapJob.
 
@@ -149,14 +149,19 @@ def lightmap_job(meshes, *, instances=None, materials=None, textures=None, light
                    {"constant" or "image", "color_space", "rotation_degrees", "intensity"}
       material_overrides: [{"name", "bsdf", "base_color", "emission"}, ...]
       lightmaps: {lightmap name: resolution} or [{"name", "resolution"}, ...]
+      media: participating media, [{"name", "sigma_a", "sigma_s" (colors, per metre; for a VDB per unit density),
+              "g" (Henyey-Greenstein asymmetry), "emission", and one of "fog": True (everywhere),
+              "box": {"lo", "hi"}, "vdb": {"file": digest of an uploaded .vdb file, "density_grid",
+              "emission_grid", "transform": 12 numbers or 3 rows of 4}}, ...] (docs/MEDIA.md)
       resolution, padding, max_bounces, radiance, ao, directional, preview, denoise, stitch_seams, error_metric
       ("lightmap", the default: errors relative to the lightmap's brightness, or "texel": relative to each texel's
       value): as in kiln.proto.
       generate_uvs: "auto" (the default: kilnd generates lightmap UVs for meshes without usable ones: none, outside
       [0, 1], or overlapping), "always" (every mesh) or "never"; each mesh that got them comes back as MESH_uv.bin
       (the kiln mesh layout of kiln.proto, as kiln.mesh() writes it) and in report.json's generated_uvs.
-      texel_density (texels per metre), page_size, max_pages: atlas pages, as in kiln.proto: every instance's chart
-      packed into pages page0, page1, ... at that density; the outputs are per page, with lightmaps.json (each
+      texel_density (texels per metre), page_size, max_pages, uniform_pages: atlas pages, as in kiln.proto: every
+      instance's chart packed into pages page0, page1, ... at that density, each page the smallest square that holds
+      its charts unless uniform_pages; the outputs are per page, with lightmaps.json (each page's size, each
       instance's page, scale and offset).
       memory_limit_bytes: the most memory the bake may hold (at most the server's --memory-limit); a bake larger
       than that samples its lightmaps a tile at a time.
@@ -204,6 +209,16 @@ def lightmap_job(meshes, *, instances=None, materials=None, textures=None, light
         _fill(job.lights.add(), light, "job.lightmap.lights[%d]" % i)
     for i, o in enumerate(material_overrides or []):
         _fill(job.material_overrides.add(), o, "job.lightmap.material_overrides[%d]" % i)
+    for i, m in enumerate(media or []):
+        m = dict(m)
+        vdb = m.get("vdb")
+        if isinstance(vdb, dict):
+            vdb = dict(vdb)
+            transform = vdb.get("transform")
+            if transform is not None and len(transform) == 3 and all(isinstance(r, (tuple, list)) for r in transform):
+                vdb["transform"] = [x for row in transform for x in row]  # 3 rows of 4
+            m["vdb"] = vdb
+        _fill(job.media.add(), m, "job.lightmap.media[%d]" % i)
     if isinstance(lightmaps, dict):
         lightmaps = [{"name": k, "resolution": v} for k, v in lightmaps.items()]
     for i, s in enumerate(lightmaps or []):
@@ -219,4 +234,33 @@ def lightmap_job(meshes, *, instances=None, materials=None, textures=None, light
     _fill(job, settings, "job.lightmap")
     _set_quality_and_effects(spec, {"samples": samples, "target_error": target_error,
                                     "time_limit_seconds": time_limit_seconds, "seed": seed}, force_effects)
+    return spec
+
+
+def probes_job(meshes, *, spacing, max_distance=None, max_probes=None, regions=None, preview=None, **scene):
+    """A kiln.pb.JobSpec for a light probe bake (a ProbesJob, docs/PROBES.md).
+
+    meshes and the other keywords describe the scene exactly as lightmap_job's do (instances, materials, textures,
+    lights, environment, material_overrides, media, max_bounces, error_metric, samples, target_error,
+    time_limit_seconds, seed, force_effects, name; errors name their path under "job.lightmap"); the scene's
+    lightmap settings are not read. The probes: spacing (scene units between neighbouring probes, required),
+    max_distance (from the nearest triangle; default 2 x spacing), max_probes, preview, and regions: boxes to fill,
+    each (lo, hi) with lo and hi as (x, y, z) or {"lo": ..., "hi": ...}; None: the scene's bounds grown by
+    max_distance. A lightmap job bakes probes too with lightmap_job(..., probes={"spacing": 0.5, ...}).
+    """
+    spec = lightmap_job(meshes, **scene)
+    boxes = []
+    for i, r in enumerate(regions or []):
+        if isinstance(r, dict):
+            boxes.append(r)
+        elif isinstance(r, (tuple, list)) and len(r) == 2:
+            boxes.append({"lo": r[0], "hi": r[1]})
+        else:
+            raise TypeError("job.probes.volume.regions[%d]: expected (lo, hi) or {\"lo\", \"hi\"}, got %r" % (i, r))
+    volume = {"spacing": spacing, "max_distance": max_distance, "max_probes": max_probes, "preview": preview,
+              "regions": boxes or None}
+    job = pb.ProbesJob()
+    job.scene.CopyFrom(spec.lightmap)
+    _fill(job.volume, volume, "job.probes.volume")
+    spec.probes.CopyFrom(job)  # the oneof: the lightmap job is cleared
     return spec
