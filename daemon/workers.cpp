@@ -215,6 +215,11 @@ void Workers::run_one(const std::string& id, const std::shared_ptr<std::atomic<b
     const std::optional<store::JobRecord> queued = db_.get(id);
     if (!queued) throw std::runtime_error("the job's record is gone from the database");
     request = request_of(*queued);
+  } catch (const store::StoreError& e) {
+    admission.unlock();
+    if (e.code() == store::StoreErrc::unavailable) return hand_back(id, e.what());
+    record_failure(id, e.what());
+    return;
   } catch (const std::exception& e) {
     admission.unlock();
     record_failure(id, e.what());
@@ -344,6 +349,11 @@ void Workers::record_cancelled(const std::string& id) {
     log_line("job " + id, "cancelled");
     queue_.finish(id, store::Progress{store::JobState::cancelled, 0, {}, 0, {}, "cancelled"});
   }
+}
+
+void Workers::hand_back(const std::string& id, const std::string& why) {
+  log_line("job " + id, "not started, back to the queue: " + why);
+  queue_.finish(id, store::Progress{store::JobState::queued, 0, {}, 0, {}, "handed back: " + why});
 }
 
 void Workers::record_failure(const std::string& id, const std::string& what) {

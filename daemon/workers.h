@@ -58,6 +58,9 @@ class Workers {
                       const Baked& baked, std::chrono::steady_clock::time_point t0);
   void record_cancelled(const std::string& id);
   void record_failure(const std::string& id, const std::string& what);
+  // The job store cannot be reached now (a farm's Redis is down): the job is not the cause, so it is not failed but
+  // handed back to the queue, to run when the store answers again.
+  void hand_back(const std::string& id, const std::string& why);
 
   Config config_;
   store::JobRecords& db_;
