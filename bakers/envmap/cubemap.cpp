@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "bakers/bake/bounded_cache.h"
 #include "bakers/math/constants.h"
 
 namespace kiln::envmap {
@@ -132,10 +133,32 @@ double face_rect_solid_angle(double a0, double b0, double a1, double b1) {
   return corner_area(a1, b1) - corner_area(a0, b1) - corner_area(a1, b0) + corner_area(a0, b0);
 }
 
+namespace {
+// The plane coordinate of grid line i of a face of `size` texels: texel i spans [edge(i), edge(i + 1)].
+double edge(int i, int size) { return 2.0 * i / size - 1.0; }
+}  // namespace
+
 double texel_solid_angle(int x, int y, int size) {
-  const double a0 = 2.0 * x / size - 1.0, a1 = 2.0 * (x + 1) / size - 1.0;
-  const double b0 = 2.0 * y / size - 1.0, b1 = 2.0 * (y + 1) / size - 1.0;
-  return face_rect_solid_angle(a0, b0, a1, b1);
+  return face_rect_solid_angle(edge(x, size), edge(y, size), edge(x + 1, size), edge(y + 1, size));
+}
+
+std::shared_ptr<const std::vector<double>> texel_solid_angles(int size) {
+  if (size < 1) throw std::invalid_argument("texel_solid_angles: size must be at least 1");
+  // A bake uses a handful of sizes (the source's mips, the irradiance source and output, the levels).
+  static bake::BoundedCache<int, std::vector<double>> cache(32);
+  return cache.get(size, [size] {
+    const int n = size + 1;
+    std::vector<double> corner(static_cast<size_t>(n) * n);
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) corner[static_cast<size_t>(j) * n + i] = corner_area(edge(i, size), edge(j, size));
+    const auto c = [&](int i, int j) { return corner[static_cast<size_t>(j) * n + i]; };
+    std::vector<double> out(static_cast<size_t>(size) * size);
+    // In face_rect_solid_angle's order, so that each value is texel_solid_angle's.
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x)
+        out[static_cast<size_t>(y) * size + x] = c(x + 1, y + 1) - c(x, y + 1) - c(x + 1, y) + c(x, y);
+    return out;
+  });
 }
 
 Cubemap::Cubemap(int size, Rgb fill) : size_(size) {
@@ -181,9 +204,10 @@ Rgb Cubemap::sample_nearest(const Vec3& dir) const {
 
 Rgb Cubemap::integral() const {
   Rgb sum;
+  const std::vector<double>& omega = *texel_solid_angles(size_);
   for (int y = 0; y < size_; ++y) {
     for (int x = 0; x < size_; ++x) {
-      const double w = texel_solid_angle(x, y, size_);
+      const double w = omega[static_cast<size_t>(y) * size_ + x];
       for (int f = 0; f < kFaceCount; ++f) sum += at(f, x, y) * w;
     }
   }
@@ -286,6 +310,7 @@ Cubemap downsample_2x(const Cubemap& cube) {
   if (n < 2 || n % 2 != 0) throw std::invalid_argument("downsample_2x: the cube's size must be even");
   const int h = n / 2;
   Cubemap out(h);
+  const std::vector<double>& omega = *texel_solid_angles(n);
   tbb::parallel_for(tbb::blocked_range<int>(0, kFaceCount * h), [&](const tbb::blocked_range<int>& rows) {
     for (int row = rows.begin(); row != rows.end(); ++row) {
       const int face = row / h, y = row % h;
@@ -295,7 +320,7 @@ Cubemap downsample_2x(const Cubemap& cube) {
         double wsum = 0;
         for (int j = 0; j < 2; ++j) {
           for (int i = 0; i < 2; ++i) {
-            const double w = texel_solid_angle(2 * x + i, 2 * y + j, n);
+            const double w = omega[static_cast<size_t>(2 * y + j) * n + 2 * x + i];
             delta += (cube.at(face, 2 * x + i, 2 * y + j) - l0) * w;
             wsum += w;
           }

@@ -23,11 +23,12 @@ struct SourceTexels {
     dir.reserve(count);
     solid_angle.reserve(count);
     radiance.reserve(count);
+    const std::vector<double>& omega = *texel_solid_angles(n);
     for (int f = 0; f < kFaceCount; ++f) {
       for (int y = 0; y < n; ++y) {
         for (int x = 0; x < n; ++x) {
           dir.push_back(texel_direction(f, x, y, n));
-          solid_angle.push_back(texel_solid_angle(x, y, n));
+          solid_angle.push_back(omega[static_cast<size_t>(y) * n + x]);
           radiance.push_back(cube.at(f, x, y));
         }
       }

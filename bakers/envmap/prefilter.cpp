@@ -61,27 +61,31 @@ class BruteForce {
  public:
   BruteForce(const Cubemap& src, const SplitSumLobe& lobe) : src_(src), lobe_(lobe) {
     const int m = src.size();
-    std::vector<double> omega(static_cast<size_t>(m) * m);
-    for (int y = 0; y < m; ++y)
-      for (int x = 0; x < m; ++x) omega[static_cast<size_t>(y) * m + x] = texel_solid_angle(x, y, m);
+    const std::vector<double>& omega = *texel_solid_angles(m);
     texels_.reserve(static_cast<size_t>(kFaceCount) * m * m);
     for (int f = 0; f < kFaceCount; ++f)
       for (int y = 0; y < m; ++y)
         for (int x = 0; x < m; ++x)
           texels_.push_back({texel_direction(f, x, y, m), omega[static_cast<size_t>(y) * m + x], src.at(f, x, y)});
   }
-  Rgb at(const Vec3& n) const {
-    Rgb sum;
-    double w = 0.0;
+  // The convolutions at n[0 .. count), count ≤ kGroup, into out: each texel is read once for all of them (the
+  // source's texels outgrow the caches, and reading them once per normal made the sums memory-bound), while each
+  // normal's sum still visits the texels in order, so every value is the one a sum per normal gives.
+  static constexpr int kGroup = 8;
+  void at(const Vec3* n, int count, Rgb* out) const {
+    std::array<Rgb, kGroup> sum{};
+    std::array<double, kGroup> w{};
     for (const Texel& t : texels_) {
-      const double wt = lobe_.weight(n, t.l) * t.omega;
-      if (wt == 0.0) continue;
-      sum += t.radiance * wt;
-      w += wt;
+      for (int k = 0; k < count; ++k) {
+        const double wt = lobe_.weight(n[k], t.l) * t.omega;
+        if (wt == 0.0) continue;
+        sum[k] += t.radiance * wt;
+        w[k] += wt;
+      }
     }
     // w = 0: no texel centre lies inside the lobe's support (Schlick's compact D narrower than the texels of a
     // coarse source); the convolution of so narrow a lobe is the reconstructed radiance at n.
-    return w > 0.0 ? sum / w : src_.sample_bilinear(n);
+    for (int k = 0; k < count; ++k) out[k] = w[k] > 0.0 ? sum[k] / w[k] : src_.sample_bilinear(n[k]);
   }
 
  private:
@@ -156,8 +160,17 @@ std::vector<Checked> checked_reference(const std::vector<Cubemap>& mips, const s
   size_t m = 0;
   while (m + 1 < mips.size() && mips[m + 1].size() >= wanted) ++m;
   const BruteForce reference(mips[m], l.lobe);
-  tbb::parallel_for(size_t{0}, subset.size(), [&](size_t i) {
-    subset[i].reference = reference.at(subset[i].n) + sun_specular_at(sun, l.lobe, l.w_norm, subset[i].n);
+  const int groups = static_cast<int>((subset.size() + BruteForce::kGroup - 1) / BruteForce::kGroup);
+  tbb::parallel_for(0, groups, [&](int g) {
+    const size_t first = static_cast<size_t>(g) * BruteForce::kGroup;
+    const int count = static_cast<int>(std::min<size_t>(BruteForce::kGroup, subset.size() - first));
+    std::array<Vec3, BruteForce::kGroup> n;
+    std::array<Rgb, BruteForce::kGroup> convolved;
+    for (int k = 0; k < count; ++k) n[k] = subset[first + k].n;
+    reference.at(n.data(), count, convolved.data());
+    for (int k = 0; k < count; ++k) {
+      subset[first + k].reference = convolved[k] + sun_specular_at(sun, l.lobe, l.w_norm, n[k]);
+    }
   });
   return subset;
 }

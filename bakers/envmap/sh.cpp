@@ -45,10 +45,11 @@ double sh_cosine_lobe(int l) {
 ShCoefficients project_sh(const Cubemap& cube) {
   const int n = cube.size();
   ShCoefficients c{};
+  const std::vector<double>& omega = *texel_solid_angles(n);
   for (int f = 0; f < kFaceCount; ++f) {
     for (int y = 0; y < n; ++y) {
       for (int x = 0; x < n; ++x) {
-        const double w = texel_solid_angle(x, y, n);
+        const double w = omega[static_cast<size_t>(y) * n + x];
         const ShBasis b = sh_basis(texel_direction(f, x, y, n));
         const Rgb lw = cube.at(f, x, y) * w;
         for (int i = 0; i < kShCount; ++i) c[i] += lw * b[i];

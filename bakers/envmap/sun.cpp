@@ -60,12 +60,13 @@ LuminanceMap measure_luminance(const Cubemap& source) {
   LuminanceMap m;
   m.y.resize(count);
   m.omega.resize(count);
+  const std::vector<double>& omega = *texel_solid_angles(n);
   for (int f = 0; f < kFaceCount; ++f)
     for (int ty = 0; ty < n; ++ty)
       for (int tx = 0; tx < n; ++tx) {
         const size_t i = (static_cast<size_t>(f) * n + ty) * n + tx;
         m.y[i] = luminance(source.at(f, tx, ty));
-        m.omega[i] = texel_solid_angle(tx, ty, n);
+        m.omega[i] = omega[static_cast<size_t>(ty) * n + tx];
         m.total_power += m.y[i] * m.omega[i];
         m.total_omega += m.omega[i];
       }

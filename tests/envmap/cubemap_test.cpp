@@ -50,6 +50,21 @@ TEST(CubemapSolidAngle, AllTexelsSumToFourPi) {
   EXPECT_NEAR(texel_solid_angle(0, 0, 1), 4.0 * kPi / 6.0, 1e-15);
 }
 
+// The shared table is the per-texel function, bit for bit (the bakes that read it must give the same bytes as
+// when each texel called the function), and asking again gives the same table.
+TEST(CubemapSolidAngle, TheTableOfASizeIsTheFunctionBitForBit) {
+  for (int n : {1, 2, 3, 5, 16, 64, 255, 256}) {
+    const std::shared_ptr<const std::vector<double>> table = texel_solid_angles(n);
+    ASSERT_EQ(table->size(), static_cast<size_t>(n) * n);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        ASSERT_EQ((*table)[static_cast<size_t>(y) * n + x], texel_solid_angle(x, y, n))
+            << "size " << n << " texel " << x << "," << y;
+    EXPECT_EQ(texel_solid_angles(n), table);
+  }
+  EXPECT_THROW(texel_solid_angles(0), std::invalid_argument);
+}
+
 TEST(CubemapSolidAngle, EachTexelMatchesQuadratureOfTheJacobian) {
   // dω = da db / (1 + a² + b²)^{3/2} on the plane at distance 1. The integrand is analytic (poles at a² + b² = −1),
   // so a 20-point Gauss–Legendre rule per axis is converged to ~1e-16 even for a whole face.
