@@ -829,7 +829,7 @@ struct TileRun {
   const BakeStateBytes state_bytes;
   double total_coverage = 0;  // the UV area of every tile of every page
   double remaining = 0;       // of the tiles not yet sampled
-  ErrorTotals done;           // over the tiles sampled so far, each as it ended
+  ErrorTotals done{};         // over the tiles sampled so far, each as it ended
 };
 
 // A page's tally while its tiles are baked.

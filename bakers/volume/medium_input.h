@@ -18,7 +18,7 @@ struct MediumInput {
   std::variant<HomogeneousMediumSpec, GridMediumSpec> spec;
   // Grid media: the grids read from the blob into spec's density and emission (emission_grid empty: none).
   std::string density_grid = "density";
-  std::string emission_grid;
+  std::string emission_grid{};
 };
 
 // Builds the medium. Throws bake::InvalidInput naming the field as the protocol's Medium does ("sigma_a", "g",
