@@ -173,6 +173,7 @@ class Walk {
   VdbGridStructure* grid_ = nullptr;
   size_t grid_index_ = 0;
   size_t grid_count_ = 0;
+  int64_t metadata_items_ = 0;
   bool half_meta_ = false;  // the grid's "is_saved_as_half_float" metadata, which decides how OpenVDB reads
   bool half_meta_seen_ = false;
 };
@@ -184,7 +185,7 @@ void Walk::header() {
   if (version < kFirstVersion || version > kLastVersion)
     fail(8, "the file format version is " + std::to_string(version) + "; kiln reads versions " +
                 std::to_string(kFirstVersion) + " to " + std::to_string(kLastVersion) +
-                " (save the file with OpenVDB 3 or later)");
+                " (save the file with a current OpenVDB)");
   get<uint32_t>("the library's major version");
   get<uint32_t>("the library's minor version");
   out_.has_grid_offsets = get<uint8_t>("the grid offset flag") != 0;
@@ -201,7 +202,13 @@ void Walk::header() {
 
 // A MetaMap (MetaMap::readMeta): a count, then each item's name, type name, 32-bit size and value.
 void Walk::metadata(const std::string& owner, bool grid) {
+  const size_t count_at = pos_;
   const uint32_t count = get<uint32_t>(owner + "'s metadata count");
+  metadata_items_ += count;
+  if (metadata_items_ > kVdbMaxMetadataItems)
+    fail(count_at, owner + " declares " + std::to_string(count) + " metadata items, which bring the file's to " +
+                       std::to_string(metadata_items_) + "; at most " + std::to_string(kVdbMaxMetadataItems) +
+                       " are allowed");
   for (uint32_t i = 0; i < count; ++i) {
     const std::string item = owner + "'s " + ordinal(i) + " metadata item";
     const std::string name = string(item + "'s name");
@@ -250,6 +257,12 @@ void Walk::delayed_load(uint32_t size, const std::string& what) {
     if (grid_) refuse_grid(problem + " (at byte " + std::to_string(at) + ")");
     fail(at, problem);
   }
+  // The two arrays OpenVDB makes, counted with the trees: a file of many grids could otherwise declare them in a few
+  // hundred compressed bytes each.
+  out_.tree_bytes += int64_t{count} * 9 + 288;  // each array padded by up to 128 + 16 bytes
+  if (out_.tree_bytes > kVdbTreeBytes)
+    fail(at, what + " brings the file's trees and their metadata to " + std::to_string(out_.tree_bytes) +
+                 " bytes of OpenVDB's memory; at most " + std::to_string(kVdbTreeBytes) + " are allowed");
   for (int array = 0; array < 2; ++array) {
     const int element = array == 0 ? 1 : 8;
     const std::string part = what + (array == 0 ? "'s mask array" : "'s compressed-size array");
@@ -583,9 +596,10 @@ VdbStructure Walk::run() {
   const size_t count_at = pos_;
   const int32_t count = get<int32_t>("the grid count");
   // OpenVDB reserves a descriptor per grid before reading any; every grid takes more than 64 bytes.
-  if (count < 0 || static_cast<uint64_t>(count) > left() / 64)
-    fail(count_at, "the file declares " + std::to_string(count) + " grids; its " + std::to_string(left()) +
-                       " remaining bytes hold at most " + std::to_string(left() / 64));
+  if (count < 0 || count > kVdbMaxGrids || static_cast<uint64_t>(count) > left() / 64)
+    fail(count_at, "the file declares " + std::to_string(count) + " grids; at most " + std::to_string(kVdbMaxGrids) +
+                       " are allowed, and its " + std::to_string(left()) + " remaining bytes hold at most " +
+                       std::to_string(left() / 64));
   grid_count_ = static_cast<size_t>(count);
   out_.grids.reserve(grid_count_);
   for (size_t i = 0; i < grid_count_; ++i) grid(i);

@@ -25,8 +25,13 @@ inline constexpr int64_t kVdbMaxLeavesPerGrid = limits::kVdbActiveVoxels.hi / 51
 // holds some 4,000 lower nodes of float trees, far more than a dense grid of kVdbMaxLeavesPerGrid leaves needs
 // (it needs 32 when its leaves are packed, one per leaf only when they are scattered).
 inline constexpr int64_t kVdbInternalNodeBytes = int64_t{256} << 20;
-// Bytes OpenVDB may allocate for all the file's trees (leaves included): three float grids and a vec3s one of
-// kVdbMaxLeavesPerGrid leaves each, a smoke simulation's frame at kiln's largest, take 1.6 GiB.
+// Grids in one file, and metadata items over all its metadata maps: OpenVDB reserves a descriptor per declared grid
+// and makes a grid, a tree and a map entry per grid and item, from as little as 13 bytes of file each.
+inline constexpr int64_t kVdbMaxGrids = 4096;
+inline constexpr int64_t kVdbMaxMetadataItems = 65536;
+// Bytes OpenVDB may allocate for all the file's trees (leaves included) and their delayed-load metadata: three float
+// grids and a vec3s one of kVdbMaxLeavesPerGrid leaves each, a smoke simulation's frame at kiln's largest, take 1.6
+// GiB.
 inline constexpr int64_t kVdbTreeBytes = int64_t{2} << 30;
 
 // One grid as the walk found it.

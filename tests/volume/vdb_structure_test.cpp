@@ -310,8 +310,11 @@ TEST(VdbStructure, DamagedHeadersAreRefusedSayingWhere) {
   b[30] = 'x';
   expect_refused(b, "bytes", {"UUID", "at byte 30"});
   b = good;
-  put<uint32_t>(b, 57, 0xfffffff0u);  // file metadata count
+  put<uint32_t>(b, 57, 1000);  // file metadata count: the grid count and the grid's name read as items
   expect_refused(b, "bytes", {"the file's 1st metadata item", "are left in the file"});
+  b = good;
+  put<uint32_t>(b, 57, 70000);
+  expect_refused(b, "bytes", {"the file declares 70000 metadata items", "at most 65536", "at byte 57"});
   b = good;
   put<int32_t>(b, 61, -1);  // grid count
   expect_refused(b, "bytes", {"declares -1 grids", "at byte 61"});
