@@ -7,7 +7,10 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <sstream>
 #include <string_view>
+
+#include <openvdb/io/Compression.h>
 
 #include "bakers/bake/invalid_input.h"
 
@@ -161,8 +164,8 @@ class Walk {
   void grid(size_t index);
   void tree(const ValueKind& kind);
   void internal_node(const ValueKind& kind, int log2, size_t at);
-  void values(const ValueKind& kind, int64_t entries, int active, const std::string& what);
-  void chunk(uint32_t compression, int64_t expected, const std::string& what);
+  void values(const ValueKind& kind, int64_t entries, int active, const std::string& what, bool decompress);
+  void chunk(uint32_t compression, int64_t expected, const std::string& what, bool decompress);
   void blosc_header(const uint8_t* p, int64_t declared, int64_t expected, size_t at, const std::string& what,
                     bool padded_ok);
   void count_internal(int64_t bytes, size_t at, const std::string& what);
@@ -279,6 +282,9 @@ void Walk::delayed_load(uint32_t size, const std::string& what) {
                         " are left in the file");
     if (stored < kBloscHeader)
       fail(size_at, part + " declares " + std::to_string(stored) + " Blosc bytes, less than Blosc's header");
+    // OpenVDB's writer stores short arrays raw; Blosc answers 0 bytes for an empty one, which OpenVDB takes for an
+    // error.
+    if (expected == 0) fail(size_at, part + " is a Blosc chunk for no entries");
     const size_t data_at = pos_;
     blosc_header(take(stored, part), stored, expected, data_at, part, /*padded_ok=*/true);
   }
@@ -364,7 +370,7 @@ void Walk::blosc_header(const uint8_t* p, int64_t declared, int64_t expected, si
 // A chunk of `expected` bytes as io::readData reads it: raw, or (zip, Blosc) a 64-bit size, negative for raw bytes,
 // then that many bytes. OpenVDB allocates a positive size before reading, and reads a negative one's bytes into a
 // buffer of `expected` bytes before comparing: both are checked here first.
-void Walk::chunk(uint32_t compression, int64_t expected, const std::string& what) {
+void Walk::chunk(uint32_t compression, int64_t expected, const std::string& what, bool decompress) {
   if (!(compression & (kZip | kBlosc))) {
     take(static_cast<size_t>(expected), what);
     return;
@@ -393,12 +399,24 @@ void Walk::chunk(uint32_t compression, int64_t expected, const std::string& what
     blosc_header(bytes_.data() + pos_, n, expected, at + 8, what, /*padded_ok=*/false);
   }
   take(static_cast<size_t>(n), what);
+  if (!decompress) return;
+  // With OpenVDB's own functions, on the chunk alone: at most 32,768 values of 24 bytes, and n bytes checked above.
+  std::istringstream in(std::string(reinterpret_cast<const char*>(bytes_.data() + at), 8 + static_cast<size_t>(n)));
+  std::vector<char> values(static_cast<size_t>(expected));
+  try {
+    if (compression & kBlosc)
+      openvdb::io::bloscFromStream(in, values.data(), values.size());
+    else
+      openvdb::io::unzipFromStream(in, values.data(), values.size());
+  } catch (const std::exception& e) {
+    fail(at, what + " does not decompress to its " + std::to_string(expected) + " bytes (" + e.what() + ")");
+  }
 }
 
 // io::readCompressedValues: the node's metadata byte, up to two inactive values (full size even when the grid is
 // stored as half floats), a selection mask, then the values: the active ones only under active-mask compression
 // unless the metadata byte says all are stored.
-void Walk::values(const ValueKind& kind, int64_t entries, int active, const std::string& what) {
+void Walk::values(const ValueKind& kind, int64_t entries, int active, const std::string& what, bool decompress) {
   const size_t at = pos_;
   const uint8_t meta = get<uint8_t>(what + "'s metadata byte");
   if (meta > kNoMaskAndAllVals)
@@ -409,7 +427,7 @@ void Walk::values(const ValueKind& kind, int64_t entries, int active, const std:
   const int64_t count = ((grid_->compression & kActiveMask) && meta != kNoMaskAndAllVals) ? active : entries;
   const bool half = grid_->half_float && kind.half_size > 0;
   if (half && count == 0) return;  // io::HalfReader reads nothing for no values
-  chunk(grid_->compression, count * (half ? kind.half_size : kind.size), what + "'s values");
+  chunk(grid_->compression, count * (half ? kind.half_size : kind.size), what + "'s values chunk", decompress);
 }
 
 void Walk::count_internal(int64_t bytes, size_t at, const std::string& what) {
@@ -438,7 +456,9 @@ void Walk::internal_node(const ValueKind& kind, int log2, size_t at) {
   for (size_t i = 0; i < mask_bytes; ++i)
     if (child_mask[i] & value_mask[i])
       fail(value_mask_at + i, what + " marks an entry both a child and an active tile");
-  values(kind, entries, popcount(value_mask, mask_bytes), what);
+  // Decompressed here too: OpenVDB decompresses an internal node's values inside RootNode::readTopology, where a
+  // chunk that does not decompress to its size throws and leaks the root's child.
+  values(kind, entries, popcount(value_mask, mask_bytes), what, /*decompress=*/true);
   const int children = popcount(child_mask, mask_bytes);
   // Each child needs at least its masks and metadata byte (lower) or value mask (leaf): checked before the walk
   // descends, so a mask full of bits is refused at once.
@@ -582,7 +602,9 @@ void Walk::grid(size_t index) {
     for (int64_t leaf = 0; leaf < grid_->leaves; ++leaf) {
       const std::string what = "leaf " + std::to_string(leaf) + "'s buffer";
       const uint8_t* mask = take(64, what + "'s value mask");
-      values(*kind, 512, popcount(mask, 64), what);
+      // Not decompressed: a leaf buffer that does not decompress throws from readBuffers, where the tree owns every
+      // node, and read_vdb reports OpenVDB's message.
+      values(*kind, 512, popcount(mask, 64), what, /*decompress=*/false);
     }
   }
   check_offset(end_pos, pos_, "end", offsets_at + 16);

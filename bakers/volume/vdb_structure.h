@@ -3,9 +3,11 @@
 // node of the topology before reading the node (and leaks the root's children when a read throws), and lets a few MB
 // of topology declare gigabytes of internal nodes. The walk follows OpenVDB 10.0.1's reader (io/Archive.cc,
 // io/Stream.cc, io/GridDescriptor.cc, io/Compression.h, tree/RootNode.h, tree/InternalNode.h, tree/LeafNode.h,
-// MetaMap.cc, math/Transform.cc) byte for byte and refuses anything that reader would throw on, read past, or
-// allocate beyond the bounds below, so that OpenVDB only sees files it reads within them. The rules are in
-// docs/MEDIA.md ("Validation").
+// MetaMap.cc, math/Transform.cc) byte for byte and refuses anything that reader would throw on while it reads the
+// topology, read past, or allocate beyond the bounds below, so that OpenVDB only sees files it reads within them
+// (internal nodes' compressed values are decompressed with OpenVDB's own functions for that; leaf buffers, read
+// after the topology, are not, and OpenVDB's exception for one that does not decompress leaks nothing). The rules
+// are in docs/MEDIA.md ("Validation").
 #pragma once
 
 #include <cstdint>

@@ -7,7 +7,8 @@
 // offsets OpenVDB itself stores.
 //
 // With KILN_WRITE_VDB_REGRESSIONS=DIR set, the test also writes the fuzz regression inputs of the three findings the
-// walk fixes (tests/fuzz/regressions/vdb/) to DIR.
+// walk fixes (tests/fuzz/regressions/vdb/) to DIR; with KILN_WRITE_VDB_SEEDS=DIR, every file it accepts, as extra
+// seeds for a fuzz run (its working corpus, build-asan/fuzz/corpus/vdb/).
 #include "bakers/volume/vdb_structure.h"
 
 #include <gtest/gtest.h>
@@ -87,6 +88,11 @@ openvdb::FloatGrid::Ptr small_grid(const std::string& name, float background = 0
 
 // The walk's counts against OpenVDB's, grid by grid, and OpenVDB reads the bytes.
 void expect_accepted(const Bytes& bytes) {
+  if (const char* dir = std::getenv("KILN_WRITE_VDB_SEEDS")) {
+    static int n = 0;
+    std::ofstream(std::filesystem::path(dir) / ("accepted_" + std::to_string(n++) + ".vdb"), std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  }
   const VdbStructure s = check_vdb_structure(bytes);
   const openvdb::GridPtrVecPtr grids = openvdb_read(bytes);
   ASSERT_EQ(s.grids.size(), grids->size());
@@ -363,7 +369,7 @@ TEST(VdbStructure, ChunkSizesAreCheckedAgainstTheFileAndTheNode) {
   Bytes b = blosc.bytes;
   put<int64_t>(b, size_at, int64_t(0x7ffe3e4f3aa8));
   expect_refused(b, "bytes",
-                 {"leaf 0's buffer's values declares 140729943800488 compressed bytes", "are left in the file",
+                 {"leaf 0's buffer's values chunk declares 140729943800488 compressed bytes", "are left in the file",
                   "at byte " + std::to_string(size_at)});
   b = blosc.bytes;
   put<int64_t>(b, size_at, -100);
@@ -390,10 +396,22 @@ TEST(VdbStructure, ChunkSizesAreCheckedAgainstTheFileAndTheNode) {
   put<int64_t>(b, zip_size_at, 5000);
   expect_refused(b, "bytes", {"declares 5000 compressed bytes;", "are left in the file"});
 
+  // An internal node's values that do not decompress: OpenVDB would throw inside RootNode::readTopology and leak
+  // the root's child, so the walk decompresses them (the first lower node's 4,096 values, zipped: the upper node's
+  // values chunk, then the lower node's masks and metadata byte, come before).
+  const size_t upper_chunk = zip.upper_meta() + 1;
+  const size_t lower_chunk = upper_chunk + 8 + size_t(at<int64_t>(zip.bytes, upper_chunk)) + 1024 + 1;
+  ASSERT_GT(at<int64_t>(zip.bytes, lower_chunk), 16);
+  b = zip.bytes;
+  put<uint32_t>(b, lower_chunk + 8 + 6, 0xffffffffu);
+  expect_refused(b, "bytes",
+                 {"a lower internal node's values chunk does not decompress to its 16384 bytes",
+                  "at byte " + std::to_string(lower_chunk)});
+
   const Layout raw = layout(stream_bytes({small_grid("density")}, COMPRESS_NONE));
   b = raw.bytes;
   b.resize(b.size() - 1);
-  expect_refused(b, "bytes", {"the file ends inside leaf 1's buffer's values (2048 bytes needed, 2047 left)"});
+  expect_refused(b, "bytes", {"the file ends inside leaf 1's buffer's values chunk (2048 bytes needed, 2047 left)"});
 }
 
 TEST(VdbStructure, MetadataAndTransformsAreChecked) {
@@ -576,6 +594,9 @@ TEST(VdbStructure, TheFindingsRegressionInputsAreRefused) {
   // to read a lower node and a leaf from the bytes after, and a chunk size of 140 TB among them.
   refused("blosc_chunk_claims_140_tb.vdb", {"an upper internal node declares 2 children", "at byte 631"});
   refused("leaves_scattered_one_to_an_upper_node.vdb", {"brings the file's internal nodes to", "at most 268435456"});
+  // Found by the fuzzer after the walk: a zipped internal node's values changed by one byte (a seed the io::File test
+  // accepts), which OpenVDB decompresses inside RootNode::readTopology, throwing and leaking the root's child.
+  refused("zip_values_of_an_internal_node_do_not_decompress.vdb", {"internal node's values chunk does not decompress"});
   refused("topology_cut_short_leaks_a_root_child.vdb", {"the file ends inside a lower internal node's value mask"});
 }
 
