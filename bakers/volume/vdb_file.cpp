@@ -13,6 +13,7 @@
 #include "bakers/bake/number_format.h"
 #include "bakers/volume/medium_bounds.h"
 #include "bakers/volume/vdb_grid_impl.h"
+#include "bakers/volume/vdb_structure.h"
 
 namespace kiln::volume {
 
@@ -62,6 +63,8 @@ openvdb::GridPtrVecPtr parse(std::span<const uint8_t> bytes) {
     openvdb::io::Stream stream(in, /*delayLoad=*/false);
     return stream.getGrids();
   } catch (const std::exception& e) {
+    // What the structure walk leaves to OpenVDB: a compressed chunk whose data does not decompress, a transform
+    // OpenVDB cannot invert. Thrown while reading leaf buffers or transforms, where nothing leaks.
     throw InvalidInput("bytes", std::string("OpenVDB could not read it: ") + e.what());
   }
 }
@@ -129,6 +132,8 @@ openvdb::GridBase::Ptr find_grid(const openvdb::GridPtrVec& grids, const std::st
 
 std::vector<VdbGrid> read_vdb(std::span<const uint8_t> bytes, const std::vector<std::string>& names) {
   check_header(bytes);
+  // OpenVDB trusts the sizes and counts a file declares (vdb_structure.h): it sees only files the walk accepts.
+  check_vdb_structure(bytes);
   const openvdb::GridPtrVecPtr grids = parse(bytes);
   std::vector<VdbGrid> out;
   for (const std::string& name : names) {

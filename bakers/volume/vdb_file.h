@@ -12,7 +12,9 @@
 namespace kiln::volume {
 
 // Reads the grids named in `names` (each once, in that order) from the bytes of a .vdb file. Checked before OpenVDB
-// parses anything: the size (limits::kVdbBytes) and OpenVDB's magic number. Checked on each named grid before kiln
+// parses anything: the size (limits::kVdbBytes), OpenVDB's magic number, and the whole file's structure
+// (check_vdb_structure: every grid's descriptor, metadata, transform, topology and compressed chunks, node counts and
+// the memory OpenVDB will allocate for them). Checked on each named grid before kiln
 // allocates anything for it: it exists, it is a float grid, its background is 0, its transform is linear with every
 // voxel edge in limits::kVdbVoxelSize, its active voxels and its stored voxels (leaf nodes × 512) are at most
 // limits::kVdbActiveVoxels, and its stored box spans at most limits::kVdbExtentVoxels on each axis. NaN, infinite

@@ -1,5 +1,7 @@
 // An OpenVDB file uploaded as a blob for a medium (bakers/volume/vdb_file.cpp, read_vdb): its size and magic number
-// checked, parsed by OpenVDB's stream reader, the named grids checked before kiln makes anything from them.
+// checked, its structure walked (bakers/volume/vdb_structure.cpp: every grid's metadata, transform, topology and
+// compressed chunks, node counts), parsed by OpenVDB's stream reader, the named grids checked before kiln makes
+// anything from them.
 // bake::InvalidInput for bytes that are not such a file.
 #include <cstddef>
 #include <cstdint>
