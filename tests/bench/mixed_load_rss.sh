@@ -48,7 +48,7 @@ bake() {  # NAME KIND ARGS...: one bake, its outcome line in $work/NAME.outcome
   if kiln bake "$@" --out "$work/out/$name" > "$work/$name.log" 2>&1; then
     echo "$name: succeeded" > "$work/$name.outcome"
   else
-    echo "$name: $(grep -m1 -iE "error|refused|fail" "$work/$name.log" | cut -c1-160)" > "$work/$name.outcome"
+    echo "$name: $(grep -v '^$' "$work/$name.log" | tail -n 2 | tr '\n' ' ' | cut -c1-240)" > "$work/$name.outcome"
   fi
 }
 start=$(date +%s.%N)
