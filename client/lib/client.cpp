@@ -45,7 +45,9 @@ constexpr std::size_t kMaxResponseFrameBytes = std::size_t{64} << 20;
 constexpr std::size_t kFrameOverheadBytes = 1024;
 // sockaddr_un.sun_path holds 108 bytes on Linux, including the terminating zero.
 constexpr std::size_t kMaxUnixPathBytes = 107;
-// Re-queries of an upload whose offset moved under it (another client uploading the same blob) before giving up.
+// Re-queries of an upload whose offset moved under it (another client uploading the same blob) in a row without the
+// server's count growing, before giving up. While the count grows, whoever sends the chunks, the upload goes on:
+// every uploader sends the same bytes, so any of them may append the next chunk.
 constexpr int kMaxUploadRestarts = 3;
 
 struct Address {
@@ -494,7 +496,8 @@ v1::Digest Client::upload_blob(std::string_view bytes, const ProgressFn& progres
   const v1::Digest digest = digest_of(bytes);
   const std::uint64_t total = bytes.size();
   const std::size_t chunk = impl.chunk_bytes();
-  for (int restarts = 0;; ++restarts) {
+  std::uint64_t furthest = 0;  // the most bytes the server held at any query
+  for (int stalled = 0;;) {
     const v1::BlobQueryReply query = query_blobs({digest});
     const auto missing = std::find_if(query.missing().begin(), query.missing().end(), [&](const auto& m) {
       return m.digest().sha256() == digest.sha256() && m.digest().size() == digest.size();
@@ -507,6 +510,7 @@ v1::Digest Client::upload_blob(std::string_view bytes, const ProgressFn& progres
     if (offset > total) {
       impl.fail("the server holds " + std::to_string(offset) + " bytes of a " + std::to_string(total) + "-byte blob");
     }
+    if (offset > furthest) furthest = offset, stalled = 0;
     try {
       for (;;) {
         if (progress) progress(offset, total);
@@ -530,7 +534,7 @@ v1::Digest Client::upload_blob(std::string_view bytes, const ProgressFn& progres
       }
     } catch (const ServerError& e) {
       // Another upload of the same blob moved the server's offset: ask where it is now and go on from there.
-      if (e.code() != v1::Error::FAILED_PRECONDITION || restarts >= kMaxUploadRestarts) throw;
+      if (e.code() != v1::Error::FAILED_PRECONDITION || ++stalled > kMaxUploadRestarts) throw;
     }
   }
 }

@@ -230,6 +230,28 @@ class AgainstKilnd(unittest.TestCase):
         self.assertEqual(offsets[0], head)
         self.assertEqual(self.c.fetch(digest), data)
 
+    def test_concurrent_uploads_of_one_blob_all_succeed(self):
+        # Four clients upload the same 8 MiB at once: chunks find the offset moved by another client, and each
+        # upload still ends with the blob stored.
+        data = random.Random(12).randbytes(8 << 20)
+        digests, errors = [], []
+
+        def upload():
+            try:
+                with kiln.Client(DAEMON.tcp, token=TOKEN, timeout=60) as c:
+                    digests.append(c.upload_blob(data))
+            except Exception as e:  # noqa: BLE001 (reported below)
+                errors.append(e)
+
+        threads = [threading.Thread(target=upload) for _ in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        self.assertEqual(errors, [])
+        self.assertEqual([d.sha256 for d in digests], [hashlib.sha256(data).hexdigest()] * 4)
+        self.assertEqual(self.c.fetch(digests[0]), data)
+
     def test_wrong_or_missing_token_is_refused(self):
         for token in ["wrong-token-0123456789", "", TOKEN + "x"]:
             with kiln.Client(DAEMON.tcp, token=token, timeout=30) as c:

@@ -35,7 +35,9 @@ DEFAULT_MAX_CHUNK_BYTES = 1 << 20
 _MAX_RESPONSE_FRAME_BYTES = 64 << 20
 # Room in a frame for the fields around a chunk's data.
 _FRAME_OVERHEAD_BYTES = 1024
-# Re-queries of an upload whose offset moved under it (another client uploading the same blob) before giving up.
+# Re-queries of an upload whose offset moved under it (another client uploading the same blob) in a row without the
+# server's count growing, before giving up; while it grows, whoever sends the chunks (all send the same bytes), the
+# upload goes on.
 _MAX_UPLOAD_RESTARTS = 3
 _READ_BYTES = 256 << 10
 _CLIENT_NAME = "kiln-python 0.1.0"
@@ -333,7 +335,7 @@ class Client:
         view = memoryview(data).cast("B")
         digest = digest_of(view)
         total = len(view)
-        restarts = 0
+        stalled, furthest = 0, 0
         while True:
             self._ready()  # limits (chunk size) come from the hello
             chunk = self._chunk_bytes()
@@ -346,6 +348,8 @@ class Client:
             offset = missing[0].received
             if offset > total:
                 self._fail("the server holds %d bytes of a %d-byte blob" % (offset, total))
+            if offset > furthest:
+                stalled, furthest = 0, offset
             try:
                 while True:
                     if progress:
@@ -362,9 +366,9 @@ class Client:
                     offset = reply.received
             except ServerError as e:
                 # Another upload of the same blob moved the server's offset: ask where it is now, go on from there.
-                if e.code != pb.Error.FAILED_PRECONDITION or restarts >= _MAX_UPLOAD_RESTARTS:
+                stalled += 1
+                if e.code != pb.Error.FAILED_PRECONDITION or stalled > _MAX_UPLOAD_RESTARTS:
                     raise
-                restarts += 1
 
     def upload_file(self, path, progress=None):
         """upload_blob() of a file's bytes; returns its Digest."""
