@@ -25,6 +25,12 @@ v1::SubmitReply submit_job(Context& ctx, const v1::JobSpec& spec, std::int32_t p
       throw Failure(kExitUsage, (at.empty() ? "" : at + ": ") +
                                     "the server refused the job: " + (named ? "" : e.field() + ": ") + e.message());
     }
+    if (e.code() == v1::Error::RESOURCE_EXHAUSTED && !e.field().empty()) {
+      // A limit a field of the job exceeds (the memory a lightmap's resolution needs): waiting would not help.
+      const std::string at = where(e.field());
+      throw Failure(kExitServer, "kilnd at " + ctx.server + " refused the job: " + (at.empty() ? e.field() : at) +
+                                     ": " + e.message());
+    }
     if (e.code() == v1::Error::RESOURCE_EXHAUSTED) {
       throw Failure(kExitServer, "kilnd at " + ctx.server + " cannot take the job now: " + e.message() +
                                      "; try again when its queue has room (`kiln status`)");

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # kilnd's resident memory under a mixed load against its --memory-limit: one kilnd with two workers and a memory
-# limit, fed at once with lightmaps (one of 4096² texels, 16.8 M, which must either fit the limit in tiles or be
-# refused at submit, and two of 1024²), environments (a 2048 × 1024 sky into 256² cubes) and material tables. kilnd's
+# limit, fed at once with lightmaps of the bundled Cornell box's 8 meshes (at 4096², 134 M texels, and at 1448², the
+# 16.8 M texels of issue 19's report, each of which must either fit the limit in tiles or be refused at submit, and
+# two at 1024²), environments (a 2048 × 1024 sky into 256² cubes) and material tables. kilnd's
 # VmRSS is sampled every 0.1 s from /proc until every job has ended; the script prints the peak against the limit
 # and each job's outcome. A benchmark, not a test: it needs minutes of two cores.
 #
@@ -56,6 +57,7 @@ names=()
 pids=()
 launch() { bake "$@" & pids+=($!); names+=("$1"); }
 launch lm4096 lightmap "$work/box.gltf" --env "$work/sky.exr" --resolution 4096 --time-limit 20
+launch lm1448 lightmap "$work/box.gltf" --env "$work/sky.exr" --resolution 1448 --time-limit 20
 for i in 1 2; do
   launch "lm1024_$i" lightmap "$work/box.gltf" --env "$work/sky.exr" --resolution 1024 --time-limit 15 --seed "$i"
 done

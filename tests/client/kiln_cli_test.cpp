@@ -1248,6 +1248,35 @@ TEST(KilnCliBinary, RefusedFieldsPointAtTheFileLineOrTheFlag) {
   EXPECT_EQ(b.err, "kiln: --alpha: the server refused the job: job.material.ggx.alpha: must be in (0, 1], got -0.2\n");
 }
 
+// A limit one field exceeds (kilnd's memory limit) is a refusal naming the flag, not a full queue to wait for.
+TEST(KilnCliBinary, AFieldOverAServerLimitIsNamedNotQueuedFor) {
+  FakeKilnd k;
+  v1::Error e;
+  e.set_code(v1::Error::RESOURCE_EXHAUSTED);
+  e.set_message(
+      "the job would need about 1.9 GiB of memory, more than kilnd's memory limit of 1.5 GiB "
+      "(--memory-limit): lower this field, or bake in several jobs");
+  e.set_field("job.material.table_mu");
+  k.submit_error = e;
+  k.start();
+  const Outcome r = kiln(with_server(k, {"bake", "material", "--model", "ggx", "--alpha", "0.2", "--table-mu", "64",
+                                         "--out", (scratch() / "out-too-big").string()}),
+                         kToken);
+  EXPECT_EQ(r.status, 3) << r.err;
+  EXPECT_NE(r.err.find("refused the job: --table-mu: the job would need about 1.9 GiB"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("try again when its queue has room"), std::string::npos) << r.err;
+  // Without a field it is the queue's limit, which waiting does help.
+  FakeKilnd full;
+  e.set_message("the queue holds 10000 jobs, its limit; submit again later");
+  e.clear_field();
+  full.submit_error = e;
+  full.start();
+  const Outcome q = kiln(with_server(full, {"bake", "material", "--model", "ggx", "--alpha", "0.2", "--out",
+                                            (scratch() / "out-queue-full").string()}),
+                         kToken);
+  EXPECT_NE(q.err.find("cannot take the job now: the queue holds"), std::string::npos) << q.err;
+}
+
 TEST(KilnCliBinary, BytesThatFailVerificationAreNotKept) {
   FakeKilnd k;
   succeed(k);
