@@ -152,6 +152,7 @@ Service::Service(const Config& config, TokenSet tokens) : config_(config), token
     join_farm(blob_options);
   }
   blobs_ = std::make_unique<store::BlobStore>(std::filesystem::path(config_.store), blob_options);
+  keep_baker_tables_in((std::filesystem::path(config_.store) / "tables").string());
   remove_abandoned_uploads("at start");
   if (local_db_) recover_local_jobs();
   if (farm_node_) start_farm_retention();

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 
+#include "bakers/envmap/dfg_cache.h"
 #include "daemon/translate_fields.h"
 #include "proto/digest.h"
 #include "proto/kiln.pb.h"
@@ -117,6 +118,8 @@ void fit_memory_limit(BakeRequest& r, uint64_t server_limit) {
   const uint64_t limit = own == 0 || server_limit == 0 ? std::max(own, server_limit) : std::min(own, server_limit);
   detail::plan_lightmap_memory(r, limit);
 }
+
+void keep_baker_tables_in(const std::string& folder) { envmap::keep_dfg_tables_in(folder); }
 
 std::string cache_key(const BakeRequest& request, const std::string& baker_version) {
   return proto::sha256_hex(canonical_text(request) + "baker=" + baker_version + "\n");

@@ -128,6 +128,10 @@ std::string canonical_text(const BakeRequest& request);
 // before cache_key() (the tile size is part of the key). Other jobs are left as they are.
 void fit_memory_limit(BakeRequest& request, uint64_t server_limit);
 
+// Lets the bakers keep the tables they may share between jobs and processes (an environment bake's DFG tables) in
+// `folder` (under the store), besides in the process.
+void keep_baker_tables_in(const std::string& folder);
+
 // The result-cache key: SHA-256 of the canonical text and the baker version.
 std::string cache_key(const BakeRequest& request, const std::string& baker_version);
 

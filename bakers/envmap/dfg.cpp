@@ -52,13 +52,17 @@ DfgTable compute_dfg(const brdf::ModelSpec& lobe, int size_mu, int size_roughnes
   t.size_mu = size_mu;
   t.size_roughness = size_roughness;
   t.entries.resize(static_cast<size_t>(size_mu) * size_roughness);
-  tbb::parallel_for(0, size_mu * size_roughness, [&](int k) {
-    const int i = k % size_mu, j = k / size_mu;
-    brdf::AlbedoOptions o = options;
-    o.seed = options.seed + static_cast<uint64_t>(k) * 0x9e3779b97f4a7c15ULL;  // independent entries
-    t.entries[k] = dfg_entry(lobe, (i + 0.5) / size_mu, (j + 0.5) / size_roughness, o);
-  });
+  tbb::parallel_for(0, size_mu * size_roughness,
+                    [&](int k) { t.entries[k] = dfg_table_entry(lobe, size_mu, size_roughness, options, k); });
   return t;
+}
+
+DfgEntry dfg_table_entry(const brdf::ModelSpec& lobe, int size_mu, int size_roughness,
+                         const brdf::AlbedoOptions& options, int k) {
+  const int i = k % size_mu, j = k / size_mu;
+  brdf::AlbedoOptions o = options;
+  o.seed = options.seed + static_cast<uint64_t>(k) * 0x9e3779b97f4a7c15ULL;  // independent entries
+  return dfg_entry(lobe, (i + 0.5) / size_mu, (j + 0.5) / size_roughness, o);
 }
 
 }  // namespace kiln::envmap

@@ -33,6 +33,11 @@ struct DfgTable {
   double max_error() const;  // the largest standard error of any channel
 };
 
+// Entry k (row-major: k = j_roughness · size_mu + i_mu) of compute_dfg's table, computed alone: every entry has a
+// seed of its own, so this gives the table's entry bit for bit.
+DfgEntry dfg_table_entry(const brdf::ModelSpec& lobe, int size_mu, int size_roughness,
+                         const brdf::AlbedoOptions& options, int k);
+
 // Every entry, in parallel (TBB). Throws std::invalid_argument for sizes outside [1, 1024] or an invalid lobe.
 DfgTable compute_dfg(const brdf::ModelSpec& lobe, int size_mu, int size_roughness,
                      const brdf::AlbedoOptions& options = {});

@@ -224,13 +224,15 @@ void convolve_diffuse(EnvironmentRun& run) {
   run.end_stage(0.7, "irradiance");
 }
 
-// The DFG table of the same lobe, from the process's cache when an earlier bake computed the same one.
+// The DFG table of the same lobe, from the process or the store when an earlier bake computed the same one.
 void compute_dfg_table(EnvironmentRun& run) {
   const EnvironmentBakeInput& in = run.in;
   brdf::AlbedoOptions options;
   options.samples = in.dfg_samples;
   options.seed = in.seed;
-  run.dfg = cached_dfg(in.lobe, dfg_masking(in.lobe, in.dfg_masking), in.dfg_size, options);
+  DfgSource source = DfgSource::computed;
+  run.dfg = cached_dfg(in.lobe, dfg_masking(in.lobe, in.dfg_masking), in.dfg_size, options, &source);
+  run.result.dfg_table = to_string(source);
   run.result.samples += static_cast<uint64_t>(in.dfg_size) * in.dfg_size * in.dfg_samples;
   run.end_stage(0.85, "dfg");
 }

@@ -97,6 +97,7 @@ struct EnvironmentBakeResult {
   std::vector<std::pair<std::string, double>> stage_seconds;  // "source", "sun", "specular", ... in order
   uint64_t samples = 0;                                       // prefilter (+ checks) and DFG samples
   uint64_t memory_bytes = 0;                                  // the estimated peak working memory (see above)
+  std::string dfg_table;  // where the DFG table came from: dfg_cache.h's to_string(DfgSource)
   std::vector<std::string> plan;  // "effect: on|off[ (forced)] - reason", one per plan entry
   std::vector<EnvironmentPlanEntry> plan_entries;
   // The sun split (sun.h).

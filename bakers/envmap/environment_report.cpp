@@ -46,6 +46,7 @@ std::string environment_report_json(const EnvironmentBakeInput& in, const Enviro
   j["size"] = in.size;
   j["lobe"] = to_string(in.lobe);
   j["dfg_masking"] = brdf::to_string(dfg_masking(in.lobe, in.dfg_masking));
+  j["dfg_table"] = r.dfg_table;
   j["roughness_mapping"] = "rho_k = k/(levels-1), alpha = rho^2 (Schlick's rational Beckmann: m = rho^2)";
   j["target_error"] = in.target_error;
   j["seed"] = in.seed;

@@ -4,10 +4,12 @@
 // input on one worker; `report.json`'s stage seconds are the ones printed here.
 //
 //   kiln-sky --width 2048 --out sky.exr
-//   environment_job_bench --image=sky.exr [--size=256] [--jobs=2] [--table_out=FILE]
+//   environment_job_bench --image=sky.exr [--size=256] [--jobs=2] [--dfg_folder=DIR] [--table_out=FILE]
 //
 // Job j bakes with intensity j + 1 (distinct jobs, as the daemon's cache would not answer them) in one process, so
-// the second and later jobs take the DFG table from the process's cache like a running kilnd. Per stage: wall
+// the second and later jobs take the DFG table from the process's cache like a running kilnd. With --dfg_folder
+// the tables are kept in files there too, as kilnd keeps them in its store's tables/: a second run's first job is
+// a freshly started kilnd's first job after an earlier one computed the table. Per stage: wall
 // seconds (the report's) and CPU seconds of the process (getrusage, every thread), taken at each stage's end through
 // the bake's progress callback. The machine is shared: CPU seconds are what load inflates least, and a stage's
 // CPU/wall says how many cores it kept busy.
@@ -30,6 +32,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include "bakers/envmap/dfg_cache.h"
 #include "bakers/envmap/environment_bake.h"
 #include "tests/bench/process_cpu.h"
 #include "tests/bench/table_file.h"
@@ -93,7 +96,7 @@ StageTimes bake_once(const std::string& image, int size, double intensity, std::
   }
   char hex[32];
   std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(digest));
-  *summary = std::string("outputs ") + hex + "; N per level:";
+  *summary = std::string("outputs ") + hex + "; DFG table " + r.dfg_table + "; N per level:";
   for (const auto& l : r.levels) {
     char buf[64];
     std::snprintf(buf, sizeof buf, " %d (%.4f)", l.samples, l.error_estimate);
@@ -118,11 +121,13 @@ int main(int argc, char** argv) {
       jobs = std::atoi(argv[i] + 7);
     else if (std::strncmp(argv[i], "--table_out=", 12) == 0)
       table_out = argv[i] + 12;
+    else if (std::strncmp(argv[i], "--dfg_folder=", 13) == 0)
+      kiln::envmap::keep_dfg_tables_in(argv[i] + 13);
     else
       usage = true;
   }
   if (usage || image_path.empty() || size < 1 || jobs < 1) {
-    std::fprintf(stderr, "usage: %s --image=FILE.exr [--size=256] [--jobs=2] [--table_out=FILE]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s --image=FILE.exr [--size=256] [--jobs=2] [--dfg_folder=DIR] [--table_out=FILE]\n", argv[0]);
     return 1;
   }
   std::ifstream f(image_path, std::ios::binary);

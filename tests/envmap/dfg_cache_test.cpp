@@ -30,11 +30,11 @@ brdf::AlbedoOptions options(int samples, uint64_t seed) {
 
 TEST(DfgCache, TheSecondAskIsAHitWithTheSameTable) {
   const brdf::Masking hc = brdf::Masking::height_correlated;
-  bool hit = true;
-  const auto first = cached_dfg(EnvLobe::ggx, hc, 8, options(64, 11), &hit);
-  EXPECT_FALSE(hit);
-  const auto second = cached_dfg(EnvLobe::ggx, hc, 8, options(64, 11), &hit);
-  EXPECT_TRUE(hit);
+  DfgSource source = DfgSource::process;
+  const auto first = cached_dfg(EnvLobe::ggx, hc, 8, options(64, 11), &source);
+  EXPECT_EQ(source, DfgSource::computed);
+  const auto second = cached_dfg(EnvLobe::ggx, hc, 8, options(64, 11), &source);
+  EXPECT_EQ(source, DfgSource::process);
   EXPECT_EQ(first.get(), second.get());
   EXPECT_TRUE(same(*first, compute_dfg(lobe_model(EnvLobe::ggx, hc), 8, 8, options(64, 11))));
   // Every argument that changes the table is another entry.
@@ -43,8 +43,8 @@ TEST(DfgCache, TheSecondAskIsAHitWithTheSameTable) {
         std::tuple{EnvLobe::ggx, brdf::Masking::separable, 8, 64, uint64_t{11}},
         std::tuple{EnvLobe::ggx, hc, 4, 64, uint64_t{11}}, std::tuple{EnvLobe::ggx, hc, 8, 32, uint64_t{11}},
         std::tuple{EnvLobe::ggx, hc, 8, 64, uint64_t{12}}}) {
-    const auto other = cached_dfg(lobe, masking, size, options(samples, seed), &hit);
-    EXPECT_FALSE(hit);
+    const auto other = cached_dfg(lobe, masking, size, options(samples, seed), &source);
+    EXPECT_EQ(source, DfgSource::computed);
     EXPECT_TRUE(same(*other, compute_dfg(lobe_model(lobe, masking), size, size, options(samples, seed))));
   }
 }
@@ -54,9 +54,9 @@ TEST(DfgCache, ItIsBoundedAndSharedSafelyBetweenThreads) {
   const brdf::Masking hc = brdf::Masking::height_correlated;
   const auto first = cached_dfg(EnvLobe::ggx, hc, 4, options(16, 1000));
   for (int i = 1; i <= kDfgCacheTables; ++i) cached_dfg(EnvLobe::ggx, hc, 4, options(16, 1000 + i));
-  bool hit = true;
-  const auto again = cached_dfg(EnvLobe::ggx, hc, 4, options(16, 1000), &hit);
-  EXPECT_FALSE(hit);
+  DfgSource source = DfgSource::process;
+  const auto again = cached_dfg(EnvLobe::ggx, hc, 4, options(16, 1000), &source);
+  EXPECT_EQ(source, DfgSource::computed);
   EXPECT_TRUE(same(*first, *again));  // the evicted table is still valid where it was held
   // Threads asking for the same tables at once all get the same values.
   std::vector<std::thread> threads;

@@ -155,6 +155,38 @@ TEST(EnvironmentService, UploadedExrBakesOutputsVerifyAndTheSecondSubmitIsACache
   EXPECT_FALSE(c.submit(other).cache_hit());
 }
 
+// The DFG table does not depend on the environment: kilnd keeps it in its store's tables/, so a restarted kilnd's
+// next job of the same lobe takes it (report.json's dfg_table says from where) and writes the same dfg.exr.
+TEST(EnvironmentService, ARestartedDaemonTakesTheDfgTableFromItsStore) {
+  std::filesystem::path dir;
+  std::string first_dfg;
+  {
+    Daemon d;
+    d.keep();
+    dir = d.dir();
+    Client c = connect(d);
+    const v1::SubmitReply sub = c.submit(environment_job(c.upload_blob(image::encode_exr(sky_image()))));
+    ASSERT_EQ(c.watch(sub.job_id()).state(), v1::JOB_STATE_SUCCEEDED) << d.log();
+    const auto outputs = fetch_and_check(c, c.result(sub.job_id()));
+    EXPECT_EQ(nlohmann::json::parse(outputs.at("report.json"))["dfg_table"], "computed");
+    first_dfg = outputs.at("dfg.exr");
+    int tables = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir / "store" / "tables"))
+      tables += e.path().extension() == ".bin";
+    EXPECT_EQ(tables, 1);
+  }
+  Daemon again({}, dir);
+  Client c = connect(again);
+  v1::JobSpec other = environment_job(c.upload_blob(image::encode_exr(sky_image())));
+  other.mutable_environment()->set_rotation_degrees(45);  // another bake, not a cache hit
+  const v1::SubmitReply sub = c.submit(other);
+  ASSERT_FALSE(sub.cache_hit());
+  ASSERT_EQ(c.watch(sub.job_id()).state(), v1::JOB_STATE_SUCCEEDED) << again.log();
+  const auto outputs = fetch_and_check(c, c.result(sub.job_id()));
+  EXPECT_EQ(nlohmann::json::parse(outputs.at("report.json"))["dfg_table"], "kept in the store");
+  EXPECT_EQ(outputs.at("dfg.exr"), first_dfg);
+}
+
 TEST(EnvironmentService, AConstantEnvironmentGivesItsAnalyticOutputs) {
   // A constant radiance L: every prefiltered texel is L (a normalised filter of a constant), and the irradiance is
   // E = integral of L cos over the hemisphere = pi L.
