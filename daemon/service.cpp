@@ -449,6 +449,8 @@ void Service::submit(const SessionInfo& s, const v1::Request& req, v1::Response&
   }
   // Throws InvalidField with the path; input blobs must be stored already. Their bytes are read by the worker.
   BakeRequest bake = translate(sub.job(), blobs_.get());
+  // The VDB media's grids, which only their files' structure tells (read from the store, walked, not loaded).
+  size_vdb_media(bake, *blobs_);
   // Under kilnd's memory limit too: a lightmap job that would not fit whole bakes in tiles (part of its key).
   fit_memory_limit(bake, config_.memory_limit_bytes);
   const std::string key = cache_key(bake, baker_version(bake));

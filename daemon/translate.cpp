@@ -112,6 +112,10 @@ std::string canonical_text(const BakeRequest& r) {
   return detail::material_canonical_text(r);
 }
 
+void size_vdb_media(BakeRequest& r, store::BlobStore& blobs) {
+  if (std::holds_alternative<lightmap::LightmapBakeInput>(r.input)) detail::size_lightmap_vdb_media(r, blobs);
+}
+
 void fit_memory_limit(BakeRequest& r, uint64_t server_limit) {
   if (!std::holds_alternative<lightmap::LightmapBakeInput>(r.input) || !r.lightmap_memory) return;
   const uint64_t own = r.lightmap().memory_limit_bytes;

@@ -52,6 +52,7 @@ struct LightmapMemoryBasis {
   lightmap::LightmapJobSize size;
   std::string texel_field, scene_field, input_field;
   std::string probe_field;  // when the job bakes probes: their max_probes
+  std::vector<std::string> vdb_media_fields;  // the file field of each of size.vdb_media ("...media[2].vdb.file")
   size_t lightmaps = 0;  // lightmaps, or atlas pages when `pages`
   bool pages = false;
   uint64_t texels = 0;
@@ -69,9 +70,9 @@ struct BakeRequest {
   // after overrides, textures, lights, environment source), part of the cache key with the settings' canonical text.
   std::string scene_hash;
   std::vector<BlobRef> inputs;  // the blobs the job reads, in the order of its fields
-  // What the bake will hold at its peak, estimated from the spec by the baker's own model (before anything is read
-  // or decoded); the field whose value drives the estimate most, which a refusal names; and what the estimate is
-  // made of, for people.
+  // What the bake will hold at its peak, estimated from the spec by the baker's own model (before anything is
+  // decoded; a lightmap's VDB media from their files' structure once size_vdb_media has read it); the field whose value
+  // drives the estimate most, which a refusal names; and what the estimate is made of, for people.
   uint64_t memory_bytes = 0;
   std::string memory_field;
   std::string memory_note;
@@ -121,6 +122,13 @@ const char* baker_version(const BakeRequest& request);
 // The canonical text of a translated request: every setting, defaults applied, numbers in round-trip precision,
 // the name left out. Two specs that ask for the same bake have the same text.
 std::string canonical_text(const BakeRequest& request);
+
+// Reads the structure of a lightmap job's VDB media files from the store (lightmap::vdb_medium_size: nothing of
+// OpenVDB allocated) into its memory estimate, which the spec alone cannot give. Call it after translate() and
+// before fit_memory_limit(); other jobs are left as they are. Throws InvalidField naming the medium's vdb.file for a
+// file that is not a VDB file kiln reads or lacks a named grid, or is no longer stored; store::StoreError if one
+// fails verification.
+void size_vdb_media(BakeRequest& request, store::BlobStore& blobs);
 
 // Plans the request's memory under kilnd's limit: a lightmap job bakes under the smaller of its own
 // memory_limit_bytes and `server_limit`, untiled when its estimate fits that and in tiles otherwise

@@ -65,6 +65,8 @@ void load_lightmap_inputs(BakeRequest& r, store::BlobStore& blobs);
 std::string lightmap_canonical_text(const BakeRequest& r);
 // The lightmap job's estimate and tiles under `limit` (0: none), from r.lightmap_memory.
 void plan_lightmap_memory(BakeRequest& r, uint64_t limit);
+// The VDB media's part of that estimate, from their files' structure (size_vdb_media), planned again.
+void size_lightmap_vdb_media(BakeRequest& r, store::BlobStore& blobs);
 
 // Light probes (translate_probes.cpp): a ProbeVolume's settings at path `p`; the probes job into r.input (a lightmap
 // input that bakes no lightmap; its canonical text is the lightmap job's); the probes' line of a canonical text.

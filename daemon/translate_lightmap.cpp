@@ -764,8 +764,14 @@ void plan_lightmap_memory(BakeRequest& r, uint64_t limit) {
   uint64_t texel_bytes = 0;
   for (uint64_t b : e.lightmap_bytes) texel_bytes += b;
   r.memory_bytes = e.total;
-  // The part that costs most names the field to lower.
-  if (!basis.probe_field.empty() && e.probe_bytes >= std::max({texel_bytes, e.scene_bytes, e.input_bytes})) {
+  // The part that costs most names the field to lower: for the media, the file of the largest.
+  size_t largest_medium = 0;
+  for (size_t i = 1; i < e.medium_bytes.size(); ++i) {
+    if (e.medium_bytes[i] > e.medium_bytes[largest_medium]) largest_medium = i;
+  }
+  if (e.media_bytes > std::max({texel_bytes, e.scene_bytes, e.input_bytes, e.probe_bytes})) {
+    r.memory_field = basis.vdb_media_fields.at(largest_medium);
+  } else if (!basis.probe_field.empty() && e.probe_bytes >= std::max({texel_bytes, e.scene_bytes, e.input_bytes})) {
     r.memory_field = basis.probe_field;
   } else if (texel_bytes >= e.scene_bytes && texel_bytes >= e.input_bytes) {
     r.memory_field = largest_field;
@@ -787,6 +793,31 @@ void plan_lightmap_memory(BakeRequest& r, uint64_t limit) {
   if (size.probes > 0) {
     r.memory_note += ", up to " + std::to_string(size.probes) + " light probes (" + lightmap::format_bytes(e.probe_bytes) + ")";
   }
+  if (!size.vdb_media.empty()) {
+    r.memory_note += ", " + std::to_string(size.vdb_media.size()) +
+                     (size.vdb_media.size() == 1 ? " VDB medium (" : " VDB media (") +
+                     lightmap::format_bytes(e.media_bytes) + " with the files, their trees and majorant grids)";
+  }
+}
+
+void size_lightmap_vdb_media(BakeRequest& r, store::BlobStore& blobs) {
+  if (!r.lightmap_memory) return;
+  LightmapMemoryBasis& basis = *r.lightmap_memory;
+  basis.size.vdb_media.clear();
+  basis.vdb_media_fields.clear();
+  for (const BlobRef& ref : r.inputs) {
+    if (ref.field.find(".media[") == std::string::npos) continue;
+    const volume::MediumInput& m = r.lightmap().media.at(index_in(ref.field));
+    const std::string bytes = read_input(ref, blobs);
+    try {
+      basis.size.vdb_media.push_back(lightmap::vdb_medium_size(
+          {reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, m.density_grid, m.emission_grid));
+    } catch (const bake::InvalidInput& e) {
+      throw InvalidField(ref.field, e.field() == "bytes" ? e.problem() : e.field() + ": " + e.problem());
+    }
+    basis.vdb_media_fields.push_back(ref.field);
+  }
+  plan_lightmap_memory(r, r.lightmap().memory_limit_bytes);
 }
 
 namespace {

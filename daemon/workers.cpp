@@ -286,6 +286,8 @@ BakeRequest Workers::request_of(const store::JobRecord& record) {
   // The database keeps the spec as the client sent it, not the translated request (a plain struct, which may hold
   // the bytes of the job's blobs): so the worker translates it again, the same text giving the same request.
   BakeRequest request = translate(spec);
+  // The estimate's VDB media part as at submit, from their files (still pinned in the store).
+  size_vdb_media(request, blobs_);
   // The same tiles as at submit: the limit is kilnd's, which a restart may have changed (the job then bakes under
   // the new one).
   fit_memory_limit(request, memory_.limit());

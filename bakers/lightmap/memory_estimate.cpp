@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "bakers/bake/invalid_input.h"
+
 #include "bakers/lightmap/leaks.h"
 #include "bakers/lightmap/lightmap_image.h"
 #include "bakers/lightmap/lightmap_results.h"
@@ -11,6 +13,8 @@
 #include "bakers/lightmap/texels.h"
 #include "bakers/math/rgb.h"
 #include "bakers/scene/scene.h"
+#include "bakers/volume/grid_medium.h"
+#include "bakers/volume/vdb_structure.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -50,7 +54,36 @@ double output_channels(const LightmapJobSize& job) {
   return c;
 }
 
+// A majorant cell is one float (majorant_grid.h).
+constexpr uint64_t kMajorantBytesPerCell = sizeof(float);
+
+uint64_t medium_bytes(const VdbMediumSize& m) {
+  return m.file_bytes + m.tree_bytes + kMajorantBytesPerCell * m.majorant_cells;
+}
+
+const volume::VdbGridStructure& named_grid(const volume::VdbStructure& s, const std::string& name) {
+  std::string names;
+  for (const volume::VdbGridStructure& g : s.grids) {
+    if (g.name == name) return g;
+    names += (names.empty() ? "'" : ", '") + g.name + "'";
+  }
+  throw bake::InvalidInput("grids[" + name + "]", "no such grid; the file holds " + (names.empty() ? "none" : names));
+}
+
 }  // namespace
+
+VdbMediumSize vdb_medium_size(std::span<const uint8_t> bytes, const std::string& density_grid,
+                              const std::string& emission_grid) {
+  const volume::VdbStructure s = volume::check_vdb_structure(bytes);
+  const volume::VdbGridStructure& density = named_grid(s, density_grid);
+  if (!emission_grid.empty()) named_grid(s, emission_grid);
+  VdbMediumSize m;
+  m.file_bytes = bytes.size();
+  // OpenVDB's stream reader reads every grid of the file before read_vdb keeps the named ones (vdb_file.cpp).
+  m.tree_bytes = static_cast<uint64_t>(s.tree_bytes);
+  m.majorant_cells = volume::GridMedium::majorant_cells(density.stored_lo, density.stored_hi);
+  return m;
+}
 
 LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size) {
   LightmapMemoryEstimate e;
@@ -89,7 +122,12 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   e.input_bytes =
       static_cast<uint64_t>(static_cast<double>(job.mesh_blob_bytes) + encoded + kDecodedBytesPerEncodedByte * encoded);
   if (job.probes > 0) e.probe_bytes = job.probes * kProbeBytes + job.traced_triangles * kProbePlacementBytesPerTriangle;
-  e.total = e.scene_bytes + e.input_bytes + e.probe_bytes + static_cast<uint64_t>(page_bytes) + outputs_held;
+  for (const VdbMediumSize& m : job.vdb_media) {
+    e.medium_bytes.push_back(medium_bytes(m));
+    e.media_bytes += e.medium_bytes.back();
+  }
+  e.total =
+      e.scene_bytes + e.input_bytes + e.probe_bytes + e.media_bytes + static_cast<uint64_t>(page_bytes) + outputs_held;
   if (tile_size == 0) {
     e.bytes_per_texel = per_texel_held + (job.streamed ? 0.0 : per_texel_outputs);
     for (uint64_t texels : job.lightmap_texels) {

@@ -6,11 +6,11 @@
 // The model, every figure from the sizes of the structures the bake allocates (memory_estimate.cpp):
 //  - untiled (tile_size 0), per texel of each lightmap (every texel counted, as if the charts covered the whole
 //    map; with atlas pages, each of max_pages pages of page_size² texels, since how many the packer fills is not
-//    known before the bake): its sample points (samples_per_texel of them) and the bake's state, held to the end; while that lightmap
-//    is rasterized and probed for leaks, the fragments (twice, while sorted) and the leak results; then one page's
-//    results (lightmap_results.h) at a time while the pages are written; and the output images, raw and encoded:
-//    one page's when the outputs stream (bake::BakeControl::output_sink), else every page's, which the bake then
-//    holds until it returns.
+//    known before the bake): its sample points (samples_per_texel of them) and the bake's state, held to the end; while
+//    that lightmap is rasterized and probed for leaks, the fragments (twice, while sorted) and the leak results; then
+//    one page's results (lightmap_results.h) at a time while the pages are written; and the output images, raw and
+//    encoded: one page's when the outputs stream (bake::BakeControl::output_sink), else every page's, which the bake
+//    then holds until it returns.
 //  - tiled (tile_size > 0: a page is sampled a tile of tile_size² texels at a time, lightmap_bake.cpp): the state and
 //    the set-up's transient of one tile, the results of one page, the outputs as above, and the tiles' bins of
 //    triangles. Light tracing is off in a tiled bake (its sums would be held for every texel), so its bytes are not
@@ -21,13 +21,32 @@
 //    checked) and the textures decoded at 24 bytes a texel, their texel count taken as the encoded size (an 8-bit
 //    image compresses to about a byte a texel). That last term is an estimate, not a bound: an image that compresses
 //    far better than that decodes to more.
+//  - per VDB medium (vdb_medium_size): the .vdb file's bytes, every grid's tree in it (OpenVDB reads them all; the
+//    medium keeps the density and emission grids) at the structure walk's bytes per node (volume::VdbStructure:
+//    2,304 a float leaf, about 66 KB a lower internal node, 1 MB an upper one), and the density's majorant grid, 4
+//    bytes a cell of 8³ voxels over the box of its leaves and active tiles (grid_medium.cpp). Held from the inputs'
+//    reading to the bake's end, beside the rest.
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
 namespace kiln::lightmap {
+
+// A VDB medium, as its file's structure says before OpenVDB reads it.
+struct VdbMediumSize {
+  uint64_t file_bytes = 0;      // the .vdb blob, held while its grids are read
+  uint64_t tree_bytes = 0;      // every grid's tree in the file (volume::VdbStructure::tree_bytes)
+  uint64_t majorant_cells = 0;  // of the density's majorant grid (volume::GridMedium::majorant_cells)
+};
+
+// The size of a VDB medium reading `density_grid` (and `emission_grid` when not empty) from the .vdb file `bytes`,
+// walked without OpenVDB allocating anything (volume::check_vdb_structure). Throws bake::InvalidInput as that walk
+// does ("bytes" or "grids[NAME]"), and "grids[NAME]" for a named grid the file lacks.
+VdbMediumSize vdb_medium_size(std::span<const uint8_t> bytes, const std::string& density_grid,
+                              const std::string& emission_grid);
 
 struct LightmapJobSize {
   std::vector<uint64_t> lightmap_texels;  // per lightmap: width × height
@@ -38,6 +57,7 @@ struct LightmapJobSize {
   bool ao = false, directional = false, radiance = false, denoise = false, preview = true;
   bool streamed = false;  // the outputs go to a sink page by page (the daemon) rather than back with the result
   uint64_t probes = 0;    // light probes, at most (probe_volume.h: ProbeVolumeOptions::max_probes); 0: none
+  std::vector<VdbMediumSize> vdb_media;  // the VDB media, in the order given (homogeneous media cost nothing)
 };
 
 // What a light probe holds at the bake's peak: its replica sums (1.8 KiB), its summary, position and lattice index,
@@ -52,6 +72,8 @@ struct LightmapMemoryEstimate {
   uint64_t scene_bytes = 0;              // the meshes decoded and the tracer
   uint64_t input_bytes = 0;              // the blobs and the decoded textures and environment
   uint64_t probe_bytes = 0;              // the light probes and their placement, when the job bakes any
+  std::vector<uint64_t> medium_bytes;    // per VDB medium, in the order of LightmapJobSize::vdb_media
+  uint64_t media_bytes = 0;              // their sum
   uint64_t total = 0;                    // the peak: the sum of the above and the largest set-up transient
   double bytes_per_texel = 0;            // of a lightmap, with the outputs asked for (untiled)
   double bytes_per_triangle = 0;         // traced

@@ -65,19 +65,27 @@ double cap_for(const GridMediumSpec& s, const scene::Transform& world_from_index
 namespace {
 
 // Cells of `edge` voxels covering index coordinates [lo, hi] on one axis, aligned to multiples of edge.
-int cells_on_axis(int lo, int hi, int edge) {
-  return static_cast<int>(std::floor(double(hi) / edge) - std::floor(double(lo) / edge)) + 1;
+int64_t cells_on_axis(int64_t lo, int64_t hi, int64_t edge) {
+  return static_cast<int64_t>(std::floor(double(hi) / edge) - std::floor(double(lo) / edge)) + 1;
 }
 
-// The majorant grid's empty shape over the index box [lo, hi]: cells of a leaf node's 8 voxels, doubled until the
-// grid fits kMaxMajorantCells (a wide, sparse grid gets coarser cells, never more memory).
+// The cell edge (in voxels) of the majorant grid over the index box [lo, hi]: a leaf node's 8 voxels, doubled until
+// the grid fits kMaxMajorantCells (a wide, sparse grid gets coarser cells, never more memory).
+int64_t majorant_edge(const std::array<int64_t, 3>& lo, const std::array<int64_t, 3>& hi) {
+  int64_t edge = openvdb::FloatTree::LeafNodeType::DIM;
+  auto count = [&](int a) { return static_cast<size_t>(cells_on_axis(lo[a], hi[a], edge)); };
+  while (count(0) * count(1) * count(2) > GridMedium::kMaxMajorantCells) edge *= 2;
+  return edge;
+}
+
+// The majorant grid's empty shape over the index box [lo, hi].
 MajorantGrid majorant_shape(const openvdb::Coord& lo, const openvdb::Coord& hi) {
-  int edge = openvdb::FloatTree::LeafNodeType::DIM;
-  auto count = [&](int a) { return cells_on_axis(lo[a], hi[a], edge); };
-  while (size_t(count(0)) * count(1) * count(2) > GridMedium::kMaxMajorantCells) edge *= 2;
+  const std::array<int64_t, 3> a{lo.x(), lo.y(), lo.z()}, b{hi.x(), hi.y(), hi.z()};
+  const int64_t edge = majorant_edge(a, b);
+  auto count = [&](int k) { return static_cast<int>(cells_on_axis(a[k], b[k], edge)); };
   const Vec3 origin(std::floor(double(lo[0]) / edge) * edge, std::floor(double(lo[1]) / edge) * edge,
                     std::floor(double(lo[2]) / edge) * edge);
-  return MajorantGrid(origin, edge, count(0), count(1), count(2));
+  return MajorantGrid(origin, static_cast<double>(edge), count(0), count(1), count(2));
 }
 
 Vec3 vec(const openvdb::Coord& c) { return {double(c.x()), double(c.y()), double(c.z())}; }
@@ -138,6 +146,17 @@ GridMedium::GridMedium(const GridMediumSpec& spec) : spec_(spec) {
 }
 
 GridMedium::~GridMedium() = default;
+
+size_t GridMedium::majorant_cells(const std::array<int64_t, 3>& stored_lo, const std::array<int64_t, 3>& stored_hi) {
+  if (stored_lo[0] > stored_hi[0] || stored_lo[1] > stored_hi[1] || stored_lo[2] > stored_hi[2]) return 1;
+  // build_majorant's reach: one voxel either side.
+  const std::array<int64_t, 3> lo{stored_lo[0] - 1, stored_lo[1] - 1, stored_lo[2] - 1};
+  const std::array<int64_t, 3> hi{stored_hi[0] + 1, stored_hi[1] + 1, stored_hi[2] + 1};
+  const int64_t edge = majorant_edge(lo, hi);
+  size_t cells = 1;
+  for (int a = 0; a < 3; ++a) cells *= static_cast<size_t>(cells_on_axis(lo[a], hi[a], edge));
+  return cells;
+}
 
 double GridMedium::density(const Vec3& p) const {
   return std::min<double>(sample(*spec_.density.impl().grid, index_from_world_.point(p)), density_cap_);

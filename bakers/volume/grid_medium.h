@@ -9,6 +9,8 @@
 // (docs/MEDIA.md, "Stability"), so a 1e6 spike costs a bounded number of null collisions per ray.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <memory>
 #include <optional>
 
@@ -44,6 +46,10 @@ class GridMedium final : public Medium {
   MajorantIterator majorants(const scene::Ray& ray, double t_end) const override;
   double g() const override { return spec_.g; }
   Bounds3 bounds() const override { return bounds_; }
+
+  // The cells of the majorant grid (4 bytes each) a density whose leaves and active tiles span the index box
+  // [stored_lo, stored_hi] gets (VdbGridStructure's box; lo > hi for an empty grid), for memory estimates.
+  static size_t majorant_cells(const std::array<int64_t, 3>& stored_lo, const std::array<int64_t, 3>& stored_hi);
 
   const MajorantGrid& majorant_grid() const { return majorant_; }
   // The largest density lookups return (the cap, or the grid's largest value if lower).

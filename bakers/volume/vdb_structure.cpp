@@ -163,7 +163,9 @@ class Walk {
   void map(const std::string& type, const std::string& what);
   void grid(size_t index);
   void tree(const ValueKind& kind);
-  void internal_node(const ValueKind& kind, int log2, size_t at);
+  void internal_node(const ValueKind& kind, int log2, size_t at, const std::array<int64_t, 3>& origin);
+  // Widens the grid's stored box by the node or tile of `dim` voxels at `origin`.
+  void store(const std::array<int64_t, 3>& origin, int64_t dim);
   void values(const ValueKind& kind, int64_t entries, int active, const std::string& what, bool decompress);
   void chunk(uint32_t compression, int64_t expected, const std::string& what, bool decompress);
   void blosc_header(const uint8_t* p, int64_t declared, int64_t expected, size_t at, const std::string& what,
@@ -442,8 +444,24 @@ void Walk::count_internal(int64_t bytes, size_t at, const std::string& what) {
                  " bytes of OpenVDB's memory; at most " + std::to_string(kVdbTreeBytes) + " are allowed");
 }
 
-// InternalNode::readTopology: child mask, value mask, the table's values, then each child in mask order.
-void Walk::internal_node(const ValueKind& kind, int log2, size_t at) {
+void Walk::store(const std::array<int64_t, 3>& origin, int64_t dim) {
+  for (int a = 0; a < 3; ++a) {
+    grid_->stored_lo[a] = std::min(grid_->stored_lo[a], origin[a]);
+    grid_->stored_hi[a] = std::max(grid_->stored_hi[a], origin[a] + dim - 1);
+  }
+}
+
+// The origin of entry i of an internal node of 2^log2 entries a side at `origin`, whose children span `child_dim`
+// voxels (InternalNode::offsetToLocalCoord: x slowest, z fastest).
+std::array<int64_t, 3> entry_origin(const std::array<int64_t, 3>& origin, int log2, int64_t i, int64_t child_dim) {
+  const int64_t side = int64_t{1} << log2;
+  return {origin[0] + (i >> (2 * log2)) * child_dim, origin[1] + ((i >> log2) & (side - 1)) * child_dim,
+          origin[2] + (i & (side - 1)) * child_dim};
+}
+
+// InternalNode::readTopology: child mask, value mask, the table's values, then each child in mask order; the stored
+// box grows by each active tile and leaf.
+void Walk::internal_node(const ValueKind& kind, int log2, size_t at, const std::array<int64_t, 3>& origin) {
   const bool upper = log2 == 5;
   const std::string what = std::string(upper ? "an upper" : "a lower") + " internal node";
   const int64_t entries = int64_t{1} << (3 * log2);
@@ -467,11 +485,15 @@ void Walk::internal_node(const ValueKind& kind, int log2, size_t at) {
     fail(at, what + " declares " + std::to_string(children) + " children, which need at least " +
                  std::to_string(static_cast<uint64_t>(children) * child_min) + " bytes; " + std::to_string(left()) +
                  " are left in the file");
+  const int64_t child_dim = upper ? 128 : 8;
   for (int64_t i = 0; i < entries; ++i) {
+    const std::array<int64_t, 3> o = entry_origin(origin, log2, i, child_dim);
+    if (bit(value_mask, static_cast<size_t>(i))) store(o, child_dim);
     if (!bit(child_mask, static_cast<size_t>(i))) continue;
     if (upper) {
-      internal_node(kind, 4, pos_);
+      internal_node(kind, 4, pos_, o);
     } else {
+      store(o, 8);
       const size_t leaf_at = pos_;
       if (++grid_->leaves > kVdbMaxLeavesPerGrid)
         refuse_grid("holds more than " + std::to_string(kVdbMaxLeavesPerGrid) + " leaf nodes (the leaf at byte " +
@@ -522,7 +544,9 @@ void Walk::tree(const ValueKind& kind) {
     keys.push_back(key("the root's " + ordinal(t) + " tile"));
     take(static_cast<size_t>(kind.size), "a root tile's value");
     const size_t at = pos_;
-    if (get<uint8_t>("a root tile's active flag") > 1) fail(at, "a root tile's active flag is neither 0 nor 1");
+    const uint8_t active = get<uint8_t>("a root tile's active flag");
+    if (active > 1) fail(at, "a root tile's active flag is neither 0 nor 1");
+    if (active) store({keys.back()[0], keys.back()[1], keys.back()[2]}, kUpperDim);
   }
   for (uint32_t c = 0; c < children; ++c) {
     const size_t at = pos_;
@@ -530,7 +554,7 @@ void Walk::tree(const ValueKind& kind) {
     if (c > 0 && !(keys[keys.size() - 2] < keys.back()))
       fail(at, "the root's children are not in increasing order of origin, as OpenVDB writes and reads them");
     count_internal(root_entry_bytes(kind.size), at, "a root child");
-    internal_node(kind, 5, at);
+    internal_node(kind, 5, at, {keys.back()[0], keys.back()[1], keys.back()[2]});
   }
   // A second child at an origin replaces the first in the root's table, which leaks it; refused with any repeat.
   std::sort(keys.begin(), keys.end());

@@ -10,6 +10,7 @@
 // are in docs/MEDIA.md ("Validation").
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -49,6 +50,10 @@ struct VdbGridStructure {
   int64_t upper_nodes = 0;
   int64_t lower_nodes = 0;
   int64_t leaves = 0;
+  // The index-space box [lo, hi] (inclusive) of every leaf and active tile, as OpenVDB's evalLeafBoundingBox and
+  // evalActiveVoxelBoundingBox together find it (vdb_grid.cpp's stored box); lo > hi when the tree holds none.
+  std::array<int64_t, 3> stored_lo{INT64_MAX, INT64_MAX, INT64_MAX};
+  std::array<int64_t, 3> stored_hi{INT64_MIN, INT64_MIN, INT64_MIN};
   // Byte offsets of the grid's parts as the walk found them: its compression flags (where io::File's grid offset
   // points), its tree (the buffer count; 0 for an instance), its leaf buffers (io::File's block offset) and its end.
   size_t start_offset = 0;

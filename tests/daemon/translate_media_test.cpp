@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "bakers/volume/vdb_file.h"
@@ -164,6 +165,71 @@ TEST(TranslateMedia, TheWorkerReadsTheVdbGrids) {
     try {
       loaded(blobs, bytes, fields);
       ADD_FAILURE() << "accepted " << fields;
+    } catch (const InvalidField& e) {
+      EXPECT_EQ(e.field(), "job.lightmap.media[0].vdb.file");
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  }
+}
+
+// A VDB file of one dense n³ block of density 1: (n / 8)³ leaves.
+std::string block_bytes(int n) {
+  const std::vector<uint8_t> bytes = volume::write_vdb(
+      {volume::make_vdb_grid("density", n, n, n, std::vector<float>(static_cast<size_t>(n) * n * n, 1.0f), 0.05)});
+  return std::string(bytes.begin(), bytes.end());
+}
+
+// A job whose one medium reads `bytes` from the store, translated and sized as at submit (service.cpp).
+BakeRequest sized(store::BlobStore& blobs, const std::string& bytes, const std::string& vdb_fields = "",
+                  int resolution = 16) {
+  const store::BlobId id = blobs.put(bytes);
+  const std::string mesh = "sha256: \"" + blobs.put("a mesh").digest + "\" size: 6";
+  v1::JobSpec spec;
+  const std::string text = "lightmap { resolution: " + std::to_string(resolution) +
+                           " meshes { name: \"floor\" geometry { " + mesh + " } } media { vdb { file { sha256: \"" +
+                           id.digest + "\" size: " + std::to_string(id.size) + " } " + vdb_fields +
+                           " } sigma_s { r: 1 g: 1 b: 1 } } }";
+  EXPECT_TRUE(google::protobuf::TextFormat::ParseFromString(text, &spec)) << text;
+  BakeRequest r = translate(spec, &blobs);
+  size_vdb_media(r, blobs);
+  fit_memory_limit(r, 0);
+  return r;
+}
+
+TEST(TranslateMedia, TheEstimateCountsTheVdbGridsLeaves) {
+  test::TempDir dir;
+  store::BlobStore blobs(dir.path() / "store");
+  uint64_t previous = 0, rest = 0;
+  for (int n : {16, 64, 128}) {
+    const BakeRequest r = sized(blobs, block_bytes(n));
+    const lightmap::LightmapMemoryEstimate e = lightmap::estimate_memory(r.lightmap_memory->size);
+    ASSERT_EQ(e.medium_bytes.size(), 1u);
+    // At least the walk's 2,304 bytes a float leaf (vdb_structure.cpp) for each of the (n / 8)³ leaves.
+    const uint64_t leaves = static_cast<uint64_t>(n / 8) * (n / 8) * (n / 8);
+    EXPECT_GE(e.media_bytes, leaves * 2304) << n;
+    EXPECT_GT(r.memory_bytes, previous) << n;
+    previous = r.memory_bytes;
+    // The rest of the job is the same whatever the grid.
+    if (rest == 0) rest = r.memory_bytes - e.media_bytes;
+    EXPECT_EQ(r.memory_bytes - e.media_bytes, rest) << n;
+    EXPECT_NE(r.memory_note.find("1 VDB medium ("), std::string::npos) << r.memory_note;
+  }
+  // 128³ voxels: 4,096 leaves, about 10 MB, more than a 16² lightmap and a 1-triangle mesh: the medium's file is the
+  // field to lower. One leaf (0.6 MB, most of it the upper internal node) is less than a 256² lightmap (tens of MB).
+  EXPECT_EQ(sized(blobs, block_bytes(128)).memory_field, "job.lightmap.media[0].vdb.file");
+  EXPECT_EQ(sized(blobs, block_bytes(8), "", 256).memory_field, "job.lightmap.resolution");
+}
+
+TEST(TranslateMedia, AFileTheWalkRefusesIsRefusedWhenSized) {
+  test::TempDir dir;
+  store::BlobStore blobs(dir.path() / "store");
+  const std::string whole = block_bytes(16);
+  for (const auto& [bytes, fields, says] :
+       {std::tuple{whole, std::string("density_grid: \"smoke\""), std::string("grids[smoke]: no such grid")},
+        std::tuple{whole.substr(0, whole.size() / 2), std::string(), std::string("")}}) {
+    try {
+      sized(blobs, bytes, fields);
+      ADD_FAILURE() << "sized " << fields;
     } catch (const InvalidField& e) {
       EXPECT_EQ(e.field(), "job.lightmap.media[0].vdb.file");
       EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();

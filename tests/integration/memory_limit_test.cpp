@@ -9,8 +9,10 @@
 #include <functional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "bakers/lightmap/memory_estimate.h"
+#include "bakers/volume/vdb_file.h"
 #include "client/lib/client.h"
 #include "proto/kiln.pb.h"
 #include "tests/integration/daemon_fixture.h"
@@ -93,6 +95,54 @@ TEST(MemoryLimit, AJobThatCanNeverFitIsRefusedAtSubmitNamingTheField) {
   // A job that fits is taken and bakes.
   const v1::SubmitReply ok = c.submit(quad_job(mesh, 16));
   EXPECT_EQ(c.watch(ok.job_id()).state(), v1::JOB_STATE_SUCCEEDED);
+}
+
+// A VDB medium over the quad whose grids alone exceed a limit the rest of the job fits in many times over: refused at
+// submit naming the medium's file, and taken and baked under an ample limit.
+TEST(MemoryLimit, AJobWithALargeVdbMediumIsRefusedAtSubmitNamingItsFile) {
+  // 128³ voxels of density 0.1 over 2 m: 4,096 leaves, about 10 MB of OpenVDB's trees (vdb_medium_memory_test.cpp).
+  const int n = 128;
+  const std::vector<uint8_t> vdb = volume::write_vdb({volume::make_vdb_grid(
+      "density", n, n, n, std::vector<float>(static_cast<size_t>(n) * n * n, 0.1f), 2.0 / n, {-1, 0, -1})});
+  const std::string blob(vdb.begin(), vdb.end());
+  const uint64_t without = quad_estimate(16, quad_blob().size());
+  const uint64_t medium = lightmap::vdb_medium_size(vdb, "density", "").tree_bytes;
+  ASSERT_GT(medium, 4 * without);
+  auto job = [&](Client& c) {
+    v1::JobSpec spec = quad_job(c.upload_blob(quad_blob()), 16, "haze");
+    v1::Medium* m = spec.mutable_lightmap()->add_media();
+    *m->mutable_vdb()->mutable_file() = c.upload_blob(blob);
+    m->mutable_sigma_s()->set_r(0.5);
+    m->mutable_sigma_s()->set_g(0.5);
+    m->mutable_sigma_s()->set_b(0.5);
+    return spec;
+  };
+  {
+    Daemon d({"--memory-limit", std::to_string(2 * without)});
+    Client c = connect(d);
+    try {
+      c.submit(job(c));
+      ADD_FAILURE() << "a job with " << medium << " bytes of VDB trees fit in " << 2 * without;
+    } catch (const client::ServerError& e) {
+      EXPECT_EQ(e.code(), v1::Error::RESOURCE_EXHAUSTED) << e.message();
+      EXPECT_EQ(e.field(), "job.lightmap.media[0].vdb.file") << e.message();
+      EXPECT_NE(e.message().find("1 VDB medium ("), std::string::npos) << e.message();
+    }
+  }
+  Daemon d({"--memory-limit", "1G"});
+  Client c = connect(d);
+  const v1::SubmitReply ok = c.submit(job(c));
+  EXPECT_EQ(c.watch(ok.job_id()).state(), v1::JOB_STATE_SUCCEEDED);
+  // A file the structure walk refuses is refused at submit, on its field, with the walk's message.
+  v1::JobSpec cut = job(c);
+  *cut.mutable_lightmap()->mutable_media(0)->mutable_vdb()->mutable_file() = c.upload_blob(blob.substr(0, 1000));
+  try {
+    c.submit(cut);
+    ADD_FAILURE() << "a VDB file cut short was taken";
+  } catch (const client::ServerError& e) {
+    EXPECT_EQ(e.code(), v1::Error::INVALID_ARGUMENT) << e.message();
+    EXPECT_EQ(e.field(), "job.lightmap.media[0].vdb.file") << e.message();
+  }
 }
 
 TEST(MemoryLimit, TwoJobsThatDoNotFitTogetherRunOneAfterTheOther) {

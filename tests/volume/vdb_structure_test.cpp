@@ -106,7 +106,33 @@ void expect_accepted(const Bytes& bytes) {
     EXPECT_EQ(s.grids[i].leaves, int64_t(nodes[0])) << g.getName();
     EXPECT_EQ(s.grids[i].lower_nodes, int64_t(nodes[1])) << g.getName();
     EXPECT_EQ(s.grids[i].upper_nodes, int64_t(nodes[2])) << g.getName();
+    // The stored box holds OpenVDB's boxes of active voxels and of leaves with active voxels (it also holds leaves
+    // with none, which OpenVDB's leave out: the majorant estimate needs a box at least as large).
+    openvdb::CoordBBox box = g.evalActiveVoxelBoundingBox(), leaves;
+    if (g.baseTree().evalLeafBoundingBox(leaves)) box.expand(leaves);
+    for (int a = 0; !box.empty() && a < 3; ++a) {
+      EXPECT_LE(s.grids[i].stored_lo[a], box.min()[a]) << g.getName();
+      EXPECT_GE(s.grids[i].stored_hi[a], box.max()[a]) << g.getName();
+    }
   }
+}
+
+// The stored box is exactly OpenVDB's when every leaf holds an active voxel: leaves, an active tile in a lower node
+// and one at the root, at negative coordinates too.
+TEST(VdbStructure, TheStoredBoxIsOpenVdbsBoxOfLeavesAndActiveTiles) {
+  openvdb::FloatGrid::Ptr g = small_grid("density");
+  g->tree().setValueOn(openvdb::Coord(-20, -300, 7), 1.0f);
+  const Bytes one = stream_bytes({g});
+  const VdbStructure s = check_vdb_structure(one);
+  EXPECT_EQ(s.grids[0].stored_lo, (std::array<int64_t, 3>{-24, -304, 0}));
+  EXPECT_EQ(s.grids[0].stored_hi, (std::array<int64_t, 3>{135, 7, 7}));
+  g->tree().addTile(3, openvdb::Coord(8192, 0, 0), 2.0f, true);  // a root tile of 4096³ voxels
+  const VdbStructure t = check_vdb_structure(stream_bytes({g}));
+  EXPECT_EQ(t.grids[0].stored_lo, (std::array<int64_t, 3>{-24, -304, 0}));
+  EXPECT_EQ(t.grids[0].stored_hi, (std::array<int64_t, 3>{8192 + 4095, 4095, 4095}));
+  // An empty grid stores nothing: lo > hi.
+  const VdbStructure e = check_vdb_structure(stream_bytes({openvdb::FloatGrid::create(0.0f)}));
+  EXPECT_GT(e.grids[0].stored_lo[0], e.grids[0].stored_hi[0]);
 }
 
 TEST(VdbStructure, WriteVdbOutputIsAccepted) {
