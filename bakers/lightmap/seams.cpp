@@ -10,6 +10,9 @@
 #include <tuple>
 #include <unordered_map>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "bakers/math/rgb.h"
 #include "bakers/scene/scene_check.h"
 
@@ -328,7 +331,44 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
       pairs_.push_back({first, static_cast<uint32_t>(taps_.size() - first)});
     }
   }
+  group_by_component();
   build_matrix();
+}
+
+// Unknowns that no lookup pair links, directly or through others, are independent systems (charts of different
+// instances never share a seam): numbered so that each component is a contiguous range, in order of first use, each
+// keeping its own order, so that stitch() can solve them apart.
+void SeamStitcher::group_by_component() {
+  const size_t n = texels_.size();
+  std::vector<uint32_t> parent(n);
+  for (uint32_t u = 0; u < n; ++u) parent[u] = u;
+  const auto root = [&](uint32_t u) {
+    while (parent[u] != u) u = parent[u] = parent[parent[u]];
+    return u;
+  };
+  for (const Pair& p : pairs_) {
+    for (uint32_t i = p.first + 1; i < p.first + p.count; ++i) {
+      const uint32_t a = root(taps_[p.first].unknown), b = root(taps_[i].unknown);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the root is a component's first unknown
+    }
+  }
+  std::vector<uint32_t> size_of(n, 0);
+  for (uint32_t u = 0; u < n; ++u) ++size_of[root(u)];
+  std::vector<uint32_t> next(n, 0);  // per root: the next new index of its component
+  component_start_.assign(1, 0);
+  for (uint32_t u = 0; u < n; ++u) {
+    if (root(u) != u) continue;
+    next[u] = component_start_.back();
+    component_start_.push_back(component_start_.back() + size_of[u]);
+  }
+  std::vector<uint32_t> new_of(n);
+  std::vector<uint32_t> texels(n);
+  for (uint32_t u = 0; u < n; ++u) {
+    new_of[u] = next[root(u)]++;
+    texels[new_of[u]] = texels_[u];
+  }
+  texels_ = std::move(texels);
+  for (Tap& t : taps_) t.unknown = new_of[t.unknown];
 }
 
 void SeamStitcher::build_matrix() {
@@ -348,9 +388,20 @@ void SeamStitcher::build_matrix() {
   for (uint32_t u = 0; u < n; ++u) {
     entries.push_back({u, u, validity_[texels_[u]] ? options_.valid_weight : options_.dilated_weight});
   }
-  // Sorted by position, equal positions summed in a fixed order: the same matrix on every run.
-  std::stable_sort(entries.begin(), entries.end(),
-                   [](const Entry& a, const Entry& b) { return std::tie(a.row, a.col) < std::tie(b.row, b.col); });
+  // Sorted by position, equal positions summed in a fixed order: the same matrix on every run. A stable counting
+  // sort by row, then each row's few entries stably by column: the order of one stable sort by (row, col), without
+  // its n log n over the millions of entries of a level's page.
+  std::vector<uint32_t> row_end(n + 1, 0);
+  for (const Entry& e : entries) ++row_end[e.row + 1];
+  for (size_t r = 0; r < n; ++r) row_end[r + 1] += row_end[r];
+  std::vector<Entry> sorted(entries.size());
+  std::vector<uint32_t> next(row_end.begin(), row_end.end() - 1);
+  for (const Entry& e : entries) sorted[next[e.row]++] = e;
+  for (size_t r = 0; r < n; ++r) {
+    std::stable_sort(sorted.begin() + row_end[r], sorted.begin() + row_end[r + 1],
+                     [](const Entry& a, const Entry& b) { return a.col < b.col; });
+  }
+  entries = std::move(sorted);
   row_start_.assign(n + 1, 0);
   diagonal_.assign(n, 0.0);
   for (size_t e = 0; e < entries.size();) {
@@ -403,6 +454,47 @@ void SeamStitcher::mismatch(const image::FloatImage& image, double scale, double
   rms = counted ? std::sqrt(sum_sq / static_cast<double>(counted)) : 0.0;
 }
 
+// Preconditioned conjugate gradients on the unknowns [lo, hi) from d = 0 (Jacobi: the diagonal is at least the
+// texel's c_i > 0), to ‖r‖ ≤ tolerance · ‖b‖ over the component. Reads v.b and writes v.d (and the other vectors)
+// in that range only. Returns the iterations; `converged` says whether the tolerance was reached.
+int SeamStitcher::solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged) const {
+  const auto dot = [lo, hi](const std::vector<double>& a, const std::vector<double>& b) {
+    double sum = 0;
+    for (uint32_t i = lo; i < hi; ++i) sum += a[i] * b[i];
+    return sum;
+  };
+  std::fill(v.d.begin() + lo, v.d.begin() + hi, 0.0);
+  std::copy(v.b.begin() + lo, v.b.begin() + hi, v.r.begin() + lo);
+  const double b_norm = std::sqrt(dot(v.b, v.b));
+  converged = true;
+  if (!(b_norm > 0)) return 0;  // the lookups already agree exactly
+  for (uint32_t i = lo; i < hi; ++i) v.p[i] = v.z[i] = v.r[i] / diagonal_[i];
+  double rz = dot(v.r, v.z);
+  int it = 0;
+  for (; it < options_.max_iterations; ++it) {
+    if (std::sqrt(dot(v.r, v.r)) <= options_.tolerance * b_norm) return it;
+    for (uint32_t row = lo; row < hi; ++row) {
+      double sum = 0;
+      for (uint32_t e = row_start_[row]; e < row_start_[row + 1]; ++e) sum += value_[e] * v.p[col_[e]];
+      v.q[row] = sum;
+    }
+    const double pq = dot(v.p, v.q);
+    if (!(pq > 0)) break;  // numerically exhausted
+    const double alpha = rz / pq;
+    for (uint32_t i = lo; i < hi; ++i) {
+      v.d[i] += alpha * v.p[i];
+      v.r[i] -= alpha * v.q[i];
+      v.z[i] = v.r[i] / diagonal_[i];
+    }
+    const double rz_next = dot(v.r, v.z);
+    const double beta = rz_next / rz;
+    rz = rz_next;
+    for (uint32_t i = lo; i < hi; ++i) v.p[i] = v.z[i] + beta * v.p[i];
+  }
+  converged = std::sqrt(dot(v.r, v.r)) <= options_.tolerance * b_norm;
+  return it;
+}
+
 StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
   const auto t0 = std::chrono::steady_clock::now();
   StitchStats s = measure(image);
@@ -413,19 +505,12 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
   for (size_t u = 0; u < n; ++u) {
     for (int c = 0; c < ch; ++c) before[u * ch + c] = image.pixels[static_cast<size_t>(texels_[u]) * ch + c];
   }
-  const auto multiply = [&](const std::vector<double>& x, std::vector<double>& y) {
-    for (size_t r = 0; r < n; ++r) {
-      double sum = 0;
-      for (uint32_t e = row_start_[r]; e < row_start_[r + 1]; ++e) sum += value_[e] * x[col_[e]];
-      y[r] = sum;
-    }
-  };
-  const auto dot = [](const std::vector<double>& a, const std::vector<double>& b) {
-    double sum = 0;
-    for (size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
-    return sum;
-  };
-  std::vector<double> x0(n), b(n), d(n), r(n), z(n), p(n), q(n);
+  CgVectors v;
+  for (std::vector<double>* x : {&v.b, &v.d, &v.r, &v.z, &v.p, &v.q}) x->resize(n);
+  std::vector<double> x0(n);
+  const size_t components = component_start_.size() - 1;
+  std::vector<int> iterations(components);
+  std::vector<uint8_t> converged(components);
   for (int c = 0; c < ch && n > 0; ++c) {
     bool finite_values = true, non_negative = true;
     for (size_t u = 0; u < n; ++u) {
@@ -438,54 +523,34 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
       continue;
     }
     // b = −Σ_k w r_k (r_k · x⁰)
-    std::fill(b.begin(), b.end(), 0.0);
+    std::fill(v.b.begin(), v.b.end(), 0.0);
     for (const Pair& pair : pairs_) {
       double rx = 0;
       for (uint32_t i = pair.first; i < pair.first + pair.count; ++i) rx += taps_[i].weight * x0[taps_[i].unknown];
       for (uint32_t i = pair.first; i < pair.first + pair.count; ++i) {
-        b[taps_[i].unknown] -= options_.seam_weight * taps_[i].weight * rx;
+        v.b[taps_[i].unknown] -= options_.seam_weight * taps_[i].weight * rx;
       }
     }
-    // Preconditioned conjugate gradients from d = 0 (Jacobi: the diagonal is at least the texel's c_i > 0).
-    std::fill(d.begin(), d.end(), 0.0);
-    r = b;
-    const double b_norm = std::sqrt(dot(b, b));
-    if (!(b_norm > 0)) continue;  // the lookups already agree exactly
-    for (size_t i = 0; i < n; ++i) z[i] = r[i] / diagonal_[i];
-    p = z;
-    double rz = dot(r, z);
-    int it = 0;
-    bool converged = false;
-    for (; it < options_.max_iterations; ++it) {
-      if (std::sqrt(dot(r, r)) <= options_.tolerance * b_norm) {
-        converged = true;
-        break;
+    // Each component on its own (they share no unknown): the result does not depend on the threads.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t k = range.begin(); k < range.end(); ++k) {
+        bool done = false;
+        iterations[k] = solve(component_start_[k], component_start_[k + 1], v, done);
+        converged[k] = done;
       }
-      multiply(p, q);
-      const double pq = dot(p, q);
-      if (!(pq > 0)) break;  // numerically exhausted
-      const double alpha = rz / pq;
-      for (size_t i = 0; i < n; ++i) {
-        d[i] += alpha * p[i];
-        r[i] -= alpha * q[i];
-      }
-      for (size_t i = 0; i < n; ++i) z[i] = r[i] / diagonal_[i];
-      const double rz_next = dot(r, z);
-      const double beta = rz_next / rz;
-      rz = rz_next;
-      for (size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
+    });
+    for (size_t k = 0; k < components; ++k) {
+      s.iterations = std::max(s.iterations, iterations[k]);
+      s.converged = s.converged && converged[k];
     }
-    if (!converged && std::sqrt(dot(r, r)) <= options_.tolerance * b_norm) converged = true;
-    s.iterations = std::max(s.iterations, it);
-    s.converged = s.converged && converged;
     constexpr double kMax = std::numeric_limits<float>::max();
     for (size_t u = 0; u < n; ++u) {
-      const double v = x0[u] + d[u];
-      if (!std::isfinite(v)) continue;  // cannot happen for finite inputs; never write a NaN
+      const double value = x0[u] + v.d[u];
+      if (!std::isfinite(value)) continue;  // cannot happen for finite inputs; never write a NaN
       // Irradiance, radiance and AO are never negative; the fit can overshoot below 0 beside a dark texel (a chart
       // in shadow against a lit one), and then stops at 0.
       const double lo = non_negative ? 0.0 : -kMax;
-      image.pixels[static_cast<size_t>(texels_[u]) * ch + c] = static_cast<float>(std::clamp(v, lo, kMax));
+      image.pixels[static_cast<size_t>(texels_[u]) * ch + c] = static_cast<float>(std::clamp(value, lo, kMax));
     }
   }
   for (size_t u = 0; u < n; ++u) {

@@ -114,6 +114,7 @@ class SeamStitcher {
   StitchStats measure(const image::FloatImage& image) const;
 
   size_t unknowns() const { return texels_.size(); }
+  size_t components() const { return component_start_.size() - 1; }  // independent systems among the unknowns
   size_t samples() const { return pairs_.size(); }
   size_t seams_used() const { return seams_used_; }
 
@@ -129,7 +130,8 @@ class SeamStitcher {
   std::vector<uint8_t> validity_;
   StitchOptions options_;
   size_t seams_used_ = 0;
-  std::vector<uint32_t> texels_;  // unknown → texel index, in order of first use
+  std::vector<uint32_t> texels_;           // unknown → texel index, components contiguous (group_by_component)
+  std::vector<uint32_t> component_start_;  // component k is the unknowns [start[k], start[k + 1])
   std::vector<Tap> taps_;
   std::vector<Pair> pairs_;
   // The normal matrix in compressed rows over the unknowns.
@@ -137,7 +139,14 @@ class SeamStitcher {
   std::vector<double> value_;
   std::vector<double> diagonal_;
 
+  // The conjugate gradients' vectors over all unknowns; each component uses its own range.
+  struct CgVectors {
+    std::vector<double> b, d, r, z, p, q;
+  };
+
+  void group_by_component();
   void build_matrix();
+  int solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged) const;
   // The largest and RMS |lookup A − lookup B| over `scale`, over the lookup pairs and channels.
   void mismatch(const image::FloatImage& image, double scale, double& largest, double& rms) const;
 };

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
 
 #include "bakers/lightmap/dilate.h"
 #include "bakers/lightmap/lightmap_bake.h"
@@ -286,6 +287,43 @@ TEST(SeamStitcher, IsDeterministicAndLeavesAgreeingSeamsAlone) {
   EXPECT_EQ(stats.texels_changed, 0u);
   EXPECT_EQ(stats.mismatch_before, 0.0);
   EXPECT_EQ(flat.image.pixels, before);
+}
+
+// Two systems that share no texel (charts of different instances on one page) are solved apart: stitched together,
+// each half gets the bytes it gets stitched alone, whatever the number of threads.
+TEST(SeamStitcher, IndependentSeamsAreSolvedApartWithTheSameBytes) {
+  TwoCharts top, bottom_alone;
+  for (float& v : bottom_alone.image.pixels) v = 3 * v + 0.25f;  // another lightmap's values
+  image::FloatImage page;
+  page.width = top.width;
+  page.height = 2 * top.height;
+  page.channels = 3;
+  page.pixels = top.image.pixels;
+  page.pixels.insert(page.pixels.end(), bottom_alone.image.pixels.begin(), bottom_alone.image.pixels.end());
+  std::vector<uint8_t> valid = top.valid;
+  valid.insert(valid.end(), bottom_alone.valid.begin(), bottom_alone.valid.end());
+  std::vector<Seam> seams = top.seams;
+  Seam lower = top.seams[0];
+  for (Point2* p : {&lower.a0, &lower.a1, &lower.b0, &lower.b1}) p->y += top.height;
+  seams.push_back(lower);
+
+  const SeamStitcher both(seams, page.width, page.height, valid);
+  EXPECT_EQ(both.components(), 2u);
+  const SeamStitcher alone(top.seams, top.width, top.height, top.valid);
+  EXPECT_EQ(alone.components(), 1u);
+  image::FloatImage one_thread = page;
+  {
+    const tbb::global_control serial(tbb::global_control::max_allowed_parallelism, 1);
+    both.stitch(one_thread);
+  }
+  const StitchStats stats = both.stitch(page);
+  EXPECT_TRUE(stats.converged);
+  EXPECT_EQ(page.pixels, one_thread.pixels);
+  alone.stitch(top.image);
+  alone.stitch(bottom_alone.image);
+  const size_t half = top.image.pixels.size();
+  EXPECT_TRUE(std::equal(top.image.pixels.begin(), top.image.pixels.end(), page.pixels.begin()));
+  EXPECT_TRUE(std::equal(bottom_alone.image.pixels.begin(), bottom_alone.image.pixels.end(), page.pixels.begin() + half));
 }
 
 TEST(SeamStitcher, OneChannelImages) {
