@@ -693,7 +693,8 @@ void check_total_input(const BakeRequest& r) {
 }
 
 // The bake's peak memory by the baker's model (bakers/lightmap/memory_estimate.h), from the spec alone: a mesh's
-// triangles are bounded by its blob's size (each needs 12 bytes of indices), and every instance traces its mesh's.
+// triangles are bounded by its blob's size (each needs 12 bytes of indices), every instance traces its mesh's, and the
+// tracer holds a mesh shared by many instances once.
 void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>& lightmap_names, BakeRequest& r) {
   const lightmap::LightmapBakeInput& in = r.lightmap();
   // Streamed: the worker stores each output as the bake hands it over (daemon/workers.cpp).
@@ -704,11 +705,7 @@ void estimate_memory(const kiln::v1::LightmapJob& j, const std::set<std::string>
     mesh_triangles[i] = bytes > 20 ? (bytes - 20) / 12 : 0;
     size.mesh_blob_bytes += bytes;
   }
-  for (const scene::Instance& inst : in.scene.instances) {
-    if (inst.mesh >= 0 && static_cast<size_t>(inst.mesh) < mesh_triangles.size()) {
-      size.traced_triangles += mesh_triangles[inst.mesh];
-    }
-  }
+  lightmap::count_triangles(mesh_triangles, in.scene.instances, size);
   for (int i = 0; i < j.textures_size(); ++i) size.texture_blob_bytes += j.textures(i).image().size();
   if (j.has_environment() && j.environment().has_image()) size.environment_blob_bytes = j.environment().image().size();
   // The largest lightmap, and the field that sets its resolution.

@@ -229,11 +229,9 @@ LightmapJobSize job_size(const LightmapBakeRun& run) {
     const auto side = static_cast<uint64_t>(lightmap_resolution(run, name));
     size.lightmap_texels.push_back(side * side);
   }
-  for (const scene::Instance& inst : s.instances) {
-    if (inst.mesh >= 0 && static_cast<size_t>(inst.mesh) < s.meshes.size()) {
-      size.traced_triangles += s.meshes[inst.mesh].indices.size() / 3;
-    }
-  }
+  std::vector<uint64_t> mesh_triangles;
+  for (const scene::Mesh& m : s.meshes) mesh_triangles.push_back(m.indices.size() / 3);
+  count_triangles(mesh_triangles, s.instances, size);
   // KILNMSH1 (daemon/mesh_blob_decode.h): float positions, normals and UVs, 12 bytes of indices a triangle.
   for (const scene::Mesh& m : s.meshes) {
     size.mesh_blob_bytes += 20 + 12 * (m.positions.size() + m.normals.size()) +

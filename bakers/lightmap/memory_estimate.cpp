@@ -13,6 +13,7 @@
 #include "bakers/lightmap/texels.h"
 #include "bakers/math/rgb.h"
 #include "bakers/scene/scene.h"
+#include "bakers/scene/tracer.h"
 #include "bakers/volume/grid_medium.h"
 #include "bakers/volume/vdb_structure.h"
 
@@ -28,6 +29,14 @@ constexpr double kSamplesPerTexel = 5;
 // float vertex and index buffers, its own records), and the bake peaked at 840 to 1 070 bytes a triangle in all over
 // several runs, the builder's temporaries making most of the difference.
 constexpr double kTracerPerTriangle = 1000;
+
+// An instance the tracer holds as an Embree instance: its geometry, transform and records, and its share of the
+// top-level BVH (an allowance; the level of 10,001 instances spends a few MB on them).
+constexpr double kTracerPerInstance = 1024;
+
+// What the bake keeps per traced triangle whatever the tracer holds (the instances' records of their triangles):
+// 5 to 7 bytes measured with 10 to 640 instances of one mesh (memory_estimate_test), counted as 16.
+constexpr double kPerTracedTriangle = 16;
 
 // A tiled page bins its triangles by tile: 4 bytes a triangle in each tile it overlaps (about two, for triangles of a
 // few texels near tile borders), and the bins' growth.
@@ -85,6 +94,26 @@ VdbMediumSize vdb_medium_size(std::span<const uint8_t> bytes, const std::string&
   return m;
 }
 
+void count_triangles(const std::vector<uint64_t>& mesh_triangles, const std::vector<scene::Instance>& instances,
+                     LightmapJobSize& job) {
+  const auto triangles = [&](int m) {
+    return m >= 0 && static_cast<size_t>(m) < mesh_triangles.size() ? mesh_triangles[m] : uint64_t{0};
+  };
+  std::vector<size_t> uses(mesh_triangles.size(), 0);
+  job.traced_triangles = job.held_triangles = job.baked_triangles = 0;
+  for (const scene::Instance& inst : instances) {
+    if (triangles(inst.mesh) == 0) continue;
+    ++uses[inst.mesh];
+    job.traced_triangles += triangles(inst.mesh);
+    if (inst.bake) job.baked_triangles += triangles(inst.mesh);
+  }
+  job.instances = instances.size();
+  for (size_t m = 0; m < mesh_triangles.size(); ++m) {
+    const bool once = scene::instanced_mesh(scene::Instancing::shared, uses[m], mesh_triangles[m]);
+    job.held_triangles += (once ? std::min<size_t>(uses[m], 1) : uses[m]) * mesh_triangles[m];
+  }
+}
+
 LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size) {
   LightmapMemoryEstimate e;
   e.tile_size = tile_size;
@@ -116,7 +145,12 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   e.bytes_per_triangle = kTracerPerTriangle + static_cast<double>(raster_bytes_per_triangle());
   double triangle_bytes = e.bytes_per_triangle;
   if (tile_size > 0) triangle_bytes += kBinBytesPerTriangle;
-  e.scene_bytes = static_cast<uint64_t>(triangle_bytes * static_cast<double>(job.traced_triangles) +
+  // The tracer holds its triangles once per instanced mesh; the rasterizer and the bins see the baking instances'.
+  const auto or_traced = [&](uint64_t n) { return static_cast<double>(n > 0 ? n : job.traced_triangles); };
+  e.scene_bytes = static_cast<uint64_t>(kTracerPerTriangle * or_traced(job.held_triangles) +
+                                        kTracerPerInstance * static_cast<double>(job.instances) +
+                                        kPerTracedTriangle * static_cast<double>(job.traced_triangles) +
+                                        (triangle_bytes - kTracerPerTriangle) * or_traced(job.baked_triangles) +
                                         kMeshCopies * static_cast<double>(job.mesh_blob_bytes));
   const double encoded = static_cast<double>(job.texture_blob_bytes + job.environment_blob_bytes);
   e.input_bytes =

@@ -33,6 +33,8 @@
 #include <string>
 #include <vector>
 
+#include "bakers/scene/scene.h"
+
 namespace kiln::lightmap {
 
 // A VDB medium, as its file's structure says before OpenVDB reads it.
@@ -51,6 +53,10 @@ VdbMediumSize vdb_medium_size(std::span<const uint8_t> bytes, const std::string&
 struct LightmapJobSize {
   std::vector<uint64_t> lightmap_texels;  // per lightmap: width × height
   uint64_t traced_triangles = 0;          // over the instances, each its mesh's triangles (an upper bound will do)
+  // The triangles the tracer holds (a mesh it instances once, scene::instanced_mesh; the others once per instance)
+  // and those rasterized (of the instances that bake); count_triangles sets them. 0: as traced.
+  uint64_t held_triangles = 0, baked_triangles = 0;
+  uint64_t instances = 0;
   uint64_t mesh_blob_bytes = 0;           // the meshes as uploaded (KILNMSH1), summed over meshes (not instances)
   uint64_t texture_blob_bytes = 0;        // the encoded textures
   uint64_t environment_blob_bytes = 0;    // the encoded environment image
@@ -84,6 +90,11 @@ struct LightmapMemoryEstimate {
 };
 
 // The estimate of the bake untiled (tile_size 0) or in tiles of tile_size² texels.
+// Sets job's traced, held and baked triangles and its instances from each mesh's triangles (an upper bound will do)
+// and the instances (a mesh index out of range traces nothing), as the default tracer takes them.
+void count_triangles(const std::vector<uint64_t>& mesh_triangles, const std::vector<scene::Instance>& instances,
+                     LightmapJobSize& job);
+
 LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size = 0);
 
 // The estimate of the bake as it will run under a memory limit (0: none): untiled when that fits the limit, else in

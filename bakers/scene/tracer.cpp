@@ -647,12 +647,7 @@ Tracer::Tracer(const Scene& scene, const TracerOptions& options) : impl_(std::ma
   for (const Instance& inst : scene.instances)
     if (!scene.meshes[inst.mesh].indices.empty()) ++uses[inst.mesh];
   im.share.resize(nm);
-  for (size_t m = 0; m < nm; ++m) {
-    const size_t copies = uses[m] > 1 ? (uses[m] - 1) * (scene.meshes[m].indices.size() / 3) : 0;
-    im.share[m] = options.instancing == Instancing::all      ? uses[m] > 0
-                  : options.instancing == Instancing::shared ? copies >= kInstancingMinCopies
-                                                             : false;
-  }
+  for (size_t m = 0; m < nm; ++m) im.share[m] = instanced_mesh(options.instancing, uses[m], scene.meshes[m].indices.size() / 3);
   im.mesh_scenes.assign(nm, nullptr);
   im.mesh_first.assign(nm, 0);
   im.mesh_extent.assign(nm, 0);

@@ -82,6 +82,14 @@ enum class Instancing {
 // Instancing::shared's threshold: triangles × (instances − 1) of a mesh, ~1 MB of flattened copies.
 inline constexpr size_t kInstancingMinCopies = 4096;
 
+// Whether the tracer holds a mesh of `triangles` traced by `uses` instances once, as an instance of one BVH, rather
+// than a world-space copy per instance (the rule of `instancing` above; memory estimates apply it too).
+inline bool instanced_mesh(Instancing instancing, size_t uses, size_t triangles) {
+  const size_t copies = uses > 1 ? (uses - 1) * triangles : 0;
+  return instancing == Instancing::all ? uses > 0 : instancing == Instancing::shared ? copies >= kInstancingMinCopies
+                                                                                      : false;
+}
+
 struct TracerOptions {
   bool robust = true;  // RTC_SCENE_FLAG_ROBUST (watertight); false trades that for ~speed
   Instancing instancing = Instancing::shared;

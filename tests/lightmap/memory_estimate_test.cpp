@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "bakers/lightmap/lightmap_bake.h"
 #include "tests/support/sanitizers.h"
@@ -106,6 +107,48 @@ TEST_F(MemoryEstimate, BoundsTheTracerOfABigMesh) {
   std::printf("sphere of %llu triangles: measured peak %s (the tracer holds %s once built), estimate %s\n",
               static_cast<unsigned long long>(size.traced_triangles), format_bytes(m.peak).c_str(),
               format_bytes(m.tracer_bytes).c_str(), format_bytes(m.estimate.total).c_str());
+  EXPECT_GE(m.estimate.total, m.peak);
+  EXPECT_LE(m.estimate.total, 4 * m.peak);
+}
+
+// A level's props: one sphere of 57,360 triangles placed 160 times (the first bakes its 16² lightmap, the others only
+// cast shadows and bounce light). The tracer holds the sphere once, as an instance of one BVH, and rasterizes only the
+// baking one's, so the estimate counts its triangles once for both; counting every copy (as if flattened) would
+// ask for 10 GiB where the bake takes about 100 MiB.
+TEST_F(MemoryEstimate, BoundsTheTracerOfManyInstancesOfOneMesh) {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("grey", 0.5));
+  test::add_sphere(s, "prop", {0, 0, 0}, 1.0, 120, 0);
+  s.environment.constant = Rgb{1.0};
+  constexpr int kCopies = 160;
+  const scene::Instance first = s.instances.front();
+  for (int i = 1; i < kCopies; ++i) {
+    scene::Instance copy = first;
+    copy.to_world = test::translate_scale({3.0 * (i % 8), 0, 3.0 * (i / 8)}, 1.0);
+    copy.bake = false;
+    s.instances.push_back(copy);
+  }
+  LightmapBakeInput in = test::lightmap_input(s, 16, 0.05);
+  in.max_samples = 16;
+  LightmapJobSize size;
+  size.lightmap_texels = {16 * 16};
+  std::vector<uint64_t> mesh_triangles;
+  for (const scene::Mesh& mesh : s.meshes) {
+    mesh_triangles.push_back(mesh.indices.size() / 3);
+    size.mesh_blob_bytes += 20 + mesh.positions.size() * 40 + mesh.indices.size() * 4;
+  }
+  count_triangles(mesh_triangles, s.instances, size);
+  EXPECT_EQ(size.traced_triangles, kCopies * mesh_triangles[0]);
+  EXPECT_EQ(size.held_triangles, mesh_triangles[0]);
+  EXPECT_EQ(size.baked_triangles, mesh_triangles[0]);
+  const Measured m = measure(in, size);
+  LightmapJobSize flattened = size;
+  flattened.held_triangles = flattened.baked_triangles = 0;
+  std::printf("%zu instances of %llu triangles: measured peak %s (the tracer holds %s once built), estimate %s "
+              "(as if flattened: %s)\n",
+              s.instances.size(), static_cast<unsigned long long>(mesh_triangles[0]), format_bytes(m.peak).c_str(),
+              format_bytes(m.tracer_bytes).c_str(), format_bytes(m.estimate.total).c_str(),
+              format_bytes(estimate_memory(flattened).total).c_str());
   EXPECT_GE(m.estimate.total, m.peak);
   EXPECT_LE(m.estimate.total, 4 * m.peak);
 }

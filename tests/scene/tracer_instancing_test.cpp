@@ -122,7 +122,9 @@ TEST(TracerInstancing, SameHitsAsFlattenedCopies) {
   for (size_t i = 0; i < out.size(); ++i) {
     const auto one = inst.intersect_id(rays[i]);
     ASSERT_EQ(one.has_value(), out[i].has_value());
-    if (one) EXPECT_EQ(one->triangle, out[i]->triangle);
+    if (one) {
+      EXPECT_EQ(one->triangle, out[i]->triangle);
+    }
   }
 }
 
