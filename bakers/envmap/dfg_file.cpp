@@ -1,5 +1,6 @@
 #include "bakers/envmap/dfg_file.h"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -54,11 +55,25 @@ T get(std::string_view bytes, size_t& at) {
   return v;
 }
 
+// An entry's doubles, in the order the file stores them (then its samples).
+std::array<double*, 6> values_of(DfgEntry& e) {
+  return {&e.scale, &e.bias, &e.energy, &e.scale_error, &e.bias_error, &e.energy_error};
+}
+std::array<double, 6> values_of(const DfgEntry& e) {
+  return {e.scale, e.bias, e.energy, e.scale_error, e.bias_error, e.energy_error};
+}
+
 bool finite(const DfgEntry& e) {
-  for (double v : {e.scale, e.bias, e.energy, e.scale_error, e.bias_error, e.energy_error}) {
+  for (double v : values_of(e)) {
     if (!std::isfinite(v)) return false;
   }
   return true;
+}
+
+// The same bits in every value and the same sample count.
+bool identical(const DfgEntry& a, const DfgEntry& b) {
+  const std::array<double, 6> x = values_of(a), y = values_of(b);
+  return std::memcmp(x.data(), y.data(), sizeof x) == 0 && a.samples == b.samples;
 }
 
 std::optional<DfgTable> refuse(std::string* why, const std::string& reason) {
@@ -80,7 +95,7 @@ std::string encode_dfg_table(const DfgKey& key, const DfgTable& table) {
   out.reserve(sizeof h + table.entries.size() * kEntryBytes + sizeof(uint64_t));
   put(out, h);
   for (const DfgEntry& e : table.entries) {
-    for (double v : {e.scale, e.bias, e.energy, e.scale_error, e.bias_error, e.energy_error}) put(out, v);
+    for (double v : values_of(e)) put(out, v);
     put(out, e.samples);
   }
   put(out, fnv1a(out));
@@ -107,9 +122,7 @@ std::optional<DfgTable> decode_dfg_table(std::string_view bytes, const DfgKey& k
   t.entries.resize(expected.entries);
   at = sizeof expected;
   for (DfgEntry& e : t.entries) {
-    for (double* v : {&e.scale, &e.bias, &e.energy, &e.scale_error, &e.bias_error, &e.energy_error}) {
-      *v = get<double>(bytes, at);
-    }
+    for (double* v : values_of(e)) *v = get<double>(bytes, at);
     e.samples = get<int64_t>(bytes, at);
     if (!finite(e)) return refuse(why, "a value is not finite");
   }
@@ -123,14 +136,7 @@ bool verify_dfg_sample(const DfgTable& table, const DfgKey& key, int count) {
   for (int s = 0; s < count; ++s) {
     // Spread over the table, the first and last entries included.
     const int k = count > 1 ? static_cast<int>(static_cast<int64_t>(s) * (n - 1) / (count - 1)) : 0;
-    const DfgEntry fresh = dfg_table_entry(lobe, key.size, key.size, key.options, k);
-    const DfgEntry& kept = table.entries[k];
-    if (std::memcmp(&fresh.scale, &kept.scale, sizeof(double)) != 0 ||
-        std::memcmp(&fresh.bias, &kept.bias, sizeof(double)) != 0 ||
-        std::memcmp(&fresh.energy, &kept.energy, sizeof(double)) != 0 ||
-        std::memcmp(&fresh.scale_error, &kept.scale_error, sizeof(double)) != 0 || fresh.samples != kept.samples) {
-      return false;
-    }
+    if (!identical(dfg_table_entry(lobe, key.size, key.size, key.options, k), table.entries[k])) return false;
   }
   return true;
 }

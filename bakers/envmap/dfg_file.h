@@ -24,7 +24,7 @@ struct DfgKey {
   brdf::AlbedoOptions options;
 };
 
-// A file name that differs for every key ("dfg-ggx-height_correlated-64-1024x8-1.bin").
+// A file name that differs for every key ("dfg-ggx-height-correlated-64-1024x8-1.bin").
 std::string dfg_file_name(const DfgKey& key);
 
 std::string encode_dfg_table(const DfgKey& key, const DfgTable& table);
@@ -35,7 +35,7 @@ size_t dfg_encoded_size(const DfgKey& key);
 // value finite); otherwise nullopt, with `why` (if given) saying what did not match.
 std::optional<DfgTable> decode_dfg_table(std::string_view bytes, const DfgKey& key, std::string* why = nullptr);
 
-// Recomputes `count` entries spread over the table and compares them bit for bit (compute_dfg seeds each entry on
+// Recomputes `count` entries spread over the table and compares them bit for bit, every value (compute_dfg seeds each entry on
 // its own, so one entry can be recomputed alone). False when any differs.
 bool verify_dfg_sample(const DfgTable& table, const DfgKey& key, int count = 8);
 
