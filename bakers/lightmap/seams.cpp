@@ -391,14 +391,14 @@ void SeamStitcher::build_matrix() {
   // Sorted by position, equal positions summed in a fixed order: the same matrix on every run. A stable counting
   // sort by row, then each row's few entries stably by column: the order of one stable sort by (row, col), without
   // its n log n over the millions of entries of a level's page.
-  std::vector<uint32_t> row_end(n + 1, 0);
-  for (const Entry& e : entries) ++row_end[e.row + 1];
-  for (size_t r = 0; r < n; ++r) row_end[r + 1] += row_end[r];
+  std::vector<uint32_t> row_begin(n + 1, 0);  // row r's entries: [row_begin[r], row_begin[r + 1])
+  for (const Entry& e : entries) ++row_begin[e.row + 1];
+  for (size_t r = 0; r < n; ++r) row_begin[r + 1] += row_begin[r];
   std::vector<Entry> sorted(entries.size());
-  std::vector<uint32_t> next(row_end.begin(), row_end.end() - 1);
+  std::vector<uint32_t> next(row_begin.begin(), row_begin.end() - 1);
   for (const Entry& e : entries) sorted[next[e.row]++] = e;
   for (size_t r = 0; r < n; ++r) {
-    std::stable_sort(sorted.begin() + row_end[r], sorted.begin() + row_end[r + 1],
+    std::stable_sort(sorted.begin() + row_begin[r], sorted.begin() + row_begin[r + 1],
                      [](const Entry& a, const Entry& b) { return a.col < b.col; });
   }
   entries = std::move(sorted);
