@@ -172,6 +172,36 @@ std::vector<uint8_t> sharp_creases(const scene::Mesh& mesh, const std::vector<ui
   return flagged;
 }
 
+// Whether p lies within `margin` of the box of the triangle (a, b, c).
+bool near_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double margin) {
+  const auto within = [margin](double x, double u, double v, double w) {
+    return x >= std::min({u, v, w}) - margin && x <= std::max({u, v, w}) + margin;
+  };
+  return within(p.x, a.x, b.x, c.x) && within(p.y, a.y, b.y, c.y) && within(p.z, a.z, b.z, c.z);
+}
+
+// Per triangle, 1 where one of its edges (by position) belongs to no other triangle: the border of an open mesh.
+std::vector<uint8_t> border_triangles(const scene::Mesh& mesh, const std::vector<uint32_t>& canonical) {
+  const size_t nt = mesh.indices.size() / 3;
+  std::vector<std::pair<uint64_t, uint32_t>> edges;  // (edge by its two vertices, lower first; triangle)
+  edges.reserve(3 * nt);
+  for (size_t t = 0; t < nt; ++t) {
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t a = canonical[mesh.indices[3 * t + e]], b = canonical[mesh.indices[3 * t + (e + 1) % 3]];
+      edges.emplace_back((uint64_t{std::min(a, b)} << 32) | std::max(a, b), static_cast<uint32_t>(t));
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::vector<uint8_t> border(nt, 0);
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    if (j - i == 1) border[edges[i].second] = 1;
+    i = j;
+  }
+  return border;
+}
+
 }  // namespace
 
 // Closed, oriented, every triangle facing away from the centre c (its plane has c strictly behind it), and the solid
@@ -268,9 +298,11 @@ bool is_convex_mesh(const scene::Mesh& mesh) {
   return convex.load();
 }
 
-bool is_height_field(const scene::Mesh& mesh) {
+bool is_height_field(const scene::Mesh& mesh) { return height_field_direction(mesh).has_value(); }
+
+std::optional<Vec3> height_field_direction(const scene::Mesh& mesh) {
   const size_t nt = mesh.indices.size() / 3;
-  if (nt == 0) return false;
+  if (nt == 0) return std::nullopt;
   const auto tri_cross = [&](size_t t) {
     const Vec3& p0 = mesh.positions[mesh.indices[3 * t]];
     return cross(mesh.positions[mesh.indices[3 * t + 1]] - p0, mesh.positions[mesh.indices[3 * t + 2]] - p0);
@@ -278,14 +310,14 @@ bool is_height_field(const scene::Mesh& mesh) {
   Vec3 sum{};
   for (size_t t = 0; t < nt; ++t) sum = sum + tri_cross(t);
   const double sl = length(sum);
-  if (!(sl > 0)) return false;
+  if (!(sl > 0)) return std::nullopt;
   const Vec3 d = sum * (1.0 / sl);
   double area = 0;  // projected, doubled
   for (size_t t = 0; t < nt; ++t) {
     const Vec3 c = tri_cross(t);
     const double along = dot(c, d);
     // Strictly facing d (a vertical or overhanging triangle is not part of a height field along d).
-    if (!(along > 1e-6 * length(c))) return false;
+    if (!(along > 1e-6 * length(c))) return std::nullopt;
     area += along;
   }
   // Triangles meeting at a point (by position: a mesh may split its vertices) must have normals less than 90° apart:
@@ -294,7 +326,7 @@ bool is_height_field(const scene::Mesh& mesh) {
   // sees the neighbour's back), which the argument above needs to exclude.
   {
     const std::vector<uint8_t> creases = sharp_creases(mesh, canonical_vertices(mesh), false);
-    if (std::find(creases.begin(), creases.end(), 1) != creases.end()) return false;
+    if (std::find(creases.begin(), creases.end(), 1) != creases.end()) return std::nullopt;
   }
   // Project along d onto a basis (e1, e2) with e1 × e2 = d: every triangle is counter-clockwise there.
   const Frame frame = Frame::from_normal(d);
@@ -369,7 +401,8 @@ bool is_height_field(const scene::Mesh& mesh) {
       }
     }
   });
-  return !overlap.load();
+  if (overlap.load()) return std::nullopt;
+  return d;
 }
 
 LeakScope::LeakScope(const scene::Scene& scene, const LeakScopeOptions& options, const bake::StopCheck& stop)
@@ -384,17 +417,26 @@ LeakScope::LeakScope(const scene::Scene& scene, const LeakScopeOptions& options,
   self_hiding_.assign(nm, 1);
   convex_.assign(nm, 0);
   star_centre_.assign(nm, std::nullopt);
+  height_up_.assign(nm, std::nullopt);
+  border_triangles_.assign(nm, {});
   valley_triangles_.assign(nm, {});
   for (size_t m = 0; m < nm; ++m) {
     if (scene.meshes[m].indices.empty()) continue;
     stop.check();
-    // Every mesh's convexity: a convex mesh may hide another instance's points only from inside it.
+    // Every mesh's convexity: a convex mesh may hide another instance's points only from inside it. A closed one
+    // (a crate, a pillar) is star-shaped about its centroid, and tested exactly as such, without the margin that
+    // an open one (a lone wall) needs for the points straddling it.
     convex_[m] = is_convex_mesh(scene.meshes[m]);
+    if (convex_[m]) {
+      star_centre_[m] = star_centre(scene.meshes[m]);
+    } else if ((height_up_[m] = height_field_direction(scene.meshes[m]))) {
+      border_triangles_[m] = border_triangles(scene.meshes[m], canonical_vertices(scene.meshes[m]));
+    }
     if (!baked[m]) continue;
     if (convex_[m]) {
       self_hiding_[m] = 0;
       ++summary_.convex_meshes;
-    } else if (is_height_field(scene.meshes[m])) {
+    } else if (height_up_[m]) {
       self_hiding_[m] = 0;
       ++summary_.height_field_meshes;
     } else if (const std::optional<Vec3> centre = star_centre(scene.meshes[m])) {
@@ -492,6 +534,9 @@ bool LeakScope::may_hide(const Chunk& chunk, const Vec3& p, double margin) const
   if (const std::optional<Vec3>& centre = star_centre_[static_cast<size_t>(inst.mesh)]) {
     return inside_star_shaped(mesh, *centre, to_object_[chunk.instance].point(p));
   }
+  if (const std::optional<Vec3>& up = height_up_[static_cast<size_t>(inst.mesh)]) {
+    return height_field_may_hide(chunk, p, margin, inst.to_world.vector(*up));
+  }
   const bool convex = convex_[static_cast<size_t>(inst.mesh)] != 0;
   for (size_t t = chunk.first_triangle; t < size_t{chunk.first_triangle} + chunk.triangles; ++t) {
     const Vec3 a = inst.to_world.point(mesh.positions[mesh.indices[3 * t]]);
@@ -510,6 +555,40 @@ bool LeakScope::may_hide(const Chunk& chunk, const Vec3& p, double margin) const
     if (!convex && !far_in_front) return true;
   }
   return convex;
+}
+
+// A height field's surface splits space into above and below (along `up`, its direction in world space, the side its
+// front faces look to): from above it, a ray meets its front faces only. So the chunk's triangle straight under or
+// over p decides: p more than the margin above it cannot be shown a back face of the whole mesh; within the margin
+// or below, p may. A chunk with no triangle in p's column says nothing of p, unless p is within the margin of one of
+// its triangles on the mesh's border: beside the border p may see its underside, and the plane of that triangle
+// judges as for any open mesh.
+bool LeakScope::height_field_may_hide(const Chunk& chunk, const Vec3& p, double margin, const Vec3& up) const {
+  const scene::Instance& inst = scene_.instances[chunk.instance];
+  const scene::Mesh& mesh = scene_.meshes[static_cast<size_t>(inst.mesh)];
+  const std::vector<uint8_t>& border = border_triangles_[static_cast<size_t>(inst.mesh)];
+  const double winding = winding_[chunk.instance];
+  bool beside_border = false;
+  for (size_t t = chunk.first_triangle; t < size_t{chunk.first_triangle} + chunk.triangles; ++t) {
+    const Vec3 a = inst.to_world.point(mesh.positions[mesh.indices[3 * t]]);
+    const Vec3 e1 = inst.to_world.point(mesh.positions[mesh.indices[3 * t + 1]]) - a;
+    const Vec3 e2 = inst.to_world.point(mesh.positions[mesh.indices[3 * t + 2]]) - a;
+    const Vec3 n = cross(e1, e2) * winding;
+    const double ln = length(n);
+    const bool far_in_front = dot(n, p - a) > margin * ln;
+    if (border[t] && !far_in_front && near_triangle(p, a, a + e1, a + e2, margin)) beside_border = true;
+    // p = a + u·e1 + v·e2 + s·up, by Cramer's rule. The determinant is up·(e1 × e2), which is not 0: every triangle
+    // of a height field faces along its direction (height_field_direction), and the instance's transform is
+    // invertible (scene_check).
+    const double det = dot(up, cross(e1, e2));
+    const Vec3 q = p - a;
+    const double u = dot(q, cross(e2, up)) / det, v = dot(e1, cross(q, up)) / det;
+    // In the column within 1e-9 of the triangle's barycentric extent: a column through a shared edge, rounded,
+    // falls in both its triangles rather than in neither.
+    constexpr double kTol = 1e-9;
+    if (u >= -kTol && v >= -kTol && u + v <= 1 + kTol) return !far_in_front;
+  }
+  return beside_border;
 }
 
 // Whether the sample lies within its margin of a chunk of another instance that may hide it (may_hide).

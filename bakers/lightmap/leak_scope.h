@@ -14,11 +14,12 @@
 //     every triangle has p more than the margin in front of it cannot show p a back face. A point on a large
 //     terrain is thus probed near the rocks on it but not everywhere in the terrain's box, and a rock's side
 //     standing above the terrain is not probed for the terrain under it (only its foot, within the margin of the
-//     ground or sunk into it). When J is convex, one plane of its with p farther in front than the margin puts p
-//     outside all of J by more than that, so then no chunk of J counts: the ground beside a crate is not probed.
-//     When J is closed and star-shaped (below), only the points inside it: from outside a closed surface a ray
-//     meets a front face first, whatever the distance (tested exactly, in J's object space, along the ray from
-//     its centre).
+//     ground or sunk into it). When J is convex and open (a lone wall, a box without a lid), one plane of its with
+//     p farther in front than the margin puts p outside all of J by more than that, so then no chunk of J counts.
+//     When J is closed and star-shaped (below; a closed convex mesh, such as a crate, is star-shaped about its
+//     centroid), only the points inside it: from outside a closed surface a ray meets a front face first, whatever
+//     the distance (tested exactly, in J's object space, along the ray from its centre): the ground beside a
+//     crate or a rock is not probed, the ground under it is.
 //     A point sunk deeper than the boxes of the chunks above it reach is not probed
 //     either: it lies under the ground, where no view of the scene sees it.
 //   - Its own instance cannot show a point back faces (of the point's hemisphere, where the probe looks) when its
@@ -101,6 +102,7 @@ class LeakScope {
   void build_grid();
   bool near_other_instance(const TexelSample& s) const;
   bool may_hide(const Chunk& chunk, const Vec3& p, double margin) const;
+  bool height_field_may_hide(const Chunk& chunk, const Vec3& p, double margin, const Vec3& up) const;
 
   const scene::Scene& scene_;
   LeakScopeOptions options_;
@@ -108,6 +110,8 @@ class LeakScope {
   std::vector<uint8_t> self_hiding_;  // by mesh
   std::vector<uint8_t> convex_;       // by mesh
   std::vector<std::optional<Vec3>> star_centre_;        // by mesh: closed star-shaped meshes' centres (object space)
+  std::vector<std::optional<Vec3>> height_up_;          // by mesh: height fields' directions (object space)
+  std::vector<std::vector<uint8_t>> border_triangles_;  // by mesh and triangle, of height fields: on the border
   std::vector<scene::Transform> to_object_;             // by instance, of those meshes' instances: world to object
   std::vector<std::vector<uint8_t>> valley_triangles_;  // by mesh and triangle: probed (closed star-shaped meshes)
   std::vector<Chunk> chunks_;
@@ -119,6 +123,8 @@ class LeakScope {
 bool is_convex_mesh(const scene::Mesh& mesh);
 bool is_height_field(const scene::Mesh& mesh);
 bool is_star_shaped_closed(const scene::Mesh& mesh);
+// Its direction d when it is a height field (the mean of its triangles' normals), else nullopt.
+std::optional<Vec3> height_field_direction(const scene::Mesh& mesh);
 // Its centre when it is closed and star-shaped (the area-weighted centroid of its triangles), else nullopt.
 std::optional<Vec3> star_centre(const scene::Mesh& mesh);
 // Whether the point q lies inside the closed star-shaped mesh around `centre` (on its surface counts as inside).

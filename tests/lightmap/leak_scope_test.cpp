@@ -113,6 +113,20 @@ scene::Mesh rough_rock_mesh() {
 
 // The texels' leaks fixed with the mask's probes and with every point probed: the same moves, invalidations and
 // positions. Returns {masked, full}.
+// Takes away the triangles of the mesh's top (all three corners at its highest y): a box without its lid.
+void remove_top_face(scene::Mesh& mesh) {
+  double top = -INFINITY;
+  for (const Vec3& p : mesh.positions) top = std::max(top, p.y);
+  std::vector<uint32_t> kept;
+  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    const bool on_top = mesh.positions[mesh.indices[t]].y == top && mesh.positions[mesh.indices[t + 1]].y == top &&
+                        mesh.positions[mesh.indices[t + 2]].y == top;
+    if (!on_top) kept.insert(kept.end(), mesh.indices.begin() + t, mesh.indices.begin() + t + 3);
+  }
+  ASSERT_LT(kept.size(), mesh.indices.size());
+  mesh.indices = kept;
+}
+
 std::pair<LeakReport, LeakReport> expect_same_leaks_as_probing_all(const LightmapTexels& texels, const RayQuery& query,
                                                                    const std::vector<uint8_t>& mask) {
   LightmapTexels pruned = texels, full = texels;
@@ -164,35 +178,42 @@ TEST(LeakScope, ClosedStarShapedMeshesCannotHideTheirOwnPoints) {
 }
 
 // A crate (a 0.6 m box, turned 45° about y) sunk through a floor: its box in world space covers twice its footprint,
-// but only the floor's points under it or within a texel of one of its sides are probed (one side's plane with a
-// point farther in front puts the point outside the whole convex crate), and the leaks are fixed as with every
-// point probed.
+// but only the floor's points under it are probed (the crate is closed and convex: a point outside it meets its front
+// faces first), and the leaks are fixed as with every point probed. Without its lid the crate is open, and the
+// points within a texel of its sides are probed too (one side's plane with a point farther in front puts the point
+// outside the whole convex crate).
 TEST(LeakScope, TheGroundBesideATurnedCrateIsNotProbed) {
-  scene::Scene s;
-  s.materials.push_back(test::lambert_material("white", 0.5));
-  test::add_floor(s, 2.0, 0, 8);
-  test::add_box(s, "crate", {-0.3, -0.5, -0.3}, {0.3, 0.5, 0.3}, 0);
-  const double c = std::cos(kPi / 4), sn = std::sin(kPi / 4);
-  s.instances.back().to_world.m = {c, 0, sn, 0, 0, 1, 0, 0, -sn, 0, c, 0};
-  const scene::CheckedScene checked = scene::check_scene(s);
-  const scene::Tracer tracer(checked.scene);
-  const TracerRayQuery query(tracer, checked.scene);
-  const LeakScope scope(checked.scene);
-  const LightmapTexels pruned = rasterize_lightmap(checked.scene, "floor", {64, 64, 2});
-  const std::vector<uint8_t> mask = scope.probe_mask(pruned.samples);
-  size_t probed = 0;
-  for (size_t j = 0; j < pruned.samples.size(); ++j) {
-    const TexelSample& t = pruned.samples[j];
-    // The point in the crate's frame (the rotation's inverse), against the crate grown by the margin on each side.
-    const Vec3& p = t.position;
-    const double x = c * p.x - sn * p.z, z = sn * p.x + c * p.z, grown = 0.3 + t.texel_world_size;
-    probed += mask[j];
-    if (std::abs(std::abs(x) - grown) < 1e-9 || std::abs(std::abs(z) - grown) < 1e-9) continue;  // on the edge
-    EXPECT_EQ(mask[j] != 0, std::abs(x) < grown && std::abs(z) < grown) << "sample " << j << " at " << x << ", " << z;
+  for (const bool lid : {true, false}) {
+    SCOPED_TRACE(lid ? "a closed crate" : "a crate without its lid");
+    scene::Scene s;
+    s.materials.push_back(test::lambert_material("white", 0.5));
+    test::add_floor(s, 2.0, 0, 8);
+    test::add_box(s, "crate", {-0.3, -0.5, -0.3}, {0.3, 0.5, 0.3}, 0);
+    if (!lid) remove_top_face(s.meshes.back());
+    const double c = std::cos(kPi / 4), sn = std::sin(kPi / 4);
+    s.instances.back().to_world.m = {c, 0, sn, 0, 0, 1, 0, 0, -sn, 0, c, 0};
+    const scene::CheckedScene checked = scene::check_scene(s);
+    const scene::Tracer tracer(checked.scene);
+    const TracerRayQuery query(tracer, checked.scene);
+    const LeakScope scope(checked.scene);
+    ASSERT_EQ(scope.summary().convex_meshes, 2u);
+    const LightmapTexels pruned = rasterize_lightmap(checked.scene, "floor", {64, 64, 2});
+    const std::vector<uint8_t> mask = scope.probe_mask(pruned.samples);
+    size_t probed = 0;
+    for (size_t j = 0; j < pruned.samples.size(); ++j) {
+      const TexelSample& t = pruned.samples[j];
+      // The point in the crate's frame (the rotation's inverse), against the crate, grown by the margin on each side
+      // when it is open.
+      const Vec3& p = t.position;
+      const double x = c * p.x - sn * p.z, z = sn * p.x + c * p.z, grown = 0.3 + (lid ? 0.0 : t.texel_world_size);
+      probed += mask[j];
+      if (std::abs(std::abs(x) - grown) < 1e-9 || std::abs(std::abs(z) - grown) < 1e-9) continue;  // on the edge
+      EXPECT_EQ(mask[j] != 0, std::abs(x) < grown && std::abs(z) < grown) << "sample " << j << " at " << x << ", " << z;
+    }
+    EXPECT_GT(probed, 0u);
+    const auto [a, b] = expect_same_leaks_as_probing_all(pruned, query, mask);
+    EXPECT_GT(b.moved + b.invalidated, 0u);
   }
-  EXPECT_GT(probed, 0u);
-  const auto [a, b] = expect_same_leaks_as_probing_all(pruned, query, mask);
-  EXPECT_GT(b.moved + b.invalidated, 0u);
 }
 
 // A rough rock (rough_rock_mesh) is closed and star-shaped but has valleys sharper than 90°: alone in the scene,
@@ -352,6 +373,97 @@ TEST(LeakScope, ARockOnASlopeIsProbedOnlyWhereItMeetsTheGround) {
     // Its bottom is always probed, its top never, its sides below a line about a quarter of the way up.
     EXPECT_GT(probed, pruned.samples.size() / 10);
     EXPECT_LT(probed, pruned.samples.size() / 2);
+
+    const auto [a, b] = expect_same_leaks_as_probing_all(pruned, query, mask);
+    EXPECT_GT(b.moved + b.invalidated, 0u);  // the sunk part leaks
+  }
+}
+
+// A valley across a ridge, y = |x|/4 − z²/2 over 8 m × 8 m in quads of 0.5 m: a height field along +y (its normals'
+// mean, by its symmetry) that is not convex, cut into chunks of half a row each, the two halves meeting at the
+// valley's floor. Near the ridge, points a few centimetres above the ground are behind the planes of the next row's
+// triangles: a plane test alone would probe them.
+scene::Mesh valley_mesh() {
+  scene::Mesh m;
+  m.name = "valley";
+  constexpr int n = 16;
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n; ++i) {
+      const double x = -4 + 0.5 * i, z = -4 + 0.5 * j;
+      m.positions.push_back({x, std::abs(x) / 4 - z * z / 2, z});
+      m.lightmap_uv.push_back({static_cast<double>(i) / n, static_cast<double>(j) / n});
+    }
+  }
+  const auto at = [](int i, int j) { return static_cast<uint32_t>(j * (n + 1) + i); };
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      m.indices.insert(m.indices.end(), {at(i, j), at(i, j + 1), at(i + 1, j + 1)});
+      m.indices.insert(m.indices.end(), {at(i, j), at(i + 1, j + 1), at(i + 1, j)});
+    }
+  }
+  return m;
+}
+
+// The height of p above the valley's triangle straight under or over it (along y), along that triangle's unit front
+// normal; NaN where p's column is within 1e-9 m of a triangle's edge (either triangle could be the one).
+double height_above(const scene::Mesh& valley, const Vec3& p) {
+  for (size_t t = 0; t < valley.indices.size(); t += 3) {
+    const Vec3 &a = valley.positions[valley.indices[t]], &b = valley.positions[valley.indices[t + 1]],
+               &c = valley.positions[valley.indices[t + 2]];
+    // Signed distances of (p.x, p.z) from the triangle's edges in the xz plane (counter-clockwise seen from +y).
+    const auto side = [&](const Vec3& u, const Vec3& v) {
+      return ((v.z - u.z) * (p.x - u.x) - (v.x - u.x) * (p.z - u.z)) / std::hypot(v.x - u.x, v.z - u.z);
+    };
+    const double s0 = side(a, b), s1 = side(b, c), s2 = side(c, a);
+    if (std::min({s0, s1, s2}) < -1e-9) continue;
+    if (std::min({s0, s1, s2}) < 1e-9) return NAN;
+    return dot(normalize(cross(b - a, c - a)), p - a);
+  }
+  return NAN;
+}
+
+// A rock (a 0.6 × 1.08 × 0.6 m box) standing on the valley's floor on the ridge, sunk into it: the valley's chunks'
+// boxes hold most of the rock, but only the rock's points below the ground, or within a texel above it, are probed
+// (from higher up a ray meets the valley's front faces only), and leaks are fixed exactly as with every point probed.
+// The same with the valley mirrored (x → −x: the same surface, its winding reversed by the transform).
+TEST(LeakScope, ARockOnATerrainIsProbedOnlyWhereItMeetsTheGround) {
+  for (const bool mirrored : {false, true}) {
+    SCOPED_TRACE(mirrored ? "valley mirrored" : "valley as modelled");
+    scene::Scene s;
+    s.materials.push_back(test::lambert_material("white", 0.5));
+    s.meshes.push_back(valley_mesh());
+    scene::Instance ground;
+    ground.mesh = 0;
+    if (mirrored) ground.to_world.m[0] = -1;
+    s.instances.push_back(ground);
+    test::add_box(s, "rock", {-0.3, -0.08, -0.3}, {0.3, 1.0, 0.3}, 0);
+    const scene::CheckedScene checked = scene::check_scene(s);
+    const scene::Tracer tracer(checked.scene);
+    const TracerRayQuery query(tracer, checked.scene);
+    const LeakScope scope(checked.scene);
+    ASSERT_EQ(scope.summary().height_field_meshes, 1u);
+    ASSERT_EQ(scope.summary().convex_meshes, 1u);
+
+    const LightmapTexels pruned = rasterize_lightmap(checked.scene, "rock", {64, 64, 2});
+    const std::vector<uint8_t> mask = scope.probe_mask(pruned.samples);
+    size_t probed = 0, checked_points = 0, above = 0;
+    for (size_t j = 0; j < pruned.samples.size(); ++j) {
+      const TexelSample& t = pruned.samples[j];
+      const Vec3& p = t.position;
+      const double margin = t.texel_world_size, height = height_above(checked.scene.meshes[0], p);
+      probed += mask[j];
+      // Within reach of the boxes of the chunks under it (their lowest point: y = −1/8): a deeper point is not probed.
+      ASSERT_GT(p.y, -0.125);
+      // Within rounding of the margin, or over an edge: either way. 1e-9 m is far below a texel, far above rounding.
+      if (std::isnan(height) || std::abs(height - margin) < 1e-9) continue;
+      ++checked_points;
+      above += height > margin;
+      EXPECT_EQ(mask[j] != 0, height < margin)
+          << "sample " << j << " at height " << height << " (margin " << margin << ") at " << p.x << ", " << p.z;
+    }
+    EXPECT_GT(checked_points, pruned.samples.size() / 2);
+    EXPECT_GT(above, checked_points / 2);  // most of the rock stands clear of the ground
+    EXPECT_GT(probed, 0u);
 
     const auto [a, b] = expect_same_leaks_as_probing_all(pruned, query, mask);
     EXPECT_GT(b.moved + b.invalidated, 0u);  // the sunk part leaks
