@@ -410,6 +410,8 @@ LeakScope::LeakScope(const scene::Scene& scene, const LeakScopeOptions& options,
   if (!(options.margin_texels > 0) || !std::isfinite(options.margin_texels))
     throw std::invalid_argument("leak scope: margin_texels must be finite and > 0");
   if (options.chunk_triangles < 1) throw std::invalid_argument("leak scope: chunk_triangles must be >= 1");
+  if (!(options.height_field_clearance_texels >= 0) || !std::isfinite(options.height_field_clearance_texels))
+    throw std::invalid_argument("leak scope: height_field_clearance_texels must be finite and >= 0");
   const size_t nm = scene.meshes.size();
   std::vector<uint8_t> baked(nm, 0);
   for (const scene::Instance& inst : scene.instances)
@@ -525,7 +527,8 @@ void LeakScope::build_grid() {
 // them (in world space, front as the tracer's: the winding's normal, turned by a mirroring transform). Of a convex
 // mesh, only when p is behind or within the margin of every one: a single plane with p farther in front puts p
 // outside the whole mesh by more than the margin, where no part of it can hide p.
-bool LeakScope::may_hide(const Chunk& chunk, const Vec3& p, double margin) const {
+bool LeakScope::may_hide(const Chunk& chunk, const TexelSample& s, double margin) const {
+  const Vec3& p = s.position;
   const scene::Instance& inst = scene_.instances[chunk.instance];
   const scene::Mesh& mesh = scene_.meshes[static_cast<size_t>(inst.mesh)];
   const double winding = winding_[chunk.instance];
@@ -535,7 +538,8 @@ bool LeakScope::may_hide(const Chunk& chunk, const Vec3& p, double margin) const
     return inside_star_shaped(mesh, *centre, to_object_[chunk.instance].point(p));
   }
   if (const std::optional<Vec3>& up = height_up_[static_cast<size_t>(inst.mesh)]) {
-    return height_field_may_hide(chunk, p, margin, inst.to_world.vector(*up));
+    const double clearance = options_.height_field_clearance_texels * s.texel_world_size + s.ray_offset;
+    return height_field_may_hide(chunk, p, margin, clearance, inst.to_world.vector(*up));
   }
   const bool convex = convex_[static_cast<size_t>(inst.mesh)] != 0;
   for (size_t t = chunk.first_triangle; t < size_t{chunk.first_triangle} + chunk.triangles; ++t) {
@@ -559,11 +563,12 @@ bool LeakScope::may_hide(const Chunk& chunk, const Vec3& p, double margin) const
 
 // A height field's surface splits space into above and below (along `up`, its direction in world space, the side its
 // front faces look to): from above it, a ray meets its front faces only. So the chunk's triangle straight under or
-// over p decides: p more than the margin above it cannot be shown a back face of the whole mesh; within the margin
-// or below, p may. A chunk with no triangle in p's column says nothing of p, unless p is within the margin of one of
+// over p decides: p more than `clearance` above it (the probe's lift, leaks.h, stays above the ground) cannot be shown
+// a back face of the whole mesh; p below it or closer may. A chunk with no triangle in p's column says nothing of p, unless p is within the margin of one of
 // its triangles on the mesh's border: beside the border p may see its underside, and the plane of that triangle
 // judges as for any open mesh.
-bool LeakScope::height_field_may_hide(const Chunk& chunk, const Vec3& p, double margin, const Vec3& up) const {
+bool LeakScope::height_field_may_hide(const Chunk& chunk, const Vec3& p, double margin, double clearance,
+                                      const Vec3& up) const {
   const scene::Instance& inst = scene_.instances[chunk.instance];
   const scene::Mesh& mesh = scene_.meshes[static_cast<size_t>(inst.mesh)];
   const std::vector<uint8_t>& border = border_triangles_[static_cast<size_t>(inst.mesh)];
@@ -586,7 +591,7 @@ bool LeakScope::height_field_may_hide(const Chunk& chunk, const Vec3& p, double 
     // In the column within 1e-9 of the triangle's barycentric extent: a column through a shared edge, rounded,
     // falls in both its triangles rather than in neither.
     constexpr double kTol = 1e-9;
-    if (u >= -kTol && v >= -kTol && u + v <= 1 + kTol) return !far_in_front;
+    if (u >= -kTol && v >= -kTol && u + v <= 1 + kTol) return !(dot(n, p - a) > clearance * ln);
   }
   return beside_border;
 }
@@ -605,10 +610,10 @@ bool LeakScope::near_other_instance(const TexelSample& s) const {
           p.z >= ch.lower.z - m && p.z <= ch.upper.z + m)) {
       return false;
     }
-    if (!star_centre_[static_cast<size_t>(scene_.instances[ch.instance].mesh)]) return may_hide(ch, p, m);
+    if (!star_centre_[static_cast<size_t>(scene_.instances[ch.instance].mesh)]) return may_hide(ch, s, m);
     if (ch.instance != star_tested) {
       star_tested = ch.instance;
-      star_hides = may_hide(ch, p, m);
+      star_hides = may_hide(ch, s, m);
     }
     return star_hides;
   };

@@ -12,9 +12,12 @@
 //     within the margin of the chunk's box, and behind or within the margin of the plane of one of its triangles.
 //     A ray from a point in front of a triangle's plane can meet only that triangle's front face, so a chunk whose
 //     every triangle has p more than the margin in front of it cannot show p a back face. A point on a large
-//     terrain is thus probed near the rocks on it but not everywhere in the terrain's box, and a rock's side
-//     standing above the terrain is not probed for the terrain under it (only its foot, within the margin of the
-//     ground or sunk into it). When J is convex and open (a lone wall, a box without a lid), one plane of its with
+//     terrain is thus probed near the rocks on it but not everywhere in the terrain's box. When J is a height field
+//     (below), its surface splits space into above and below: from above, a ray meets its front faces only, so the
+//     triangle in p's column decides alone, with no margin beyond the probe's lift (height_field_clearance_texels):
+//     a rock on the terrain is probed where it is sunk into the ground, not on its sides above it. Only
+//     beside the height field's border, within the margin, do its border triangles' planes judge as for any open
+//     mesh. When J is convex and open (a lone wall, a box without a lid), one plane of its with
 //     p farther in front than the margin puts p outside all of J by more than that, so then no chunk of J counts.
 //     When J is closed and star-shaped (below; a closed convex mesh, such as a crate, is star-shaped about its
 //     centroid), only the points inside it: from outside a closed surface a ray meets a front face first, whatever
@@ -59,6 +62,9 @@ namespace kiln::lightmap {
 struct LeakScopeOptions {
   double margin_texels = 1.0;  // > 0
   int chunk_triangles = 16;    // ≥ 1
+  // How far above a height field a point must be, beyond its ray offset, to be above it: 100 times the probe
+  // origin's lift (leaks.h, 1e-4 of a texel), far below a texel.
+  double height_field_clearance_texels = 0.01;
 };
 
 // How the meshes of the scene's instances were judged.
@@ -101,8 +107,9 @@ class LeakScope {
   };
   void build_grid();
   bool near_other_instance(const TexelSample& s) const;
-  bool may_hide(const Chunk& chunk, const Vec3& p, double margin) const;
-  bool height_field_may_hide(const Chunk& chunk, const Vec3& p, double margin, const Vec3& up) const;
+  bool may_hide(const Chunk& chunk, const TexelSample& s, double margin) const;
+  bool height_field_may_hide(const Chunk& chunk, const Vec3& p, double margin, double clearance,
+                             const Vec3& up) const;
 
   const scene::Scene& scene_;
   LeakScopeOptions options_;

@@ -423,8 +423,9 @@ double height_above(const scene::Mesh& valley, const Vec3& p) {
 }
 
 // A rock (a 0.6 × 1.08 × 0.6 m box) standing on the valley's floor on the ridge, sunk into it: the valley's chunks'
-// boxes hold most of the rock, but only the rock's points below the ground, or within a texel above it, are probed
-// (from higher up a ray meets the valley's front faces only), and leaks are fixed exactly as with every point probed.
+// boxes hold most of the rock, but only the rock's points below the ground, or within the clearance above it (a
+// hundredth of a texel and the ray offset), are probed (from higher up a ray meets the valley's front faces only),
+// and leaks are fixed exactly as with every point probed.
 // The same with the valley mirrored (x → −x: the same surface, its winding reversed by the transform).
 TEST(LeakScope, ARockOnATerrainIsProbedOnlyWhereItMeetsTheGround) {
   for (const bool mirrored : {false, true}) {
@@ -450,16 +451,17 @@ TEST(LeakScope, ARockOnATerrainIsProbedOnlyWhereItMeetsTheGround) {
     for (size_t j = 0; j < pruned.samples.size(); ++j) {
       const TexelSample& t = pruned.samples[j];
       const Vec3& p = t.position;
-      const double margin = t.texel_world_size, height = height_above(checked.scene.meshes[0], p);
+      const double clearance = LeakScopeOptions{}.height_field_clearance_texels * t.texel_world_size + t.ray_offset;
+      const double height = height_above(checked.scene.meshes[0], p);
       probed += mask[j];
       // Within reach of the boxes of the chunks under it (their lowest point: y = −1/8): a deeper point is not probed.
       ASSERT_GT(p.y, -0.125);
-      // Within rounding of the margin, or over an edge: either way. 1e-9 m is far below a texel, far above rounding.
-      if (std::isnan(height) || std::abs(height - margin) < 1e-9) continue;
+      // Within rounding of the clearance, or over an edge: either way. 1e-9 m is far below it, far above rounding.
+      if (std::isnan(height) || std::abs(height - clearance) < 1e-9) continue;
       ++checked_points;
-      above += height > margin;
-      EXPECT_EQ(mask[j] != 0, height < margin)
-          << "sample " << j << " at height " << height << " (margin " << margin << ") at " << p.x << ", " << p.z;
+      above += height > clearance;
+      EXPECT_EQ(mask[j] != 0, height < clearance)
+          << "sample " << j << " at height " << height << " (clearance " << clearance << ") at " << p.x << ", " << p.z;
     }
     EXPECT_GT(checked_points, pruned.samples.size() / 2);
     EXPECT_GT(above, checked_points / 2);  // most of the rock stands clear of the ground
