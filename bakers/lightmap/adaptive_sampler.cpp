@@ -211,7 +211,7 @@ TexelEstimate estimate_texel(const LightmapState& m, size_t t, const TransportCo
   const auto index = static_cast<uint32_t>(estimate / kReplicas);
   TexelEstimate s;
   for (size_t k = 0; k < samples.size(); ++k) {
-    const Receiver& rec = m.receivers[m.texels.first[t] + k];
+    const Receiver rec = receiver_of(samples[k]);
     PathSampler sampler(mix_seeds(texel_seed, k * kReplicas + replica), index, rng);
     const IrradianceEstimate e = estimate_irradiance(ctx, rec, sampler);
     counts.rays += e.rays;

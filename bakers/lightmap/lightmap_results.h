@@ -1,7 +1,7 @@
 // One lightmap's results once its texels are sampled: per texel what the output images are made of — validity, the
 // mean irradiance, the standard error of its luminance and the estimate count (37 bytes), and on request the AO
 // (4), the SH coefficients and their error (56), the diffuse radiance (12) and the denoiser's guides (61) — instead
-// of the ~900 bytes a texel holds while it is sampled (its sample points, receivers, replica sums). A tiled bake
+// of the ~900 bytes a texel holds while it is sampled (its sample points, replica sums). A tiled bake
 // (lightmap_bake.cpp) copies each tile's results in and frees the tile, so only this stays for a whole page; an
 // untiled bake copies its whole page in at once. The images (and lightmap_outputs.h's) are made from it.
 //

@@ -7,14 +7,6 @@
 namespace kiln::lightmap {
 namespace {
 
-// The receiver of a texel sample, with the lift that clears its own float triangle.
-Receiver receiver(const TexelSample& t) {
-  Receiver r;
-  r.surface = t.surface();
-  r.ns = dot(t.shading_normal, t.geometric_normal) > 0 ? t.shading_normal : t.geometric_normal;
-  return r;
-}
-
 // The element sizes are read off the members themselves, so the figures follow the struct.
 template <class Vector>
 constexpr size_t element_bytes() {
@@ -23,15 +15,20 @@ constexpr size_t element_bytes() {
 
 }  // namespace
 
+Receiver receiver_of(const TexelSample& sample) {
+  Receiver r;
+  r.surface = sample.surface();
+  r.ns = dot(sample.shading_normal, sample.geometric_normal) > 0 ? sample.shading_normal : sample.geometric_normal;
+  return r;
+}
+
 LightmapState make_lightmap_state(std::string name, LightmapTexels texels, const LeakReport& leaks, bool ao,
                                   bool directional) {
   std::vector<uint8_t> validity = texels.validity();
   const int width = texels.width, height = texels.height;
-  LightmapState m{name,   std::move(texels), {}, LightmapImage(name, width, height, std::move(validity)), leaks, {}, {},
-                  {},     {},                {}};
+  LightmapState m{name, std::move(texels), LightmapImage(name, width, height, std::move(validity)), leaks, {}, {}, {},
+                  {},   {}};
   m.attempts.assign(m.texels.texel_count(), 0);
-  m.receivers.reserve(m.texels.samples.size());
-  for (const TexelSample& t : m.texels.samples) m.receivers.push_back(receiver(t));
   if (ao) m.ao_sum.assign(m.texels.texel_count(), Rgb{});
   if (directional) {
     m.sh_sum.assign(m.texels.texel_count(), {});
@@ -51,7 +48,6 @@ BakeStateBytes lightmap_state_bytes(bool ao, bool directional, bool traced) {
   if (directional) {
     b.per_texel += element_bytes<decltype(LightmapState::sh_sum)>() + element_bytes<decltype(LightmapState::sh_y2)>();
   }
-  b.per_sample = element_bytes<decltype(LightmapState::receivers)>();
   return b;
 }
 

@@ -1,4 +1,4 @@
-// One lightmap while it bakes: its texels and their receivers, the image its estimates accumulate into, and the
+// One lightmap while it bakes: its texels, the image its estimates accumulate into, and the
 // per-texel sums of the optional outputs (AO, SH). The bake's stages (lightmap_bake.cpp), the adaptive sampler and
 // the outputs all work on it.
 #pragma once
@@ -20,7 +20,6 @@ namespace kiln::lightmap {
 struct LightmapState {
   std::string name;
   LightmapTexels texels;
-  std::vector<Receiver> receivers;  // parallel to texels.samples
   LightmapImage image;
   LeakReport leaks;
   std::vector<Rgb> ao_sum;                   // per texel, sum over estimates (AO in every channel)
@@ -44,8 +43,13 @@ struct LightmapState {
   }
 };
 
-// A lightmap ready to sample: its texels after leak handling, each sample's receiver, an empty image of its valid
-// texels, and the AO and SH sums when those outputs are asked for.
+// The receiver of a texel sample: its surface with the lift that clears its own float triangle, and its shading
+// normal, or the geometric normal where the shading normal faces away from it. Made when a path starts, not held:
+// per sample it would be as large again as the sample.
+Receiver receiver_of(const TexelSample& sample);
+
+// A lightmap ready to sample: its texels after leak handling, an empty image of its valid texels, and the AO and SH
+// sums when those outputs are asked for.
 LightmapState make_lightmap_state(std::string name, LightmapTexels texels, const LeakReport& leaks, bool ao,
                                   bool directional);
 

@@ -12,7 +12,7 @@ LightmapMemory lightmap_memory(const LightmapTexels& texels, const BakeStateByte
 
 LightmapMemory lightmap_memory(size_t texels, size_t samples, size_t valid, const BakeStateBytes& bake) {
   LightmapMemory m;
-  m.bytes_per_sample = sizeof(TexelSample) + bake.per_sample;
+  m.bytes_per_sample = sizeof(TexelSample);
   m.bytes_per_texel = sizeof(uint32_t) + LightmapImage::kBytesPerTexel + bake.per_texel;
   m.bytes_per_triangle = 0;
   m.peak_bytes_per_triangle = raster_bytes_per_triangle();

@@ -8,15 +8,14 @@
 
 namespace kiln::lightmap {
 
-// What a bake keeps beside the texel layer for the whole bake (lightmap_bake.cpp knows it): per texel (its attempt
-// count and the AO and SH sums when those outputs are asked for) and per sample (the transport's receiver).
+// What a bake keeps beside the texel layer for the whole bake (lightmap_bake.cpp knows it): per texel, its attempt
+// count and the AO and SH sums when those outputs are asked for. Per sample it keeps nothing beyond the sample.
 struct BakeStateBytes {
   size_t per_texel = 0;
-  size_t per_sample = 0;
 };
 
 struct LightmapMemory {
-  size_t bytes_per_sample = 0;         // one TexelSample, and the bake's state per sample
+  size_t bytes_per_sample = 0;         // one TexelSample
   size_t bytes_per_texel = 0;          // every texel, valid or not: the sample offset, the LightmapImage's
                                        // accumulators (sum, luminance square sum, count, validity) and the bake's
                                        // state per texel

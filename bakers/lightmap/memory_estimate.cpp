@@ -119,7 +119,7 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   e.tile_size = tile_size;
   // With light tracing's sums and terms when untiled: the plan may trace light, which the spec does not say.
   const BakeStateBytes state = lightmap_state_bytes(job.ao, job.directional, /*traced=*/tile_size == 0);
-  const double per_sample = sizeof(TexelSample) + state.per_sample;
+  const double per_sample = sizeof(TexelSample);
   const double per_texel_held =
       sizeof(uint32_t) + LightmapImage::kBytesPerTexel + state.per_texel + kSamplesPerTexel * per_sample;
   const double per_texel_outputs = output_channels(job) * kOutputBytesPerChannel;

@@ -114,13 +114,14 @@ TexelGuides texel_guides(const LightmapState& m, const scene::Scene&, ChartIds& 
     for (uint32_t j = tx.first[t]; j < tx.first[t + 1]; ++j) {
       const double wj = tx.samples[j].weight;
       w += wj;
-      p += m.receivers[j].surface.p * wj;
-      ns += m.receivers[j].ns * wj;
+      const Receiver r = receiver_of(tx.samples[j]);
+      p += r.surface.p * wj;
+      ns += r.ns * wj;
       size += tx.samples[j].texel_world_size * wj;
       if (wj > heaviest) {
         heaviest = wj;
         g.chart[t] = charts[j];
-        g.normal[t] = m.receivers[j].ns;  // kept where the normals cancel
+        g.normal[t] = r.ns;  // kept where the normals cancel
       }
     }
     g.position[t] = p / w;

@@ -679,7 +679,7 @@ TEST(TranslateLightmap, AMemoryLimitBelowTheEstimateBakesInTiles) {
   fit_memory_limit(whole, 0);
   EXPECT_EQ(whole.lightmap().tile_size, 0);
   EXPECT_EQ(cache_key(whole, baker_version(whole)), whole_key);
-  const uint64_t limit = whole.memory_bytes / 4;
+  const uint64_t limit = whole.memory_bytes / 3;
 
   BakeRequest by_kilnd = translate(spec);
   fit_memory_limit(by_kilnd, limit);

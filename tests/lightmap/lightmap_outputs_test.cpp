@@ -404,7 +404,7 @@ TEST(LightmapOutputs, ReportJsonHasThePlanCurveAndLightmaps) {
 }
 
 // The memory a lightmap's report states covers what its bake holds: at the least, every sample point's position and
-// two normals in double twice over (the texel layer's sample and the transport's receiver), every texel's RGB sum and
+// two normals in double, every texel's RGB sum and
 // luminance-square sum, and with AO and SH asked for, one more RGB sum per texel for AO and four RGB sums and four
 // luminance-square sums for the SH, in double.
 TEST(LightmapOutputs, ReportedMemoryCoversWhatTheBakeHolds) {
@@ -420,7 +420,7 @@ TEST(LightmapOutputs, ReportedMemoryCoversWhatTheBakeHolds) {
   };
   const auto [plain, samples] = memory(in);
   const double texels = 16 * 16;
-  EXPECT_GE(plain, texels * 4 * 8 + samples * 2 * 9 * 8);
+  EXPECT_GE(plain, texels * 4 * 8 + samples * 9 * 8);
   in.ao = in.directional = true;
   const auto [with_outputs, samples_again] = memory(in);
   EXPECT_EQ(samples_again, samples);
