@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -130,48 +131,52 @@ LeakReport fix_leaks(LightmapTexels& texels, const RayQuery& rays, const LeakOpt
   if (probe && probe->size() != n)
     throw std::invalid_argument("leak handling: a probe mask of " + std::to_string(probe->size()) + " entries for " +
                                 std::to_string(n) + " samples");
+  // Results for the probed samples only: the mask prunes most of a large scene's.
+  std::vector<uint32_t> probed;
+  for (size_t j = 0; j < n; ++j) {
+    if (!probe || (*probe)[j]) probed.push_back(static_cast<uint32_t>(j));
+  }
   std::vector<LeakResult> results;
-  bake::resize_polled(results, n, stop);
+  bake::resize_polled(results, probed.size(), stop);
   const std::vector<Vec3> directions = probe_directions(options);
   // Polled every 256 samples (~10^4 rays, a few milliseconds): inside the body, since TBB's partitioner hands one
   // body far more than the grain.
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t j = range.begin(); j != range.end(); ++j) {
-      if ((j - range.begin()) % 256 == 0) stop.check();
-      if (probe && !(*probe)[j]) {
-        results[j].position = texels.samples[j].position;  // clear, no ray
-        continue;
-      }
-      results[j] = resolve(texels.samples[j], rays, options, directions);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, probed.size(), 256), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i != range.end(); ++i) {
+      if ((i - range.begin()) % 256 == 0) stop.check();
+      results[i] = resolve(texels.samples[probed[i]], rays, options, directions);
     }
   });
 
   const size_t valid_before = texels.valid_count();
-  std::vector<uint8_t> keep(n, 1);
-  for (size_t j = 0; j < n; ++j) {
-    report.rays += results[j].rays;
-    switch (results[j].verdict) {
+  std::vector<uint8_t> keep;
+  // A sample moved or dropped marks itself first; its texel's other samples are marked below.
+  for (size_t i = 0; i < probed.size(); ++i) {
+    TexelSample& sample = texels.samples[probed[i]];
+    report.rays += results[i].rays;
+    switch (results[i].verdict) {
       case LeakVerdict::clear:
         break;
       case LeakVerdict::moved:
-        texels.samples[j].position = results[j].position;
+        sample.position = results[i].position;
+        sample.leak_fixed = true;
         ++report.moved;
         break;
       case LeakVerdict::invalid:
-        keep[j] = 0;
+        if (keep.empty()) keep.assign(n, 1);
+        keep[probed[i]] = 0;
+        sample.leak_fixed = true;
         ++report.invalidated;
         break;
     }
   }
   report.samples = n;
-  if (probe) report.pruned = static_cast<size_t>(std::count(probe->begin(), probe->end(), uint8_t{0}));
+  report.pruned = n - probed.size();
   for (size_t t = 0; t < texels.texel_count(); ++t) {
-    bool fixed = false;
-    for (uint32_t j = texels.first[t]; j < texels.first[t + 1]; ++j) {
-      fixed = fixed || results[j].verdict != LeakVerdict::clear;
+    const std::span<TexelSample> texel(texels.samples.data() + texels.first[t], texels.first[t + 1] - texels.first[t]);
+    if (std::any_of(texel.begin(), texel.end(), [](const TexelSample& s) { return s.leak_fixed; })) {
+      for (TexelSample& s : texel) s.leak_fixed = true;
     }
-    if (!fixed) continue;
-    for (uint32_t j = texels.first[t]; j < texels.first[t + 1]; ++j) texels.samples[j].leak_fixed = true;
   }
   if (report.invalidated > 0) texels.retain(keep);
   report.texels_invalidated = valid_before - texels.valid_count();

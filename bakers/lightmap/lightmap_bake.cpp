@@ -800,7 +800,7 @@ bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOption
   try {
     run.stage = "rasterization of lightmap '" + page.name + "'";
     std::optional<StageTimer> timer(std::in_place, run.report.stages, "rasterization");
-    texels = rasterize_lightmap(run.scene(), page.name, raster, run.stop);
+    rasterize_lightmap_into(texels, run.scene(), page.name, raster, run.stop);
     match_tracer_offsets(texels, *run.tracer);
     run.stage = "leak probes of lightmap '" + page.name + "'";
     timer.emplace(run.report.stages, "leak_probes");
@@ -811,7 +811,7 @@ bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOption
     if (run.result.samples == 0) throw;  // before the first sample: the set-up ran out (out_of_time_in_set_up)
   }
   const StageTimer timer(run.report.stages, "rasterization");
-  texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
+  rasterize_lightmap_into(texels, run.scene(), page.name, raster, run.cancel_only);
   match_tracer_offsets(texels, *run.tracer);
   leaks = LeakReport{};
   return false;
@@ -828,6 +828,7 @@ struct TileRun {
   double total_coverage = 0;  // the UV area of every tile of every page
   double remaining = 0;       // of the tiles not yet sampled
   ErrorTotals done{};         // over the tiles sampled so far, each as it ended
+  LightmapTexels spare;       // the last tile's texels, whose storage the next tile's rasterization reuses
 };
 
 // A page's tally while its tiles are baked.
@@ -851,12 +852,13 @@ void add_leaks(LeakReport& into, const LeakReport& tile) {
 LightmapTexels tile_texels_to_bake(TileRun& t, const TiledPage& page, const RasterOptions& raster, LeakReport& leaks,
                                    bool& sample) {
   LightmapBakeRun& run = t.run;
-  LightmapTexels texels;
+  LightmapTexels texels = std::move(t.spare);
+  texels.width = 0;  // not yet this tile's
   try {
     sample = Clock::now() < t.options.deadline && tile_texels(run, page, raster, t.query, t.scope, texels, leaks);
     if (!sample && texels.width == 0) {
       const StageTimer timer(run.report.stages, "rasterization");
-      texels = rasterize_lightmap(run.scene(), page.name, raster, run.cancel_only);
+      rasterize_lightmap_into(texels, run.scene(), page.name, raster, run.cancel_only);
       match_tracer_offsets(texels, *run.tracer);
     }
   } catch (const bake::OutOfTime&) {
@@ -921,6 +923,7 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   const std::pair<double, size_t> lum = luminance_sum(m.image);
   tally.prior = {tally.prior.first + lum.first, tally.prior.second + lum.second};
   collect_results(m, m.x0, m.y0, {&run.scene(), &run.materials, &charts}, results);
+  t.spare = std::move(m.texels);
   run.check_cancel();
 }
 
@@ -935,6 +938,7 @@ void bake_page(TileRun& t, TiledPage& page, size_t pi) {
     bake_tile(t, page, pi, k, results, charts, tally);
   }
   page.bins = TileBins{};
+  t.spare = LightmapTexels{};  // not held while the outputs are made, whose peak is the bake's
   run.result.memory.held_peak_bytes = std::max(run.result.memory.held_peak_bytes, tally.held);
   run.cancel_only.check();
   LightmapMemory memory = lightmap_memory(results.texel_count(), tally.samples, tally.valid, t.state_bytes);

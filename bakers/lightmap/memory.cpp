@@ -16,7 +16,7 @@ LightmapMemory lightmap_memory(size_t texels, size_t samples, size_t valid, cons
   m.bytes_per_texel = sizeof(uint32_t) + LightmapImage::kBytesPerTexel + bake.per_texel;
   m.bytes_per_triangle = 0;
   m.peak_bytes_per_triangle = raster_bytes_per_triangle();
-  m.peak_bytes_per_sample = 2 * raster_bytes_per_fragment() + sizeof(TexelSample);
+  m.peak_bytes_per_sample = raster_bytes_per_fragment() + sizeof(TexelSample);
   m.samples_per_valid_texel = valid > 0 ? static_cast<double>(samples) / valid : 0.0;
   m.total_bytes = texels * m.bytes_per_texel + samples * m.bytes_per_sample;
   return m;

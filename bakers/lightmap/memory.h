@@ -22,7 +22,7 @@ struct LightmapMemory {
   size_t bytes_per_triangle = 0;       // held by the texel layer per triangle after rasterization: none (samples
                                        // refer to the scene's arrays; the tracer states its own per-triangle cost)
   size_t peak_bytes_per_triangle = 0;  // while rasterizing: world vertices and normals of each covering triangle
-  size_t peak_bytes_per_sample = 0;    // while rasterizing: the fragment, twice (blocks and sorted), and the sample
+  size_t peak_bytes_per_sample = 0;    // while rasterizing: the fragment and the sample
   double samples_per_valid_texel = 0;
   size_t total_bytes = 0;        // held after rasterization: texels × bytes_per_texel + samples × per sample
   std::string describe() const;  // one line for people

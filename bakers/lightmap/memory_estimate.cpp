@@ -124,10 +124,11 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
       sizeof(uint32_t) + LightmapImage::kBytesPerTexel + state.per_texel + kSamplesPerTexel * per_sample;
   const double per_texel_outputs = output_channels(job) * kOutputBytesPerChannel;
   e.results_bytes_per_texel = static_cast<double>(LightmapResults::bytes_per_texel(result_channels(job)));
-  // The set-up's transient for one lightmap (or tile) at a time: the fragments, twice while sorted, or the leak
-  // results.
+  // The set-up's transient for one lightmap (or tile) at a time: the fragments, or the leak results (of the samples
+  // probed: at most all, each with its index) and the samples kept.
   const double per_texel_transient =
-      kSamplesPerTexel * std::max<double>(2.0 * raster_bytes_per_fragment(), sizeof(LeakResult) + 1);
+      kSamplesPerTexel *
+      std::max<double>(raster_bytes_per_fragment(), sizeof(LeakResult) + sizeof(uint32_t) + sizeof(uint8_t));
   e.bytes_per_texel_in_flight = per_texel_held + per_texel_transient;
   uint64_t largest = 0, all = 0;
   for (uint64_t texels : job.lightmap_texels) {

@@ -498,14 +498,17 @@ std::vector<BlockResult> rasterize_blocks(const Rasterizer& rasterizer, const st
   return results;
 }
 
-// Counting sort of the blocks' fragments by texel, stable (scene order within a texel), with out.first set; the
-// blocks' triangles are joined into `world` and the fragments renumbered to match. Merges the blocks' reports.
-std::vector<Fragment> sort_fragments(std::vector<BlockResult>& results, const std::string& name, LightmapTexels& out,
-                                     std::vector<WorldTriangle>& world, const bake::StopCheck& stop) {
+// Counting sort of the blocks' fragments by texel, stable (scene order within a texel), with out.first set: each
+// fragment's `texel` becomes its index among the samples, so that the samples can be made in place, block by block.
+// The blocks' triangles are joined into `world` and the fragments renumbered to match. Merges the blocks' reports.
+// Returns the number of fragments.
+size_t sort_fragments(std::vector<BlockResult>& results, const std::string& name, LightmapTexels& out,
+                      std::vector<WorldTriangle>& world, const bake::StopCheck& stop) {
   // One block may hold every fragment of a map (a few big triangles): polled every 2^16 fragments.
   constexpr size_t kPoll = size_t{1} << 16;
   const size_t texels = out.texel_count();
-  std::vector<uint64_t> count(texels + 1, 0);
+  std::vector<uint32_t>& count = out.first;  // counts, then offsets (fewer than 2^32: checked below)
+  count.assign(texels + 1, 0);
   uint64_t fragments = 0;
   for (BlockResult& r : results) {
     merge(out.report, r.report);
@@ -525,19 +528,15 @@ std::vector<Fragment> sort_fragments(std::vector<BlockResult>& results, const st
                                 "samples_per_axis");
   }
   for (size_t i = 0; i < texels; ++i) count[i + 1] += count[i];
-  out.first.assign(count.begin(), count.end());
-  std::vector<Fragment> sorted;
-  bake::resize_polled(sorted, fragments, stop);
-  std::vector<uint64_t> cursor(count.begin(), count.end() - 1);
+  std::vector<uint32_t> cursor(count.begin(), count.end() - 1);
   for (BlockResult& r : results) {
     for (size_t j = 0; j < r.fragments.size(); ++j) {
       if (j % kPoll == 0) stop.check();
-      const Fragment& f = r.fragments[j];
-      sorted[cursor[f.texel]++] = f;
+      Fragment& f = r.fragments[j];
+      f.texel = cursor[f.texel]++;
     }
-    r.fragments = {};
   }
-  return sorted;
+  return static_cast<size_t>(fragments);
 }
 
 // Texels whose weights sum above 1: overlapping charts. 1e-9 is far above the rounding of summing the clipped areas
@@ -595,17 +594,18 @@ void LightmapTexels::retain(const std::vector<uint8_t>& keep) {
     throw std::invalid_argument("LightmapTexels::retain: keep has " + std::to_string(keep.size()) + " entries for " +
                                 std::to_string(samples.size()) + " samples");
   }
-  std::vector<TexelSample> kept;
-  std::vector<uint32_t> new_first(first.size(), 0);
+  // In place: the kept samples move down, never past one not yet read; first[texel] is rewritten after its texel's
+  // old range [first[texel], first[texel + 1]) has been read.
+  uint32_t kept = 0;
   for (size_t texel = 0; texel < texel_count(); ++texel) {
-    new_first[texel] = static_cast<uint32_t>(kept.size());
-    for (uint32_t j = first[texel]; j < first[texel + 1]; ++j) {
-      if (keep[j]) kept.push_back(samples[j]);
+    const uint32_t begin = first[texel], end = first[texel + 1];
+    first[texel] = kept;
+    for (uint32_t j = begin; j < end; ++j) {
+      if (keep[j]) samples[kept++] = samples[j];
     }
   }
-  new_first[texel_count()] = static_cast<uint32_t>(kept.size());
-  samples = std::move(kept);
-  first = std::move(new_first);
+  first[texel_count()] = kept;
+  samples.resize(kept);
 }
 
 std::vector<std::string> lightmap_names(const scene::Scene& scene) {
@@ -697,8 +697,15 @@ size_t raster_bytes_per_triangle() { return sizeof(WorldTriangle); }
 
 LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options,
                                   const bake::StopCheck& stop) {
-  check_options(options);
   LightmapTexels out;
+  rasterize_lightmap_into(out, scene, name, options, stop);
+  return out;
+}
+
+void rasterize_lightmap_into(LightmapTexels& out, const scene::Scene& scene, const std::string& name,
+                             const RasterOptions& options, const bake::StopCheck& stop) {
+  check_options(options);
+  out.report = RasterReport{};
   const RasterOptions::Window window = Rasterizer::whole_or(options.window, options.width, options.height);
   out.width = window.width;
   out.height = window.height;
@@ -712,20 +719,22 @@ LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& 
       rasterize_blocks(Rasterizer(scene, options, stop), jobs, total, options.triangles, stop);
   std::vector<WorldTriangle> world;
   stop.check();
-  const std::vector<Fragment> sorted = sort_fragments(results, name, out, world, stop);
+  const size_t fragments = sort_fragments(results, name, out, world, stop);
   stop.check();
-  // The samples, each written once, in parallel.
-  bake::resize_polled(out.samples, sorted.size(), stop);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, sorted.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t j = range.begin(); j != range.end(); ++j) {
-      if ((j - range.begin()) % 4096 == 0) stop.check();  // a body may get far more than the grain
-      const Fragment& f = sorted[j];
-      out.samples[j] = world[f.world].sample({1.0 - f.b1 - f.b2, f.b1, f.b2}, f.weight);
+  // The samples, each written once at its sorted place, in parallel over the blocks. Reused storage keeps its
+  // capacity: a tiled bake rasterizes every tile into the last one's.
+  out.samples.clear();
+  bake::resize_polled(out.samples, fragments, stop);
+  tbb::parallel_for(size_t{0}, results.size(), [&](size_t block) {
+    const std::vector<Fragment>& block_fragments = results[block].fragments;
+    for (size_t j = 0; j < block_fragments.size(); ++j) {
+      if (j % 4096 == 0) stop.check();
+      const Fragment& f = block_fragments[j];
+      out.samples[f.texel] = world[f.world].sample({1.0 - f.b1 - f.b2, f.b1, f.b2}, f.weight);
     }
   });
   stop.check();
   out.report.overlapping_texels = overlapping_texels(out);
-  return out;
 }
 
 }  // namespace kiln::lightmap

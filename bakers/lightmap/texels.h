@@ -173,6 +173,10 @@ std::vector<std::string> lightmap_names(const scene::Scene& scene);
 // every block of triangles and samples and throws what its check() throws.
 LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& name, const RasterOptions& options,
                                   const bake::StopCheck& stop = {});
+// The same into `out`, whose storage is reused (a tiled bake's tiles, one after another, without allocating and
+// first touching every tile's samples anew).
+void rasterize_lightmap_into(LightmapTexels& out, const scene::Scene& scene, const std::string& name,
+                             const RasterOptions& options, const bake::StopCheck& stop = {});
 
 // The tiles of lightmap `name` rasterized at options' size, tile_size texels on a side, [1, 16384]. Triangles
 // without finite UVs or with indices out of range go to the first tile, where rasterization reports them. Throws
@@ -180,8 +184,8 @@ LightmapTexels rasterize_lightmap(const scene::Scene& scene, const std::string& 
 TileBins bin_triangles(const scene::Scene& scene, const std::string& name, const RasterOptions& options, int tile_size,
                        const bake::StopCheck& stop = {});
 
-// The transient memory of rasterize_lightmap beyond its result: each sample is first a compact fragment (held twice
-// while sorted by texel), and each triangle that covers a texel keeps its world-space vertices and normals until the
+// The transient memory of rasterize_lightmap beyond its result: each sample is first a compact fragment, and each
+// triangle that covers a texel keeps its world-space vertices and normals until the
 // samples are made.
 size_t raster_bytes_per_fragment();
 size_t raster_bytes_per_triangle();

@@ -442,6 +442,59 @@ TEST(Texels, DeterministicWhateverTheThreads) {
   EXPECT_EQ(0, std::memcmp(a.samples.data(), b.samples.data(), a.samples.size() * sizeof(TexelSample)));
 }
 
+// A tiled bake rasterizes each tile into the storage of the one before (rasterize_lightmap_into): every tile, from
+// its bin, holds exactly the samples of the whole map's texels in its window, in the same order, to the byte,
+// whether the storage was larger, smaller or fresh.
+TEST(Texels, TilesRasterizedIntoOneStorageAreTheWindowsOfTheWholeMap) {
+  const scene::Scene s = wavy_grid(40);
+  const RasterOptions whole{64, 64, 2};
+  const LightmapTexels map = rasterize_lightmap(s, "grid", whole);
+  for (const int tile_size : {16, 40}) {
+    const TileBins bins = bin_triangles(s, "grid", whole, tile_size);
+    LightmapTexels storage;
+    for (size_t k = 0; k < bins.tile_count(); ++k) {
+      RasterOptions o = whole;
+      o.window = bins.window(k);
+      o.triangles = &bins.triangles[k];
+      rasterize_lightmap_into(storage, s, "grid", o);
+      ASSERT_EQ(storage.width, o.window.width);
+      ASSERT_EQ(storage.height, o.window.height);
+      for (int y = 0; y < storage.height; ++y) {
+        for (int x = 0; x < storage.width; ++x) {
+          const std::span<const TexelSample> a = storage.at(x, y), b = map.at(o.window.x0 + x, o.window.y0 + y);
+          ASSERT_EQ(a.size(), b.size()) << "tile " << k << ", texel " << x << ", " << y;
+          EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(TexelSample)));
+        }
+      }
+    }
+  }
+}
+
+// retain keeps the samples asked for, in order, and the texels left without any become invalid.
+TEST(Texels, RetainKeepsTheSamplesAskedForInOrder) {
+  const scene::Scene s = wavy_grid(40);
+  const LightmapTexels map = rasterize_lightmap(s, "grid", {32, 32, 2});
+  std::vector<uint8_t> keep(map.samples.size());
+  // Every third sample and a run of them all, none of the first row's.
+  for (size_t j = 0; j < keep.size(); ++j)
+    keep[j] = j >= map.first[32] && (j % 3 == 0 || (j > keep.size() / 2 && j < keep.size() * 3 / 4));
+  LightmapTexels kept = map;
+  kept.retain(keep);
+  size_t n = 0;
+  for (size_t t = 0; t < map.texel_count(); ++t) {
+    std::vector<TexelSample> expected;
+    for (uint32_t j = map.first[t]; j < map.first[t + 1]; ++j)
+      if (keep[j]) expected.push_back(map.samples[j]);
+    const std::span<const TexelSample> got = kept.at(t);
+    ASSERT_EQ(got.size(), expected.size()) << "texel " << t;
+    EXPECT_EQ(0, std::memcmp(got.data(), expected.data(), got.size() * sizeof(TexelSample)));
+    EXPECT_EQ(kept.valid(t), !expected.empty());
+    n += expected.size();
+  }
+  EXPECT_EQ(kept.samples.size(), n);
+  EXPECT_EQ(kept.valid_count(), map.valid_count() - 32);  // the first row lost every sample
+}
+
 TEST(Texels, HundredThousandTrianglesAt512Squared) {
   // 224² quads = 100 352 triangles tiling the unit square: every texel is covered exactly once in total.
   const scene::Scene s = wavy_grid(224);
