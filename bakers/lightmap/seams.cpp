@@ -389,8 +389,9 @@ void SeamStitcher::build_matrix() {
     entries.push_back({u, u, validity_[texels_[u]] ? options_.valid_weight : options_.dilated_weight});
   }
   // Sorted by position, equal positions summed in a fixed order: the same matrix on every run. A stable counting
-  // sort by row, then each row's few entries stably by column: the order of one stable sort by (row, col), without
-  // its n log n over the millions of entries of a level's page.
+  // sort by row, then each row's few entries stably by column (by insertion: std::stable_sort would allocate a
+  // buffer for each of the millions of rows): the order of one stable sort by (row, col), without its n log n over
+  // the millions of entries of a level's page.
   std::vector<uint32_t> row_begin(n + 1, 0);  // row r's entries: [row_begin[r], row_begin[r + 1])
   for (const Entry& e : entries) ++row_begin[e.row + 1];
   for (size_t r = 0; r < n; ++r) row_begin[r + 1] += row_begin[r];
@@ -398,8 +399,12 @@ void SeamStitcher::build_matrix() {
   std::vector<uint32_t> next(row_begin.begin(), row_begin.end() - 1);
   for (const Entry& e : entries) sorted[next[e.row]++] = e;
   for (size_t r = 0; r < n; ++r) {
-    std::stable_sort(sorted.begin() + row_begin[r], sorted.begin() + row_begin[r + 1],
-                     [](const Entry& a, const Entry& b) { return a.col < b.col; });
+    for (uint32_t i = row_begin[r] + 1; i < row_begin[r + 1]; ++i) {
+      const Entry e = sorted[i];
+      uint32_t j = i;
+      for (; j > row_begin[r] && sorted[j - 1].col > e.col; --j) sorted[j] = sorted[j - 1];
+      sorted[j] = e;
+    }
   }
   entries = std::move(sorted);
   row_start_.assign(n + 1, 0);
