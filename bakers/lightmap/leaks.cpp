@@ -43,9 +43,15 @@ struct BackHit {
 };
 
 struct Probe {
-  double backface_fraction = 0;
+  double backface_fraction = 0;    // of the rays traced (all of them unless the probe only had to decide)
+  bool clear = false;              // backface_fraction ≤ max_backface_fraction over all the directions
   std::vector<BackHit> back_hits;  // nearer than the move distance, nearest first
 };
+
+// Whether `back` back faces among `n` rays leave a probe clear.
+bool clear_with(int back, size_t n, const LeakOptions& o) {
+  return static_cast<double>(back) / static_cast<double>(n) <= o.max_backface_fraction;
+}
 
 // The probe's directions in the local frame of n (+z), the same for every probe of a bake: computed once.
 std::vector<Vec3> probe_directions(const LeakOptions& o) {
@@ -63,15 +69,23 @@ std::vector<Vec3> probe_directions(const LeakOptions& o) {
   return out;
 }
 
+// With `decide_only` (a candidate's probe, whose verdict alone matters), the probe stops as soon as the rays left can
+// no longer change it: once too many back faces are seen, or too few rays are left to reach that many.
 Probe probe(const Vec3& p, const Vec3& n, double s, double ray_offset, const RayQuery& rays, const LeakOptions& o,
-            const std::vector<Vec3>& directions, double move_distance, uint32_t& traced) {
+            const std::vector<Vec3>& directions, double move_distance, bool decide_only, uint32_t& traced) {
   // Above the surface by the larger of the float tracer's bound and a fraction of the texel (leaks.h).
   const scene::SurfacePoint surface{p, n, std::max(ray_offset, o.origin_offset_texels * s)};
   const double tmax = o.probe_distance_texels * s;
   const Frame frame = Frame::from_normal(n);
   Probe result;
   int back = 0;
+  size_t done = 0;
   for (const Vec3& local : directions) {
+    if (decide_only && (!clear_with(back, directions.size(), o) ||
+                        clear_with(back + static_cast<int>(directions.size() - done), directions.size(), o))) {
+      break;
+    }
+    ++done;
     const Vec3 dir = frame.from_local(local);
     ++traced;
     const Vec3 origin = scene::offset_ray_origin(surface, dir);
@@ -82,7 +96,8 @@ Probe probe(const Vec3& p, const Vec3& n, double s, double ray_offset, const Ray
       result.back_hits.push_back({hit->t, origin + dir * hit->t, hit->geometric_normal});
     }
   }
-  result.backface_fraction = static_cast<double>(back) / static_cast<double>(directions.size());
+  result.backface_fraction = static_cast<double>(back) / static_cast<double>(done);
+  result.clear = clear_with(back, directions.size(), o);
   std::sort(result.back_hits.begin(), result.back_hits.end(),
             [](const BackHit& a, const BackHit& b) { return a.t < b.t; });
   return result;
@@ -96,17 +111,17 @@ LeakResult resolve(const TexelSample& sample, const RayQuery& rays, const LeakOp
   LeakResult result;
   result.position = sample.position;
   const Probe first = probe(sample.position, sample.geometric_normal, s, sample.ray_offset, rays, options, directions,
-                            move_distance, result.rays);
+                            move_distance, false, result.rays);
   result.backface_fraction = first.backface_fraction;
-  if (first.backface_fraction <= options.max_backface_fraction) return result;  // clear
+  if (first.clear) return result;
 
   const int attempts = std::min<int>(options.max_move_attempts, static_cast<int>(first.back_hits.size()));
   for (int a = 0; a < attempts; ++a) {
     const BackHit& h = first.back_hits[a];
     const Vec3 candidate = h.point + h.front_normal * (options.push_texels * s);
-    const Probe there =
-        probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, directions, 0.0, result.rays);
-    if (there.backface_fraction <= options.max_backface_fraction) {
+    const Probe there = probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, directions, 0.0,
+                              true, result.rays);
+    if (there.clear) {
       result.verdict = LeakVerdict::moved;
       result.position = candidate;
       return result;
