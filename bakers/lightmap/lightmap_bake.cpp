@@ -793,6 +793,15 @@ std::pair<double, size_t> luminance_sum(const LightmapImage& img) {
   return {sum, n};
 }
 
+// A tile reached after the time limit: its texels for their validity and guides only, no ray leaving them. Coverage,
+// and so validity, does not depend on the pattern (texels.h): a 1×1 pattern, one point per texel and covering
+// triangle, gives the same valid texels as the baked tiles' 2×2 with about a quarter of their samples.
+void rasterize_unsampled(LightmapBakeRun& run, const TiledPage& page, RasterOptions raster, LightmapTexels& texels) {
+  const StageTimer timer(run.report.stages, "rasterization");
+  raster.samples_per_axis = 1;
+  rasterize_lightmap_into(texels, run.scene(), page.name, raster, run.cancel_only);
+}
+
 // Rasterizes a tile and resolves its leaks; false (texels rasterized, leaks not probed) when the time limit ran out
 // first, after which nothing but a cancel stops the tile.
 bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOptions& raster, const TracerRayQuery& query,
@@ -810,9 +819,7 @@ bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOption
   } catch (const bake::OutOfTime&) {
     if (run.result.samples == 0) throw;  // before the first sample: the set-up ran out (out_of_time_in_set_up)
   }
-  const StageTimer timer(run.report.stages, "rasterization");
-  rasterize_lightmap_into(texels, run.scene(), page.name, raster, run.cancel_only);
-  match_tracer_offsets(texels, *run.tracer);
+  rasterize_unsampled(run, page, raster, texels);
   leaks = LeakReport{};
   return false;
 }
@@ -856,11 +863,7 @@ LightmapTexels tile_texels_to_bake(TileRun& t, const TiledPage& page, const Rast
   texels.width = 0;  // not yet this tile's
   try {
     sample = Clock::now() < t.options.deadline && tile_texels(run, page, raster, t.query, t.scope, texels, leaks);
-    if (!sample && texels.width == 0) {
-      const StageTimer timer(run.report.stages, "rasterization");
-      rasterize_lightmap_into(texels, run.scene(), page.name, raster, run.cancel_only);
-      match_tracer_offsets(texels, *run.tracer);
-    }
+    if (!sample && texels.width == 0) rasterize_unsampled(run, page, raster, texels);
   } catch (const bake::OutOfTime&) {
     throw out_of_time_in_set_up(run);
   }
