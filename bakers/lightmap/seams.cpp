@@ -371,58 +371,77 @@ void SeamStitcher::group_by_component() {
   for (Tap& t : taps_) t.unknown = new_of[t.unknown];
 }
 
+// The normal matrix's entries are the products of each lookup pair's taps and each unknown's own weight. They are
+// written straight into their rows, in the order the pairs give them and each unknown's own weight last; each row's
+// few entries are then ordered by column by insertion (stable) and the entries of one column summed in that order:
+// the same matrix on every run, without a list of every product sorted apart (a level's page has tens of millions).
 void SeamStitcher::build_matrix() {
   const size_t n = texels_.size();
-  struct Entry {
-    uint32_t row, col;
-    double value;
-  };
-  std::vector<Entry> entries;
+  std::vector<size_t> row_begin(n + 1, 0);  // row r's entries before merging: [row_begin[r], row_begin[r + 1])
+  for (const Pair& p : pairs_) {
+    for (uint32_t i = p.first; i < p.first + p.count; ++i) row_begin[taps_[i].unknown + 1] += p.count;
+  }
+  for (size_t r = 0; r < n; ++r) row_begin[r + 1] += row_begin[r] + 1;  // + 1: the unknown's own weight
+  std::vector<uint32_t> col(row_begin[n]);
+  std::vector<double> value(row_begin[n]);
+  std::vector<size_t> next(row_begin.begin(), row_begin.end() - 1);
   for (const Pair& p : pairs_) {
     for (uint32_t i = p.first; i < p.first + p.count; ++i) {
       for (uint32_t j = p.first; j < p.first + p.count; ++j) {
-        entries.push_back({taps_[i].unknown, taps_[j].unknown, options_.seam_weight * taps_[i].weight * taps_[j].weight});
+        const size_t e = next[taps_[i].unknown]++;
+        col[e] = taps_[j].unknown;
+        value[e] = options_.seam_weight * taps_[i].weight * taps_[j].weight;
       }
     }
   }
   for (uint32_t u = 0; u < n; ++u) {
-    entries.push_back({u, u, validity_[texels_[u]] ? options_.valid_weight : options_.dilated_weight});
+    const size_t e = next[u]++;
+    col[e] = u;
+    value[e] = validity_[texels_[u]] ? options_.valid_weight : options_.dilated_weight;
   }
-  // Sorted by position, equal positions summed in a fixed order: the same matrix on every run. A stable counting
-  // sort by row, then each row's few entries stably by column (by insertion: std::stable_sort would allocate a
-  // buffer for each of the millions of rows): the order of one stable sort by (row, col), without its n log n over
-  // the millions of entries of a level's page.
-  std::vector<uint32_t> row_begin(n + 1, 0);  // row r's entries: [row_begin[r], row_begin[r + 1])
-  for (const Entry& e : entries) ++row_begin[e.row + 1];
-  for (size_t r = 0; r < n; ++r) row_begin[r + 1] += row_begin[r];
-  std::vector<Entry> sorted(entries.size());
-  std::vector<uint32_t> next(row_begin.begin(), row_begin.end() - 1);
-  for (const Entry& e : entries) sorted[next[e.row]++] = e;
-  for (size_t r = 0; r < n; ++r) {
-    for (uint32_t i = row_begin[r] + 1; i < row_begin[r + 1]; ++i) {
-      const Entry e = sorted[i];
-      uint32_t j = i;
-      for (; j > row_begin[r] && sorted[j - 1].col > e.col; --j) sorted[j] = sorted[j - 1];
-      sorted[j] = e;
-    }
-  }
-  entries = std::move(sorted);
+  next.clear();
+  next.shrink_to_fit();
+  merge_rows(row_begin, col, value);
+}
+
+// Orders each row's entries by column (stably) and sums those of one column, into the compressed rows.
+void SeamStitcher::merge_rows(const std::vector<size_t>& row_begin, std::vector<uint32_t>& col,
+                              std::vector<double>& value) {
+  const size_t n = row_begin.size() - 1;
   row_start_.assign(n + 1, 0);
   diagonal_.assign(n, 0.0);
-  for (size_t e = 0; e < entries.size();) {
-    size_t f = e;
-    double sum = 0;
-    while (f < entries.size() && entries[f].row == entries[e].row && entries[f].col == entries[e].col) {
-      sum += entries[f].value;
-      ++f;
+  size_t out = 0;  // rows are compacted in place: a row's merged entries never pass its unmerged ones
+  for (size_t r = 0; r < n; ++r) {
+    for (size_t i = row_begin[r] + 1; i < row_begin[r + 1]; ++i) {
+      const uint32_t c = col[i];
+      const double v = value[i];
+      size_t j = i;
+      for (; j > row_begin[r] && col[j - 1] > c; --j) {
+        col[j] = col[j - 1];
+        value[j] = value[j - 1];
+      }
+      col[j] = c;
+      value[j] = v;
     }
-    col_.push_back(entries[e].col);
-    value_.push_back(sum);
-    ++row_start_[entries[e].row + 1];
-    if (entries[e].row == entries[e].col) diagonal_[entries[e].row] = sum;
-    e = f;
+    row_start_[r] = static_cast<uint32_t>(out);
+    for (size_t e = row_begin[r]; e < row_begin[r + 1];) {
+      double sum = 0;
+      size_t f = e;
+      for (; f < row_begin[r + 1] && col[f] == col[e]; ++f) sum += value[f];
+      if (col[e] == r) diagonal_[r] = sum;
+      col[out] = col[e];
+      value[out] = sum;
+      ++out;
+      e = f;
+    }
   }
-  for (size_t r = 0; r < n; ++r) row_start_[r + 1] += row_start_[r];
+  row_start_[n] = static_cast<uint32_t>(out);
+  col.resize(out);
+  col.shrink_to_fit();
+  col_ = std::move(col);
+  value.resize(out);
+  value.shrink_to_fit();
+  value_ = std::move(value);
 }
 
 StitchStats SeamStitcher::measure(const image::FloatImage& image) const {
