@@ -835,7 +835,7 @@ struct TileRun {
   double total_coverage = 0;  // the UV area of every tile of every page
   double remaining = 0;       // of the tiles not yet sampled
   ErrorTotals done{};         // over the tiles sampled so far, each as it ended
-  LightmapTexels spare;       // the last tile's texels, whose storage the next tile's rasterization reuses
+  LightmapTexels spare{};     // the last tile's texels, whose storage the next tile's rasterization reuses
 };
 
 // A page's tally while its tiles are baked.
