@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <tuple>
 #include <unordered_map>
+#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -371,77 +372,61 @@ void SeamStitcher::group_by_component() {
   for (Tap& t : taps_) t.unknown = new_of[t.unknown];
 }
 
-// The normal matrix's entries are the products of each lookup pair's taps and each unknown's own weight. They are
-// written straight into their rows, in the order the pairs give them and each unknown's own weight last; each row's
-// few entries are then ordered by column by insertion (stable) and the entries of one column summed in that order:
-// the same matrix on every run, without a list of every product sorted apart (a level's page has tens of millions).
+// The normal matrix's entries are the products of each lookup pair's taps and each unknown's own weight. Row r is
+// summed from the pairs that read unknown r, in pair order, its own weight last, and ordered by column: the same
+// matrix on every run, without holding every product at once (a level's page has tens of millions of them).
 void SeamStitcher::build_matrix() {
   const size_t n = texels_.size();
-  std::vector<size_t> row_begin(n + 1, 0);  // row r's entries before merging: [row_begin[r], row_begin[r + 1])
-  for (const Pair& p : pairs_) {
-    for (uint32_t i = p.first; i < p.first + p.count; ++i) row_begin[taps_[i].unknown + 1] += p.count;
-  }
-  for (size_t r = 0; r < n; ++r) row_begin[r + 1] += row_begin[r] + 1;  // + 1: the unknown's own weight
-  std::vector<uint32_t> col(row_begin[n]);
-  std::vector<double> value(row_begin[n]);
-  std::vector<size_t> next(row_begin.begin(), row_begin.end() - 1);
-  for (const Pair& p : pairs_) {
-    for (uint32_t i = p.first; i < p.first + p.count; ++i) {
-      for (uint32_t j = p.first; j < p.first + p.count; ++j) {
-        const size_t e = next[taps_[i].unknown]++;
-        col[e] = taps_[j].unknown;
-        value[e] = options_.seam_weight * taps_[i].weight * taps_[j].weight;
-      }
+  // The taps of each unknown, in pair order: taps_of[tap_begin[u] .. tap_begin[u + 1]), with each tap's pair.
+  std::vector<size_t> tap_begin(n + 1, 0);
+  for (const Tap& t : taps_) ++tap_begin[t.unknown + 1];
+  for (size_t u = 0; u < n; ++u) tap_begin[u + 1] += tap_begin[u];
+  std::vector<uint32_t> taps_of(taps_.size()), pair_of(taps_.size());
+  std::vector<size_t> next(tap_begin.begin(), tap_begin.end() - 1);
+  size_t products = n;  // an upper bound on the entries: every product and own weight apart
+  for (uint32_t p = 0; p < pairs_.size(); ++p) {
+    for (uint32_t k = pairs_[p].first; k < pairs_[p].first + pairs_[p].count; ++k) {
+      taps_of[next[taps_[k].unknown]++] = k;
+      pair_of[k] = p;
+      products += pairs_[p].count;
     }
   }
-  for (uint32_t u = 0; u < n; ++u) {
-    const size_t e = next[u]++;
-    col[e] = u;
-    value[e] = validity_[texels_[u]] ? options_.valid_weight : options_.dilated_weight;
-  }
-  next.clear();
-  next.shrink_to_fit();
-  merge_rows(row_begin, col, value);
-}
-
-// Orders each row's entries by column (stably) and sums those of one column, into the compressed rows.
-void SeamStitcher::merge_rows(const std::vector<size_t>& row_begin, std::vector<uint32_t>& col,
-                              std::vector<double>& value) {
-  const size_t n = row_begin.size() - 1;
+  next = {};
   row_start_.assign(n + 1, 0);
   diagonal_.assign(n, 0.0);
-  size_t out = 0;  // rows are compacted in place: a row's merged entries never pass its unmerged ones
-  for (size_t r = 0; r < n; ++r) {
-    for (size_t i = row_begin[r] + 1; i < row_begin[r + 1]; ++i) {
-      const uint32_t c = col[i];
-      const double v = value[i];
-      size_t j = i;
-      for (; j > row_begin[r] && col[j - 1] > c; --j) {
-        col[j] = col[j - 1];
-        value[j] = value[j - 1];
+  col_.clear();
+  value_.clear();
+  col_.reserve(products);  // address space only: the pages the merged rows never reach are never touched
+  value_.reserve(products);
+  std::vector<std::pair<uint32_t, double>> row;  // (column, sum) in order of first contribution
+  const auto add = [&row](uint32_t c, double v) {
+    for (auto& [col, sum] : row) {
+      if (col == c) {
+        sum += v;
+        return;
       }
-      col[j] = c;
-      value[j] = v;
     }
-    row_start_[r] = static_cast<uint32_t>(out);
-    for (size_t e = row_begin[r]; e < row_begin[r + 1];) {
-      double sum = 0;
-      size_t f = e;
-      for (; f < row_begin[r + 1] && col[f] == col[e]; ++f) sum += value[f];
-      if (col[e] == r) diagonal_[r] = sum;
-      col[out] = col[e];
-      value[out] = sum;
-      ++out;
-      e = f;
+    row.push_back({c, 0.0});
+    row.back().second += v;  // 0 + v, as every sum starts
+  };
+  for (uint32_t r = 0; r < n; ++r) {
+    row.clear();
+    for (size_t e = tap_begin[r]; e < tap_begin[r + 1]; ++e) {
+      const Tap& mine = taps_[taps_of[e]];
+      const Pair& p = pairs_[pair_of[taps_of[e]]];
+      for (uint32_t j = p.first; j < p.first + p.count; ++j) {
+        add(taps_[j].unknown, options_.seam_weight * mine.weight * taps_[j].weight);
+      }
     }
+    add(r, validity_[texels_[r]] ? options_.valid_weight : options_.dilated_weight);
+    std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [c, sum] : row) {
+      if (c == r) diagonal_[r] = sum;
+      col_.push_back(c);
+      value_.push_back(sum);
+    }
+    row_start_[r + 1] = static_cast<uint32_t>(col_.size());
   }
-  row_start_[n] = static_cast<uint32_t>(out);
-  col.resize(out);
-  col.shrink_to_fit();
-  col_ = std::move(col);
-  value.resize(out);
-  value.shrink_to_fit();
-  value_ = std::move(value);
 }
 
 StitchStats SeamStitcher::measure(const image::FloatImage& image) const {

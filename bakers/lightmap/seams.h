@@ -146,7 +146,6 @@ class SeamStitcher {
 
   void group_by_component();
   void build_matrix();
-  void merge_rows(const std::vector<size_t>& row_begin, std::vector<uint32_t>& col, std::vector<double>& value);
   int solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged) const;
   // The largest and RMS |lookup A − lookup B| over `scale`, over the lookup pairs and channels.
   void mismatch(const image::FloatImage& image, double scale, double& largest, double& rms) const;
