@@ -490,7 +490,14 @@ TEST(Texels, RetainKeepsTheSamplesAskedForInOrder) {
       if (keep[j]) expected.push_back(map.samples[j]);
     const std::span<const TexelSample> got = kept.at(t);
     ASSERT_EQ(got.size(), expected.size()) << "texel " << t;
-    EXPECT_EQ(0, std::memcmp(got.data(), expected.data(), got.size() * sizeof(TexelSample)));
+    for (size_t k = 0; k < got.size(); ++k) {
+      EXPECT_EQ(got[k].position, expected[k].position) << "texel " << t;
+      EXPECT_EQ(got[k].barycentric.x, expected[k].barycentric.x) << "texel " << t;
+      EXPECT_EQ(got[k].barycentric.y, expected[k].barycentric.y) << "texel " << t;
+      EXPECT_EQ(got[k].weight, expected[k].weight) << "texel " << t;
+      EXPECT_EQ(got[k].triangle.instance, expected[k].triangle.instance) << "texel " << t;
+      EXPECT_EQ(got[k].triangle.triangle, expected[k].triangle.triangle) << "texel " << t;
+    }
     EXPECT_EQ(kept.valid(t), !expected.empty());
     n += expected.size();
   }
