@@ -36,6 +36,7 @@
 #include "bakers/lightmap/stage_timer.h"
 #include "bakers/lightmap/texel_guides.h"
 #include "bakers/lightmap/texels.h"
+#include "bakers/lightmap/tile_time_budget.h"
 #include "bakers/lightmap/tracer_query.h"
 #include "bakers/plan/lightmap_plan.h"
 #include "bakers/scene/light_sampler.h"
@@ -92,8 +93,8 @@ struct LightmapBakeRun {
   std::unique_ptr<LightTracer> light_tracer;
   std::vector<LightmapState> maps;
   std::optional<ProbeVolumeResult> probes;  // when the input asks for probes, once baked
-  LightmapMemoryEstimate memory;  // as planned: untiled, or the tile size (memory.tile_size)
-  uint64_t dropped = 0;           // estimates dropped over all passes
+  LightmapMemoryEstimate memory;            // as planned: untiled, or the tile size (memory.tile_size)
+  uint64_t dropped = 0;                     // estimates dropped over all passes
   LightmapBakeResult result;
   LightmapReport report;
 
@@ -704,7 +705,8 @@ void bake_probes_only(LightmapBakeRun& run) {
   }
   LightmapBakeResult& result = run.result;
   result.error_estimate = run.probes->rms_error;
-  if (result.error_estimate >= 0) result.curve.push_back({seconds_since(run.t0), result.samples, result.error_estimate});
+  if (result.error_estimate >= 0)
+    result.curve.push_back({seconds_since(run.t0), result.samples, result.error_estimate});
   result.seconds = seconds_since(run.t0);
   write_report(run);
   run.progress(1.0, "done", result.error_estimate);
@@ -768,18 +770,6 @@ std::vector<TiledPage> bin_pages(LightmapBakeRun& run, const std::vector<std::ve
   return pages;
 }
 
-// The deadline of a tile that covers `share` of the `remaining` UV area of the tiles not yet sampled: the time left
-// in proportion, so that every texel gets about the time an untiled bake's passes would give it (an equal share
-// per tile would starve dense tiles and leave sparse ones time they cannot use). Time a tile leaves unused (its
-// texels met the target) goes to the tiles after it.
-Clock::time_point tile_deadline(Clock::time_point deadline, double share, double remaining) {
-  if (deadline == Clock::time_point::max()) return deadline;
-  const Clock::time_point now = Clock::now();
-  if (now >= deadline || !(remaining > 0)) return deadline;
-  const double fraction = std::clamp(share / remaining, 0.0, 1.0);
-  return now + std::chrono::duration_cast<Clock::duration>((deadline - now) * fraction);
-}
-
 // The sum of the luminances of the tile's valid texels with estimates, and how many: the brightness prior of the
 // page's next tiles (LightmapImage::set_brightness_prior).
 std::pair<double, size_t> luminance_sum(const LightmapImage& img) {
@@ -793,23 +783,28 @@ std::pair<double, size_t> luminance_sum(const LightmapImage& img) {
   return {sum, n};
 }
 
-// A tile reached after the time limit: its texels for their validity and guides only, no ray leaving them. Coverage,
-// and so validity, does not depend on the pattern (texels.h): a 1×1 pattern, one point per texel and covering
-// triangle, gives the same valid texels as the baked tiles' 2×2 with about a quarter of their samples.
+// A tile not sampled, reached after the time limit or left out by its budget: its texels for their validity and
+// guides only, no ray leaving them. Coverage, and so validity, does not depend on the pattern (texels.h): a 1×1
+// pattern, one point per texel and covering triangle, gives the same valid texels as the sampled tiles' 2×2 with
+// about a quarter of their samples.
 void rasterize_unsampled(LightmapBakeRun& run, const TiledPage& page, RasterOptions raster, LightmapTexels& texels) {
   const StageTimer timer(run.report.stages, "rasterization");
   raster.samples_per_axis = 1;
   rasterize_lightmap_into(texels, run.scene(), page.name, raster, run.cancel_only);
 }
 
-// Rasterizes a tile and resolves its leaks; false (texels rasterized, leaks not probed) when the time limit ran out
-// first, after which nothing but a cancel stops the tile.
+// Rasterizes a tile and, if `probe_next` still says so once that is measured, resolves its leaks: true when the tile
+// is to be sampled. False with `texels` this tile's when it is not, false with `texels` not this tile's when the time
+// limit ran out first (after which nothing but a cancel stops the tile).
 bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOptions& raster, const TracerRayQuery& query,
-                 const LeakScope& scope, LightmapTexels& texels, LeakReport& leaks) {
+                 const LeakScope& scope, LightmapTexels& texels, LeakReport& leaks,
+                 const std::function<bool(double raster_seconds)>& probe_next) {
   try {
     run.stage = "rasterization of lightmap '" + page.name + "'";
     std::optional<StageTimer> timer(std::in_place, run.report.stages, "rasterization");
+    const Clock::time_point t0 = Clock::now();
     rasterize_lightmap_into(texels, run.scene(), page.name, raster, run.stop);
+    if (!probe_next(seconds_since(t0))) return false;
     match_tracer_offsets(texels, *run.tracer);
     run.stage = "leak probes of lightmap '" + page.name + "'";
     timer.emplace(run.report.stages, "leak_probes");
@@ -819,7 +814,7 @@ bool tile_texels(LightmapBakeRun& run, const TiledPage& page, const RasterOption
   } catch (const bake::OutOfTime&) {
     if (run.result.samples == 0) throw;  // before the first sample: the set-up ran out (out_of_time_in_set_up)
   }
-  rasterize_unsampled(run, page, raster, texels);
+  texels.width = 0;  // rasterized for sampling, perhaps probed in part: rasterized anew as an unsampled tile
   leaks = LeakReport{};
   return false;
 }
@@ -836,6 +831,12 @@ struct TileRun {
   double remaining = 0;       // of the tiles not yet sampled
   ErrorTotals done{};         // over the tiles sampled so far, each as it ended
   LightmapTexels spare{};     // the last tile's texels, whose storage the next tile's rasterization reuses
+  TileTimeBudget budget{false};
+  double page_texels_left = 0;  // of the pages whose outputs are still to be written
+  bool sampling_over = false;   // the last tile was left unsampled
+
+  bool limited() const { return options.deadline != Clock::time_point::max(); }
+  double seconds_left() const { return std::chrono::duration<double>(options.deadline - Clock::now()).count(); }
 };
 
 // A page's tally while its tiles are baked.
@@ -855,15 +856,65 @@ void add_leaks(LeakReport& into, const LeakReport& tile) {
   into.rays += tile.rays;
 }
 
-// The tile's texels, leaks resolved when it is to be sampled (`sample`); before the deadline only.
-LightmapTexels tile_texels_to_bake(TileRun& t, const TiledPage& page, const RasterOptions& raster, LeakReport& leaks,
-                                   bool& sample) {
+// Marks the start of a run of tiles left unsampled, and what was then forecast to follow, for the report.
+void left_out(TileRun& t) {
+  if (t.sampling_over) return;
+  t.sampling_over = true;
+  LightmapBakeResult::TimeBudget& b = t.run.result.time_budget;
+  b.sampling_ended_seconds = seconds_since(t.run.t0);
+  b.forecast_seconds = t.budget.after(t.remaining, t.page_texels_left);
+}
+
+// Whether the tile covering `share` is to be sampled: before the time limit, while its budget has room for its
+// set-up and what must follow (tile_time_budget.h). A tile left out does not end the sampling: the forecast that left
+// it out may rest on priors that the next page's measured rates correct, and a smaller tile may still fit. The
+// report keeps when the last run of tiles left out began and what was then forecast to follow.
+bool sample_next(TileRun& t, double share) {
+  if (!t.limited()) return true;
+  LightmapBakeResult::TimeBudget& b = t.run.result.time_budget;
+  if (t.budget.should_sample(t.seconds_left(), share, std::max(0.0, t.remaining - share), t.page_texels_left)) {
+    b.sampling_ended_seconds = -1;
+    t.sampling_over = false;
+    return true;
+  }
+  left_out(t);
+  return false;
+}
+
+// How a tile was set up: to be sampled, or not; if not, whether at one point per texel (or rasterized to be sampled
+// and then left out by its budget).
+struct TileSetUp {
+  bool sample = false;
+  bool unsampled_raster = false;
+};
+
+// The tile's texels, leaks resolved when it is to be sampled (as its budget says).
+LightmapTexels tile_texels_to_bake(TileRun& t, const TiledPage& page, const RasterOptions& raster, double share,
+                                   LeakReport& leaks, TileSetUp& set_up) {
   LightmapBakeRun& run = t.run;
   LightmapTexels texels = std::move(t.spare);
   texels.width = 0;  // not yet this tile's
+  double raster_seconds_taken = 0;
+  const auto probe_next = [&](double raster_seconds) {
+    raster_seconds_taken = raster_seconds;
+    t.budget.sampled_raster(raster_seconds, share);
+    if (!t.limited()) return true;
+    const bool probe =
+        t.budget.should_probe(t.seconds_left(), share, std::max(0.0, t.remaining - share), t.page_texels_left);
+    if (!probe) left_out(t);
+    return probe;
+  };
   try {
-    sample = Clock::now() < t.options.deadline && tile_texels(run, page, raster, t.query, t.scope, texels, leaks);
-    if (!sample && texels.width == 0) rasterize_unsampled(run, page, raster, texels);
+    const Clock::time_point t0 = Clock::now();
+    set_up.sample =
+        sample_next(t, share) && tile_texels(run, page, raster, t.query, t.scope, texels, leaks, probe_next);
+    if (set_up.sample) {
+      t.budget.probes(seconds_since(t0) - raster_seconds_taken, share);
+    } else {
+      left_out(t);  // by the budget, or by the limit itself during the set-up
+      set_up.unsampled_raster = texels.width == 0;
+      if (set_up.unsampled_raster) rasterize_unsampled(run, page, raster, texels);
+    }
   } catch (const bake::OutOfTime&) {
     throw out_of_time_in_set_up(run);
   }
@@ -871,16 +922,27 @@ LightmapTexels tile_texels_to_bake(TileRun& t, const TiledPage& page, const Rast
   return texels;
 }
 
-// Samples a tile that covers `share` of the pages' UV area until its share of the time left or its target.
+// Samples a tile that covers `share` of the pages' UV area until its target or the time its budget gives it
+// (tile_time_budget.h).
 void sample_tile(TileRun& t, std::vector<LightmapState>& tile, double share) {
   LightmapBakeRun& run = t.run;
-  SamplingOptions o = t.options;
-  o.deadline = tile_deadline(t.options.deadline, share, t.remaining);
   const double before = (t.total_coverage - t.remaining) / std::max(t.total_coverage, 1e-300);
   const double weight = share / std::max(t.total_coverage, 1e-300);
   const StageTimer timer(run.report.stages, "passes");
+  const Clock::time_point t0 = Clock::now();
+  SamplingOptions o = t.options;
+  if (t.limited()) {
+    const double s =
+        t.budget.sampling_seconds(t.seconds_left(), share, std::max(0.0, t.remaining - share), t.page_texels_left);
+    o.deadline =
+        std::min(o.deadline, t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s)));
+  }
   run_passes(run, tile, o, false, [&](uint64_t pass) {
     const ErrorTotals e = error_totals(run, tile);
+    // The first pass's coverage: the tile's, times the share of its texels it reached before a cut.
+    if (pass == 0 && e.valid > 0) {
+      t.budget.first_pass(seconds_since(t0), share * static_cast<double>(e.estimated) / static_cast<double>(e.valid));
+    }
     run.progress(0.05 + 0.9 * (before + weight * e.done()),
                  "tile " + std::to_string(run.result.memory.tiles) + ", pass " + std::to_string(pass + 1), e.rms());
   });
@@ -898,8 +960,11 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   raster.window = page.bins.window(k);
   raster.triangles = &page.bins.triangles[k];
   LeakReport leaks;
-  bool sample = false;
-  LightmapTexels texels = tile_texels_to_bake(t, page, raster, leaks, sample);
+  TileSetUp set_up;
+  const double share = page.bins.coverage[k];
+  const Clock::time_point t0 = Clock::now();
+  LightmapTexels texels = tile_texels_to_bake(t, page, raster, share, leaks, set_up);
+  const double set_up_seconds = seconds_since(t0);
   run.result.rays += leaks.rays;
   run.result.probe_rays += leaks.rays;
   add_leaks(tally.leaks, leaks);
@@ -916,9 +981,11 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
   tally.held = std::max(tally.held, lightmap_memory(m.texels, t.state_bytes).total_bytes + results_bytes);
   ++run.result.memory.tiles;
-  const double share = page.bins.coverage[k];
-  if (sample) {
+  double passes = 0;
+  if (set_up.sample) {
+    const Clock::time_point p0 = Clock::now();
     sample_tile(t, tile, share);
+    passes = seconds_since(p0);
   } else {
     ++run.result.memory.tiles_unsampled;
   }
@@ -927,6 +994,11 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   tally.prior = {tally.prior.first + lum.first, tally.prior.second + lum.second};
   collect_results(m, m.x0, m.y0, {&run.scene(), &run.materials, &charts}, results);
   t.spare = std::move(m.texels);
+  if (set_up.sample) {
+    t.budget.sampled_rest(seconds_since(t0) - set_up_seconds - passes, share);
+  } else if (set_up.unsampled_raster) {
+    t.budget.unsampled_tile(seconds_since(t0), share);
+  }
   run.check_cancel();
 }
 
@@ -946,8 +1018,12 @@ void bake_page(TileRun& t, TiledPage& page, size_t pi) {
   run.cancel_only.check();
   LightmapMemory memory = lightmap_memory(results.texel_count(), tally.samples, tally.valid, t.state_bytes);
   memory.total_bytes = tally.held;
+  const Clock::time_point t0 = Clock::now();
   const StageTimer timer(run.report.stages, "outputs");
   write_lightmap(run, results, tally.leaks, memory);
+  const double texels = static_cast<double>(results.texel_count());
+  t.budget.page_written(seconds_since(t0), texels);
+  t.page_texels_left = std::max(0.0, t.page_texels_left - texels);
 }
 
 // The error curve's last point, over every texel of every page under each page's final brightness, the estimate
@@ -960,6 +1036,8 @@ void finish_tiles(LightmapBakeRun& run) {
     result.curve.push_back({seconds_since(run.t0), result.samples, final_totals.rms()});
   }
   result.error_estimate = result.curve.empty() ? -1.0 : std::max(-1.0, result.curve.back().error);
+  LightmapBakeResult::TimeBudget& b = result.time_budget;
+  if (b.sampling_ended_seconds >= 0) b.after_seconds = seconds_since(run.t0) - b.sampling_ended_seconds;
   if (run.in.probes.enabled()) bake_probes(run);
   result.seconds = seconds_since(run.t0);
   write_report(run);
@@ -992,10 +1070,18 @@ void bake_tiles(LightmapBakeRun& run) {
             lightmap_state_bytes(run.in.ao, run.in.directional, false)};
   for (const TiledPage& p : pages) {
     for (double c : p.bins.coverage) t.remaining += c;
+    t.page_texels_left += static_cast<double>(p.size) * static_cast<double>(p.size);
   }
   t.total_coverage = t.remaining;
+  t.budget = TileTimeBudget(run.in.denoise);
   run.progress(0.05, "tiles", -1);
   for (size_t pi = 0; pi < pages.size(); ++pi) bake_page(t, pages[pi], pi);
+  LightmapBakeResult::TimeBudget& b = run.result.time_budget;
+  b.on = t.limited();
+  b.sampled_rate = t.budget.sampled_rate();
+  b.first_pass_rate = t.budget.first_pass_rate();
+  b.unsampled_rate = t.budget.unsampled_rate();
+  b.output_rate = t.budget.output_rate();
   finish_tiles(run);
 }
 

@@ -161,14 +161,26 @@ struct LightmapBakeResult {
   // How the bake held its memory (memory_estimate.h): untiled or in tiles, the estimate it planned by, and the peak
   // of what it held in its texel state and page results (the tracer and scene aside).
   struct Memory {
-    uint64_t limit_bytes = 0;       // the input's memory_limit_bytes
-    uint64_t estimate_bytes = 0;    // the estimate of the bake as it ran
-    int tile_size = 0;              // 0: untiled
-    uint64_t tiles = 0;             // tiles baked (with texels), over every page
-    uint64_t tiles_unsampled = 0;   // of them, reached after the time limit: rasterized for validity, not sampled
-    uint64_t held_peak_bytes = 0;   // the largest texel state and page results held at once
+    uint64_t limit_bytes = 0;         // the input's memory_limit_bytes
+    uint64_t estimate_bytes = 0;      // the estimate of the bake as it ran
+    int tile_size = 0;                // 0: untiled
+    uint64_t tiles = 0;               // tiles baked (with texels), over every page
+    uint64_t tiles_unsampled = 0;     // of them, left out by the time limit's budget: rasterized, not sampled
+    uint64_t held_peak_bytes = 0;     // the largest texel state and page results held at once
     double bytes_per_texel_held = 0;  // of the texels in flight: their sampling state and sample points
   } memory;
+  // How a tiled bake with a time limit divided it (tile_time_budget.h): when the last run of tiles it left unsampled
+  // began (−1: it sampled the last tile), what was then forecast to follow (the tiles left rasterized, the pages
+  // left written) and what that took; and the rates the budget forecast by at the end.
+  struct TimeBudget {
+    bool on = false;
+    double sampling_ended_seconds = -1;
+    double forecast_seconds = 0, after_seconds = 0;
+    double sampled_rate = 0;     // s per texel² covered: a sampled tile but for its passes
+    double first_pass_rate = 0;  // s per texel² covered: a sampled tile's first pass
+    double unsampled_rate = 0;   // s per texel² covered: an unsampled tile, whole
+    double output_rate = 0;      // s per page texel: a page's outputs
+  } time_budget;
   std::vector<std::string> skipped;  // scene problems: what was not baked and why, for people
 };
 

@@ -1,9 +1,11 @@
 #include "bakers/lightmap/lightmap_report.h"
 
 #include <algorithm>
+#include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "bakers/bake/number_format.h"
 #include "bakers/lightmap/lightmap_manifest.h"
 #include "bakers/lightmap/media_report.h"
 #include "bakers/lightmap/probe_outputs.h"
@@ -126,6 +128,35 @@ Json memory_json(const LightmapBakeResult::Memory& m) {
           {"bytes_per_texel_held", m.bytes_per_texel_held}};
 }
 
+Json time_budget_json(const LightmapBakeResult::TimeBudget& b) {
+  if (!b.on) return {{"on", false}};
+  Json j{{"on", true},
+         {"sampled_seconds_per_texel", b.sampled_rate},
+         {"first_pass_seconds_per_texel", b.first_pass_rate},
+         {"unsampled_seconds_per_texel", b.unsampled_rate},
+         {"output_seconds_per_page_texel", b.output_rate}};
+  if (b.sampling_ended_seconds < 0) {
+    j["sampling_ended_seconds"] = nullptr;
+  } else {
+    j["sampling_ended_seconds"] = b.sampling_ended_seconds;
+    j["forecast_after_seconds"] = b.forecast_seconds;
+    j["after_seconds"] = b.after_seconds;
+  }
+  return j;
+}
+
+std::string unknown_error_reason(const LightmapBakeResult& result) {
+  if (result.samples > 0) return "no texel has two estimates to measure its error from";
+  const LightmapBakeResult::TimeBudget& b = result.time_budget;
+  if (b.on && b.sampling_ended_seconds >= 0) {
+    return "no texel was sampled: the time limit left no time for it beside what no limit can skip, rasterizing the "
+           "tiles and writing the pages (forecast " +
+           bake::format_number(b.forecast_seconds) + " s, took " + bake::format_number(b.after_seconds) +
+           " s); raise the time limit or lower the texel density";
+  }
+  return "no texel was sampled (the time limit ran out before the first sample)";
+}
+
 }  // namespace
 
 std::string report_json(const LightmapBakeResult& result, const LightmapReport& report) {
@@ -143,9 +174,7 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
     j["error_estimate"] = result.error_estimate;
   } else {
     j["error_estimate"] = nullptr;
-    j["error_estimate_unknown"] = result.samples == 0
-                                      ? "no texel was sampled (the time limit ran out before the first sample)"
-                                      : "no texel has two estimates to measure its error from";
+    j["error_estimate_unknown"] = unknown_error_reason(result);
   }
   j["dropped_samples"] = report.dropped_samples;
   j["color_space"] = report.color_space;
@@ -161,6 +190,7 @@ std::string report_json(const LightmapBakeResult& result, const LightmapReport& 
   j["denoise"] = denoise_json(report);
   j["tracer"] = tracer_json(report);
   j["memory"] = memory_json(result.memory);
+  j["time_budget"] = time_budget_json(result.time_budget);
   const LeakScopeSummary& ls = report.leak_scope;
   j["leak_scope"] = {{"convex_meshes", ls.convex_meshes},
                      {"height_field_meshes", ls.height_field_meshes},

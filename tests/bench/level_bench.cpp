@@ -211,6 +211,7 @@ void bake_and_report(const char* what, lightmap::LightmapBakeInput in) {
         at["seconds"].get<double>());
   }
   if (report.contains("memory")) std::printf("  memory: %s\n", report["memory"].dump().c_str());
+  if (report.contains("time_budget")) std::printf("  time budget: %s\n", report["time_budget"].dump().c_str());
   std::printf("  %-22s %9s %9s\n", "stage", "seconds", "fraction");
   for (const auto& st : report["stages"])
     std::printf("  %-22s %9.3f %9.3f\n", st["stage"].get<std::string>().c_str(), st["seconds"].get<double>(),

@@ -66,6 +66,7 @@ void compare_whole_and_tiled(LightmapBakeInput in) {
   EXPECT_EQ(report_of(tiled)["memory"]["tile_size"], 16);
   EXPECT_EQ(report_of(tiled)["memory"]["tiles"], 16 + 1) << "16 tiles of the floor's page, 1 of the box's";
   EXPECT_EQ(report_of(whole)["memory"]["tiled"], false);
+  EXPECT_EQ(report_of(tiled)["time_budget"]["on"], false) << "no time limit, nothing to budget";
   for (const char* name : {"floor", "box"}) {
     const std::string n = name;
     const image::FloatImage Ew = exr_output(whole, n + "_irradiance.exr"), Et = exr_output(tiled, n + "_irradiance.exr");
