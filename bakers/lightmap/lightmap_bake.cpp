@@ -51,23 +51,28 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+Clock::time_point time_after(Clock::time_point t0, double seconds) {
+  return t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+}
+
 // One bake's state, filled stage by stage (bake_lightmaps lists the stages). Not moved once a stage has run: the
 // tracer, the lights and the transport context refer to the checked scene and to each other.
 struct LightmapBakeRun {
   LightmapBakeRun(const LightmapBakeInput& input, const bake::BakeControl& bake_control)
       : in(input),
         control(bake_control),
-        stop(control.cancel, deadline(input, t0)),
+        stop(control.cancel, time_limit_at),
         cancel_only(control.cancel, Clock::time_point::max()) {}
 
   static Clock::time_point deadline(const LightmapBakeInput& in, Clock::time_point t0) {
     if (!(in.time_limit_seconds > 0)) return Clock::time_point::max();
-    return t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(in.time_limit_seconds));
+    return time_after(t0, in.time_limit_seconds);
   }
 
   const LightmapBakeInput& in;
   const bake::BakeControl& control;
   const Clock::time_point t0 = Clock::now();
+  const Clock::time_point time_limit_at = deadline(in, t0);  // max() when the bake has no time limit
   // The set-up stages stop at a cancel or the time limit; writing the outputs only at a cancel (the time limit ends
   // the sampling, whose result is then written).
   const bake::StopCheck stop, cancel_only;
@@ -386,10 +391,7 @@ SamplingOptions sampling_options(const LightmapBakeRun& run) {
   o.max_samples = run.in.max_samples;
   o.seed = run.in.seed;
   o.directional = run.in.directional;
-  if (run.in.time_limit_seconds > 0) {
-    o.deadline =
-        run.t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(run.in.time_limit_seconds));
-  }
+  o.deadline = run.time_limit_at;
   return o;
 }
 
@@ -833,10 +835,15 @@ struct TileRun {
   LightmapTexels spare{};     // the last tile's texels, whose storage the next tile's rasterization reuses
   TileTimeBudget budget{false};
   double page_texels_left = 0;  // of the pages whose outputs are still to be written
-  bool sampling_over = false;   // the last tile was left unsampled
 
   bool limited() const { return options.deadline != Clock::time_point::max(); }
   double seconds_left() const { return std::chrono::duration<double>(options.deadline - Clock::now()).count(); }
+  // Whether the last tile was left unsampled (left_out).
+  bool sampling_over() const { return run.result.time_budget.sampling_ended_seconds >= 0; }
+  // Where the tile covering `share` stands, for the budget.
+  TileOutlook outlook(double share) const {
+    return {seconds_left(), share, std::max(0.0, remaining - share), page_texels_left};
+  }
 };
 
 // A page's tally while its tiles are baked.
@@ -858,8 +865,7 @@ void add_leaks(LeakReport& into, const LeakReport& tile) {
 
 // Marks the start of a run of tiles left unsampled, and what was then forecast to follow, for the report.
 void left_out(TileRun& t) {
-  if (t.sampling_over) return;
-  t.sampling_over = true;
+  if (t.sampling_over()) return;
   LightmapBakeResult::TimeBudget& b = t.run.result.time_budget;
   b.sampling_ended_seconds = seconds_since(t.run.t0);
   b.forecast_seconds = t.budget.after(t.remaining, t.page_texels_left);
@@ -872,9 +878,8 @@ void left_out(TileRun& t) {
 bool sample_next(TileRun& t, double share) {
   if (!t.limited()) return true;
   LightmapBakeResult::TimeBudget& b = t.run.result.time_budget;
-  if (t.budget.should_sample(t.seconds_left(), share, std::max(0.0, t.remaining - share), t.page_texels_left)) {
-    b.sampling_ended_seconds = -1;
-    t.sampling_over = false;
+  if (t.budget.should_sample(t.outlook(share))) {
+    b.sampling_ended_seconds = -1;  // a tile sampled after a run left out: that run did not end the sampling
     return true;
   }
   left_out(t);
@@ -899,8 +904,7 @@ LightmapTexels tile_texels_to_bake(TileRun& t, const TiledPage& page, const Rast
     raster_seconds_taken = raster_seconds;
     t.budget.sampled_raster(raster_seconds, share);
     if (!t.limited()) return true;
-    const bool probe =
-        t.budget.should_probe(t.seconds_left(), share, std::max(0.0, t.remaining - share), t.page_texels_left);
+    const bool probe = t.budget.should_probe(t.outlook(share));
     if (!probe) left_out(t);
     return probe;
   };
@@ -932,10 +936,8 @@ void sample_tile(TileRun& t, std::vector<LightmapState>& tile, double share) {
   const Clock::time_point t0 = Clock::now();
   SamplingOptions o = t.options;
   if (t.limited()) {
-    const double s =
-        t.budget.sampling_seconds(t.seconds_left(), share, std::max(0.0, t.remaining - share), t.page_texels_left);
-    o.deadline =
-        std::min(o.deadline, t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s)));
+    const double s = t.budget.sampling_seconds(t.outlook(share));
+    o.deadline = std::min(o.deadline, time_after(t0, s));
   }
   run_passes(run, tile, o, false, [&](uint64_t pass) {
     const ErrorTotals e = error_totals(run, tile);

@@ -18,29 +18,29 @@ double TileTimeBudget::after(double coverage, double page_texels) const {
   return unsampled_rate() * coverage + output_rate() * page_texels;
 }
 
-bool TileTimeBudget::should_sample(double left, double coverage, double coverage_after, double page_texels) const {
-  const double spare = left - after(coverage + coverage_after, page_texels);
+bool TileTimeBudget::should_sample(const TileOutlook& o) const {
+  const double spare = o.left - after(o.coverage + o.coverage_after, o.page_texels);
   const double extra = std::max(0.0, sampled_rate() - unsampled_rate());
   // Before the first tile is set up every rate but the outputs' is 0: sampled if the outputs leave any time.
-  return spare > 0 && spare >= (extra + first_pass_rate()) * coverage;
+  return spare > 0 && spare >= (extra + first_pass_rate()) * o.coverage;
 }
 
-bool TileTimeBudget::should_probe(double left, double coverage, double coverage_after, double page_texels) const {
-  const double spare = left - after(coverage_after, page_texels);
-  return spare > 0 && spare >= (probes_.per_unit(0) + first_pass_rate()) * coverage;
+bool TileTimeBudget::should_probe(const TileOutlook& o) const {
+  const double spare = o.left - after(o.coverage_after, o.page_texels);
+  return spare > 0 && spare >= (probes_.per_unit(0) + first_pass_rate()) * o.coverage;
 }
 
-double TileTimeBudget::sampling_seconds(double left, double coverage, double coverage_after, double page_texels) const {
-  const double spare = left - after(coverage_after, page_texels);
+double TileTimeBudget::sampling_seconds(const TileOutlook& o) const {
+  const double spare = o.left - after(o.coverage_after, o.page_texels);
   if (!(spare > 0)) return 0;
   const double extra = std::max(0.0, sampled_rate() - unsampled_rate());
-  const double shared = spare - extra * coverage_after;
-  const double all = coverage + coverage_after;
+  const double shared = spare - extra * o.coverage_after;
+  const double all = o.coverage + o.coverage_after;
   // Every tile left can be sampled with at least its first pass: the time is shared by UV area. (all > 0 whenever
   // shared ≥ r_1·all holds with r_1 > 0; with no pass measured yet, a tile without coverage takes the spare.)
-  if (shared >= first_pass_rate() * all && shared > 0) return all > 0 ? shared * (coverage / all) : spare;
+  if (shared >= first_pass_rate() * all && shared > 0) return all > 0 ? shared * (o.coverage / all) : spare;
   if (!first_pass_.measured()) return spare;  // the first tile sampled when not all can be: all it can have
-  return std::min(spare, first_pass_rate() * coverage);
+  return std::min(spare, first_pass_rate() * o.coverage);
 }
 
 }  // namespace kiln::lightmap

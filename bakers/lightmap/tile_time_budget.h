@@ -51,6 +51,15 @@ class StageRate {
   double seconds_ = 0, amount_ = 0;
 };
 
+// Where a tile stands when the budget is asked about it: `left` seconds to the limit, the tile covering `coverage`
+// texels², the tiles after it `coverage_after`, and the pages still to be written `page_texels` (its own included).
+struct TileOutlook {
+  double left = 0;
+  double coverage = 0;
+  double coverage_after = 0;
+  double page_texels = 0;
+};
+
 class TileTimeBudget {
  public:
   explicit TileTimeBudget(bool denoise)
@@ -69,15 +78,14 @@ class TileTimeBudget {
 
   // The forecast of what follows the sampling, after(C, P) above, in seconds.
   double after(double coverage, double page_texels) const;
-  // Whether the tile covering `coverage` should be sampled, with the tiles after it covering `coverage_after`, the
-  // pages still to be written `page_texels` (its own included) and `left` seconds to the limit.
-  bool should_sample(double left, double coverage, double coverage_after, double page_texels) const;
+  // Whether the tile should be sampled.
+  bool should_sample(const TileOutlook& o) const;
   // The same asked again once the tile is rasterized, with the rate of rasterization measured: whether what is left
   // covers its probes and first pass beside what must follow it (the bake's first tile is chosen on the outputs'
   // prior alone).
-  bool should_probe(double left, double coverage, double coverage_after, double page_texels) const;
-  // The seconds that tile samples for, its set-up done, with `left` seconds to the limit.
-  double sampling_seconds(double left, double coverage, double coverage_after, double page_texels) const;
+  bool should_probe(const TileOutlook& o) const;
+  // The seconds the tile samples for, its set-up done.
+  double sampling_seconds(const TileOutlook& o) const;
 
   // The rates as forecast now, seconds per texel² covered: a sampled tile but for its passes (rasterization, probes,
   // state and results), its first pass, an unsampled tile; and seconds per page texel for the outputs.

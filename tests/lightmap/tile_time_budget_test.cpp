@@ -60,8 +60,8 @@ TEST(TileTimeBudget, PriorsStandInUntilARateIsMeasured) {
 TEST(TileTimeBudget, TheFirstTileIsSampledWhenTheOutputsLeaveTime) {
   const TileTimeBudget b(false);
   // Nothing measured: what must follow is the outputs' prior, 1 µs × 4e6 = 4 s.
-  EXPECT_TRUE(b.should_sample(4.0 + 1e-9, 100, 1e6, 4e6));
-  EXPECT_FALSE(b.should_sample(4.0, 100, 1e6, 4e6));
+  EXPECT_TRUE(b.should_sample({4.0 + 1e-9, 100, 1e6, 4e6}));
+  EXPECT_FALSE(b.should_sample({4.0, 100, 1e6, 4e6}));
 }
 
 TEST(TileTimeBudget, ATileIsSampledWhenItsSetUpAndFirstPassFitBesideWhatMustFollow) {
@@ -69,33 +69,33 @@ TEST(TileTimeBudget, ATileIsSampledWhenItsSetUpAndFirstPassFitBesideWhatMustFoll
   // after(1100, 4e6) = 0.005·1100 + 4 = 9.5 s must be done anyway; the tile's extra set-up and first pass,
   // (0.03 − 0.005 + 0.01)·100 = 3.5 s: 13 s in all.
   EXPECT_NEAR(b.after(1100, 4e6), 9.5, kExact);
-  EXPECT_TRUE(b.should_sample(13.0 + 1e-9, 100, 1000, 4e6));
-  EXPECT_FALSE(b.should_sample(13.0 - 1e-9, 100, 1000, 4e6));
+  EXPECT_TRUE(b.should_sample({13.0 + 1e-9, 100, 1000, 4e6}));
+  EXPECT_FALSE(b.should_sample({13.0 - 1e-9, 100, 1000, 4e6}));
 }
 
 TEST(TileTimeBudget, ATileSamplesForItsShareWhenEveryTileCanHaveAPass) {
   const TileTimeBudget b = measured_budget();
   // What follows: after(900, 4e6) = 4.5 + 4 = 8.5 s; the other tiles' extra set-up (0.03 − 0.005)·900 = 22.5 s. With
   // 51 s left, 20 s to share: every tile's first pass (0.01·1000 = 10 s) fits, and a tenth of the coverage is its.
-  EXPECT_NEAR(b.sampling_seconds(51, 100, 900, 4e6), 2.0, 1e-9);
+  EXPECT_NEAR(b.sampling_seconds({51, 100, 900, 4e6}), 2.0, 1e-9);
   // The last tile: everything but the outputs.
-  EXPECT_NEAR(b.sampling_seconds(10, 100, 0, 4e6), 6.0, 1e-9);
+  EXPECT_NEAR(b.sampling_seconds({10, 100, 0, 4e6}), 6.0, 1e-9);
 }
 
 TEST(TileTimeBudget, WhenNotEveryTileCanHaveAPassATileGetsItsFirstPass) {
   const TileTimeBudget b = measured_budget();
   // 36 s left: 36 − 8.5 − 22.5 = 5 s to share, less than the 10 s of every tile's first pass: this tile gets its
   // own, 0.01·100 = 1 s; with 9 s left, what the outputs and the others' rasterization leave, 0.5 s.
-  EXPECT_NEAR(b.sampling_seconds(36, 100, 900, 4e6), 1.0, 1e-9);
-  EXPECT_NEAR(b.sampling_seconds(9, 100, 900, 4e6), 0.5, 1e-9);
-  EXPECT_EQ(b.sampling_seconds(8, 100, 900, 4e6), 0.0) << "nothing spare";
+  EXPECT_NEAR(b.sampling_seconds({36, 100, 900, 4e6}), 1.0, 1e-9);
+  EXPECT_NEAR(b.sampling_seconds({9, 100, 900, 4e6}), 0.5, 1e-9);
+  EXPECT_EQ(b.sampling_seconds({8, 100, 900, 4e6}), 0.0) << "nothing spare";
   // No first pass measured yet, and the others' extra set-up, (0.03 − 0.005)·1000 = 25 s, more than the 11 s that
   // the outputs (4 s) and their rasterization (at the prior, a quarter of the sampled one's: 0.005·1000 = 5 s) leave
   // of 20 s: the tile gets all 11.
   TileTimeBudget first(false);
   first.sampled_raster(2.0, 100);
   first.probes(1.0, 100);
-  EXPECT_NEAR(first.sampling_seconds(20, 100, 1000, 4e6), 11.0, 1e-9);
+  EXPECT_NEAR(first.sampling_seconds({20, 100, 1000, 4e6}), 11.0, 1e-9);
 }
 
 // A level as the simulation sees it: tiles of random coverage in pages of 2048², and what each stage really costs,
@@ -140,11 +140,11 @@ Outcome simulate(const Level& level, double limit) {
     for (double c : page) {
       ++o.tiles;
       const double after = coverage_left - c;
-      bool sample = budget.should_sample(limit - o.seconds, c, after, page_texels_left);
+      bool sample = budget.should_sample({limit - o.seconds, c, after, page_texels_left});
       if (sample) {
         o.seconds += level.raster * c;
         budget.sampled_raster(level.raster * c, c);
-        sample = budget.should_probe(limit - o.seconds, c, after, page_texels_left);
+        sample = budget.should_probe({limit - o.seconds, c, after, page_texels_left});
         if (!sample) o.seconds += (level.unsampled - level.unsampled_raster) * c;  // the unsampled tile's rest
       } else {
         o.seconds += level.unsampled * c;
@@ -155,7 +155,7 @@ Outcome simulate(const Level& level, double limit) {
         o.seconds += (level.probes + level.rest) * c;
         budget.probes(level.probes * c, c);
         budget.sampled_rest(level.rest * c, c);
-        const double s = budget.sampling_seconds(limit - o.seconds, c, after, page_texels_left);
+        const double s = budget.sampling_seconds({limit - o.seconds, c, after, page_texels_left});
         const double first = std::min(s, level.pass * c);
         budget.first_pass(first, first / level.pass);
         o.pass_coverage += first / level.pass;
