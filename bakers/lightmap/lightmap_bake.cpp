@@ -972,6 +972,20 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   add_leaks(tally.leaks, leaks);
   tally.samples += texels.samples.size();
   tally.valid += texels.valid_count();
+  const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
+  tally.held = std::max(tally.held, lightmap_memory(texels, t.state_bytes).total_bytes + results_bytes);
+  ++run.result.memory.tiles;
+  const ResultsContext context{&run.scene(), &run.materials, &charts};
+  if (!set_up.sample) {
+    // No state: a tile without estimates has nothing in it but its texels (collect_unsampled).
+    ++run.result.memory.tiles_unsampled;
+    t.remaining -= share;
+    collect_unsampled(texels, raster.window.x0, raster.window.y0, context, results);
+    t.spare = std::move(texels);
+    if (set_up.unsampled_raster) t.budget.unsampled_tile(seconds_since(t0), share);
+    run.check_cancel();
+    return;
+  }
   std::vector<LightmapState> tile;
   tile.push_back(make_lightmap_state(page.name, std::move(texels), leaks, run.in.ao, run.in.directional));
   LightmapState& m = tile.front();
@@ -980,27 +994,15 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   m.y0 = raster.window.y0;
   m.page_width = page.size;
   m.image.set_brightness_prior(tally.prior.first, tally.prior.second);
-  const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
-  tally.held = std::max(tally.held, lightmap_memory(m.texels, t.state_bytes).total_bytes + results_bytes);
-  ++run.result.memory.tiles;
-  double passes = 0;
-  if (set_up.sample) {
-    const Clock::time_point p0 = Clock::now();
-    sample_tile(t, tile, share);
-    passes = seconds_since(p0);
-  } else {
-    ++run.result.memory.tiles_unsampled;
-  }
+  const Clock::time_point p0 = Clock::now();
+  sample_tile(t, tile, share);
+  const double passes = seconds_since(p0);
   t.remaining -= share;
   const std::pair<double, size_t> lum = luminance_sum(m.image);
   tally.prior = {tally.prior.first + lum.first, tally.prior.second + lum.second};
-  collect_results(m, m.x0, m.y0, {&run.scene(), &run.materials, &charts}, results);
+  collect_results(m, m.x0, m.y0, context, results);
   t.spare = std::move(m.texels);
-  if (set_up.sample) {
-    t.budget.sampled_rest(seconds_since(t0) - set_up_seconds - passes, share);
-  } else if (set_up.unsampled_raster) {
-    t.budget.unsampled_tile(seconds_since(t0), share);
-  }
+  t.budget.sampled_rest(seconds_since(t0) - set_up_seconds - passes, share);
   run.check_cancel();
 }
 

@@ -110,14 +110,31 @@ std::string preview_png(const image::FloatImage& irradiance, const std::vector<u
 
 }  // namespace
 
-void collect_results(const LightmapState& m, int x0, int y0, const ResultsContext& context, LightmapResults& out) {
-  const LightmapImage& img = m.image;
-  const int w = img.width(), h = img.height();
+namespace {
+
+void check_tile_inside(const std::string& page, int x0, int y0, int w, int h, const LightmapResults& out) {
   if (x0 < 0 || y0 < 0 || x0 + w > out.width() || y0 + h > out.height()) {
-    throw std::invalid_argument("lightmap '" + out.name() + "': a " + std::to_string(w) + "x" + std::to_string(h) +
+    throw std::invalid_argument("lightmap '" + page + "': a " + std::to_string(w) + "x" + std::to_string(h) +
                                 " tile at " + std::to_string(x0) + "," + std::to_string(y0) + " is not inside the " +
                                 std::to_string(out.width()) + "x" + std::to_string(out.height()) + " page");
   }
+}
+
+// The guides' channels of texel t of a tile into texel p of its page.
+void copy_guides(const TexelGuides& guides, size_t t, size_t p, LightmapResults& out) {
+  out.guides.valid[p] = 1;
+  out.guides.position[p] = guides.position[t];
+  out.guides.normal[p] = guides.normal[t];
+  out.guides.texel_size[p] = guides.texel_size[t];
+  out.guides.chart[p] = guides.chart[t];
+}
+
+}  // namespace
+
+void collect_results(const LightmapState& m, int x0, int y0, const ResultsContext& context, LightmapResults& out) {
+  const LightmapImage& img = m.image;
+  const int w = img.width(), h = img.height();
+  check_tile_inside(out.name(), x0, y0, w, h, out);
   const ResultChannels& c = out.channels();
   std::optional<TexelGuides> guides;
   if (c.guides) guides = texel_guides(m, *context.scene, *context.charts);
@@ -145,13 +162,30 @@ void collect_results(const LightmapState& m, int x0, int y0, const ResultsContex
         const Rgb L = img.mean(t) * (weight > 0 ? rho / weight : Rgb{}) / kPi;
         out.radiance[p] = {static_cast<float>(L.r), static_cast<float>(L.g), static_cast<float>(L.b)};
       }
-      if (guides) {
-        out.guides.valid[p] = 1;
-        out.guides.position[p] = guides->position[t];
-        out.guides.normal[p] = guides->normal[t];
-        out.guides.texel_size[p] = guides->texel_size[t];
-        out.guides.chart[p] = guides->chart[t];
-      }
+      if (guides) copy_guides(*guides, t, p, out);
+    }
+  }
+}
+
+void collect_unsampled(const LightmapTexels& texels, int x0, int y0, const ResultsContext& context,
+                       LightmapResults& out) {
+  const int w = texels.width, h = texels.height;
+  check_tile_inside(out.name(), x0, y0, w, h, out);
+  const std::vector<uint8_t> validity = texels.validity();
+  std::optional<TexelGuides> guides;
+  if (out.channels().guides) guides = texel_guides(texels, validity, *context.charts);
+  // No estimate: the mean is black, the standard error unknown (LightmapImage::standard_error's +∞), the count 0;
+  // the AO, SH and radiance a count of 0 gives are the page's zeros already, the SH error +∞ (sh_relative_error).
+  constexpr double kUnknown = std::numeric_limits<double>::infinity();
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t t = static_cast<size_t>(y) * w + x;
+      const size_t p = static_cast<size_t>(y0 + y) * out.width() + (x0 + x);
+      const bool valid = validity[t] != 0;
+      out.set(p, valid, Rgb{}, valid ? kUnknown : 0.0, 0);
+      if (!valid) continue;
+      if (out.channels().directional) out.sh_error[p] = kUnknown;
+      if (guides) copy_guides(*guides, t, p, out);
     }
   }
 }

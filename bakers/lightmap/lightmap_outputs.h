@@ -29,6 +29,12 @@ struct ResultsContext {
 // `out`: each texel's mean, error and count, and the channels `out` keeps.
 void collect_results(const LightmapState& m, int x0, int y0, const ResultsContext& context, LightmapResults& out);
 
+// Copies the results of a tile that was not sampled, whose texels (rasterized, leaks resolved) are `texels`, as
+// collect_results would from a state made of them with no estimate added: each valid texel black with an unknown
+// (+∞) error and no count, and its guides; without making that state, whose image alone is 120 bytes a texel.
+void collect_unsampled(const LightmapTexels& texels, int x0, int y0, const ResultsContext& context,
+                       LightmapResults& out);
+
 // The results of a whole page's state.
 LightmapResults collect_results(const LightmapState& m, const ResultChannels& channels, const ResultsContext& context);
 

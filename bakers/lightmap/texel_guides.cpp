@@ -94,12 +94,15 @@ TexelGuides texel_guides(const LightmapState& m, const scene::Scene& scene) {
 }
 
 TexelGuides texel_guides(const LightmapState& m, const scene::Scene&, ChartIds& chart_ids) {
-  const LightmapTexels& tx = m.texels;
+  return texel_guides(m.texels, m.image.validity(), chart_ids);
+}
+
+TexelGuides texel_guides(const LightmapTexels& tx, const std::vector<uint8_t>& validity, ChartIds& chart_ids) {
   const size_t n = tx.texel_count();
   TexelGuides g;
   g.width = tx.width;
   g.height = tx.height;
-  g.valid = m.image.validity();
+  g.valid = validity;
   g.position.assign(n, Vec3{});
   g.normal.assign(n, Vec3{});
   g.texel_size.assign(n, 0.0);

@@ -40,5 +40,8 @@ class ChartIds {
 // validity of m.image; charts numbered by `charts` (which must be of the same scene).
 TexelGuides texel_guides(const LightmapState& m, const scene::Scene& scene);
 TexelGuides texel_guides(const LightmapState& m, const scene::Scene& scene, ChartIds& charts);
+// The same from the texels alone, with their validity after leak handling (LightmapTexels::validity), for a tile
+// whose state was never made (it was not sampled).
+TexelGuides texel_guides(const LightmapTexels& texels, const std::vector<uint8_t>& validity, ChartIds& charts);
 
 }  // namespace kiln::lightmap
