@@ -27,15 +27,22 @@ double distance(const Point2& a, const Point2& b) { return std::hypot(a.x - b.x,
 // Welds world positions: a point within `eps` (Chebyshev) of an earlier representative takes its id. The grid's cells
 // are eps wide, so a representative within eps lies in one of the 27 cells around a point; no two representatives
 // share a cell (the second would have found the first). First come, first served: deterministic in input order.
+// A representative in the point's own cell lies within eps of it and is taken before the 26 around it are looked at:
+// most points are a vertex seen again (every triangle around it brings it), and find it there in one lookup.
 class Welder {
  public:
-  explicit Welder(double eps) : eps_(eps) {}
+  explicit Welder(double eps, size_t points) : eps_(eps) {
+    points_.reserve(points);
+    cells_.reserve(points);
+  }
 
   uint32_t weld(const Vec3& p) {
     const std::array<int64_t, 3> c{cell(p.x), cell(p.y), cell(p.z)};
+    if (const auto own = cells_.find(Key{c[0], c[1], c[2]}); own != cells_.end()) return own->second;
     for (int dz = -1; dz <= 1; ++dz) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
+          if (dx == 0 && dy == 0 && dz == 0) continue;  // the own cell, empty
           const auto it = cells_.find(Key{c[0] + dx, c[1] + dy, c[2] + dz});
           if (it == cells_.end()) continue;
           const Vec3& q = points_[it->second];
@@ -215,7 +222,8 @@ SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int wi
   // exported apart) meeting at an edge reach it through different transforms and float rounding. A millionth of
   // the lightmap's extent, or of its largest coordinate (some 16 float ulps there), covers that rounding and is far
   // below any edge a mesh models.
-  Welder welder(kWeldTolerance * g.scale > 0 ? kWeldTolerance * g.scale : std::numeric_limits<double>::min());
+  Welder welder(kWeldTolerance * g.scale > 0 ? kWeldTolerance * g.scale : std::numeric_limits<double>::min(),
+                g.triangles.size());  // indexed meshes: about as many vertices as triangles, or half
   std::vector<EdgeSide> sides;
   sides.reserve(3 * g.triangles.size());
   for (const LightmapGeometry::Triangle& tri : g.triangles) {
@@ -298,7 +306,10 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
       throw std::invalid_argument("SeamStitcher: the weights must be positive and finite");
     }
   }
-  std::unordered_map<uint32_t, uint32_t> unknown_of;
+  // Each texel's unknown, numbered in order of first use; a dense map (4 bytes a texel, allocated once per
+  // lightmap) where a page's seams read millions of taps.
+  constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> unknown_of(validity.size(), kNone);
   for (const Seam& s : seams) {
     if (check_seam(s.a0, s.a1, s.b0, s.b1, width, height) != SeamCheck::seam) continue;
     ++seams_used_;
@@ -313,20 +324,22 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
       for (int side = 0; side < 2; ++side) {
         for (const auto& [texel, w] : bilinear(side == 0 ? a : b, width, height)) {
           if (w == 0) continue;
-          const auto [it, inserted] =
-              unknown_of.emplace(static_cast<uint32_t>(texel), static_cast<uint32_t>(texels_.size()));
-          if (inserted) texels_.push_back(static_cast<uint32_t>(texel));
+          uint32_t& unknown = unknown_of[texel];
+          if (unknown == kNone) {
+            unknown = static_cast<uint32_t>(texels_.size());
+            texels_.push_back(static_cast<uint32_t>(texel));
+          }
           const double signed_w = side == 0 ? w : -w;
           // Merge taps of one texel (clamped lookups, or both sides reading it).
           bool merged = false;
           for (size_t q = first; q < taps_.size(); ++q) {
-            if (taps_[q].unknown == it->second) {
+            if (taps_[q].unknown == unknown) {
               taps_[q].weight += signed_w;
               merged = true;
               break;
             }
           }
-          if (!merged) taps_.push_back({it->second, signed_w});
+          if (!merged) taps_.push_back({unknown, signed_w});
         }
       }
       pairs_.push_back({first, static_cast<uint32_t>(taps_.size() - first)});
