@@ -66,6 +66,8 @@ Json lightmap_json(const LightmapReportEntry& m) {
                   {"mismatch_max_after", s.mismatch_after},
                   {"mismatch_rms_before", s.rms_before},
                   {"mismatch_rms_after", s.rms_after},
+                  {"components", s.components},
+                  {"factored_components", s.factored},
                   {"iterations", s.iterations},
                   {"converged", s.converged},
                   {"seconds", s.seconds}};

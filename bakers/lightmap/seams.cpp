@@ -346,7 +346,6 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
     }
   }
   group_by_component();
-  build_matrix();
 }
 
 // Unknowns that no lookup pair links, directly or through others, are independent systems (charts of different
@@ -442,6 +441,31 @@ void SeamStitcher::build_matrix() {
   }
 }
 
+void SeamStitcher::factor_components() {
+  const size_t components = component_start_.size() - 1;
+  factors_.resize(components);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k < range.end(); ++k) {
+      const uint32_t lo = component_start_[k], hi = component_start_[k + 1];
+      const double budget = options_.factor_budget * (row_start_[hi] - row_start_[lo]);
+      factors_[k].factor({row_start_, col_, value_, lo, hi}, static_cast<size_t>(budget));
+    }
+  });
+  for (size_t k = 0; k < components; ++k) {
+    if (!factored(k)) return;  // CG needs the matrix
+  }
+  row_start_ = {};
+  col_ = {};
+  value_ = {};
+  diagonal_ = {};
+}
+
+size_t SeamStitcher::factored_components() const {
+  size_t n = 0;
+  for (size_t k = 0; k < factors_.size(); ++k) n += factored(k);
+  return n;
+}
+
 StitchStats SeamStitcher::measure(const image::FloatImage& image) const {
   if (image.width != width_ || image.height != height_ || image.channels < 1) {
     throw std::invalid_argument("SeamStitcher: the image is " + std::to_string(image.width) + "x" +
@@ -451,6 +475,8 @@ StitchStats SeamStitcher::measure(const image::FloatImage& image) const {
   StitchStats s;
   s.unknowns = texels_.size();
   s.samples = pairs_.size();
+  s.components = components();
+  s.factored = factored_components();
   mismatch(image, brightness(image, validity_), s.mismatch_before, s.rms_before);
   return s;
 }
@@ -517,7 +543,14 @@ int SeamStitcher::solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged)
   return it;
 }
 
-StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
+void SeamStitcher::build_system() {
+  if (system_built_) return;
+  build_matrix();
+  factor_components();
+  system_built_ = true;
+}
+
+StitchStats SeamStitcher::stitch(image::FloatImage& image) {
   const auto t0 = std::chrono::steady_clock::now();
   StitchStats s = measure(image);
   const double scale = brightness(image, validity_);
@@ -528,7 +561,8 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
     for (int c = 0; c < ch; ++c) before[u * ch + c] = image.pixels[static_cast<size_t>(texels_[u]) * ch + c];
   }
   CgVectors v;
-  for (std::vector<double>* x : {&v.b, &v.d, &v.r, &v.z, &v.p, &v.q}) x->resize(n);
+  v.b.resize(n);
+  v.d.resize(n);
   std::vector<double> x0(n);
   const size_t components = component_start_.size() - 1;
   std::vector<int> iterations(components);
@@ -553,11 +587,25 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
         v.b[taps_[i].unknown] -= options_.seam_weight * taps_[i].weight * rx;
       }
     }
+    // Lookups that agree already (every value 0, as on a page left unsampled) leave nothing to solve.
+    if (std::all_of(v.b.begin(), v.b.end(), [](double x) { return x == 0; })) continue;
+    build_system();
+    if (factored_components() < components && v.r.size() < n) {
+      for (std::vector<double>* x : {&v.r, &v.z, &v.p, &v.q}) x->resize(n);
+    }
     // Each component on its own (they share no unknown): the result does not depend on the threads.
     tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t k = range.begin(); k < range.end(); ++k) {
+        const uint32_t lo = component_start_[k], hi = component_start_[k + 1];
+        if (factored(k)) {
+          std::copy(v.b.begin() + lo, v.b.begin() + hi, v.d.begin() + lo);
+          factors_[k].solve(&v.d[lo]);
+          iterations[k] = 0;
+          converged[k] = 1;
+          continue;
+        }
         bool done = false;
-        iterations[k] = solve(component_start_[k], component_start_[k + 1], v, done);
+        iterations[k] = solve(lo, hi, v, done);
         converged[k] = done;
       }
     });
@@ -580,6 +628,7 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) const {
     if (std::memcmp(now, &before[u * ch], sizeof(float) * ch) != 0) ++s.texels_changed;
   }
   mismatch(image, scale, s.mismatch_after, s.rms_after);
+  s.factored = factored_components();
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
 }
@@ -612,11 +661,13 @@ LightmapSeams::LightmapSeams(const scene::CheckedScene& checked, const std::stri
         return s;
       }()) {
   report_.samples = stitcher_.samples();
+  report_.components = stitcher_.components();
 }
 
 void LightmapSeams::stitch(image::FloatImage& image, bool irradiance) {
   const StitchStats s = stitcher_.stitch(image);
   report_.seconds += s.seconds;
+  report_.factored = s.factored;
   if (!irradiance) return;
   report_.texels_changed = s.texels_changed;
   report_.mismatch_before = s.mismatch_before;

@@ -234,7 +234,7 @@ double largest_mismatch(const image::FloatImage& img, const std::vector<Seam>& s
 TEST(SeamStitcher, MakesTheLookupsOnBothSidesAgree) {
   TwoCharts charts;
   const image::FloatImage before = charts.image;
-  const SeamStitcher stitcher(charts.seams, charts.width, charts.height, charts.valid);
+  SeamStitcher stitcher(charts.seams, charts.width, charts.height, charts.valid);
   const StitchStats stats = stitcher.stitch(charts.image);
   EXPECT_TRUE(stats.converged);
   EXPECT_EQ(stats.channels_skipped, 0u);
@@ -275,7 +275,7 @@ TEST(SeamStitcher, MakesTheLookupsOnBothSidesAgree) {
 
 TEST(SeamStitcher, IsDeterministicAndLeavesAgreeingSeamsAlone) {
   TwoCharts a, b;
-  const SeamStitcher stitcher(a.seams, a.width, a.height, a.valid);
+  SeamStitcher stitcher(a.seams, a.width, a.height, a.valid);
   stitcher.stitch(a.image);
   stitcher.stitch(b.image);
   EXPECT_EQ(a.image.pixels, b.image.pixels);
@@ -307,9 +307,9 @@ TEST(SeamStitcher, IndependentSeamsAreSolvedApartWithTheSameBytes) {
   for (Point2* p : {&lower.a0, &lower.a1, &lower.b0, &lower.b1}) p->y += top.height;
   seams.push_back(lower);
 
-  const SeamStitcher both(seams, page.width, page.height, valid);
+  SeamStitcher both(seams, page.width, page.height, valid);
   EXPECT_EQ(both.components(), 2u);
-  const SeamStitcher alone(top.seams, top.width, top.height, top.valid);
+  SeamStitcher alone(top.seams, top.width, top.height, top.valid);
   EXPECT_EQ(alone.components(), 1u);
   image::FloatImage one_thread = page;
   {
@@ -324,6 +324,54 @@ TEST(SeamStitcher, IndependentSeamsAreSolvedApartWithTheSameBytes) {
   const size_t half = top.image.pixels.size();
   EXPECT_TRUE(std::equal(top.image.pixels.begin(), top.image.pixels.end(), page.pixels.begin()));
   EXPECT_TRUE(std::equal(bottom_alone.image.pixels.begin(), bottom_alone.image.pixels.end(), page.pixels.begin() + half));
+}
+
+// An image whose lookups all agree (a page left black by a time limit) needs no system: none is built, nothing changes.
+// The first image with a mismatch builds and factors it.
+TEST(SeamStitcher, ImagesWhoseLookupsAgreeBuildNoSystem) {
+  TwoCharts black, lit;
+  std::fill(black.image.pixels.begin(), black.image.pixels.end(), 0.0f);
+  SeamStitcher stitcher(black.seams, black.width, black.height, black.valid);
+  const StitchStats none = stitcher.stitch(black.image);
+  EXPECT_EQ(none.texels_changed, 0u);
+  EXPECT_EQ(none.components, 1u);
+  EXPECT_EQ(none.factored, 0u);
+  EXPECT_EQ(stitcher.factored_components(), 0u);
+  for (const float v : black.image.pixels) ASSERT_EQ(v, 0.0f);
+  const StitchStats some = stitcher.stitch(lit.image);
+  EXPECT_GT(some.texels_changed, 0u);
+  EXPECT_EQ(some.factored, 1u);
+}
+
+// Each component is solved by its Cholesky factor unless its budget is 0; conjugate gradients run to their tolerance
+// then reach the same answer. CG stops at a relative residual of 10⁻¹⁰ (default), so its change d is within κ · 10⁻¹⁰
+// of the exact one, κ ≤ 10⁵ here (the seam weight over the dilated texels'): 10⁻⁵ of the largest change; the images
+// are float (2⁻²⁴ relative). 10⁻⁴ of the largest change plus 10⁻⁶ of the value bounds both with room.
+TEST(SeamStitcher, FactoredAndConjugateGradientSolutionsAgree) {
+  TwoCharts direct, iterative;
+  const image::FloatImage before = direct.image;
+  SeamStitcher factored(direct.seams, direct.width, direct.height, direct.valid);
+  StitchOptions cg_only;
+  cg_only.factor_budget = 0;
+  SeamStitcher by_cg(iterative.seams, iterative.width, iterative.height, iterative.valid, cg_only);
+  const StitchStats a = factored.stitch(direct.image);
+  const StitchStats b = by_cg.stitch(iterative.image);
+  EXPECT_EQ(a.components, 1u);
+  EXPECT_EQ(a.factored, 1u);
+  EXPECT_EQ(a.iterations, 0);
+  EXPECT_EQ(b.factored, 0u);
+  EXPECT_GT(b.iterations, 0);
+  EXPECT_TRUE(a.converged && b.converged);
+  double largest_change = 0;
+  for (size_t i = 0; i < before.pixels.size(); ++i) {
+    largest_change = std::max(largest_change, std::abs(static_cast<double>(direct.image.pixels[i]) - before.pixels[i]));
+  }
+  ASSERT_GT(largest_change, 0.1);
+  for (size_t i = 0; i < before.pixels.size(); ++i) {
+    EXPECT_NEAR(direct.image.pixels[i], iterative.image.pixels[i],
+                1e-4 * largest_change + 1e-6 * std::abs(direct.image.pixels[i]))
+        << "value " << i;
+  }
 }
 
 TEST(SeamStitcher, OneChannelImages) {
@@ -359,7 +407,7 @@ TEST(SeamStitcher, DegenerateSeamsAndValuesNeverCrash) {
   Seam infinite = seams[0];
   infinite.b0 = {std::numeric_limits<double>::infinity(), 0};
   seams.insert(seams.end(), {nan_seam, point, outside, infinite});
-  const SeamStitcher stitcher(seams, charts.width, charts.height, charts.valid);
+  SeamStitcher stitcher(seams, charts.width, charts.height, charts.valid);
   EXPECT_EQ(stitcher.seams_used(), 1u);
   // A NaN in a texel the lookups read: that channel is left alone, nothing NaN spreads.
   image::FloatImage img = charts.image;
@@ -497,7 +545,10 @@ SeamNoise cube_seams(const LightmapBakeResult& r, bool stitch, double& reported_
     EXPECT_EQ(entry["edges"].get<size_t>(), 12u);
     EXPECT_GT(entry["texels_changed"].get<size_t>(), 0u);
     EXPECT_TRUE(entry["converged"].get<bool>());
-    std::printf("stitched in %d CG iterations, %.3g s\n", entry["iterations"].get<int>(),
+    EXPECT_GE(entry["components"].get<size_t>(), 1u);
+    EXPECT_EQ(entry["factored_components"].get<size_t>(), entry["components"].get<size_t>());
+    std::printf("stitched: %zu components, %zu factored, %d CG iterations, %.3g s\n", entry["components"].get<size_t>(),
+                entry["factored_components"].get<size_t>(), entry["iterations"].get<int>(),
                 entry["seconds"].get<double>());
   }
   return seam_noise(irradiance, error, valid, seams, sum / static_cast<double>(n));
@@ -540,12 +591,13 @@ TEST(SeamStitching, CornellBoxBlocks) {
     ASSERT_TRUE(e["stitched"].get<bool>());
     if (e["edges"].get<size_t>() == 0) continue;
     ++with_seams;
-    std::printf("cornell box 32^2 %s: %zu seam edges, %zu texels changed, mismatch %.3g -> %.3g (RMS %.3g -> %.3g), "
-                "%d iterations, %.3g s\n",
-                m["name"].get<std::string>().c_str(), e["edges"].get<size_t>(), e["texels_changed"].get<size_t>(),
-                e["mismatch_max_before"].get<double>(), e["mismatch_max_after"].get<double>(),
-                e["mismatch_rms_before"].get<double>(), e["mismatch_rms_after"].get<double>(),
-                e["iterations"].get<int>(), e["seconds"].get<double>());
+    std::printf(
+        "cornell box 32^2 %s: %zu seam edges, %zu texels changed, mismatch %.3g -> %.3g (RMS %.3g -> %.3g), "
+        "%zu of %zu components factored, %.3g s\n",
+        m["name"].get<std::string>().c_str(), e["edges"].get<size_t>(), e["texels_changed"].get<size_t>(),
+        e["mismatch_max_before"].get<double>(), e["mismatch_max_after"].get<double>(),
+        e["mismatch_rms_before"].get<double>(), e["mismatch_rms_after"].get<double>(),
+        e["factored_components"].get<size_t>(), e["components"].get<size_t>(), e["seconds"].get<double>());
     EXPECT_LT(e["mismatch_max_after"].get<double>(), e["mismatch_max_before"].get<double>());
     EXPECT_TRUE(e["converged"].get<bool>());
   }
