@@ -197,6 +197,10 @@ void bake_and_report(const char* what, lightmap::LightmapBakeInput in) {
   std::printf("  leak probes: %.0f sample points probed, %.0f pruned; tracer %.1f MB, %s triangles traced, %s held\n",
               probed, pruned, report["tracer"]["memory_bytes"].get<double>() / 1048576.0,
               report["tracer"]["triangles"].dump().c_str(), report["tracer"]["stored_triangles"].dump().c_str());
+  for (const auto& m : report["lightmaps"]) {
+    if (!m.contains("seams")) continue;
+    std::printf("  seams of %s: %s\n", m["name"].get<std::string>().c_str(), m["seams"].dump().c_str());
+  }
   const auto& scope = report["leak_scope"];
   std::printf("  leak scope: meshes convex %s, height fields %s, closed star-shaped %s, probed everywhere %s\n",
               scope["convex_meshes"].dump().c_str(), scope["height_field_meshes"].dump().c_str(),
