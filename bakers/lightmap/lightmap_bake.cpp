@@ -952,6 +952,33 @@ void sample_tile(TileRun& t, std::vector<LightmapState>& tile, double share) {
   run.result.curve.push_back({seconds_since(run.t0), run.result.samples, t.done.rms()});
 }
 
+// Samples tile k of page `pi`, its texels set up, and collects it into the page's results.
+void sample_and_collect(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapTexels texels,
+                        const LeakReport& leaks, const ResultsContext& context, LightmapResults& results,
+                        PageTally& tally) {
+  LightmapBakeRun& run = t.run;
+  const double share = page.bins.coverage[k];
+  const RasterOptions::Window window = page.bins.window(k);
+  const Clock::time_point t0 = Clock::now();
+  std::vector<LightmapState> tile;
+  tile.push_back(make_lightmap_state(page.name, std::move(texels), leaks, run.in.ao, run.in.directional));
+  LightmapState& m = tile.front();
+  m.page = static_cast<uint32_t>(pi);
+  m.x0 = window.x0;
+  m.y0 = window.y0;
+  m.page_width = page.size;
+  m.image.set_brightness_prior(tally.prior.first, tally.prior.second);
+  const Clock::time_point p0 = Clock::now();
+  sample_tile(t, tile, share);
+  const double passes = seconds_since(p0);
+  t.remaining -= share;
+  const std::pair<double, size_t> lum = luminance_sum(m.image);
+  tally.prior = {tally.prior.first + lum.first, tally.prior.second + lum.second};
+  collect_results(m, m.x0, m.y0, context, results);
+  t.spare = std::move(m.texels);
+  t.budget.sampled_rest(seconds_since(t0) - passes, share);
+}
+
 // Rasterizes, probes, samples (before the deadline) and collects tile k of page `pi` into the page's results.
 void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults& results, ChartIds& charts,
                PageTally& tally) {
@@ -966,7 +993,6 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   const double share = page.bins.coverage[k];
   const Clock::time_point t0 = Clock::now();
   LightmapTexels texels = tile_texels_to_bake(t, page, raster, share, leaks, set_up);
-  const double set_up_seconds = seconds_since(t0);
   run.result.rays += leaks.rays;
   run.result.probe_rays += leaks.rays;
   add_leaks(tally.leaks, leaks);
@@ -976,33 +1002,16 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   tally.held = std::max(tally.held, lightmap_memory(texels, t.state_bytes).total_bytes + results_bytes);
   ++run.result.memory.tiles;
   const ResultsContext context{&run.scene(), &run.materials, &charts};
-  if (!set_up.sample) {
+  if (set_up.sample) {
+    sample_and_collect(t, page, pi, k, std::move(texels), leaks, context, results, tally);
+  } else {
     // No state: a tile without estimates has nothing in it but its texels (collect_unsampled).
     ++run.result.memory.tiles_unsampled;
     t.remaining -= share;
     collect_unsampled(texels, raster.window.x0, raster.window.y0, context, results);
     t.spare = std::move(texels);
     if (set_up.unsampled_raster) t.budget.unsampled_tile(seconds_since(t0), share);
-    run.check_cancel();
-    return;
   }
-  std::vector<LightmapState> tile;
-  tile.push_back(make_lightmap_state(page.name, std::move(texels), leaks, run.in.ao, run.in.directional));
-  LightmapState& m = tile.front();
-  m.page = static_cast<uint32_t>(pi);
-  m.x0 = raster.window.x0;
-  m.y0 = raster.window.y0;
-  m.page_width = page.size;
-  m.image.set_brightness_prior(tally.prior.first, tally.prior.second);
-  const Clock::time_point p0 = Clock::now();
-  sample_tile(t, tile, share);
-  const double passes = seconds_since(p0);
-  t.remaining -= share;
-  const std::pair<double, size_t> lum = luminance_sum(m.image);
-  tally.prior = {tally.prior.first + lum.first, tally.prior.second + lum.second};
-  collect_results(m, m.x0, m.y0, context, results);
-  t.spare = std::move(m.texels);
-  t.budget.sampled_rest(seconds_since(t0) - set_up_seconds - passes, share);
   run.check_cancel();
 }
 
