@@ -998,8 +998,10 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   add_leaks(tally.leaks, leaks);
   tally.samples += texels.samples.size();
   tally.valid += texels.valid_count();
+  // A sampled tile holds its sampling state beside its texels (lightmap_memory); an unsampled one its texels alone.
+  const uint64_t tile_bytes = set_up.sample ? lightmap_memory(texels, t.state_bytes).total_bytes : texels.bytes();
   const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
-  tally.held = std::max(tally.held, lightmap_memory(texels, t.state_bytes).total_bytes + results_bytes);
+  tally.held = std::max(tally.held, tile_bytes + results_bytes);
   ++run.result.memory.tiles;
   const ResultsContext context{&run.scene(), &run.materials, &charts};
   if (set_up.sample) {

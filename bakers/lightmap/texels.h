@@ -155,6 +155,8 @@ struct LightmapTexels {
     return {samples.data() + first[texel], samples.data() + first[texel + 1]};
   }
   std::span<const TexelSample> at(int x, int y) const { return at(index(x, y)); }
+  // What the texels hold in memory: their offsets and samples.
+  size_t bytes() const { return first.size() * sizeof(uint32_t) + samples.size() * sizeof(TexelSample); }
   // 1 for texels with samples, 0 for the others; W·H bytes, row-major.
   std::vector<uint8_t> validity() const;
   size_t valid_count() const;
