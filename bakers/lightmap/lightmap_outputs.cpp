@@ -112,9 +112,9 @@ std::string preview_png(const image::FloatImage& irradiance, const std::vector<u
 
 namespace {
 
-void check_tile_inside(const std::string& page, int x0, int y0, int w, int h, const LightmapResults& out) {
+void check_tile_inside(int x0, int y0, int w, int h, const LightmapResults& out) {
   if (x0 < 0 || y0 < 0 || x0 + w > out.width() || y0 + h > out.height()) {
-    throw std::invalid_argument("lightmap '" + page + "': a " + std::to_string(w) + "x" + std::to_string(h) +
+    throw std::invalid_argument("lightmap '" + out.name() + "': a " + std::to_string(w) + "x" + std::to_string(h) +
                                 " tile at " + std::to_string(x0) + "," + std::to_string(y0) + " is not inside the " +
                                 std::to_string(out.width()) + "x" + std::to_string(out.height()) + " page");
   }
@@ -134,7 +134,7 @@ void copy_guides(const TexelGuides& guides, size_t t, size_t p, LightmapResults&
 void collect_results(const LightmapState& m, int x0, int y0, const ResultsContext& context, LightmapResults& out) {
   const LightmapImage& img = m.image;
   const int w = img.width(), h = img.height();
-  check_tile_inside(out.name(), x0, y0, w, h, out);
+  check_tile_inside(x0, y0, w, h, out);
   const ResultChannels& c = out.channels();
   std::optional<TexelGuides> guides;
   if (c.guides) guides = texel_guides(m, *context.scene, *context.charts);
@@ -170,7 +170,7 @@ void collect_results(const LightmapState& m, int x0, int y0, const ResultsContex
 void collect_unsampled(const LightmapTexels& texels, int x0, int y0, const ResultsContext& context,
                        LightmapResults& out) {
   const int w = texels.width, h = texels.height;
-  check_tile_inside(out.name(), x0, y0, w, h, out);
+  check_tile_inside(x0, y0, w, h, out);
   const std::vector<uint8_t> validity = texels.validity();
   std::optional<TexelGuides> guides;
   if (out.channels().guides) guides = texel_guides(texels, validity, *context.charts);
