@@ -307,9 +307,9 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
     }
   }
   // Each texel's unknown, numbered in order of first use; a dense map (4 bytes a texel, allocated once per
-  // lightmap) where a page's seams read millions of taps.
+  // lightmap, unless it has no seam) where a page's seams read millions of taps.
   constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
-  std::vector<uint32_t> unknown_of(validity.size(), kNone);
+  std::vector<uint32_t> unknown_of(seams.empty() ? 0 : validity.size(), kNone);
   for (const Seam& s : seams) {
     if (check_seam(s.a0, s.a1, s.b0, s.b1, width, height) != SeamCheck::seam) continue;
     ++seams_used_;
