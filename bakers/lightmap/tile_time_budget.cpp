@@ -27,7 +27,7 @@ bool TileTimeBudget::should_sample(const TileOutlook& o) const {
 
 bool TileTimeBudget::should_probe(const TileOutlook& o) const {
   const double spare = o.left - after(o.coverage_after, o.page_texels);
-  return spare > 0 && spare >= (probes_.per_unit(0) + first_pass_rate()) * o.coverage;
+  return spare > 0 && spare >= (probes_rate() + first_pass_rate()) * o.coverage;
 }
 
 double TileTimeBudget::sampling_seconds(const TileOutlook& o) const {
@@ -39,7 +39,9 @@ double TileTimeBudget::sampling_seconds(const TileOutlook& o) const {
   // Every tile left can be sampled with at least its first pass: the time is shared by UV area. (all > 0 whenever
   // shared ≥ r_1·all holds with r_1 > 0; with no pass measured yet, a tile without coverage takes the spare.)
   if (shared >= first_pass_rate() * all && shared > 0) return all > 0 ? shared * (o.coverage / all) : spare;
-  if (!first_pass_.measured()) return spare;  // the first tile sampled when not all can be: all it can have
+  // Not every tile can have a pass: this one gets its first pass, as forecast, or what X′ allows; all of X′ when
+  // nothing forecasts a pass (no rasterization measured).
+  if (!(first_pass_rate() > 0)) return spare;
   return std::min(spare, first_pass_rate() * o.coverage);
 }
 

@@ -24,8 +24,11 @@
 //   it get what is left.
 //
 // The rates are measured, each a total of seconds over a total of work; before a rate has been measured it is
-// forecast from priors (the constants below), and the forecast corrects itself as the tiles and pages go by. Before
-// any first pass has been measured r_1 is taken as 0: the first tile sampled gets a share or all that X′ allows.
+// forecast from priors (the constants below), and the forecast corrects itself as the tiles and pages go by. The
+// priors of a sampled tile's stages are multiples of its rasterization, the first stage measured: before any tile
+// is rasterized they are 0 and the bake's first tile is chosen on the outputs' prior alone; once it is, its probes
+// and first pass are forecast from its rasterization until measured, so that a tile whose probes and first pass
+// cannot fit is not probed, and a tile that cannot have its share gets its first pass as forecast.
 #pragma once
 
 namespace kiln::lightmap {
@@ -33,6 +36,11 @@ namespace kiln::lightmap {
 // An unsampled tile against a sampled tile's rasterization, per texel² covered, until one has been measured: a quarter
 // of the points, with its state and results besides (0.19 measured on the generated level, docs/PERFORMANCE.md).
 inline constexpr double kUnsampledRasterShare = 0.25;
+// A sampled tile's leak probes and its first pass against its rasterization, per texel² covered, until measured:
+// about 3 and 7 on the generated level (docs/PERFORMANCE.md), where a tile's probes (~9 s a 1024² tile) and first
+// pass (~20 s) are what a short limit cannot afford.
+inline constexpr double kProbesRasterShare = 3;
+inline constexpr double kFirstPassRasterShare = 7;
 // A page texel's outputs (dilation, seams, encoding, preview), seconds, until a page has been written: twice the
 // 0.52 µs measured on the generated level's 2048² pages (docs/PERFORMANCE.md), and the denoiser's 1.1 µs on top when
 // it runs.
@@ -89,8 +97,9 @@ class TileTimeBudget {
 
   // The rates as forecast now, seconds per texel² covered: a sampled tile but for its passes (rasterization, probes,
   // state and results), its first pass, an unsampled tile; and seconds per page texel for the outputs.
-  double sampled_rate() const { return sampled_raster_.per_unit(0) + probes_.per_unit(0) + sampled_rest_.per_unit(0); }
-  double first_pass_rate() const { return first_pass_.per_unit(0); }
+  double sampled_rate() const { return sampled_raster_.per_unit(0) + probes_rate() + sampled_rest_.per_unit(0); }
+  double probes_rate() const { return probes_.per_unit(kProbesRasterShare * sampled_raster_.per_unit(0)); }
+  double first_pass_rate() const { return first_pass_.per_unit(kFirstPassRasterShare * sampled_raster_.per_unit(0)); }
   double unsampled_rate() const;
   double output_rate() const { return outputs_.per_unit(output_prior_); }
 

@@ -51,8 +51,17 @@ TEST(TileTimeBudget, PriorsStandInUntilARateIsMeasured) {
   EXPECT_EQ(b.output_rate(), kOutputSecondsPerTexel);
   EXPECT_EQ(TileTimeBudget(true).output_rate(), kOutputSecondsPerTexel + kDenoiseSecondsPerTexel);
   EXPECT_EQ(b.first_pass_rate(), 0.0);
+  EXPECT_EQ(b.probes_rate(), 0.0);
   b.sampled_raster(2.0, 100);
   EXPECT_NEAR(b.unsampled_rate(), kUnsampledRasterShare * 0.02, kExact);
+  // A sampled tile's probes and first pass: multiples of its rasterization until measured.
+  EXPECT_NEAR(b.probes_rate(), kProbesRasterShare * 0.02, kExact);
+  EXPECT_NEAR(b.first_pass_rate(), kFirstPassRasterShare * 0.02, kExact);
+  EXPECT_NEAR(b.sampled_rate(), (1 + kProbesRasterShare) * 0.02, kExact);
+  b.probes(0.5, 100);
+  b.first_pass(1.5, 100);
+  EXPECT_NEAR(b.probes_rate(), 0.005, kExact);
+  EXPECT_NEAR(b.first_pass_rate(), 0.015, kExact);
   b.unsampled_tile(0.3, 100);
   EXPECT_NEAR(b.unsampled_rate(), 0.003, kExact);
 }
@@ -62,6 +71,17 @@ TEST(TileTimeBudget, TheFirstTileIsSampledWhenTheOutputsLeaveTime) {
   // Nothing measured: what must follow is the outputs' prior, 1 µs × 4e6 = 4 s.
   EXPECT_TRUE(b.should_sample({4.0 + 1e-9, 100, 1e6, 4e6}));
   EXPECT_FALSE(b.should_sample({4.0, 100, 1e6, 4e6}));
+}
+
+// Rasterized, a tile is probed only if its probes and first pass, forecast from its rasterization until measured, fit
+// beside what must follow: with rasterization at 0.01 s per texel², (3 + 7)·0.01·100 = 10 s, and the outputs' 4 s.
+TEST(TileTimeBudget, ATileIsProbedOnlyWhenItsForecastProbesAndFirstPassFit) {
+  TileTimeBudget b(false);
+  b.sampled_raster(1.0, 100);
+  const double needed = (kProbesRasterShare + kFirstPassRasterShare) * 0.01 * 100;
+  EXPECT_NEAR(needed, 10.0, kExact);
+  EXPECT_TRUE(b.should_probe({4.0 + needed + 1e-9, 100, 0, 4e6}));
+  EXPECT_FALSE(b.should_probe({4.0 + needed - 1e-9, 100, 0, 4e6}));
 }
 
 TEST(TileTimeBudget, ATileIsSampledWhenItsSetUpAndFirstPassFitBesideWhatMustFollow) {
@@ -103,7 +123,7 @@ TEST(TileTimeBudget, WhenNotEveryTileCanHaveAPassATileGetsItsFirstPass) {
 struct Level {
   std::vector<std::vector<double>> pages;  // each page's tiles' coverage, texels²
   double page_texels = 2048.0 * 2048.0;
-  double raster = 2.5e-6, probes = 1.7e-6, rest = 0.2e-6, pass = 20e-6, outputs = 0.65e-6;
+  double raster = 2.5e-6, probes = 7.5e-6, rest = 0.2e-6, pass = 20e-6, outputs = 0.65e-6;
   double unsampled = 0.5e-6, unsampled_raster = 0.3e-6;  // an unsampled tile, and of that its rasterization
 };
 
