@@ -306,6 +306,10 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
       throw std::invalid_argument("SeamStitcher: the weights must be positive and finite");
     }
   }
+  // It becomes a count of values (factor_components): a negative or NaN budget has none.
+  if (!(options.factor_budget >= 0) || !std::isfinite(options.factor_budget)) {
+    throw std::invalid_argument("SeamStitcher: factor_budget must be finite and at least 0 (0: conjugate gradients)");
+  }
   // Each texel's unknown, numbered in order of first use; a dense map (4 bytes a texel, allocated once per
   // lightmap, unless it has no seam) where a page's seams read millions of taps.
   constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
@@ -590,7 +594,7 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
     // Lookups that agree already (every value 0, as on a page left unsampled) leave nothing to solve.
     if (std::all_of(v.b.begin(), v.b.end(), [](double x) { return x == 0; })) continue;
     build_system();
-    if (factored_components() < components && v.r.size() < n) {
+    if (factored_components() < components) {
       for (std::vector<double>* x : {&v.r, &v.z, &v.p, &v.q}) x->resize(n);
     }
     // Each component on its own (they share no unknown): the result does not depend on the threads.

@@ -115,7 +115,8 @@ class SeamStitcher {
  public:
   // `validity`: width·height bytes (non-zero: valid), the map the images were dilated from. Seams with a NaN or
   // infinite end, an end outside [0, W] × [0, H], or no length on either side give no lookups. Throws
-  // std::invalid_argument when the sizes disagree or the weights are not positive and finite.
+  // std::invalid_argument when the sizes disagree, the weights are not positive and finite, or factor_budget is
+  // negative or not finite.
   SeamStitcher(const std::vector<Seam>& seams, int width, int height, const std::vector<uint8_t>& validity,
                const StitchOptions& options = {});
 

@@ -425,6 +425,13 @@ TEST(SeamStitcher, DegenerateSeamsAndValuesNeverCrash) {
   StitchOptions bad;
   bad.dilated_weight = 0;
   EXPECT_THROW(SeamStitcher(charts.seams, charts.width, charts.height, charts.valid, bad), std::invalid_argument);
+  for (const double budget : {-1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    StitchOptions bad_budget;
+    bad_budget.factor_budget = budget;
+    EXPECT_THROW(SeamStitcher(charts.seams, charts.width, charts.height, charts.valid, bad_budget),
+                 std::invalid_argument)
+        << budget;
+  }
   image::FloatImage wrong = charts.image;
   wrong.width = 10;
   EXPECT_THROW(stitcher.stitch(wrong), std::invalid_argument);
