@@ -43,9 +43,9 @@ struct BackHit {
 };
 
 struct Probe {
-  double backface_fraction = 0;    // of the rays traced (all of them unless the probe only had to decide)
+  double backface_fraction = 0;    // of the rays traced while the verdict was open
   bool clear = false;              // backface_fraction ≤ max_backface_fraction over all the directions
-  std::vector<BackHit> back_hits;  // nearer than the move distance, nearest first
+  std::vector<BackHit> back_hits;  // the nearest `max_candidates` within the move distance, nearest first
 };
 
 // Whether `back` back faces among `n` rays leave a probe clear.
@@ -69,37 +69,60 @@ std::vector<Vec3> probe_directions(const LeakOptions& o) {
   return out;
 }
 
-// With `decide_only` (a candidate's probe, whose verdict alone matters), the probe stops as soon as the rays left can
-// no longer change it: once too many back faces are seen, or too few rays are left to reach that many.
+// Keeps `hits` the nearest `max_candidates` back faces seen, nearest first (ties in the order of the directions).
+void offer_candidate(std::vector<BackHit>& hits, const BackHit& h, size_t max_candidates) {
+  const auto at = std::upper_bound(hits.begin(), hits.end(), h.t, [](double t, const BackHit& b) { return t < b.t; });
+  if (static_cast<size_t>(at - hits.begin()) >= max_candidates) return;
+  hits.insert(at, h);
+  if (hits.size() > max_candidates) hits.pop_back();
+}
+
+enum class Verdict { open, clear, inside };
+
+// A probe's verdict is decided once too many back faces are seen for it to be clear, or too few rays are left to
+// reach that many: the rays after that cannot change it.
+Verdict verdict_after(int back, size_t done, size_t n, const LeakOptions& o) {
+  if (!clear_with(back, n, o)) return Verdict::inside;
+  return clear_with(back + static_cast<int>(n - done), n, o) ? Verdict::clear : Verdict::open;
+}
+
+// Once a probe is inside, a ray left matters only by a back face that would be one of the nearest `max_candidates`
+// within the move distance: how far it must reach for that, 0 if no face can be.
+double candidate_reach(const Probe& so_far, double move_distance, size_t max_candidates) {
+  if (max_candidates == 0 || !(move_distance > 0)) return 0;
+  return so_far.back_hits.size() < max_candidates ? move_distance : so_far.back_hits.back().t;
+}
+
+// One probe of the rule in leaks.h, keeping its nearest `max_candidates` back faces within `move_distance` (none for a
+// candidate's probe, whose verdict alone matters). Ends early as leaks.h says: the same verdict and candidates.
 Probe probe(const Vec3& p, const Vec3& n, double s, double ray_offset, const RayQuery& rays, const LeakOptions& o,
-            const std::vector<Vec3>& directions, double move_distance, bool decide_only, uint32_t& traced) {
+            const std::vector<Vec3>& directions, double move_distance, size_t max_candidates, uint32_t& traced) {
   // Above the surface by the larger of the float tracer's bound and a fraction of the texel (leaks.h).
   const scene::SurfacePoint surface{p, n, std::max(ray_offset, o.origin_offset_texels * s)};
-  const double tmax = o.probe_distance_texels * s;
   const Frame frame = Frame::from_normal(n);
+  const double tmax = o.probe_distance_texels * s;
   Probe result;
   int back = 0;
-  size_t done = 0;
-  for (const Vec3& local : directions) {
-    if (decide_only && (!clear_with(back, directions.size(), o) ||
-                        clear_with(back + static_cast<int>(directions.size() - done), directions.size(), o))) {
-      break;
-    }
-    ++done;
-    const Vec3 dir = frame.from_local(local);
+  size_t open = 0;  // rays traced while the verdict was open
+  for (size_t i = 0; i < directions.size(); ++i) {
+    const Verdict verdict = o.end_probes_early ? verdict_after(back, i, directions.size(), o) : Verdict::open;
+    if (verdict == Verdict::clear) break;
+    const double reach =
+        verdict == Verdict::open ? tmax : std::min(tmax, candidate_reach(result, move_distance, max_candidates));
+    if (!(reach > 0)) break;
+    const Vec3 dir = frame.from_local(directions[i]);
     ++traced;
     const Vec3 origin = scene::offset_ray_origin(surface, dir);
-    const std::optional<HitInfo> hit = rays.intersect(origin, dir, tmax);
+    const std::optional<HitInfo> hit = rays.intersect(origin, dir, reach);
+    if (verdict == Verdict::open) ++open;
     if (!hit || hit->front_face) continue;
-    ++back;
+    if (verdict == Verdict::open) ++back;
     if (hit->t <= move_distance) {
-      result.back_hits.push_back({hit->t, origin + dir * hit->t, hit->geometric_normal});
+      offer_candidate(result.back_hits, {hit->t, origin + dir * hit->t, hit->geometric_normal}, max_candidates);
     }
   }
-  result.backface_fraction = static_cast<double>(back) / static_cast<double>(done);
+  result.backface_fraction = static_cast<double>(back) / static_cast<double>(open);
   result.clear = clear_with(back, directions.size(), o);
-  std::sort(result.back_hits.begin(), result.back_hits.end(),
-            [](const BackHit& a, const BackHit& b) { return a.t < b.t; });
   return result;
 }
 
@@ -111,16 +134,14 @@ LeakResult resolve(const TexelSample& sample, const RayQuery& rays, const LeakOp
   LeakResult result;
   result.position = sample.position;
   const Probe first = probe(sample.position, sample.geometric_normal, s, sample.ray_offset, rays, options, directions,
-                            move_distance, false, result.rays);
+                            move_distance, static_cast<size_t>(options.max_move_attempts), result.rays);
   result.backface_fraction = first.backface_fraction;
   if (first.clear) return result;
 
-  const int attempts = std::min<int>(options.max_move_attempts, static_cast<int>(first.back_hits.size()));
-  for (int a = 0; a < attempts; ++a) {
-    const BackHit& h = first.back_hits[a];
+  for (const BackHit& h : first.back_hits) {
     const Vec3 candidate = h.point + h.front_normal * (options.push_texels * s);
-    const Probe there = probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, directions, 0.0,
-                              true, result.rays);
+    const Probe there =
+        probe(candidate, sample.geometric_normal, s, sample.ray_offset, rays, options, directions, 0.0, 0, result.rays);
     if (there.clear) {
       result.verdict = LeakVerdict::moved;
       result.position = candidate;

@@ -22,6 +22,15 @@
 // 0.1 matches it.
 //
 // The moved point keeps its normals, barycentrics and weight: it still stands for the same part of the texel.
+//
+// ## Ending a probe early (the same verdicts and candidates, fewer rays)
+// A probe's verdict is decided once so many back faces are seen that it cannot be clear (4 of the 32 default rays),
+// or so few rays are left that it cannot stop being clear (3 left without a back face seen). A candidate's probe, or
+// a clear one, then stops. An inside point's own probe goes on, since its candidates are the nearest back faces over
+// all its rays, but each ray left needs to reach only as far as a back face that would still be one of them: the
+// move distance, or the farthest of max_move_attempts candidates once that many are held. Most probed points of a
+// level are inside (props sunk into terrain), and short rays are cheap. backface_fraction is over the rays traced
+// while the verdict was open.
 #pragma once
 
 #include <cstddef>
@@ -61,6 +70,8 @@ struct LeakOptions {
   double push_texels = 0.01;                                               // > 0
   double origin_offset_texels = 1e-4;                                      // ≥ 0
   int max_move_attempts = 4;                                               // ≥ 0
+  // false traces every ray of every probe in full: the rule as written, a baseline for benchmarks (same verdicts).
+  bool end_probes_early = true;
 };
 
 enum class LeakVerdict : uint8_t { clear, moved, invalid };
@@ -68,7 +79,7 @@ enum class LeakVerdict : uint8_t { clear, moved, invalid };
 struct LeakResult {
   LeakVerdict verdict = LeakVerdict::clear;
   Vec3 position;                 // where the sample is now (unchanged when clear; meaningless when invalid)
-  double backface_fraction = 0;  // of the probe at the original position
+  double backface_fraction = 0;  // of the probe at the original position, over its rays before the verdict
   uint32_t rays = 0;             // traced for this sample (probes of the candidates included)
 };
 

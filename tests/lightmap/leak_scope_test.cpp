@@ -297,7 +297,8 @@ TEST(LeakScope, ALoneTerrainGetsNoProbeRays) {
   // And without the mask every point would have been probed (and found clear): what pruning saves.
   LightmapTexels all = rasterize_lightmap(checked.scene, "terrain", {64, 64, 2});
   const LeakReport full = fix_leaks(all, TracerRayQuery(tracer, checked.scene), {});
-  EXPECT_EQ(full.rays, 32u * full.samples);
+  // 29 of the 32 rays each: a point with no back face in 29 cannot be inside whatever the last three see (leaks.h).
+  EXPECT_EQ(full.rays, 29u * full.samples);
   EXPECT_EQ(full.moved + full.invalidated, 0u);
 
   LightmapBakeInput in = test::lightmap_input(s, 32, 0.2);

@@ -3,11 +3,15 @@
 // the open stay where they are.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include "bakers/lightmap/leaks.h"
 #include "bakers/lightmap/texels.h"
+#include "bakers/math/constants.h"
+#include "bakers/scene/ray_offset.h"
 
 namespace kiln::lightmap {
 namespace {
@@ -87,6 +91,100 @@ LightmapTexels floor_texels(double scale = 1) {
 
 constexpr double kTexel = 0.0625;
 
+// The rule of leaks.h as it reads, with every ray of every probe traced to its full length: the reference that the
+// early end must match exactly (the same rays up to where it stops, so the same floating-point results).
+struct FullProbe {
+  int back = 0;
+  std::vector<std::pair<double, Vec3>> candidates;  // (t, point pushed out), every back face within the move distance
+};
+
+FullProbe full_probe(const Vec3& p, const Vec3& n, const TexelSample& s, const RayQuery& rays, const LeakOptions& o) {
+  const double texel = s.texel_world_size;
+  const scene::SurfacePoint surface{p, n, std::max<double>(s.ray_offset, o.origin_offset_texels * texel)};
+  const Frame frame = Frame::from_normal(n);
+  FullProbe out;
+  for (int i = 0; i < o.rings; ++i) {
+    const double cos_theta = (i + 0.5) / o.rings, sin_theta = std::sqrt(1 - cos_theta * cos_theta);
+    for (int j = 0; j < o.sectors; ++j) {
+      const double phi = 2 * kPi * (j + 0.5 + 0.5 * (i % 2)) / o.sectors;
+      const Vec3 dir = frame.from_local({sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta});
+      const Vec3 origin = scene::offset_ray_origin(surface, dir);
+      const auto hit = rays.intersect(origin, dir, o.probe_distance_texels * texel);
+      if (!hit || hit->front_face) continue;
+      ++out.back;
+      if (hit->t <= o.move_distance_texels * texel) {
+        out.candidates.push_back({hit->t, origin + dir * hit->t + hit->geometric_normal * (o.push_texels * texel)});
+      }
+    }
+  }
+  std::stable_sort(out.candidates.begin(), out.candidates.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  return out;
+}
+
+LeakResult full_rule(const TexelSample& s, const RayQuery& rays, const LeakOptions& o) {
+  const auto clear = [&](const FullProbe& f) { return f.back <= o.max_backface_fraction * o.rings * o.sectors; };
+  LeakResult r;
+  r.position = s.position;
+  const FullProbe first = full_probe(s.position, s.geometric_normal, s, rays, o);
+  const uint32_t per_probe = static_cast<uint32_t>(o.rings * o.sectors);
+  r.rays = per_probe;
+  if (clear(first)) return r;
+  const size_t attempts = std::min<size_t>(o.max_move_attempts, first.candidates.size());
+  for (size_t a = 0; a < attempts; ++a) {
+    r.rays += per_probe;
+    if (clear(full_probe(first.candidates[a].second, s.geometric_normal, s, rays, o))) {
+      r.verdict = LeakVerdict::moved;
+      r.position = first.candidates[a].second;
+      return r;
+    }
+  }
+  r.verdict = LeakVerdict::invalid;
+  return r;
+}
+
+TEST(Leaks, EndingProbesEarlyKeepsEveryVerdictAndPositionOfTheFullRule) {
+  // Points on and under walls of every thickness, in boxes and around them, at random normals: the early end gives
+  // each the verdict and (bit for bit) the position that tracing every ray in full gives, with fewer rays.
+  FakeTracer tracer;
+  tracer.boxes.push_back({{-0.1, 0, -1.5}, {0.1, 1, 1.5}});     // a thin wall
+  tracer.boxes.push_back({{0.35, 0, -1.5}, {0.95, 1, 1.5}});    // a thick one
+  tracer.boxes.push_back({{-0.9, 0, -0.5}, {-0.5, 0.3, 0.5}});  // a low block
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  size_t early_rays = 0, full_rays = 0, verdicts[3] = {0, 0, 0};
+  for (const LeakOptions& o : {LeakOptions{}, [] {
+                                 LeakOptions few;
+                                 few.max_move_attempts = 1;
+                                 few.probe_distance_texels = 3;  // shorter than reaching the far wall
+                                 return few;
+                               }()}) {
+    for (int k = 0; k < 3000; ++k) {
+      TexelSample s;
+      s.position = {u(rng), k % 3 == 0 ? 0.0 : 0.5 * (u(rng) + 1), u(rng)};
+      s.geometric_normal = k % 3 == 0 ? Vec3{0, 1, 0} : normalize(Vec3{u(rng), u(rng), u(rng)});
+      s.texel_world_size = 0.0625f;
+      LeakOptions in_full = o;
+      in_full.end_probes_early = false;
+      const LeakResult early = resolve_leak(s, tracer, o), full = full_rule(s, tracer, o),
+                       baseline = resolve_leak(s, tracer, in_full);
+      SCOPED_TRACE(testing::Message() << "point " << k);
+      ASSERT_EQ(early.verdict, full.verdict);
+      ASSERT_EQ(baseline.verdict, full.verdict);
+      EXPECT_EQ(baseline.rays, full.rays);  // the baseline for benchmarks is the rule as written, every ray in full
+      if (full.verdict != LeakVerdict::invalid) {
+        EXPECT_EQ(early.position, full.position);
+        EXPECT_EQ(baseline.position, full.position);
+      }
+      early_rays += early.rays;
+      full_rays += full.rays;
+      ++verdicts[static_cast<int>(full.verdict)];
+    }
+  }
+  for (size_t v : verdicts) EXPECT_GT(v, 100u);  // every verdict is exercised
+  EXPECT_LT(early_rays, full_rays);
+}
+
 TEST(Leaks, OpenFloorIsClear) {
   const FakeTracer tracer;
   LightmapTexels t = floor_texels();
@@ -94,7 +192,9 @@ TEST(Leaks, OpenFloorIsClear) {
   const LeakReport r = fix_leaks(t, tracer, {});
   EXPECT_EQ(r.moved, 0u);
   EXPECT_EQ(r.invalidated, 0u);
-  EXPECT_EQ(r.rays, before.size() * 32u);  // one probe of 4 × 8 rays each
+  // One probe each of the 4 × 8 rays but the last three: without a back face in 29 rays, three more cannot make the
+  // four that a point needs to be inside (more than 10 % of 32).
+  EXPECT_EQ(r.rays, before.size() * 29u);
   for (size_t j = 0; j < before.size(); ++j) EXPECT_EQ(t.samples[j].position, before[j].position);
 }
 
