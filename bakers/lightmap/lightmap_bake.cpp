@@ -218,6 +218,7 @@ LightmapJobSize output_size(const LightmapBakeInput& in, bool streamed) {
   size.radiance = in.radiance;
   size.denoise = in.denoise;
   size.preview = in.preview;
+  size.seams = in.stitch_seams;
   size.streamed = streamed;
   size.probes = in.probes.enabled() ? in.probes.max_probes : 0;
   return size;
@@ -597,8 +598,9 @@ class OutputStream {
 };
 
 // One lightmap's images, in a fixed order, and its entry in the report; each image leaves as soon as it is encoded.
-void write_lightmap(LightmapBakeRun& run, const LightmapResults& r, const LeakReport& leaks,
-                    const LightmapMemory& memory) {
+// Returns the most bytes its seams' stitcher held at once (0 without stitching), held beside the results.
+uint64_t write_lightmap(LightmapBakeRun& run, const LightmapResults& r, const LeakReport& leaks,
+                        const LightmapMemory& memory) {
   const LightmapBakeInput& in = run.in;
   OutputStream outputs(run.control, run.result.outputs, run.output_names);
   LightmapOutputOptions options;
@@ -630,6 +632,7 @@ void write_lightmap(LightmapBakeRun& run, const LightmapResults& r, const LeakRe
   run.report.lightmaps.push_back({r.name(), input_name == r.name() ? "" : input_name, r.width(),
                                   r.error_summary(in.target_error, 0, in.error_metric), sh, leaks, memory,
                                   seams ? std::optional(seams->report()) : std::nullopt});
+  return seams ? seams->report().peak_bytes : 0;
 }
 
 void write_report(LightmapBakeRun& run) {
@@ -729,9 +732,10 @@ void write_outputs(LightmapBakeRun& run) {
     const Clock::time_point t0 = Clock::now();
     const LightmapResults r = collect_results(m, result_channels(run.in), {&run.scene(), &run.materials, &charts});
     if (run.in.denoise) run.report.denoise_seconds += seconds_since(t0);  // the guides, mostly
-    run.result.memory.held_peak_bytes = std::max<uint64_t>(
-        run.result.memory.held_peak_bytes, held + r.texel_count() * LightmapResults::bytes_per_texel(r.channels()));
-    write_lightmap(run, r, m.leaks, memory[i]);
+    const uint64_t results_bytes = r.texel_count() * LightmapResults::bytes_per_texel(r.channels());
+    const uint64_t seam_bytes = write_lightmap(run, r, m.leaks, memory[i]);
+    run.result.memory.held_peak_bytes =
+        std::max<uint64_t>(run.result.memory.held_peak_bytes, held + results_bytes + seam_bytes);
   }
   timer.reset();  // recorded before the report that lists it
   if (run.in.probes.enabled()) bake_probes(run);
@@ -1035,7 +1039,9 @@ void bake_page(TileRun& t, TiledPage& page, size_t pi) {
   memory.total_bytes = tally.held;
   const Clock::time_point t0 = Clock::now();
   const StageTimer timer(run.report.stages, "outputs");
-  write_lightmap(run, results, tally.leaks, memory);
+  const uint64_t seam_bytes = write_lightmap(run, results, tally.leaks, memory);
+  const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
+  run.result.memory.held_peak_bytes = std::max(run.result.memory.held_peak_bytes, results_bytes + seam_bytes);
   const double texels = static_cast<double>(results.texel_count());
   t.budget.page_written(seconds_since(t0), texels);
   t.page_texels_left = std::max(0.0, t.page_texels_left - texels);

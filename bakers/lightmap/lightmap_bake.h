@@ -166,7 +166,7 @@ struct LightmapBakeResult {
     int tile_size = 0;                // 0: untiled
     uint64_t tiles = 0;               // tiles baked (with texels), over every page
     uint64_t tiles_unsampled = 0;     // of them, left out by the time limit's budget: rasterized, not sampled
-    uint64_t held_peak_bytes = 0;     // the largest texel state and page results held at once
+    uint64_t held_peak_bytes = 0;     // the most texel state and page results (and seam system) held at once
     double bytes_per_texel_held = 0;  // of the texels in flight: their sampling state and sample points
   } memory;
   // How a tiled bake with a time limit divided it (tile_time_budget.h): when the last run of tiles it left unsampled

@@ -68,6 +68,7 @@ Json lightmap_json(const LightmapReportEntry& m) {
                   {"mismatch_rms_after", s.rms_after},
                   {"components", s.components},
                   {"factored_components", s.factored},
+                  {"peak_bytes", s.peak_bytes},
                   {"iterations", s.iterations},
                   {"converged", s.converged},
                   {"seconds", s.seconds}};

@@ -137,8 +137,9 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   }
   // One page's results while it is written, and the outputs held: one page's when they stream, every page's
   // otherwise (counted per lightmap below when untiled).
-  const double page_bytes = (e.results_bytes_per_texel + (job.streamed ? per_texel_outputs : 0.0)) *
-                            static_cast<double>(largest);
+  const double page_bytes =
+      (e.results_bytes_per_texel + (job.seams ? kSeamBytesPerTexel : 0.0) + (job.streamed ? per_texel_outputs : 0.0)) *
+      static_cast<double>(largest);
   const bool all_outputs_here = !job.streamed && tile_size > 0;
   const uint64_t outputs_held =
       static_cast<uint64_t>(all_outputs_here ? per_texel_outputs * static_cast<double>(all) : 0.0);

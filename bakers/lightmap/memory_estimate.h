@@ -8,9 +8,9 @@
 //    map; with atlas pages, each of max_pages pages of page_size² texels, since how many the packer fills is not
 //    known before the bake): its sample points (samples_per_texel of them) and the bake's state, held to the end; while
 //    that lightmap is rasterized and probed for leaks, the fragments (twice, while sorted) and the leak results; then
-//    one page's results (lightmap_results.h) at a time while the pages are written; and the output images, raw and
-//    encoded: one page's when the outputs stream (bake::BakeControl::output_sink), else every page's, which the bake
-//    then holds until it returns.
+//    one page's results (lightmap_results.h) at a time while the pages are written, with its seams' stitcher (its
+//    lookups, matrix and factors: kSeamBytesPerTexel); and the output images, raw and encoded: one page's when the
+//    outputs stream (bake::BakeControl::output_sink), else every page's, which the bake then holds until it returns.
 //  - tiled (tile_size > 0: a page is sampled a tile of tile_size² texels at a time, lightmap_bake.cpp): the state and
 //    the set-up's transient of one tile, the results of one page, the outputs as above, and the tiles' bins of
 //    triangles. Light tracing is off in a tiled bake (its sums would be held for every texel), so its bytes are not
@@ -61,6 +61,7 @@ struct LightmapJobSize {
   uint64_t texture_blob_bytes = 0;        // the encoded textures
   uint64_t environment_blob_bytes = 0;    // the encoded environment image
   bool ao = false, directional = false, radiance = false, denoise = false, preview = true;
+  bool seams = true;      // stitched (LightmapBakeInput::stitch_seams)
   bool streamed = false;  // the outputs go to a sink page by page (the daemon) rather than back with the result
   uint64_t probes = 0;    // light probes, at most (probe_volume.h: ProbeVolumeOptions::max_probes); 0: none
   std::vector<VdbMediumSize> vdb_media;  // the VDB media, in the order given (homogeneous media cost nothing)
@@ -72,6 +73,11 @@ struct LightmapJobSize {
 inline constexpr uint64_t kProbeBytes = 4096;
 // The probe placement's world-space copy of each traced triangle (three points).
 inline constexpr uint64_t kProbePlacementBytesPerTriangle = 72;
+
+// The seam stitcher of one lightmap while it is written, per texel of the lightmap. An estimate, not a bound: it holds
+// ~470 bytes per texel along a seam, and the share of such texels depends on the charts (tests/bench/seam_bench on the
+// generated level's pages: 85 to 172 bytes per texel of its 2048² pages, 232 on a 696² page of small charts).
+inline constexpr double kSeamBytesPerTexel = 256;
 
 struct LightmapMemoryEstimate {
   std::vector<uint64_t> lightmap_bytes;  // per lightmap, in the order given: what its texels cost

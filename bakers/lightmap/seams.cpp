@@ -349,7 +349,19 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
       pairs_.push_back({first, static_cast<uint32_t>(taps_.size() - first)});
     }
   }
+  note_peak(unknown_of.capacity() * sizeof(uint32_t) + seams.size() * sizeof(Seam));
+  unknown_of = {};
   group_by_component();
+}
+
+size_t SeamStitcher::held_bytes() const {
+  size_t factors = factors_.capacity() * sizeof(EnvelopeCholesky);
+  for (const EnvelopeCholesky& f : factors_) factors += f.bytes();
+  // col_ and value_ reserve address space for every product; only the entries written are touched (build_matrix).
+  return validity_.capacity() + (texels_.capacity() + component_start_.capacity()) * sizeof(uint32_t) +
+         taps_.capacity() * sizeof(Tap) + pairs_.capacity() * sizeof(Pair) + row_start_.capacity() * sizeof(uint32_t) +
+         col_.size() * sizeof(uint32_t) + value_.size() * sizeof(double) + diagonal_.capacity() * sizeof(double) +
+         factors;
 }
 
 // Unknowns that no lookup pair links, directly or through others, are independent systems (charts of different
@@ -443,6 +455,7 @@ void SeamStitcher::build_matrix() {
     }
     row_start_[r + 1] = static_cast<uint32_t>(col_.size());
   }
+  note_peak(tap_begin.capacity() * sizeof(size_t) + (taps_of.capacity() + pair_of.capacity()) * sizeof(uint32_t));
 }
 
 void SeamStitcher::factor_components() {
@@ -455,6 +468,7 @@ void SeamStitcher::factor_components() {
       factors_[k].factor({row_start_, col_, value_, lo, hi}, static_cast<size_t>(budget));
     }
   });
+  note_peak(0);  // the matrix and every factor
   for (size_t k = 0; k < components; ++k) {
     if (!factored(k)) return;  // CG needs the matrix
   }
@@ -568,6 +582,7 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
   v.b.resize(n);
   v.d.resize(n);
   std::vector<double> x0(n);
+  note_peak(3 * n * sizeof(double) + before.capacity() * sizeof(float));  // x0, b and d
   const size_t components = component_start_.size() - 1;
   std::vector<int> iterations(components);
   std::vector<uint8_t> converged(components);
@@ -597,6 +612,9 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
     if (factored_components() < components) {
       for (std::vector<double>* x : {&v.r, &v.z, &v.p, &v.q}) x->resize(n);
     }
+    size_t vectors = x0.capacity();
+    for (const std::vector<double>* x : {&v.b, &v.d, &v.r, &v.z, &v.p, &v.q}) vectors += x->capacity();
+    note_peak(vectors * sizeof(double) + before.capacity() * sizeof(float));
     // Each component on its own (they share no unknown): the result does not depend on the threads.
     tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t k = range.begin(); k < range.end(); ++k) {
@@ -666,12 +684,14 @@ LightmapSeams::LightmapSeams(const scene::CheckedScene& checked, const std::stri
       }()) {
   report_.samples = stitcher_.samples();
   report_.components = stitcher_.components();
+  report_.peak_bytes = stitcher_.peak_bytes();
 }
 
 void LightmapSeams::stitch(image::FloatImage& image, bool irradiance) {
   const StitchStats s = stitcher_.stitch(image);
   report_.seconds += s.seconds;
   report_.factored = s.factored;
+  report_.peak_bytes = stitcher_.peak_bytes();
   if (!irradiance) return;
   report_.texels_changed = s.texels_changed;
   report_.mismatch_before = s.mismatch_before;

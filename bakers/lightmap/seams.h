@@ -30,6 +30,7 @@
 // clamped to the image's edge, as a GPU does with clamp-to-edge addressing.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -132,6 +133,9 @@ class SeamStitcher {
   size_t samples() const { return pairs_.size(); }
   size_t seams_used() const { return seams_used_; }
   size_t factored_components() const;  // 0 until a stitch builds the system
+  // The most bytes the stitcher has held at once so far: its lookups, matrix and factors, and the transients of
+  // building them and of a stitch.
+  size_t peak_bytes() const { return peak_bytes_; }
 
  private:
   struct Tap {
@@ -156,12 +160,16 @@ class SeamStitcher {
   std::vector<double> value_;
   std::vector<double> diagonal_;
   std::vector<EnvelopeCholesky> factors_;  // per component; empty (size 0) for one solved by CG
+  size_t peak_bytes_ = 0;
 
   // The conjugate gradients' vectors over all unknowns; each component uses its own range.
   struct CgVectors {
     std::vector<double> b, d, r, z, p, q;
   };
 
+  size_t held_bytes() const;
+  // Raises the peak to what is held now and `transient` bytes more.
+  void note_peak(size_t transient) { peak_bytes_ = std::max(peak_bytes_, held_bytes() + transient); }
   void group_by_component();
   void build_matrix();
   // Factors each component within its budget; releases the matrix when no component needs CG.
@@ -181,6 +189,7 @@ struct SeamReport {
   size_t samples = 0;         // lookup pairs along them
   size_t components = 0;      // independent systems the texels along seams form
   size_t factored = 0;        // of those, solved directly; the others by CG (0: no image needed a change)
+  size_t peak_bytes = 0;      // the most the stitcher held at once (SeamStitcher::peak_bytes)
   size_t texels_changed = 0;  // of NAME_irradiance.exr
   double mismatch_before = 0, mismatch_after = 0;  // largest, relative (StitchStats)
   double rms_before = 0, rms_after = 0;

@@ -101,6 +101,11 @@ void EnvelopeCholesky::clear() {
   values_ = {};
 }
 
+size_t EnvelopeCholesky::bytes() const {
+  return order_.capacity() * sizeof(uint32_t) + first_.capacity() * sizeof(uint32_t) +
+         start_.capacity() * sizeof(size_t) + values_.capacity() * sizeof(double);
+}
+
 bool EnvelopeCholesky::factor(const SymmetricBlock& a, size_t max_entries) {
   clear();
   const uint32_t n = a.hi - a.lo;

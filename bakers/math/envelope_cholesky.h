@@ -38,6 +38,7 @@ class EnvelopeCholesky {
 
   size_t size() const { return order_.size(); }
   size_t entries() const { return values_.size(); }  // the envelope's values, diagonal included
+  size_t bytes() const;                              // held, with the ordering and the runs' bounds
 
  private:
   std::vector<uint32_t> order_;  // new position → row − lo

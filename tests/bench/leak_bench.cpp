@@ -20,7 +20,7 @@
 #include "bakers/lightmap/texels.h"
 #include "bakers/lightmap/tracer_query.h"
 #include "bakers/scene/tracer.h"
-#include "tests/bench/level_scene.h"
+#include "tests/bench/packed_level.h"
 #include "tests/bench/process_cpu.h"
 
 namespace kiln::bench {
@@ -97,17 +97,8 @@ int main(int argc, char** argv) {
   using namespace kiln;
   const bench::Args a = bench::parse(argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  scene::Scene level = bench::level_scene({});
-  for (scene::Instance& i : level.instances) {
-    i.lightmap.clear();
-    i.lightmap_scale_offset = {1, 1, 0, 0};
-  }
-  lightmap::AtlasOptions atlas;
-  atlas.texel_density = a.texel_density;
-  atlas.page_size = a.page_size;
-  atlas.padding = 2;
   lightmap::AtlasPack pack;
-  const scene::CheckedScene checked = lightmap::check_and_pack_scene(std::move(level), atlas, {}, pack);
+  const scene::CheckedScene checked = bench::packed_level(a.texel_density, a.page_size, pack);
   if (a.page < 0 || a.page >= static_cast<int>(pack.pages.size())) {
     std::fprintf(stderr, "leak_bench: --page=%d, but the level packs into %zu pages\n", a.page, pack.pages.size());
     return 2;

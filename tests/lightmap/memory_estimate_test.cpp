@@ -153,5 +153,20 @@ TEST_F(MemoryEstimate, BoundsTheTracerOfManyInstancesOfOneMesh) {
   EXPECT_LE(m.estimate.total, 4 * m.peak);
 }
 
+// A page's seam stitcher is held beside its results while the page is written: the largest page's, tiled or not, and
+// not at all when seams are not stitched.
+TEST(MemoryEstimateModel, CountsTheSeamStitcherOfTheLargestPage) {
+  LightmapJobSize job;
+  job.lightmap_texels = {2048 * 2048, 512 * 512};
+  job.traced_triangles = 1000;
+  for (const int tile_size : {0, 256}) {
+    LightmapJobSize without = job;
+    without.seams = false;
+    const double difference = static_cast<double>(estimate_memory(job, tile_size).total) -
+                              static_cast<double>(estimate_memory(without, tile_size).total);
+    EXPECT_NEAR(difference, kSeamBytesPerTexel * 2048 * 2048, 1.0) << "tile size " << tile_size;
+  }
+}
+
 }  // namespace
 }  // namespace kiln::lightmap

@@ -1,6 +1,7 @@
 // Seams (bakers/lightmap/seams.h): finding the world edges on two chart borders, and stitching the texels the
 // bilinear lookups on both sides read so that they agree.
 #include "bakers/lightmap/seams.h"
+#include "bakers/lightmap/lightmap_results.h"
 
 #include <gtest/gtest.h>
 
@@ -374,6 +375,26 @@ TEST(SeamStitcher, FactoredAndConjugateGradientSolutionsAgree) {
   }
 }
 
+// The peak counts at least what the stitcher cannot do without: the validity map (a byte a texel), each lookup pair
+// (8 bytes) with its taps (at least one per side, 16 bytes each), each unknown's texel (4); then, once it stitches,
+// per unknown the image's values and the right-hand side and solution (3 doubles), and either CG's four vectors and
+// the matrix's row start, diagonal and diagonal entry (4 + 8 + 12 bytes), or the factor's diagonal (8).
+TEST(SeamStitcher, PeakBytesCountWhatTheStitcherMustHold) {
+  TwoCharts direct, iterative;
+  StitchOptions cg_only;
+  cg_only.factor_budget = 0;
+  SeamStitcher factored(direct.seams, direct.width, direct.height, direct.valid);
+  SeamStitcher by_cg(iterative.seams, iterative.width, iterative.height, iterative.valid, cg_only);
+  const size_t n = factored.unknowns();
+  const size_t lookups = direct.valid.size() + factored.samples() * (8 + 2 * 16) + n * 4;
+  EXPECT_GE(factored.peak_bytes(), lookups);
+  const size_t built = factored.peak_bytes();
+  factored.stitch(direct.image);
+  by_cg.stitch(iterative.image);
+  EXPECT_GE(factored.peak_bytes(), std::max(built, lookups + n * (3 + 1) * 8));
+  EXPECT_GE(by_cg.peak_bytes(), lookups + n * ((3 + 4) * 8 + 4 + 8 + 12));
+}
+
 TEST(SeamStitcher, OneChannelImages) {
   TwoCharts charts(1);
   const double step = largest_mismatch(charts.image, charts.seams);
@@ -554,6 +575,13 @@ SeamNoise cube_seams(const LightmapBakeResult& r, bool stitch, double& reported_
     EXPECT_TRUE(entry["converged"].get<bool>());
     EXPECT_GE(entry["components"].get<size_t>(), 1u);
     EXPECT_EQ(entry["factored_components"].get<size_t>(), entry["components"].get<size_t>());
+    // The stitcher's bytes are in the bake's held peak, beside the page's results it stitches.
+    const uint64_t seam_bytes = entry["peak_bytes"].get<uint64_t>();
+    EXPECT_GE(seam_bytes, static_cast<uint64_t>(kCubeResolution * kCubeResolution));  // its validity map at least
+    EXPECT_GE(
+        report["memory"]["held_peak_bytes"].get<uint64_t>(),
+        seam_bytes + static_cast<uint64_t>(kCubeResolution * kCubeResolution) *
+                         LightmapResults::bytes_per_texel({/*ao=*/true, /*directional=*/false, /*radiance=*/true}));
     std::printf("stitched: %zu components, %zu factored, %d CG iterations, %.3g s\n", entry["components"].get<size_t>(),
                 entry["factored_components"].get<size_t>(), entry["iterations"].get<int>(),
                 entry["seconds"].get<double>());
