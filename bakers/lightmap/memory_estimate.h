@@ -75,9 +75,9 @@ inline constexpr uint64_t kProbeBytes = 4096;
 inline constexpr uint64_t kProbePlacementBytesPerTriangle = 72;
 
 // The seam stitcher of one lightmap while it is written, per texel of the lightmap. An estimate, not a bound: it holds
-// ~470 bytes per texel along a seam, and the share of such texels depends on the charts (tests/bench/seam_bench on the
-// generated level's pages: 85 to 172 bytes per texel of its 2048² pages, 232 on a 696² page of small charts).
-inline constexpr double kSeamBytesPerTexel = 256;
+// ~330 bytes per texel along a seam, and the share of such texels depends on the charts (tests/bench/seam_bench on the
+// generated level's pages: 60 to 121 bytes per texel of its 2048² pages, 172 on a 696² page of small charts).
+inline constexpr double kSeamBytesPerTexel = 200;
 
 struct LightmapMemoryEstimate {
   std::vector<uint64_t> lightmap_bytes;  // per lightmap, in the order given: what its texels cost

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <tuple>
@@ -306,7 +307,7 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
       throw std::invalid_argument("SeamStitcher: the weights must be positive and finite");
     }
   }
-  // It becomes a count of values (factor_components): a negative or NaN budget has none.
+  // It becomes a count of values (build_system): a negative or NaN budget has none.
   if (!(options.factor_budget >= 0) || !std::isfinite(options.factor_budget)) {
     throw std::invalid_argument("SeamStitcher: factor_budget must be finite and at least 0 (0: conjugate gradients)");
   }
@@ -357,11 +358,11 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
 size_t SeamStitcher::held_bytes() const {
   size_t factors = factors_.capacity() * sizeof(EnvelopeCholesky);
   for (const EnvelopeCholesky& f : factors_) factors += f.bytes();
-  // col_ and value_ reserve address space for every product; only the entries written are touched (build_matrix).
-  return validity_.capacity() + (texels_.capacity() + component_start_.capacity()) * sizeof(uint32_t) +
-         taps_.capacity() * sizeof(Tap) + pairs_.capacity() * sizeof(Pair) + row_start_.capacity() * sizeof(uint32_t) +
-         col_.size() * sizeof(uint32_t) + value_.size() * sizeof(double) + diagonal_.capacity() * sizeof(double) +
-         factors;
+  size_t blocks = blocks_.capacity() * sizeof(Block);
+  for (const Block& b : blocks_) blocks += b.bytes();
+  return validity_.capacity() +
+         (texels_.capacity() + component_start_.capacity() + component_pairs_.capacity()) * sizeof(uint32_t) +
+         taps_.capacity() * sizeof(Tap) + pairs_.capacity() * sizeof(Pair) + blocks + factors;
 }
 
 // Unknowns that no lookup pair links, directly or through others, are independent systems (charts of different
@@ -398,34 +399,48 @@ void SeamStitcher::group_by_component() {
   }
   texels_ = std::move(texels);
   for (Tap& t : taps_) t.unknown = new_of[t.unknown];
+  // The pairs by component (each pair's taps are all in one), keeping their order within it: a component's matrix
+  // is built from its own pairs alone (build_block).
+  const size_t components = component_start_.size() - 1;
+  std::vector<uint32_t> component_of(n);
+  for (uint32_t k = 0; k < components; ++k) {
+    std::fill(component_of.begin() + component_start_[k], component_of.begin() + component_start_[k + 1], k);
+  }
+  component_pairs_.assign(components + 1, 0);
+  for (const Pair& p : pairs_) ++component_pairs_[component_of[taps_[p.first].unknown] + 1];
+  for (size_t k = 0; k < components; ++k) component_pairs_[k + 1] += component_pairs_[k];
+  std::vector<uint32_t> slot(component_pairs_.begin(), component_pairs_.end() - 1);
+  std::vector<Pair> pairs(pairs_.size());
+  for (const Pair& p : pairs_) pairs[slot[component_of[taps_[p.first].unknown]]++] = p;
+  pairs_ = std::move(pairs);
 }
 
 // The normal matrix's entries are the products of each lookup pair's taps and each unknown's own weight. Row r is
 // summed from the pairs that read unknown r, in pair order, its own weight last, and ordered by column: the same
-// matrix on every run, without holding every product at once (a level's page has tens of millions of them).
-void SeamStitcher::build_matrix() {
-  const size_t n = texels_.size();
+// matrix on every run. Built a component at a time, in its own numbering (row and column i is unknown lo + i), so
+// that only the components CG solves keep theirs.
+SeamStitcher::Block SeamStitcher::build_block(size_t k) const {
+  const uint32_t lo = component_start_[k], n = component_start_[k + 1] - lo;
+  const uint32_t pair_lo = component_pairs_[k], pair_hi = component_pairs_[k + 1];
   // The taps of each unknown, in pair order: taps_of[tap_begin[u] .. tap_begin[u + 1]), with each tap's pair.
-  std::vector<size_t> tap_begin(n + 1, 0);
-  for (const Tap& t : taps_) ++tap_begin[t.unknown + 1];
-  for (size_t u = 0; u < n; ++u) tap_begin[u + 1] += tap_begin[u];
-  std::vector<uint32_t> taps_of(taps_.size()), pair_of(taps_.size());
-  std::vector<size_t> next(tap_begin.begin(), tap_begin.end() - 1);
-  size_t products = n;  // an upper bound on the entries: every product and own weight apart
-  for (uint32_t p = 0; p < pairs_.size(); ++p) {
-    for (uint32_t k = pairs_[p].first; k < pairs_[p].first + pairs_[p].count; ++k) {
-      taps_of[next[taps_[k].unknown]++] = k;
-      pair_of[k] = p;
-      products += pairs_[p].count;
+  std::vector<uint32_t> tap_begin(n + 1, 0);
+  for (uint32_t p = pair_lo; p < pair_hi; ++p) {
+    for (uint32_t t = pairs_[p].first; t < pairs_[p].first + pairs_[p].count; ++t)
+      ++tap_begin[taps_[t].unknown - lo + 1];
+  }
+  for (uint32_t u = 0; u < n; ++u) tap_begin[u + 1] += tap_begin[u];
+  std::vector<uint32_t> taps_of(tap_begin[n]), pair_of(tap_begin[n]);
+  std::vector<uint32_t> next(tap_begin.begin(), tap_begin.end() - 1);
+  for (uint32_t p = pair_lo; p < pair_hi; ++p) {
+    for (uint32_t t = pairs_[p].first; t < pairs_[p].first + pairs_[p].count; ++t) {
+      const uint32_t slot = next[taps_[t].unknown - lo]++;
+      taps_of[slot] = t;
+      pair_of[slot] = p;
     }
   }
-  next = {};
-  row_start_.assign(n + 1, 0);
-  diagonal_.assign(n, 0.0);
-  col_.clear();
-  value_.clear();
-  col_.reserve(products);  // address space only: the pages the merged rows never reach are never touched
-  value_.reserve(products);
+  Block b;
+  b.row_start.assign(n + 1, 0);
+  b.diagonal.assign(n, 0.0);
   std::vector<std::pair<uint32_t, double>> row;  // (column, sum) in order of first contribution
   const auto add = [&row](uint32_t c, double v) {
     for (auto& [col, sum] : row) {
@@ -439,43 +454,54 @@ void SeamStitcher::build_matrix() {
   };
   for (uint32_t r = 0; r < n; ++r) {
     row.clear();
-    for (size_t e = tap_begin[r]; e < tap_begin[r + 1]; ++e) {
+    for (uint32_t e = tap_begin[r]; e < tap_begin[r + 1]; ++e) {
       const Tap& mine = taps_[taps_of[e]];
-      const Pair& p = pairs_[pair_of[taps_of[e]]];
+      const Pair& p = pairs_[pair_of[e]];
       for (uint32_t j = p.first; j < p.first + p.count; ++j) {
-        add(taps_[j].unknown, options_.seam_weight * mine.weight * taps_[j].weight);
+        add(taps_[j].unknown - lo, options_.seam_weight * mine.weight * taps_[j].weight);
       }
     }
-    add(r, validity_[texels_[r]] ? options_.valid_weight : options_.dilated_weight);
+    add(r, validity_[texels_[lo + r]] ? options_.valid_weight : options_.dilated_weight);
     std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     for (const auto& [c, sum] : row) {
-      if (c == r) diagonal_[r] = sum;
-      col_.push_back(c);
-      value_.push_back(sum);
+      if (c == r) b.diagonal[r] = sum;
+      b.col.push_back(c);
+      b.value.push_back(sum);
     }
-    row_start_[r + 1] = static_cast<uint32_t>(col_.size());
+    b.row_start[r + 1] = static_cast<uint32_t>(b.col.size());
   }
-  note_peak(tap_begin.capacity() * sizeof(size_t) + (taps_of.capacity() + pair_of.capacity()) * sizeof(uint32_t));
+  return b;
 }
 
-void SeamStitcher::factor_components() {
+size_t SeamStitcher::Block::bytes() const {
+  return (row_start.capacity() + col.capacity()) * sizeof(uint32_t) +
+         (value.capacity() + diagonal.capacity()) * sizeof(double);
+}
+
+// Each component's matrix, factored within its budget and dropped, or kept for CG. Two threads hold a matrix each
+// while they work: counted as the two largest.
+void SeamStitcher::build_system() {
+  if (system_built_) return;
   const size_t components = component_start_.size() - 1;
   factors_.resize(components);
+  blocks_.resize(components);
+  std::vector<size_t> block_bytes(components, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t k = range.begin(); k < range.end(); ++k) {
-      const uint32_t lo = component_start_[k], hi = component_start_[k + 1];
-      const double budget = options_.factor_budget * (row_start_[hi] - row_start_[lo]);
-      factors_[k].factor({row_start_, col_, value_, lo, hi}, static_cast<size_t>(budget));
+      Block b = build_block(k);
+      block_bytes[k] = b.bytes();
+      const uint32_t n = component_start_[k + 1] - component_start_[k];
+      const double budget = options_.factor_budget * static_cast<double>(b.col.size());
+      if (factors_[k].factor({b.row_start, b.col, b.value, 0, n}, static_cast<size_t>(budget))) continue;
+      b.col.shrink_to_fit();  // held until the stitcher goes: not the growth of push_back
+      b.value.shrink_to_fit();
+      blocks_[k] = std::move(b);
     }
   });
-  note_peak(0);  // the matrix and every factor
-  for (size_t k = 0; k < components; ++k) {
-    if (!factored(k)) return;  // CG needs the matrix
-  }
-  row_start_ = {};
-  col_ = {};
-  value_ = {};
-  diagonal_ = {};
+  std::partial_sort(block_bytes.begin(), block_bytes.begin() + std::min<size_t>(2, components), block_bytes.end(),
+                    std::greater<>());
+  note_peak(components == 0 ? 0 : components == 1 ? block_bytes[0] : block_bytes[0] + block_bytes[1]);
+  system_built_ = true;
 }
 
 size_t SeamStitcher::factored_components() const {
@@ -523,7 +549,9 @@ void SeamStitcher::mismatch(const image::FloatImage& image, double scale, double
 // Preconditioned conjugate gradients on the unknowns [lo, hi) from d = 0 (Jacobi: the diagonal is at least the
 // texel's c_i > 0), to ‖r‖ ≤ tolerance · ‖b‖ over the component. Reads v.b and writes v.d (and the other vectors)
 // in that range only. Returns the iterations; `converged` says whether the tolerance was reached.
-int SeamStitcher::solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged) const {
+int SeamStitcher::solve(size_t k, CgVectors& v, bool& converged) const {
+  const uint32_t lo = component_start_[k], hi = component_start_[k + 1];
+  const Block& a = blocks_[k];
   const auto dot = [lo, hi](const std::vector<double>& a, const std::vector<double>& b) {
     double sum = 0;
     for (uint32_t i = lo; i < hi; ++i) sum += a[i] * b[i];
@@ -534,15 +562,15 @@ int SeamStitcher::solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged)
   const double b_norm = std::sqrt(dot(v.b, v.b));
   converged = true;
   if (!(b_norm > 0)) return 0;  // the lookups already agree exactly
-  for (uint32_t i = lo; i < hi; ++i) v.p[i] = v.z[i] = v.r[i] / diagonal_[i];
+  for (uint32_t i = lo; i < hi; ++i) v.p[i] = v.z[i] = v.r[i] / a.diagonal[i - lo];
   double rz = dot(v.r, v.z);
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
     if (std::sqrt(dot(v.r, v.r)) <= options_.tolerance * b_norm) return it;
-    for (uint32_t row = lo; row < hi; ++row) {
+    for (uint32_t row = 0; row < hi - lo; ++row) {
       double sum = 0;
-      for (uint32_t e = row_start_[row]; e < row_start_[row + 1]; ++e) sum += value_[e] * v.p[col_[e]];
-      v.q[row] = sum;
+      for (uint32_t e = a.row_start[row]; e < a.row_start[row + 1]; ++e) sum += a.value[e] * v.p[lo + a.col[e]];
+      v.q[lo + row] = sum;
     }
     const double pq = dot(v.p, v.q);
     if (!(pq > 0)) break;  // numerically exhausted
@@ -550,7 +578,7 @@ int SeamStitcher::solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged)
     for (uint32_t i = lo; i < hi; ++i) {
       v.d[i] += alpha * v.p[i];
       v.r[i] -= alpha * v.q[i];
-      v.z[i] = v.r[i] / diagonal_[i];
+      v.z[i] = v.r[i] / a.diagonal[i - lo];
     }
     const double rz_next = dot(v.r, v.z);
     const double beta = rz_next / rz;
@@ -559,13 +587,6 @@ int SeamStitcher::solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged)
   }
   converged = std::sqrt(dot(v.r, v.r)) <= options_.tolerance * b_norm;
   return it;
-}
-
-void SeamStitcher::build_system() {
-  if (system_built_) return;
-  build_matrix();
-  factor_components();
-  system_built_ = true;
 }
 
 StitchStats SeamStitcher::stitch(image::FloatImage& image) {
@@ -627,7 +648,7 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
           continue;
         }
         bool done = false;
-        iterations[k] = solve(lo, hi, v, done);
+        iterations[k] = solve(k, v, done);
         converged[k] = done;
       }
     });

@@ -153,13 +153,18 @@ class SeamStitcher {
   std::vector<uint32_t> component_start_;  // component k is the unknowns [start[k], start[k + 1])
   std::vector<Tap> taps_;
   std::vector<Pair> pairs_;
-  // The normal matrix in compressed rows over the unknowns, and the factors: built by the first stitch with
+  std::vector<uint32_t> component_pairs_;  // component k's pairs are pairs_[component_pairs_[k], [k + 1])
+  // A component's normal matrix in compressed rows, numbered within the component (row i is unknown lo + i).
+  struct Block {
+    std::vector<uint32_t> row_start, col;
+    std::vector<double> value, diagonal;
+    size_t bytes() const;
+  };
+  // Per component, its factor or (solved by CG) its matrix, the other left empty: built by the first stitch with
   // something to solve (build_system).
   bool system_built_ = false;
-  std::vector<uint32_t> row_start_, col_;
-  std::vector<double> value_;
-  std::vector<double> diagonal_;
-  std::vector<EnvelopeCholesky> factors_;  // per component; empty (size 0) for one solved by CG
+  std::vector<EnvelopeCholesky> factors_;
+  std::vector<Block> blocks_;
   size_t peak_bytes_ = 0;
 
   // The conjugate gradients' vectors over all unknowns; each component uses its own range.
@@ -171,12 +176,12 @@ class SeamStitcher {
   // Raises the peak to what is held now and `transient` bytes more.
   void note_peak(size_t transient) { peak_bytes_ = std::max(peak_bytes_, held_bytes() + transient); }
   void group_by_component();
-  void build_matrix();
-  // Factors each component within its budget; releases the matrix when no component needs CG.
-  void factor_components();
+  Block build_block(size_t k) const;
+  // Factors each component within its budget, keeping the matrix of those it does not.
   void build_system();
   bool factored(size_t k) const { return k < factors_.size() && factors_[k].size() > 0; }
-  int solve(uint32_t lo, uint32_t hi, CgVectors& v, bool& converged) const;
+  // CG on component k, over its range of the vectors.
+  int solve(size_t k, CgVectors& v, bool& converged) const;
   // The largest and RMS |lookup A − lookup B| over `scale`, over the lookup pairs and channels.
   void mismatch(const image::FloatImage& image, double scale, double& largest, double& rms) const;
 };
