@@ -732,10 +732,9 @@ void write_outputs(LightmapBakeRun& run) {
     const Clock::time_point t0 = Clock::now();
     const LightmapResults r = collect_results(m, result_channels(run.in), {&run.scene(), &run.materials, &charts});
     if (run.in.denoise) run.report.denoise_seconds += seconds_since(t0);  // the guides, mostly
-    const uint64_t results_bytes = r.texel_count() * LightmapResults::bytes_per_texel(r.channels());
     const uint64_t seam_bytes = write_lightmap(run, r, m.leaks, memory[i]);
     run.result.memory.held_peak_bytes =
-        std::max<uint64_t>(run.result.memory.held_peak_bytes, held + results_bytes + seam_bytes);
+        std::max<uint64_t>(run.result.memory.held_peak_bytes, held + r.bytes() + seam_bytes);
   }
   timer.reset();  // recorded before the report that lists it
   if (run.in.probes.enabled()) bake_probes(run);
@@ -1004,8 +1003,7 @@ void bake_tile(TileRun& t, TiledPage& page, size_t pi, size_t k, LightmapResults
   tally.valid += texels.valid_count();
   // A sampled tile holds its sampling state beside its texels (lightmap_memory); an unsampled one its texels alone.
   const uint64_t tile_bytes = set_up.sample ? lightmap_memory(texels, t.state_bytes).total_bytes : texels.bytes();
-  const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
-  tally.held = std::max(tally.held, tile_bytes + results_bytes);
+  tally.held = std::max<uint64_t>(tally.held, tile_bytes + results.bytes());
   ++run.result.memory.tiles;
   const ResultsContext context{&run.scene(), &run.materials, &charts};
   if (set_up.sample) {
@@ -1040,8 +1038,8 @@ void bake_page(TileRun& t, TiledPage& page, size_t pi) {
   const Clock::time_point t0 = Clock::now();
   const StageTimer timer(run.report.stages, "outputs");
   const uint64_t seam_bytes = write_lightmap(run, results, tally.leaks, memory);
-  const uint64_t results_bytes = results.texel_count() * LightmapResults::bytes_per_texel(results.channels());
-  run.result.memory.held_peak_bytes = std::max(run.result.memory.held_peak_bytes, results_bytes + seam_bytes);
+  run.result.memory.held_peak_bytes =
+      std::max<uint64_t>(run.result.memory.held_peak_bytes, results.bytes() + seam_bytes);
   const double texels = static_cast<double>(results.texel_count());
   t.budget.page_written(seconds_since(t0), texels);
   t.page_texels_left = std::max(0.0, t.page_texels_left - texels);

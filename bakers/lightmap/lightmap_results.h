@@ -50,6 +50,7 @@ class LightmapResults {
   int width() const { return width_; }
   int height() const { return height_; }
   size_t texel_count() const { return validity_.size(); }
+  size_t bytes() const { return texel_count() * bytes_per_texel(channels_); }  // what the page's results hold
   const ResultChannels& channels() const { return channels_; }
   bool valid(size_t texel) const { return validity_[texel] != 0; }
   const std::vector<uint8_t>& validity() const { return validity_; }
