@@ -603,7 +603,13 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
   v.b.resize(n);
   v.d.resize(n);
   std::vector<double> x0(n);
-  note_peak(3 * n * sizeof(double) + before.capacity() * sizeof(float));  // x0, b and d
+  // The stitch's own vectors (CG's four only once a component needs them), beside what the stitcher holds.
+  const auto vector_bytes = [&] {
+    size_t values = x0.capacity();
+    for (const std::vector<double>* x : {&v.b, &v.d, &v.r, &v.z, &v.p, &v.q}) values += x->capacity();
+    return values * sizeof(double) + before.capacity() * sizeof(float);
+  };
+  note_peak(vector_bytes());
   const size_t components = component_start_.size() - 1;
   std::vector<int> iterations(components);
   std::vector<uint8_t> converged(components);
@@ -633,9 +639,7 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
     if (factored_components() < components) {
       for (std::vector<double>* x : {&v.r, &v.z, &v.p, &v.q}) x->resize(n);
     }
-    size_t vectors = x0.capacity();
-    for (const std::vector<double>* x : {&v.b, &v.d, &v.r, &v.z, &v.p, &v.q}) vectors += x->capacity();
-    note_peak(vectors * sizeof(double) + before.capacity() * sizeof(float));
+    note_peak(vector_bytes());
     // Each component on its own (they share no unknown): the result does not depend on the threads.
     tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t k = range.begin(); k < range.end(); ++k) {
