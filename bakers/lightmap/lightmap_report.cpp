@@ -62,6 +62,7 @@ Json lightmap_json(const LightmapReportEntry& m) {
                   {"left_out", s.left_out},
                   {"lookup_pairs", s.samples},
                   {"texels_changed", s.texels_changed},
+                  {"values_held_at_zero", s.held_at_zero},
                   {"mismatch_max_before", s.mismatch_before},
                   {"mismatch_max_after", s.mismatch_after},
                   {"mismatch_rms_before", s.rms_before},

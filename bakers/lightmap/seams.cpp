@@ -546,47 +546,124 @@ void SeamStitcher::mismatch(const image::FloatImage& image, double scale, double
   rms = counted ? std::sqrt(sum_sq / static_cast<double>(counted)) : 0.0;
 }
 
-// Preconditioned conjugate gradients on the unknowns [lo, hi) from d = 0 (Jacobi: the diagonal is at least the
-// texel's c_i > 0), to ‖r‖ ≤ tolerance · ‖b‖ over the component. Reads v.b and writes v.d (and the other vectors)
-// in that range only. Returns the iterations; `converged` says whether the tolerance was reached.
-int SeamStitcher::solve(size_t k, CgVectors& v, bool& converged) const {
-  const uint32_t lo = component_start_[k], hi = component_start_[k + 1];
-  const Block& a = blocks_[k];
-  const auto dot = [lo, hi](const std::vector<double>& a, const std::vector<double>& b) {
+// Preconditioned conjugate gradients from d = 0 (Jacobi: the diagonal is at least a texel's c_i > 0), to
+// ‖r‖ ≤ tolerance · ‖b‖. Returns the iterations; `converged` says whether the tolerance was reached.
+int SeamStitcher::conjugate_gradients(const Block& a, const double* b, double* d, bool& converged) const {
+  const size_t n = a.diagonal.size();
+  std::vector<double> r(b, b + n), z(n), p(n), q(n);
+  const auto dot = [](const std::vector<double>& x, const std::vector<double>& y) {
     double sum = 0;
-    for (uint32_t i = lo; i < hi; ++i) sum += a[i] * b[i];
+    for (size_t i = 0; i < x.size(); ++i) sum += x[i] * y[i];
     return sum;
   };
-  std::fill(v.d.begin() + lo, v.d.begin() + hi, 0.0);
-  std::copy(v.b.begin() + lo, v.b.begin() + hi, v.r.begin() + lo);
-  const double b_norm = std::sqrt(dot(v.b, v.b));
+  std::fill(d, d + n, 0.0);
+  const double b_norm = std::sqrt(dot(r, r));
   converged = true;
   if (!(b_norm > 0)) return 0;  // the lookups already agree exactly
-  for (uint32_t i = lo; i < hi; ++i) v.p[i] = v.z[i] = v.r[i] / a.diagonal[i - lo];
-  double rz = dot(v.r, v.z);
+  for (size_t i = 0; i < n; ++i) p[i] = z[i] = r[i] / a.diagonal[i];
+  double rz = dot(r, z);
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
-    if (std::sqrt(dot(v.r, v.r)) <= options_.tolerance * b_norm) return it;
-    for (uint32_t row = 0; row < hi - lo; ++row) {
+    if (std::sqrt(dot(r, r)) <= options_.tolerance * b_norm) return it;
+    for (size_t row = 0; row < n; ++row) {
       double sum = 0;
-      for (uint32_t e = a.row_start[row]; e < a.row_start[row + 1]; ++e) sum += a.value[e] * v.p[lo + a.col[e]];
-      v.q[lo + row] = sum;
+      for (uint32_t e = a.row_start[row]; e < a.row_start[row + 1]; ++e) sum += a.value[e] * p[a.col[e]];
+      q[row] = sum;
     }
-    const double pq = dot(v.p, v.q);
+    const double pq = dot(p, q);
     if (!(pq > 0)) break;  // numerically exhausted
     const double alpha = rz / pq;
-    for (uint32_t i = lo; i < hi; ++i) {
-      v.d[i] += alpha * v.p[i];
-      v.r[i] -= alpha * v.q[i];
-      v.z[i] = v.r[i] / a.diagonal[i - lo];
+    for (size_t i = 0; i < n; ++i) {
+      d[i] += alpha * p[i];
+      r[i] -= alpha * q[i];
+      z[i] = r[i] / a.diagonal[i];
     }
-    const double rz_next = dot(v.r, v.z);
+    const double rz_next = dot(r, z);
     const double beta = rz_next / rz;
     rz = rz_next;
-    for (uint32_t i = lo; i < hi; ++i) v.p[i] = v.z[i] + beta * v.p[i];
+    for (size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
   }
-  converged = std::sqrt(dot(v.r, v.r)) <= options_.tolerance * b_norm;
+  converged = std::sqrt(dot(r, r)) <= options_.tolerance * b_norm;
   return it;
+}
+
+namespace {
+
+// Fixes the change of each held unknown i at d_i = −x⁰_i (its value at 0) in the system a d = rhs: its row becomes
+// d_i = −x⁰_i and its column moves to the right-hand side of the other rows. The matrix stays symmetric positive
+// definite with the same pattern (entries set to 0 stay), so it factors like the original.
+template <class Block>
+void hold_at_zero(Block& a, const std::vector<uint8_t>& held, const double* x0, std::vector<double>& rhs) {
+  const size_t n = held.size();
+  for (size_t r = 0; r < n; ++r) {
+    for (uint32_t e = a.row_start[r]; e < a.row_start[r + 1]; ++e) {
+      const uint32_t c = a.col[e];
+      if (held[r]) {
+        a.value[e] = c == r ? 1.0 : 0.0;
+      } else if (held[c]) {
+        rhs[r] -= a.value[e] * -x0[c];
+        a.value[e] = 0;
+      }
+    }
+    if (held[r]) {
+      a.diagonal[r] = 1;
+      rhs[r] = -x0[r];
+    }
+  }
+}
+
+}  // namespace
+
+// Irradiance, radiance and AO are never negative, but the least-squares fit can take a texel below 0: a dilated
+// texel beside a seam whose sides see very different light (a lit top against a side in shadow, a sampled chart
+// against one a time limit left black) pulls its lookup toward the dark side the cheapest way, through the texel the
+// lookup weighs least. Clamping those values afterwards undoes the agreement the fit bought (mismatches of more than
+// the brightness remained). Instead each unknown the fit takes below 0 is held at 0 and the component solved again
+// for the others, until none goes below: an active set that only grows. That is not the exact non-negative least
+// squares (which may release a held unknown), but every value is ≥ 0 and the others still make the lookups agree,
+// since any values ≥ 0 equal along a seam satisfy it. Each round holds at least one more unknown; past
+// kHoldRounds the remaining negatives are clamped in stitch().
+SeamStitcher::ComponentSolve SeamStitcher::solve_component(size_t k, const std::vector<double>& x0, bool non_negative,
+                                                           const std::vector<double>& b, std::vector<double>& d) const {
+  constexpr int kHoldRounds = 16;
+  const uint32_t lo = component_start_[k], hi = component_start_[k + 1], n = hi - lo;
+  ComponentSolve out;
+  if (factored(k)) {
+    std::copy(b.begin() + lo, b.begin() + hi, d.begin() + lo);
+    factors_[k].solve(&d[lo]);
+  } else {
+    out.iterations = conjugate_gradients(blocks_[k], &b[lo], &d[lo], out.converged);
+  }
+  if (!non_negative) return out;
+  std::vector<uint8_t> held;  // per unknown of the component, once one goes below 0
+  for (int round = 0; round < kHoldRounds; ++round) {
+    size_t newly = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+      if (x0[lo + i] + d[lo + i] >= 0 || (!held.empty() && held[i])) continue;
+      if (held.empty()) held.assign(n, 0);
+      held[i] = 1;
+      ++newly;
+    }
+    if (newly == 0) break;
+    out.held_at_zero += newly;
+    Block a = build_block(k);
+    std::vector<double> rhs(b.begin() + lo, b.begin() + hi);
+    hold_at_zero(a, held, &x0[lo], rhs);
+    EnvelopeCholesky f;
+    const auto budget = static_cast<size_t>(options_.factor_budget * static_cast<double>(a.col.size()));
+    if (f.factor({a.row_start, a.col, a.value, 0, n}, budget)) {
+      std::copy(rhs.begin(), rhs.end(), d.begin() + lo);
+      f.solve(&d[lo]);
+    } else {
+      bool converged = true;
+      out.iterations = std::max(out.iterations, conjugate_gradients(a, rhs.data(), &d[lo], converged));
+      out.converged = out.converged && converged;
+    }
+    // Held values are exactly 0 (x0 + (−x0)); CG's four vectors are the size of rhs.
+    out.bytes = std::max(out.bytes, a.bytes() + f.bytes() + held.capacity() + 5 * rhs.capacity() * sizeof(double));
+  }
+  if (!factored(k)) out.bytes = std::max(out.bytes, 4 * n * sizeof(double));
+  return out;
 }
 
 StitchStats SeamStitcher::stitch(image::FloatImage& image) {
@@ -599,20 +676,13 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
   for (size_t u = 0; u < n; ++u) {
     for (int c = 0; c < ch; ++c) before[u * ch + c] = image.pixels[static_cast<size_t>(texels_[u]) * ch + c];
   }
-  CgVectors v;
-  v.b.resize(n);
-  v.d.resize(n);
-  std::vector<double> x0(n);
-  // The stitch's own vectors (CG's four only once a component needs them), beside what the stitcher holds.
-  const auto vector_bytes = [&] {
-    size_t values = x0.capacity();
-    for (const std::vector<double>* x : {&v.b, &v.d, &v.r, &v.z, &v.p, &v.q}) values += x->capacity();
-    return values * sizeof(double) + before.capacity() * sizeof(float);
-  };
-  note_peak(vector_bytes());
+  std::vector<double> b(n), d(n), x0(n);
+  // The stitch's own vectors, beside what the stitcher holds.
+  const size_t vector_bytes =
+      (b.capacity() + d.capacity() + x0.capacity()) * sizeof(double) + before.capacity() * sizeof(float);
+  note_peak(vector_bytes);
   const size_t components = component_start_.size() - 1;
-  std::vector<int> iterations(components);
-  std::vector<uint8_t> converged(components);
+  std::vector<ComponentSolve> solved(components);
   for (int c = 0; c < ch && n > 0; ++c) {
     bool finite_values = true, non_negative = true;
     for (size_t u = 0; u < n; ++u) {
@@ -625,47 +695,36 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
       continue;
     }
     // b = −Σ_k w r_k (r_k · x⁰)
-    std::fill(v.b.begin(), v.b.end(), 0.0);
+    std::fill(b.begin(), b.end(), 0.0);
     for (const Pair& pair : pairs_) {
       double rx = 0;
       for (uint32_t i = pair.first; i < pair.first + pair.count; ++i) rx += taps_[i].weight * x0[taps_[i].unknown];
       for (uint32_t i = pair.first; i < pair.first + pair.count; ++i) {
-        v.b[taps_[i].unknown] -= options_.seam_weight * taps_[i].weight * rx;
+        b[taps_[i].unknown] -= options_.seam_weight * taps_[i].weight * rx;
       }
     }
     // Lookups that agree already (every value 0, as on a page left unsampled) leave nothing to solve.
-    if (std::all_of(v.b.begin(), v.b.end(), [](double x) { return x == 0; })) continue;
+    if (std::all_of(b.begin(), b.end(), [](double x) { return x == 0; })) continue;
     build_system();
-    if (factored_components() < components) {
-      for (std::vector<double>* x : {&v.r, &v.z, &v.p, &v.q}) x->resize(n);
-    }
-    note_peak(vector_bytes());
     // Each component on its own (they share no unknown): the result does not depend on the threads.
     tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
-      for (size_t k = range.begin(); k < range.end(); ++k) {
-        const uint32_t lo = component_start_[k], hi = component_start_[k + 1];
-        if (factored(k)) {
-          std::copy(v.b.begin() + lo, v.b.begin() + hi, v.d.begin() + lo);
-          factors_[k].solve(&v.d[lo]);
-          iterations[k] = 0;
-          converged[k] = 1;
-          continue;
-        }
-        bool done = false;
-        iterations[k] = solve(k, v, done);
-        converged[k] = done;
-      }
+      for (size_t k = range.begin(); k < range.end(); ++k) solved[k] = solve_component(k, x0, non_negative, b, d);
     });
-    for (size_t k = 0; k < components; ++k) {
-      s.iterations = std::max(s.iterations, iterations[k]);
-      s.converged = s.converged && converged[k];
+    // Two threads, each solving one component at a time: counted as the two that held most.
+    size_t most = 0, second = 0;
+    for (const ComponentSolve& one : solved) {
+      s.iterations = std::max(s.iterations, one.iterations);
+      s.converged = s.converged && one.converged;
+      s.held_at_zero += one.held_at_zero;
+      second = std::max(second, std::min(most, one.bytes));
+      most = std::max(most, one.bytes);
     }
+    note_peak(vector_bytes + most + second);
     constexpr double kMax = std::numeric_limits<float>::max();
     for (size_t u = 0; u < n; ++u) {
-      const double value = x0[u] + v.d[u];
+      const double value = x0[u] + d[u];
       if (!std::isfinite(value)) continue;  // cannot happen for finite inputs; never write a NaN
-      // Irradiance, radiance and AO are never negative; the fit can overshoot below 0 beside a dark texel (a chart
-      // in shadow against a lit one), and then stops at 0.
+      // Never below 0 where no value was (solve_component holds them; this only after its last round).
       const double lo = non_negative ? 0.0 : -kMax;
       image.pixels[static_cast<size_t>(texels_[u]) * ch + c] = static_cast<float>(std::clamp(value, lo, kMax));
     }
@@ -719,6 +778,7 @@ void LightmapSeams::stitch(image::FloatImage& image, bool irradiance) {
   report_.peak_bytes = stitcher_.peak_bytes();
   if (!irradiance) return;
   report_.texels_changed = s.texels_changed;
+  report_.held_at_zero = s.held_at_zero;
   report_.mismatch_before = s.mismatch_before;
   report_.mismatch_after = s.mismatch_after;
   report_.rms_before = s.rms_before;

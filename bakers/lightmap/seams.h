@@ -25,6 +25,10 @@
 // for a component whose factor would exceed its budget, to a relative residual of `tolerance` within `max_iterations`.
 // Texels no lookup reads are not unknowns: they keep their exact bytes.
 //
+// A channel with no negative value (irradiance, radiance, AO) also needs x ≥ 0. Where a seam's sides see very
+// different light the fit takes a texel the lookup weighs least below 0; such values are held at 0 and the
+// component solved again without them (an active set that only grows; SeamStitcher::solve_component).
+//
 // ## Lookups
 // A bilinear lookup at texel-space point (s, t) (texels.h: (u·W, v·H)) reads the four texels around (s − ½, t − ½),
 // clamped to the image's edge, as a GPU does with clamp-to-edge addressing.
@@ -107,6 +111,7 @@ struct StitchStats {
   int iterations = 0;           // the most CG iterations any channel took
   bool converged = true;        // every channel solved by CG reached the tolerance
   size_t channels_skipped = 0;  // channels left alone: a value the lookups read was not finite
+  size_t held_at_zero = 0;      // texel values the fit would have taken below 0, held at 0 (over channels)
   double seconds = 0;
 };
 
@@ -167,9 +172,12 @@ class SeamStitcher {
   std::vector<Block> blocks_;
   size_t peak_bytes_ = 0;
 
-  // The conjugate gradients' vectors over all unknowns; each component uses its own range.
-  struct CgVectors {
-    std::vector<double> b, d, r, z, p, q;
+  // What solving one component of one channel took.
+  struct ComponentSolve {
+    int iterations = 0;       // CG's, the most of any solve (0: factored)
+    bool converged = true;    // every CG solve reached the tolerance
+    size_t held_at_zero = 0;  // unknowns the fit would have taken below 0 (solve_component)
+    size_t bytes = 0;         // the most it held beside the stitch's vectors
   };
 
   size_t held_bytes() const;
@@ -180,8 +188,11 @@ class SeamStitcher {
   // Factors each component within its budget, keeping the matrix of those it does not.
   void build_system();
   bool factored(size_t k) const { return k < factors_.size() && factors_[k].size() > 0; }
-  // CG on component k, over its range of the vectors.
-  int solve(size_t k, CgVectors& v, bool& converged) const;
+  // Component k's change d[lo, hi) for the right-hand side b[lo, hi) of one channel whose baked values are x0.
+  ComponentSolve solve_component(size_t k, const std::vector<double>& x0, bool non_negative,
+                                 const std::vector<double>& b, std::vector<double>& d) const;
+  // Conjugate gradients on `a` for the right-hand side b (a's row 0 first) into d.
+  int conjugate_gradients(const Block& a, const double* b, double* d, bool& converged) const;
   // The largest and RMS |lookup A − lookup B| over `scale`, over the lookup pairs and channels.
   void mismatch(const image::FloatImage& image, double scale, double& largest, double& rms) const;
 };
@@ -196,6 +207,7 @@ struct SeamReport {
   size_t factored = 0;        // of those, solved directly; the others by CG (0: no image needed a change)
   size_t peak_bytes = 0;      // the most the stitcher held at once (SeamStitcher::peak_bytes)
   size_t texels_changed = 0;  // of NAME_irradiance.exr
+  size_t held_at_zero = 0;    // of its texel values (over channels), which the fit would have taken below 0
   double mismatch_before = 0, mismatch_after = 0;  // largest, relative (StitchStats)
   double rms_before = 0, rms_after = 0;
   int iterations = 0;
