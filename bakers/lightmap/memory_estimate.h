@@ -74,9 +74,11 @@ inline constexpr uint64_t kProbeBytes = 4096;
 // The probe placement's world-space copy of each traced triangle (three points).
 inline constexpr uint64_t kProbePlacementBytesPerTriangle = 72;
 
-// The seam stitcher of one lightmap while it is written, per texel of the lightmap. An estimate, not a bound: it holds
-// ~330 bytes per texel along a seam, and the share of such texels depends on the charts (tests/bench/seam_bench on the
-// generated level's pages: 60 to 121 bytes per texel of its 2048² pages, 172 on a 696² page of small charts).
+// The seam stitcher of one lightmap while it is written, per texel of the lightmap: its factors, bounded by
+// StitchOptions::factor_bytes_per_texel (80; a lightmap beyond it solves the rest by CG), and its lookups and vectors,
+// ~130 bytes per texel along a seam, whose share of a page depends on the charts: an estimate, not a bound, of 120
+// (tests/bench/seam_bench on the generated level: 45 to 50 bytes per texel of its 2048² pages, 92 on a 696² page of
+// small charts; with the factors, 60 to 121 and 171).
 inline constexpr double kSeamBytesPerTexel = 200;
 
 struct LightmapMemoryEstimate {

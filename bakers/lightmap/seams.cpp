@@ -311,6 +311,10 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
   if (!(options.factor_budget >= 0) || !std::isfinite(options.factor_budget)) {
     throw std::invalid_argument("SeamStitcher: factor_budget must be finite and at least 0 (0: conjugate gradients)");
   }
+  if (!(options.factor_bytes_per_texel >= 0) || !std::isfinite(options.factor_bytes_per_texel)) {
+    throw std::invalid_argument(
+        "SeamStitcher: factor_bytes_per_texel must be finite and at least 0 (0: conjugate gradients)");
+  }
   // Each texel's unknown, numbered in order of first use; a dense map (4 bytes a texel, allocated once per
   // lightmap, unless it has no seam) where a page's seams read millions of taps.
   constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
@@ -358,11 +362,9 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
 size_t SeamStitcher::held_bytes() const {
   size_t factors = factors_.capacity() * sizeof(EnvelopeCholesky);
   for (const EnvelopeCholesky& f : factors_) factors += f.bytes();
-  size_t blocks = blocks_.capacity() * sizeof(Block);
-  for (const Block& b : blocks_) blocks += b.bytes();
   return validity_.capacity() +
          (texels_.capacity() + component_start_.capacity() + component_pairs_.capacity()) * sizeof(uint32_t) +
-         taps_.capacity() * sizeof(Tap) + pairs_.capacity() * sizeof(Pair) + blocks + factors;
+         taps_.capacity() * sizeof(Tap) + pairs_.capacity() * sizeof(Pair) + factors;
 }
 
 // Unknowns that no lookup pair links, directly or through others, are independent systems (charts of different
@@ -478,30 +480,52 @@ size_t SeamStitcher::Block::bytes() const {
          (value.capacity() + diagonal.capacity()) * sizeof(double);
 }
 
-// Each component's matrix, factored within its budget and dropped, or kept for CG. Two threads hold a matrix each
-// while they work: counted as the two largest.
+size_t SeamStitcher::max_factor_bytes() const {
+  return std::max(options_.min_factor_bytes,
+                  static_cast<size_t>(options_.factor_bytes_per_texel * static_cast<double>(width_) * height_));
+}
+
+// Each component's matrix, factored within its budget and dropped. Components are taken in order, kChunk at a time
+// (factored in parallel, then kept in order while the factors held stay within max_factor_bytes): the same
+// components are factored on every run. The rest are solved by CG from the lookups. While a chunk is decided its
+// factors are held beside those kept, and two threads hold a matrix each: counted as the chunk's two largest.
 void SeamStitcher::build_system() {
   if (system_built_) return;
+  constexpr size_t kChunk = 16;
   const size_t components = component_start_.size() - 1;
+  const size_t max_bytes = max_factor_bytes();
   factors_.resize(components);
-  blocks_.resize(components);
-  std::vector<size_t> block_bytes(components, 0);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t k = range.begin(); k < range.end(); ++k) {
-      Block b = build_block(k);
-      block_bytes[k] = b.bytes();
-      const uint32_t n = component_start_[k + 1] - component_start_[k];
-      const double budget = options_.factor_budget * static_cast<double>(b.col.size());
-      if (factors_[k].factor({b.row_start, b.col, b.value, 0, n}, static_cast<size_t>(budget))) continue;
-      b.col.shrink_to_fit();  // held until the stitcher goes: not the growth of push_back
-      b.value.shrink_to_fit();
-      blocks_[k] = std::move(b);
+  size_t kept = 0;
+  for (size_t first = 0; first < components; first += kChunk) {
+    const size_t last = std::min(components, first + kChunk);
+    std::vector<size_t> block_bytes(last - first, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(first, last), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t k = range.begin(); k < range.end(); ++k) {
+        const Block b = build_block(k);
+        block_bytes[k - first] = b.bytes();
+        const uint32_t n = component_start_[k + 1] - component_start_[k];
+        const double budget = options_.factor_budget * static_cast<double>(b.col.size());
+        factors_[k].factor({b.row_start, b.col, b.value, 0, n}, static_cast<size_t>(budget));
+      }
+    });
+    std::sort(block_bytes.begin(), block_bytes.end(), std::greater<>());
+    note_peak(block_bytes[0] + (block_bytes.size() > 1 ? block_bytes[1] : 0));
+    for (size_t k = first; k < last; ++k) {
+      if (!factored(k)) continue;
+      if (kept + factors_[k].bytes() > max_bytes) {
+        factors_[k] = EnvelopeCholesky();
+        continue;
+      }
+      kept += factors_[k].bytes();
     }
-  });
-  std::partial_sort(block_bytes.begin(), block_bytes.begin() + std::min<size_t>(2, components), block_bytes.end(),
-                    std::greater<>());
-  note_peak(components == 0 ? 0 : components == 1 ? block_bytes[0] : block_bytes[0] + block_bytes[1]);
+  }
   system_built_ = true;
+}
+
+size_t SeamStitcher::factor_bytes() const {
+  size_t bytes = 0;
+  for (const EnvelopeCholesky& f : factors_) bytes += f.bytes();
+  return bytes;
 }
 
 size_t SeamStitcher::factored_components() const {
@@ -546,42 +570,77 @@ void SeamStitcher::mismatch(const image::FloatImage& image, double scale, double
   rms = counted ? std::sqrt(sum_sq / static_cast<double>(counted)) : 0.0;
 }
 
+void SeamStitcher::multiply(size_t k, const uint8_t* held, const double* p, double* q) const {
+  const uint32_t lo = component_start_[k], n = component_start_[k + 1] - lo;
+  for (uint32_t i = 0; i < n; ++i) {
+    q[i] = (validity_[texels_[lo + i]] ? options_.valid_weight : options_.dilated_weight) * p[i];
+  }
+  for (uint32_t pair = component_pairs_[k]; pair < component_pairs_[k + 1]; ++pair) {
+    const Pair& pr = pairs_[pair];
+    double rp = 0;
+    for (uint32_t t = pr.first; t < pr.first + pr.count; ++t) {
+      const uint32_t i = taps_[t].unknown - lo;
+      if (!held || !held[i]) rp += taps_[t].weight * p[i];
+    }
+    for (uint32_t t = pr.first; t < pr.first + pr.count; ++t) {
+      q[taps_[t].unknown - lo] += options_.seam_weight * taps_[t].weight * rp;
+    }
+  }
+  if (!held) return;
+  for (uint32_t i = 0; i < n; ++i) {
+    if (held[i]) q[i] = 0;
+  }
+}
+
 // Preconditioned conjugate gradients from d = 0 (Jacobi: the diagonal is at least a texel's c_i > 0), to
-// ‖r‖ ≤ tolerance · ‖b‖. Returns the iterations; `converged` says whether the tolerance was reached.
-int SeamStitcher::conjugate_gradients(const Block& a, const double* b, double* d, bool& converged) const {
-  const size_t n = a.diagonal.size();
-  std::vector<double> r(b, b + n), z(n), p(n), q(n);
+// ‖r‖ ≤ tolerance · ‖b‖. Held unknowns take no part: their residual and direction stay 0. Returns the iterations;
+// `converged` says whether the tolerance was reached.
+int SeamStitcher::conjugate_gradients(size_t k, const double* b, const uint8_t* held, double* d,
+                                      bool& converged) const {
+  const uint32_t lo = component_start_[k], n = component_start_[k + 1] - lo;
+  const auto free = [held](uint32_t i) { return !held || !held[i]; };
+  // The diagonal: c_i + w_seam Σ_k r_ki² (each pair has one tap per unknown).
+  std::vector<double> diagonal(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    diagonal[i] = validity_[texels_[lo + i]] ? options_.valid_weight : options_.dilated_weight;
+  }
+  for (uint32_t pair = component_pairs_[k]; pair < component_pairs_[k + 1]; ++pair) {
+    for (uint32_t t = pairs_[pair].first; t < pairs_[pair].first + pairs_[pair].count; ++t) {
+      diagonal[taps_[t].unknown - lo] += options_.seam_weight * taps_[t].weight * taps_[t].weight;
+    }
+  }
+  std::vector<double> r(n), z(n), p(n), q(n);
+  for (uint32_t i = 0; i < n; ++i) r[i] = free(i) ? b[i] : 0.0;
   const auto dot = [](const std::vector<double>& x, const std::vector<double>& y) {
     double sum = 0;
     for (size_t i = 0; i < x.size(); ++i) sum += x[i] * y[i];
     return sum;
   };
-  std::fill(d, d + n, 0.0);
+  for (uint32_t i = 0; i < n; ++i) {
+    if (free(i)) d[i] = 0;
+  }
   const double b_norm = std::sqrt(dot(r, r));
   converged = true;
   if (!(b_norm > 0)) return 0;  // the lookups already agree exactly
-  for (size_t i = 0; i < n; ++i) p[i] = z[i] = r[i] / a.diagonal[i];
+  for (uint32_t i = 0; i < n; ++i) p[i] = z[i] = r[i] / diagonal[i];
   double rz = dot(r, z);
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
     if (std::sqrt(dot(r, r)) <= options_.tolerance * b_norm) return it;
-    for (size_t row = 0; row < n; ++row) {
-      double sum = 0;
-      for (uint32_t e = a.row_start[row]; e < a.row_start[row + 1]; ++e) sum += a.value[e] * p[a.col[e]];
-      q[row] = sum;
-    }
+    multiply(k, held, p.data(), q.data());
     const double pq = dot(p, q);
     if (!(pq > 0)) break;  // numerically exhausted
     const double alpha = rz / pq;
-    for (size_t i = 0; i < n; ++i) {
+    for (uint32_t i = 0; i < n; ++i) {
+      if (!free(i)) continue;
       d[i] += alpha * p[i];
       r[i] -= alpha * q[i];
-      z[i] = r[i] / a.diagonal[i];
+      z[i] = r[i] / diagonal[i];
     }
     const double rz_next = dot(r, z);
     const double beta = rz_next / rz;
     rz = rz_next;
-    for (size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
+    for (uint32_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
   }
   converged = std::sqrt(dot(r, r)) <= options_.tolerance * b_norm;
   return it;
@@ -628,11 +687,13 @@ SeamStitcher::ComponentSolve SeamStitcher::solve_component(size_t k, const std::
   constexpr int kHoldRounds = 16;
   const uint32_t lo = component_start_[k], hi = component_start_[k + 1], n = hi - lo;
   ComponentSolve out;
+  const size_t cg_bytes = 5 * static_cast<size_t>(n) * sizeof(double);  // its diagonal, r, z, p and q
   if (factored(k)) {
     std::copy(b.begin() + lo, b.begin() + hi, d.begin() + lo);
     factors_[k].solve(&d[lo]);
   } else {
-    out.iterations = conjugate_gradients(blocks_[k], &b[lo], &d[lo], out.converged);
+    out.iterations = conjugate_gradients(k, &b[lo], nullptr, &d[lo], out.converged);
+    out.bytes = cg_bytes;
   }
   if (!non_negative) return out;
   std::vector<uint8_t> held;  // per unknown of the component, once one goes below 0
@@ -642,27 +703,38 @@ SeamStitcher::ComponentSolve SeamStitcher::solve_component(size_t k, const std::
       if (x0[lo + i] + d[lo + i] >= 0 || (!held.empty() && held[i])) continue;
       if (held.empty()) held.assign(n, 0);
       held[i] = 1;
+      d[lo + i] = -x0[lo + i];  // exactly 0 once added back
       ++newly;
     }
     if (newly == 0) break;
     out.held_at_zero += newly;
-    Block a = build_block(k);
     std::vector<double> rhs(b.begin() + lo, b.begin() + hi);
-    hold_at_zero(a, held, &x0[lo], rhs);
     EnvelopeCholesky f;
-    const auto budget = static_cast<size_t>(options_.factor_budget * static_cast<double>(a.col.size()));
-    if (f.factor({a.row_start, a.col, a.value, 0, n}, budget)) {
-      std::copy(rhs.begin(), rhs.end(), d.begin() + lo);
-      f.solve(&d[lo]);
-    } else {
-      bool converged = true;
-      out.iterations = std::max(out.iterations, conjugate_gradients(a, rhs.data(), &d[lo], converged));
-      out.converged = out.converged && converged;
+    if (factored(k)) {
+      Block a = build_block(k);
+      hold_at_zero(a, held, &x0[lo], rhs);
+      const auto budget = static_cast<size_t>(options_.factor_budget * static_cast<double>(a.col.size()));
+      const bool solved = f.factor({a.row_start, a.col, a.value, 0, n}, budget);
+      out.bytes = std::max(out.bytes, a.bytes() + f.bytes() + held.capacity() + rhs.capacity() * sizeof(double));
+      if (solved) {
+        std::copy(rhs.begin(), rhs.end(), d.begin() + lo);
+        f.solve(&d[lo]);
+        continue;
+      }
+      rhs.assign(b.begin() + lo, b.begin() + hi);
     }
-    // Held values are exactly 0 (x0 + (−x0)); CG's four vectors are the size of rhs.
-    out.bytes = std::max(out.bytes, a.bytes() + f.bytes() + held.capacity() + 5 * rhs.capacity() * sizeof(double));
+    // The held unknowns' fixed change, moved to the right-hand side: rhs −= A d_held.
+    std::vector<double> fixed(n, 0.0), moved(n);
+    for (uint32_t i = 0; i < n; ++i) {
+      if (held[i]) fixed[i] = d[lo + i];
+    }
+    multiply(k, nullptr, fixed.data(), moved.data());
+    for (uint32_t i = 0; i < n; ++i) rhs[i] -= moved[i];
+    bool converged = true;
+    out.iterations = std::max(out.iterations, conjugate_gradients(k, rhs.data(), held.data(), &d[lo], converged));
+    out.converged = out.converged && converged;
+    out.bytes = std::max(out.bytes, cg_bytes + held.capacity() + 3 * rhs.capacity() * sizeof(double));
   }
-  if (!factored(k)) out.bytes = std::max(out.bytes, 4 * n * sizeof(double));
   return out;
 }
 

@@ -91,6 +91,12 @@ struct StitchOptions {
   // The most values a component's Cholesky factor may hold, per entry of its matrix; a component beyond it (or a
   // budget of 0) is solved by conjugate gradients. The level's components need 1.6 on average, 4.8 at most.
   double factor_budget = 8;
+  // The most bytes all of a lightmap's factors may hold, per texel of the lightmap: components are factored in order
+  // while their factors fit, the rest solved by conjugate gradients, which keep no matrix. A bound on the stitcher's
+  // memory whatever the seams. The level's pages need 35 to 71 (its densest, 2048² with 1.5 M seam unknowns), all
+  // factored within 80; past it CG takes several times as long.
+  double factor_bytes_per_texel = 80;
+  size_t min_factor_bytes = size_t{16} << 20;  // whatever the lightmap's size: a small one's factors are small anyway
   int max_iterations = 2000;    // of conjugate gradients, per channel
   double tolerance = 1e-10;     // relative residual ‖b − A d‖ / ‖b‖ at which CG stops
 };
@@ -138,6 +144,7 @@ class SeamStitcher {
   size_t samples() const { return pairs_.size(); }
   size_t seams_used() const { return seams_used_; }
   size_t factored_components() const;  // 0 until a stitch builds the system
+  size_t factor_bytes() const;         // held by the factors kept: at most max(min_factor_bytes, per texel × texels)
   // The most bytes the stitcher has held at once so far: its lookups, matrix and factors, and the transients of
   // building them and of a stitch.
   size_t peak_bytes() const { return peak_bytes_; }
@@ -165,11 +172,10 @@ class SeamStitcher {
     std::vector<double> value, diagonal;
     size_t bytes() const;
   };
-  // Per component, its factor or (solved by CG) its matrix, the other left empty: built by the first stitch with
-  // something to solve (build_system).
+  // Per component, its factor, or empty for one solved by CG (from the lookups: no matrix is kept): built by the
+  // first stitch with something to solve (build_system).
   bool system_built_ = false;
   std::vector<EnvelopeCholesky> factors_;
-  std::vector<Block> blocks_;
   size_t peak_bytes_ = 0;
 
   // What solving one component of one channel took.
@@ -185,14 +191,19 @@ class SeamStitcher {
   void note_peak(size_t transient) { peak_bytes_ = std::max(peak_bytes_, held_bytes() + transient); }
   void group_by_component();
   Block build_block(size_t k) const;
-  // Factors each component within its budget, keeping the matrix of those it does not.
+  // Factors each component within its budget, in order while the factors fit max_factor_bytes().
   void build_system();
+  size_t max_factor_bytes() const;
   bool factored(size_t k) const { return k < factors_.size() && factors_[k].size() > 0; }
   // Component k's change d[lo, hi) for the right-hand side b[lo, hi) of one channel whose baked values are x0.
   ComponentSolve solve_component(size_t k, const std::vector<double>& x0, bool non_negative,
                                  const std::vector<double>& b, std::vector<double>& d) const;
-  // Conjugate gradients on `a` for the right-hand side b (a's row 0 first) into d.
-  int conjugate_gradients(const Block& a, const double* b, double* d, bool& converged) const;
+  // q = A p over component k's unknowns (p[0] is unknown lo), summed from its lookup pairs: A's rows and columns of
+  // `held` unknowns (when given) left out, their q set to 0.
+  void multiply(size_t k, const uint8_t* held, const double* p, double* q) const;
+  // Conjugate gradients on component k for the right-hand side b into d (both from unknown lo), over the unknowns not
+  // `held`; d of held unknowns is left as it is.
+  int conjugate_gradients(size_t k, const double* b, const uint8_t* held, double* d, bool& converged) const;
   // The largest and RMS |lookup A − lookup B| over `scale`, over the lookup pairs and channels.
   void mismatch(const image::FloatImage& image, double scale, double& largest, double& rms) const;
 };

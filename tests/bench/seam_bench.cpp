@@ -1,9 +1,10 @@
 // The seam stitcher on every page of the generated level (tests/bench/level_scene.h) packed as level_bench packs it:
 // per page, the seams found, the system's unknowns and components, how many were factored, the stitcher's peak bytes
-// (SeamStitcher::peak_bytes) per page texel and per unknown, and the seconds to build and solve, for an image whose
-// lookups disagree everywhere (noise), so that every page builds its system as a sampled page does.
+// (SeamStitcher::peak_bytes) per page texel and per unknown, the factors' bytes (capped at F per texel), and the
+// seconds to build and solve, for an image whose lookups disagree everywhere (noise), so that every page builds its
+// system as a sampled page does.
 //
-//   seam_bench [--texel-density=D] [--page-size=N] [--factor-budget=B]
+//   seam_bench [--texel-density=D] [--page-size=N] [--factor-budget=B] [--factor-bytes-per-texel=F]
 //
 // Every texel counts as valid: the system's size does not depend on validity, only its weights do.
 #include <chrono>
@@ -23,6 +24,7 @@ namespace {
 
 struct Args {
   double texel_density = 10, factor_budget = lightmap::StitchOptions{}.factor_budget;
+  double factor_bytes_per_texel = lightmap::StitchOptions{}.factor_bytes_per_texel;
   int page_size = 2048;
 };
 
@@ -34,6 +36,8 @@ Args parse(int argc, char** argv) {
       a.texel_density = std::atof(s.c_str() + 16);
     } else if (s.rfind("--page-size=", 0) == 0) {
       a.page_size = std::atoi(s.c_str() + 12);
+    } else if (s.rfind("--factor-bytes-per-texel=", 0) == 0) {
+      a.factor_bytes_per_texel = std::atof(s.c_str() + 25);
     } else if (s.rfind("--factor-budget=", 0) == 0) {
       a.factor_budget = std::atof(s.c_str() + 16);
     } else {
@@ -60,10 +64,13 @@ int main(int argc, char** argv) {
   const scene::CheckedScene checked = bench::packed_level(a.texel_density, a.page_size, pack);
   lightmap::StitchOptions options;
   options.factor_budget = a.factor_budget;
-  std::printf("level at %g texels/m, %zu pages; factor budget %g values per matrix entry\n", a.texel_density,
-              pack.pages.size(), a.factor_budget);
-  std::printf("%-6s %6s %9s %10s %10s %9s %11s %9s %9s %8s %8s\n", "page", "side", "seams", "unknowns", "components",
-              "factored", "peak MB", "B/texel", "B/unknown", "build s", "solve s");
+  options.factor_bytes_per_texel = a.factor_bytes_per_texel;
+  std::printf(
+      "level at %g texels/m, %zu pages; factor budget %g values per matrix entry, factors at most %g bytes per "
+      "texel\n",
+      a.texel_density, pack.pages.size(), a.factor_budget, a.factor_bytes_per_texel);
+  std::printf("%-6s %6s %9s %10s %10s %9s %10s %11s %9s %9s %8s %8s %6s\n", "page", "side", "seams", "unknowns",
+              "components", "factored", "factor MB", "peak MB", "B/texel", "B/unknown", "build s", "solve s", "held");
   size_t worst = 0;
   double worst_per_texel = 0;
   for (size_t p = 0; p < pack.pages.size(); ++p) {
@@ -85,9 +92,10 @@ int main(int argc, char** argv) {
     const lightmap::StitchStats s = stitcher.stitch(image);
     const double solve = bench::seconds_since(t1);
     const double peak = static_cast<double>(stitcher.peak_bytes());
-    std::printf("%-6zu %6d %9zu %10zu %10zu %9zu %11.1f %9.1f %9.1f %8.2f %8.2f\n", p, side, found.seams.size(),
-                stitcher.unknowns(), s.components, s.factored, peak / 1e6, peak / static_cast<double>(texels),
-                peak / static_cast<double>(std::max<size_t>(stitcher.unknowns(), 1)), build, solve);
+    std::printf("%-6zu %6d %9zu %10zu %10zu %9zu %10.1f %11.1f %9.1f %9.1f %8.2f %8.2f %6zu\n", p, side,
+                found.seams.size(), stitcher.unknowns(), s.components, s.factored,
+                static_cast<double>(stitcher.factor_bytes()) / 1e6, peak / 1e6, peak / static_cast<double>(texels),
+                peak / static_cast<double>(std::max<size_t>(stitcher.unknowns(), 1)), build, solve, s.held_at_zero);
     worst = std::max(worst, stitcher.peak_bytes());
     worst_per_texel = std::max(worst_per_texel, peak / static_cast<double>(texels));
   }

@@ -375,10 +375,71 @@ TEST(SeamStitcher, FactoredAndConjugateGradientSolutionsAgree) {
   }
 }
 
+// Two lightmaps' worth of seams on one page, one component each (as in IndependentSeamsAreSolvedApart...).
+struct TwoComponentPage {
+  image::FloatImage image;
+  std::vector<uint8_t> valid;
+  std::vector<Seam> seams;
+  TwoComponentPage() {
+    TwoCharts top, bottom;
+    for (float& v : bottom.image.pixels) v = 3 * v + 0.25f;
+    image = top.image;
+    image.height = 2 * top.height;
+    image.pixels.insert(image.pixels.end(), bottom.image.pixels.begin(), bottom.image.pixels.end());
+    valid = top.valid;
+    valid.insert(valid.end(), bottom.valid.begin(), bottom.valid.end());
+    seams = top.seams;
+    Seam lower = top.seams[0];
+    for (Point2* p : {&lower.a0, &lower.a1, &lower.b0, &lower.b1}) p->y += top.height;
+    seams.push_back(lower);
+  }
+};
+
+// The factors kept stay within the byte cap: components are factored in order while they fit, the rest solved by CG
+// from the lookups, to the same values (CG's tolerance, as in FactoredAndConjugateGradientSolutionsAgree).
+TEST(SeamStitcher, FactorsBeyondTheByteCapAreSolvedByConjugateGradients) {
+  const TwoComponentPage page;
+  const auto stitched = [&](size_t cap, image::FloatImage& out) {
+    StitchOptions options;
+    options.factor_bytes_per_texel = 0;
+    options.min_factor_bytes = cap;
+    SeamStitcher stitcher(page.seams, page.image.width, page.image.height, page.valid, options);
+    out = page.image;
+    const StitchStats s = stitcher.stitch(out);
+    EXPECT_TRUE(s.converged);
+    EXPECT_LE(stitcher.factor_bytes(), cap);
+    return std::make_pair(s, stitcher.factor_bytes());
+  };
+  image::FloatImage all, one, none;
+  const auto [all_stats, both_bytes] = stitched(size_t{1} << 30, all);
+  ASSERT_EQ(all_stats.factored, 2u);
+  // The two components are the same seam shifted: their factors hold the same bytes.
+  const auto [one_stats, one_bytes] = stitched(both_bytes / 2, one);
+  EXPECT_EQ(one_stats.factored, 1u);
+  EXPECT_EQ(one_bytes, both_bytes / 2);
+  EXPECT_GT(one_stats.iterations, 0);
+  const auto [none_stats, no_bytes] = stitched(both_bytes / 2 - 1, none);
+  EXPECT_EQ(none_stats.factored, 0u);
+  EXPECT_EQ(no_bytes, 0u);
+  double largest_change = 0;
+  for (size_t i = 0; i < all.pixels.size(); ++i) {
+    largest_change = std::max(largest_change, std::abs(static_cast<double>(all.pixels[i]) - page.image.pixels[i]));
+  }
+  ASSERT_GT(largest_change, 0.1);
+  for (size_t i = 0; i < all.pixels.size(); ++i) {
+    const double tolerance = 1e-4 * largest_change + 1e-6 * std::abs(all.pixels[i]);
+    ASSERT_NEAR(one.pixels[i], all.pixels[i], tolerance) << "value " << i;
+    ASSERT_NEAR(none.pixels[i], all.pixels[i], tolerance) << "value " << i;
+  }
+  // The first component, factored under either cap, gives the same bytes.
+  const size_t half = all.pixels.size() / 2;
+  EXPECT_TRUE(std::equal(one.pixels.begin(), one.pixels.begin() + half, all.pixels.begin()));
+}
+
 // The peak counts at least what the stitcher cannot do without: the validity map (a byte a texel), each lookup pair
 // (8 bytes) with its taps (at least one per side, 16 bytes each), each unknown's texel (4); then, once it stitches,
-// per unknown the image's values and the right-hand side and solution (3 doubles), and either CG's four vectors and
-// the matrix's row start, diagonal and diagonal entry (4 + 8 + 12 bytes), or the factor's diagonal (8).
+// per unknown the image's values and the right-hand side and solution (3 doubles), and either CG's diagonal and four
+// vectors (5 doubles), or the factor's diagonal (8).
 TEST(SeamStitcher, PeakBytesCountWhatTheStitcherMustHold) {
   TwoCharts direct, iterative;
   StitchOptions cg_only;
@@ -392,7 +453,7 @@ TEST(SeamStitcher, PeakBytesCountWhatTheStitcherMustHold) {
   factored.stitch(direct.image);
   by_cg.stitch(iterative.image);
   EXPECT_GE(factored.peak_bytes(), std::max(built, lookups + n * (3 + 1) * 8));
-  EXPECT_GE(by_cg.peak_bytes(), lookups + n * ((3 + 4) * 8 + 4 + 8 + 12));
+  EXPECT_GE(by_cg.peak_bytes(), lookups + n * (3 + 5) * 8);
 }
 
 TEST(SeamStitcher, OneChannelImages) {
@@ -423,26 +484,33 @@ TEST(SeamStitcher, NonNegativeImagesStayNonNegative) {
 // makes (~5) over 1000; 0.01 of the brightness (~0.05 here) leaves a margin of ten. Clamping the unconstrained fit
 // instead left the lookups 1.4 brightnesses apart on the Cornell box's short block.
 TEST(SeamStitcher, ValuesTheFitWouldTakeBelowZeroAreHeldAtZeroAndTheSeamStillAgrees) {
-  TwoCharts charts(1);
-  for (size_t t = 0; t < charts.valid.size(); ++t) {
-    if (charts.valid[t]) charts.image.pixels[t] = t % charts.width < 20 ? 10.0f : 0.0f;
-  }
-  dilate(charts.image, charts.valid, 2);
-  charts.seams[0].a0.x = charts.seams[0].a1.x = 13.6;  // reads column 13 (valid, 0.9) and 14 (dilated, 0.1)
-  charts.seams[0].b0.x = charts.seams[0].b1.x = 24.4;  // reads column 23 (dilated, 0.1) and 24 (valid, 0.9)
-  const StitchStats stats = SeamStitcher(charts.seams, charts.width, charts.height, charts.valid).stitch(charts.image);
-  std::printf("lit against dark: mismatch %.3g -> %.3g, %zu values held at 0\n", stats.mismatch_before,
-              stats.mismatch_after, stats.held_at_zero);
-  EXPECT_GT(stats.held_at_zero, 0u);
-  for (const float v : charts.image.pixels) ASSERT_GE(v, 0.0f);
-  EXPECT_GT(stats.mismatch_before, 1.0);
-  EXPECT_LT(stats.mismatch_after, 0.01);
-  // The same agreement by the test's own lookups, over the step of 10.
-  const Seam& s = charts.seams[0];
-  for (double t = 0; t <= 1; t += 1.0 / 64) {
-    const double a = lookup(charts.image, {s.a0.x, s.a0.y + t * (s.a1.y - s.a0.y)}, 0);
-    const double b = lookup(charts.image, {s.b0.x, s.b0.y + t * (s.b1.y - s.b0.y)}, 0);
-    EXPECT_NEAR(a, b, 0.05) << "at t = " << t;
+  StitchOptions cg_only;
+  cg_only.factor_budget = 0;
+  for (const StitchOptions& options : {StitchOptions{}, cg_only}) {
+    TwoCharts charts(1);
+    for (size_t t = 0; t < charts.valid.size(); ++t) {
+      if (charts.valid[t]) charts.image.pixels[t] = t % charts.width < 20 ? 10.0f : 0.0f;
+    }
+    dilate(charts.image, charts.valid, 2);
+    charts.seams[0].a0.x = charts.seams[0].a1.x = 13.6;  // reads column 13 (valid, 0.9) and 14 (dilated, 0.1)
+    charts.seams[0].b0.x = charts.seams[0].b1.x = 24.4;  // reads column 23 (dilated, 0.1) and 24 (valid, 0.9)
+    SeamStitcher stitcher(charts.seams, charts.width, charts.height, charts.valid, options);
+    const StitchStats stats = stitcher.stitch(charts.image);
+    std::printf("lit against dark (%s): mismatch %.3g -> %.3g, %zu values held at 0\n",
+                stats.factored ? "factored" : "CG", stats.mismatch_before, stats.mismatch_after, stats.held_at_zero);
+    EXPECT_EQ(stats.factored, options.factor_budget > 0 ? 1u : 0u);
+    EXPECT_TRUE(stats.converged);
+    EXPECT_GT(stats.held_at_zero, 0u);
+    for (const float v : charts.image.pixels) ASSERT_GE(v, 0.0f);
+    EXPECT_GT(stats.mismatch_before, 1.0);
+    EXPECT_LT(stats.mismatch_after, 0.01);
+    // The same agreement by the test's own lookups, over the step of 10.
+    const Seam& s = charts.seams[0];
+    for (double t = 0; t <= 1; t += 1.0 / 64) {
+      const double a = lookup(charts.image, {s.a0.x, s.a0.y + t * (s.a1.y - s.a0.y)}, 0);
+      const double b = lookup(charts.image, {s.b0.x, s.b0.y + t * (s.b1.y - s.b0.y)}, 0);
+      EXPECT_NEAR(a, b, 0.05) << "at t = " << t;
+    }
   }
 }
 
