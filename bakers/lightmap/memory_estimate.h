@@ -76,10 +76,10 @@ inline constexpr uint64_t kProbePlacementBytesPerTriangle = 72;
 
 // The seam stitcher of one lightmap while it is written, per texel of the lightmap: its factors, bounded by
 // StitchOptions::factor_bytes_per_texel (80; a lightmap beyond it solves the rest by CG), and its lookups and vectors,
-// ~130 bytes per texel along a seam, whose share of a page depends on the charts: an estimate, not a bound, of 120
-// (tests/bench/seam_bench on the generated level: 45 to 50 bytes per texel of its 2048² pages, 92 on a 696² page of
-// small charts; with the factors, 60 to 121 and 171).
-inline constexpr double kSeamBytesPerTexel = 200;
+// ~95 bytes per texel along a seam, whose share of a page depends on the charts: an estimate, not a bound, of 70
+// (tests/bench/seam_bench on the generated level: 18 to 34 bytes per texel of its 2048² pages, 57 on a 696² page of
+// small charts; with the factors, 53 to 105 and 137).
+inline constexpr double kSeamBytesPerTexel = 150;
 
 struct LightmapMemoryEstimate {
   std::vector<uint64_t> lightmap_bytes;  // per lightmap, in the order given: what its texels cost

@@ -343,12 +343,12 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
           bool merged = false;
           for (size_t q = first; q < taps_.size(); ++q) {
             if (taps_[q].unknown == unknown) {
-              taps_[q].weight += signed_w;
+              taps_[q].weight = static_cast<float>(taps_[q].weight + signed_w);
               merged = true;
               break;
             }
           }
-          if (!merged) taps_.push_back({unknown, signed_w});
+          if (!merged) taps_.push_back({unknown, static_cast<float>(signed_w)});
         }
       }
       pairs_.push_back({first, static_cast<uint32_t>(taps_.size() - first)});

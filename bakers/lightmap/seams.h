@@ -152,7 +152,7 @@ class SeamStitcher {
  private:
   struct Tap {
     uint32_t unknown;  // into texels_
-    double weight;     // + on side A, − on side B
+    float weight;      // + on side A, − on side B: a bilinear weight, which float holds to 6·10⁻⁸
   };
   struct Pair {
     uint32_t first, count;  // taps_[first, first + count)

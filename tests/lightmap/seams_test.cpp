@@ -437,7 +437,7 @@ TEST(SeamStitcher, FactorsBeyondTheByteCapAreSolvedByConjugateGradients) {
 }
 
 // The peak counts at least what the stitcher cannot do without: the validity map (a byte a texel), each lookup pair
-// (8 bytes) with its taps (at least one per side, 16 bytes each), each unknown's texel (4); then, once it stitches,
+// (8 bytes) with its taps (at least one per side, 8 bytes each), each unknown's texel (4); then, once it stitches,
 // per unknown the image's values and the right-hand side and solution (3 doubles), and either CG's diagonal and four
 // vectors (5 doubles), or the factor's diagonal (8).
 TEST(SeamStitcher, PeakBytesCountWhatTheStitcherMustHold) {
@@ -447,7 +447,7 @@ TEST(SeamStitcher, PeakBytesCountWhatTheStitcherMustHold) {
   SeamStitcher factored(direct.seams, direct.width, direct.height, direct.valid);
   SeamStitcher by_cg(iterative.seams, iterative.width, iterative.height, iterative.valid, cg_only);
   const size_t n = factored.unknowns();
-  const size_t lookups = direct.valid.size() + factored.samples() * (8 + 2 * 16) + n * 4;
+  const size_t lookups = direct.valid.size() + factored.samples() * (8 + 2 * 8) + n * 4;
   EXPECT_GE(factored.peak_bytes(), lookups);
   const size_t built = factored.peak_bytes();
   factored.stitch(direct.image);
