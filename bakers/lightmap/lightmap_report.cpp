@@ -60,6 +60,7 @@ Json lightmap_json(const LightmapReportEntry& m) {
                   {"edges", s.seams},
                   {"non_manifold_edges", s.non_manifold},
                   {"left_out", s.left_out},
+                  {"over_memory_budget", s.over_budget},
                   {"lookup_pairs", s.samples},
                   {"texels_changed", s.texels_changed},
                   {"values_held_at_zero", s.held_at_zero},

@@ -75,10 +75,12 @@ inline constexpr uint64_t kProbeBytes = 4096;
 inline constexpr uint64_t kProbePlacementBytesPerTriangle = 72;
 
 // The seam stitcher of one lightmap while it is written, per texel of the lightmap: its factors, bounded by
-// StitchOptions::factor_bytes_per_texel (80; a lightmap beyond it solves the rest by CG), and its lookups and vectors,
-// ~95 bytes per texel along a seam, whose share of a page depends on the charts: an estimate, not a bound, of 70
-// (tests/bench/seam_bench on the generated level: 18 to 34 bytes per texel of its 2048² pages, 57 on a 696² page of
-// small charts; with the factors, 53 to 105 and 137).
+// StitchOptions::factor_bytes_per_texel (80; a lightmap beyond it solves the rest by CG), and its lookups (bounded by
+// lookup_bytes_per_texel, 48) and vectors, ~95 bytes per texel along a seam, whose share of a page depends on the
+// charts. Whatever the seams, a large lightmap's stitcher holds at most about 225 bytes a texel; this counts 150, 80
+// for the factors and 70 for the rest, which covers what the generated level needs (tests/bench/seam_bench: 18 to 34
+// bytes per texel beside the factors on its 2048² pages, 57 on a 696² page of small charts; with them, 53 to 105 and
+// 137).
 inline constexpr double kSeamBytesPerTexel = 150;
 
 struct LightmapMemoryEstimate {

@@ -315,16 +315,30 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
     throw std::invalid_argument(
         "SeamStitcher: factor_bytes_per_texel must be finite and at least 0 (0: conjugate gradients)");
   }
+  if (!(options.lookup_bytes_per_texel >= 0) || !std::isfinite(options.lookup_bytes_per_texel)) {
+    throw std::invalid_argument("SeamStitcher: lookup_bytes_per_texel must be finite and at least 0");
+  }
+  static_assert(kLookupPointBytes == sizeof(Pair) + 8 * sizeof(Tap));
+  const auto lookup_budget =
+      std::max(static_cast<double>(options.min_lookup_bytes),
+               options.lookup_bytes_per_texel * static_cast<double>(width) * static_cast<double>(height));
+  double lookup_bytes = 0;  // counted at kLookupPointBytes a point
   // Each texel's unknown, numbered in order of first use; a dense map (4 bytes a texel, allocated once per
   // lightmap, unless it has no seam) where a page's seams read millions of taps.
   constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
   std::vector<uint32_t> unknown_of(seams.empty() ? 0 : validity.size(), kNone);
   for (const Seam& s : seams) {
     if (check_seam(s.a0, s.a1, s.b0, s.b1, width, height) != SeamCheck::seam) continue;
-    ++seams_used_;
     // Points spaced at most half a texel on either side, ends included.
     const double length = std::max(distance(s.a0, s.a1), distance(s.b0, s.b1));
     const int segments = std::max(1, static_cast<int>(std::ceil(2 * length)));
+    const double bytes = static_cast<double>(segments + 1) * kLookupPointBytes;
+    if (lookup_bytes + bytes > lookup_budget) {
+      ++seams_over_budget_;
+      continue;
+    }
+    lookup_bytes += bytes;
+    ++seams_used_;
     for (int k = 0; k <= segments; ++k) {
       const double t = static_cast<double>(k) / segments;
       const Point2 a{s.a0.x + t * (s.a1.x - s.a0.x), s.a0.y + t * (s.a1.y - s.a0.y)};
@@ -839,6 +853,7 @@ LightmapSeams::LightmapSeams(const scene::CheckedScene& checked, const std::stri
         return s;
       }()) {
   report_.samples = stitcher_.samples();
+  report_.over_budget = stitcher_.seams_over_budget();
   report_.components = stitcher_.components();
   report_.peak_bytes = stitcher_.peak_bytes();
 }

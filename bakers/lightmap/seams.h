@@ -84,6 +84,9 @@ SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int wi
 // The same for the scene as the bake has it: the cleaned scene, and its triangles marked "traced, not baked" left out.
 SeamSearch find_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height);
 
+// The most a lookup point holds: its pair (8 bytes) and eight taps (four a side, 8 bytes each).
+inline constexpr size_t kLookupPointBytes = 72;
+
 struct StitchOptions {
   double seam_weight = 1000;    // w_seam, per lookup pair
   double valid_weight = 1;      // c_i of a texel with samples
@@ -97,6 +100,12 @@ struct StitchOptions {
   // factored within 80; past it CG takes several times as long.
   double factor_bytes_per_texel = 80;
   size_t min_factor_bytes = size_t{16} << 20;  // whatever the lightmap's size: a small one's factors are small anyway
+  // The most bytes a lightmap's lookups may hold, per texel of it, counted at the most a lookup point can take (its
+  // pair and eight taps, kLookupPointBytes): seams past it, in order, are not stitched (seams_over_budget). The
+  // level's 2048² pages need 7 to 18, its 696² page of small charts 24; many tiny charts need most (at least two
+  // points a seam).
+  double lookup_bytes_per_texel = 48;
+  size_t min_lookup_bytes = size_t{16} << 20;
   int max_iterations = 2000;    // of conjugate gradients, per channel
   double tolerance = 1e-10;     // relative residual ‖b − A d‖ / ‖b‖ at which CG stops
 };
@@ -143,6 +152,7 @@ class SeamStitcher {
   size_t components() const { return component_start_.size() - 1; }  // independent systems among the unknowns
   size_t samples() const { return pairs_.size(); }
   size_t seams_used() const { return seams_used_; }
+  size_t seams_over_budget() const { return seams_over_budget_; }  // left out: their lookups would pass the budget
   size_t factored_components() const;  // 0 until a stitch builds the system
   size_t factor_bytes() const;         // held by the factors kept: at most max(min_factor_bytes, per texel × texels)
   // The most bytes the stitcher has held at once so far: its lookups, matrix and factors, and the transients of
@@ -160,7 +170,7 @@ class SeamStitcher {
   int width_ = 0, height_ = 0;
   std::vector<uint8_t> validity_;
   StitchOptions options_;
-  size_t seams_used_ = 0;
+  size_t seams_used_ = 0, seams_over_budget_ = 0;
   std::vector<uint32_t> texels_;           // unknown → texel index, components contiguous (group_by_component)
   std::vector<uint32_t> component_start_;  // component k is the unknowns [start[k], start[k + 1])
   std::vector<Tap> taps_;
@@ -213,6 +223,7 @@ struct SeamReport {
   size_t seams = 0;           // seam edges stitched
   size_t non_manifold = 0;    // world edges on more than two triangles
   size_t left_out = 0;        // seams not stitched: no length in UV on a side, or an end outside the lightmap
+  size_t over_budget = 0;     // seams not stitched: their lookups would pass lookup_bytes_per_texel
   size_t samples = 0;         // lookup pairs along them
   size_t components = 0;      // independent systems the texels along seams form
   size_t factored = 0;        // of those, solved directly; the others by CG (0: no image needed a change)

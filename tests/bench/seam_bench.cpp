@@ -69,8 +69,9 @@ int main(int argc, char** argv) {
       "level at %g texels/m, %zu pages; factor budget %g values per matrix entry, factors at most %g bytes per "
       "texel\n",
       a.texel_density, pack.pages.size(), a.factor_budget, a.factor_bytes_per_texel);
-  std::printf("%-6s %6s %9s %10s %10s %9s %10s %11s %9s %9s %8s %8s %6s\n", "page", "side", "seams", "unknowns",
-              "components", "factored", "factor MB", "peak MB", "B/texel", "B/unknown", "build s", "solve s", "held");
+  std::printf("%-6s %6s %9s %10s %10s %9s %10s %11s %9s %9s %8s %8s %6s %8s\n", "page", "side", "seams", "unknowns",
+              "components", "factored", "factor MB", "peak MB", "B/texel", "B/unknown", "build s", "solve s", "held",
+              "lookup B/texel");
   size_t worst = 0;
   double worst_per_texel = 0;
   for (size_t p = 0; p < pack.pages.size(); ++p) {
@@ -92,10 +93,12 @@ int main(int argc, char** argv) {
     const lightmap::StitchStats s = stitcher.stitch(image);
     const double solve = bench::seconds_since(t1);
     const double peak = static_cast<double>(stitcher.peak_bytes());
-    std::printf("%-6zu %6d %9zu %10zu %10zu %9zu %10.1f %11.1f %9.1f %9.1f %8.2f %8.2f %6zu\n", p, side,
-                found.seams.size(), stitcher.unknowns(), s.components, s.factored,
+    std::printf("%-6zu %6d %9zu %10zu %10zu %9zu %10.1f %11.1f %9.1f %9.1f %8.2f %8.2f %6zu %8.2f (%zu over)\n", p,
+                side, found.seams.size(), stitcher.unknowns(), s.components, s.factored,
                 static_cast<double>(stitcher.factor_bytes()) / 1e6, peak / 1e6, peak / static_cast<double>(texels),
-                peak / static_cast<double>(std::max<size_t>(stitcher.unknowns(), 1)), build, solve, s.held_at_zero);
+                peak / static_cast<double>(std::max<size_t>(stitcher.unknowns(), 1)), build, solve, s.held_at_zero,
+                static_cast<double>(stitcher.samples() * lightmap::kLookupPointBytes) / static_cast<double>(texels),
+                stitcher.seams_over_budget());
     worst = std::max(worst, stitcher.peak_bytes());
     worst_per_texel = std::max(worst_per_texel, peak / static_cast<double>(texels));
   }

@@ -436,6 +436,39 @@ TEST(SeamStitcher, FactorsBeyondTheByteCapAreSolvedByConjugateGradients) {
   EXPECT_TRUE(std::equal(one.pixels.begin(), one.pixels.begin() + half, all.pixels.begin()));
 }
 
+// The lookups stay within their byte budget: seams are taken in order while their points (kLookupPointBytes each, a
+// point every half texel, ends included) fit; the rest are counted and not stitched.
+TEST(SeamStitcher, SeamsBeyondTheLookupBudgetAreCountedAndLeftOut) {
+  const TwoComponentPage page;
+  const size_t texels = page.valid.size();
+  const size_t one_seam = (2 * 14 + 1) * kLookupPointBytes;  // 14 texels long: 29 points
+  StitchOptions options;
+  options.min_lookup_bytes = 0;
+  options.lookup_bytes_per_texel = static_cast<double>(one_seam) / static_cast<double>(texels);
+  SeamStitcher first_only(page.seams, page.image.width, page.image.height, page.valid, options);
+  EXPECT_EQ(first_only.seams_used(), 1u);
+  EXPECT_EQ(first_only.seams_over_budget(), 1u);
+  EXPECT_EQ(first_only.samples(), 29u);
+  EXPECT_EQ(first_only.components(), 1u);
+  options.lookup_bytes_per_texel = static_cast<double>(one_seam - 1) / static_cast<double>(texels);
+  SeamStitcher none(page.seams, page.image.width, page.image.height, page.valid, options);
+  EXPECT_EQ(none.seams_used(), 0u);
+  EXPECT_EQ(none.seams_over_budget(), 2u);
+  image::FloatImage untouched = page.image;
+  EXPECT_EQ(none.stitch(untouched).texels_changed, 0u);
+  EXPECT_EQ(untouched.pixels, page.image.pixels);
+  // The stitched seam is the first, as with no budget; the second keeps its bytes.
+  image::FloatImage capped = page.image, full = page.image;
+  first_only.stitch(capped);
+  SeamStitcher(page.seams, page.image.width, page.image.height, page.valid).stitch(full);
+  const size_t half = full.pixels.size() / 2;
+  EXPECT_TRUE(std::equal(capped.pixels.begin(), capped.pixels.begin() + half, full.pixels.begin()));
+  EXPECT_TRUE(std::equal(capped.pixels.begin() + half, capped.pixels.end(), page.image.pixels.begin() + half));
+  options.lookup_bytes_per_texel = -1;
+  EXPECT_THROW(SeamStitcher(page.seams, page.image.width, page.image.height, page.valid, options),
+               std::invalid_argument);
+}
+
 // The peak counts at least what the stitcher cannot do without: the validity map (a byte a texel), each lookup pair
 // (8 bytes) with its taps (at least one per side, 8 bytes each), each unknown's texel (4); then, once it stitches,
 // per unknown the image's values and the right-hand side and solution (3 doubles), and either CG's diagonal and four
