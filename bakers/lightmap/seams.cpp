@@ -690,12 +690,11 @@ void hold_at_zero(Block& a, const std::vector<uint8_t>& held, const double* x0, 
 // Irradiance, radiance and AO are never negative, but the least-squares fit can take a texel below 0: a dilated
 // texel beside a seam whose sides see very different light (a lit top against a side in shadow, a sampled chart
 // against one a time limit left black) pulls its lookup toward the dark side the cheapest way, through the texel the
-// lookup weighs least. Clamping those values afterwards undoes the agreement the fit bought (mismatches of more than
-// the brightness remained). Instead each unknown the fit takes below 0 is held at 0 and the component solved again
-// for the others, until none goes below: an active set that only grows. That is not the exact non-negative least
-// squares (which may release a held unknown), but every value is ≥ 0 and the others still make the lookups agree,
-// since any values ≥ 0 equal along a seam satisfy it. Each round holds at least one more unknown; past
-// kHoldRounds the remaining negatives are clamped in stitch().
+// lookup weighs least. Clamping those values afterwards would undo the agreement the fit bought. Instead each unknown
+// the fit takes below 0 is held at 0 and the component solved again for the others, until none goes below: an active
+// set that only grows. That is not the exact non-negative least squares (which may release a held unknown), but every
+// value is ≥ 0 and the others still make the lookups agree, since any values ≥ 0 equal along a seam satisfy it. Each
+// round holds at least one more unknown; past kHoldRounds the remaining negatives are clamped in stitch().
 SeamStitcher::ComponentSolve SeamStitcher::solve_component(size_t k, const std::vector<double>& x0, bool non_negative,
                                                            const std::vector<double>& b, std::vector<double>& d) const {
   constexpr int kHoldRounds = 16;
