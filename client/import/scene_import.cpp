@@ -38,6 +38,31 @@ std::string read_file(const std::string& path) {
   return s.str();
 }
 
+// Binary glTF (GLB, by its magic, whatever the file's name): a 12-byte header, then chunks of an 8-byte header (length,
+// type) and `length` bytes. Assimp allocates each chunk's length as its header gives it before reading, so a damaged
+// header of a few hundred bytes can ask for 4 GB: refuse a chunk that claims more than the file holds after it.
+void check_glb_chunks(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return;  // Assimp reports what it cannot read
+  const auto size = static_cast<uint64_t>(in.tellg());
+  char header[12];
+  in.seekg(0);
+  if (size < sizeof header || !in.read(header, sizeof header) || std::memcmp(header, "glTF", 4) != 0) return;
+  uint64_t offset = sizeof header;
+  for (int chunk = 0; offset + 8 <= size; ++chunk) {
+    uint32_t length = 0;
+    in.seekg(static_cast<std::streamoff>(offset));
+    if (!in.read(reinterpret_cast<char*>(&length), sizeof length)) return;
+    if (length > size - offset - 8) {
+      throw std::runtime_error("cannot import " + path + ": its GLB chunk " + std::to_string(chunk) +
+                               " says it holds " + std::to_string(length) + " bytes, but only " +
+                               std::to_string(size - offset - 8) +
+                               " follow its header; the file is truncated or damaged: export it again");
+    }
+    offset += 8 + static_cast<uint64_t>(length);
+  }
+}
+
 std::string directory_of(const std::string& path) {
   const size_t slash = path.find_last_of('/');
   return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
@@ -201,6 +226,7 @@ class Importer {
     // FlipUVs: Assimp turns every format's UVs to v = 0 at the bottom; kiln keeps glTF's v = 0 at the top.
     const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_JoinIdenticalVertices |
                            aiProcess_FlipUVs | aiProcess_ValidateDataStructure;
+    check_glb_chunks(path_);
     scene_ = importer.ReadFile(path_, flags);
     if (!scene_ || !scene_->mRootNode) {
       throw std::runtime_error("cannot import " + path_ + ": " + importer.GetErrorString());

@@ -198,6 +198,31 @@ TEST(SceneImport, UnreadableFilesAreErrorsForPeople) {
   }
 }
 
+// A GLB whose JSON chunk claims 4 GB in a file of a few dozen bytes (found by the scene_import fuzzer: Assimp
+// allocated the claimed length before reading): refused, naming the file and the chunk.
+TEST(SceneImport, GlbChunkLongerThanTheFileIsRefusedBeforeAssimpReadsIt) {
+  test::TempDir dir("kiln-import");
+  const std::string json = R"({"asset":{"version":"2.0"}})";
+  std::string glb = "glTF";
+  const auto u32 = [&glb](uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+  u32(2);
+  u32(static_cast<uint32_t>(12 + 8 + json.size()));
+  u32(0xF8FF026Cu);  // the chunk's length
+  glb += "JSON" + json;
+  for (const char* name : {"claims.glb", "claims.gltf"}) {  // by its magic, whatever its name
+    const std::filesystem::path path = dir.path() / name;
+    std::ofstream(path, std::ios::binary) << glb;
+    try {
+      client::import_scene(path.string());
+      ADD_FAILURE() << "imported " << name;
+    } catch (const std::runtime_error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(name), std::string::npos) << what;
+      EXPECT_NE(what.find("chunk 0 says it holds 4177461868 bytes, but only 27 follow"), std::string::npos) << what;
+    }
+  }
+}
+
 // ---- glTF files written by hand ---------------------------------------------------------------------------------
 
 // A glTF 2.0 scene for one test: a unit quad in the XZ plane (positions, TEXCOORD_0, indices) as mesh i for each
