@@ -170,6 +170,11 @@ LightmapGeometry gather(const scene::Scene& scene, const std::string& name, int 
   return g;
 }
 
+// A lightmap's byte cap: `per_texel` bytes a texel, and at least `least`.
+size_t per_texel_cap(double per_texel, size_t least, int width, int height) {
+  return std::max(least, static_cast<size_t>(per_texel * static_cast<double>(width) * static_cast<double>(height)));
+}
+
 // The four texels and weights of a clamp-to-edge bilinear lookup at texel-space point p.
 std::array<std::pair<size_t, double>, 4> bilinear(const Point2& p, int width, int height) {
   const double x = p.x - 0.5, y = p.y - 0.5;
@@ -319,10 +324,8 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
     throw std::invalid_argument("SeamStitcher: lookup_bytes_per_texel must be finite and at least 0");
   }
   static_assert(kLookupPointBytes == sizeof(Pair) + 8 * sizeof(Tap));
-  const auto lookup_budget =
-      std::max(static_cast<double>(options.min_lookup_bytes),
-               options.lookup_bytes_per_texel * static_cast<double>(width) * static_cast<double>(height));
-  double lookup_bytes = 0;  // counted at kLookupPointBytes a point
+  const size_t lookup_budget = per_texel_cap(options.lookup_bytes_per_texel, options.min_lookup_bytes, width, height);
+  size_t lookup_bytes = 0;  // counted at kLookupPointBytes a point
   // Each texel's unknown, numbered in order of first use; a dense map (4 bytes a texel, allocated once per
   // lightmap, unless it has no seam) where a page's seams read millions of taps.
   constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
@@ -332,7 +335,7 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
     // Points spaced at most half a texel on either side, ends included.
     const double length = std::max(distance(s.a0, s.a1), distance(s.b0, s.b1));
     const int segments = std::max(1, static_cast<int>(std::ceil(2 * length)));
-    const double bytes = static_cast<double>(segments + 1) * kLookupPointBytes;
+    const size_t bytes = static_cast<size_t>(segments + 1) * kLookupPointBytes;
     if (lookup_bytes + bytes > lookup_budget) {
       ++seams_over_budget_;
       continue;
@@ -477,7 +480,7 @@ SeamStitcher::Block SeamStitcher::build_block(size_t k) const {
         add(taps_[j].unknown - lo, options_.seam_weight * mine.weight * taps_[j].weight);
       }
     }
-    add(r, validity_[texels_[lo + r]] ? options_.valid_weight : options_.dilated_weight);
+    add(r, texel_weight(lo + r));
     std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     for (const auto& [c, sum] : row) {
       if (c == r) b.diagonal[r] = sum;
@@ -495,8 +498,7 @@ size_t SeamStitcher::Block::bytes() const {
 }
 
 size_t SeamStitcher::max_factor_bytes() const {
-  return std::max(options_.min_factor_bytes,
-                  static_cast<size_t>(options_.factor_bytes_per_texel * static_cast<double>(width_) * height_));
+  return per_texel_cap(options_.factor_bytes_per_texel, options_.min_factor_bytes, width_, height_);
 }
 
 // Each component's matrix, factored within its budget and dropped. Components are taken in order, kChunk at a time
@@ -587,7 +589,7 @@ void SeamStitcher::mismatch(const image::FloatImage& image, double scale, double
 void SeamStitcher::multiply(size_t k, const uint8_t* held, const double* p, double* q) const {
   const uint32_t lo = component_start_[k], n = component_start_[k + 1] - lo;
   for (uint32_t i = 0; i < n; ++i) {
-    q[i] = (validity_[texels_[lo + i]] ? options_.valid_weight : options_.dilated_weight) * p[i];
+    q[i] = texel_weight(lo + i) * p[i];
   }
   for (uint32_t pair = component_pairs_[k]; pair < component_pairs_[k + 1]; ++pair) {
     const Pair& pr = pairs_[pair];
@@ -616,7 +618,7 @@ int SeamStitcher::conjugate_gradients(size_t k, const double* b, const uint8_t* 
   // The diagonal: c_i + w_seam Σ_k r_ki² (each pair has one tap per unknown).
   std::vector<double> diagonal(n);
   for (uint32_t i = 0; i < n; ++i) {
-    diagonal[i] = validity_[texels_[lo + i]] ? options_.valid_weight : options_.dilated_weight;
+    diagonal[i] = texel_weight(lo + i);
   }
   for (uint32_t pair = component_pairs_[k]; pair < component_pairs_[k + 1]; ++pair) {
     for (uint32_t t = pairs_[pair].first; t < pairs_[pair].first + pairs_[pair].count; ++t) {

@@ -205,6 +205,10 @@ class SeamStitcher {
   void build_system();
   size_t max_factor_bytes() const;
   bool factored(size_t k) const { return k < factors_.size() && factors_[k].size() > 0; }
+  // c_i of unknown u: how firmly its texel keeps its baked value.
+  double texel_weight(uint32_t u) const {
+    return validity_[texels_[u]] ? options_.valid_weight : options_.dilated_weight;
+  }
   // Component k's change d[lo, hi) for the right-hand side b[lo, hi) of one channel whose baked values are x0.
   ComponentSolve solve_component(size_t k, const std::vector<double>& x0, bool non_negative,
                                  const std::vector<double>& b, std::vector<double>& d) const;
