@@ -10,6 +10,7 @@
 #include "bakers/lightmap/lightmap_image.h"
 #include "bakers/lightmap/lightmap_results.h"
 #include "bakers/lightmap/lightmap_state.h"
+#include "bakers/lightmap/seams.h"
 #include "bakers/lightmap/texels.h"
 #include "bakers/math/rgb.h"
 #include "bakers/scene/scene.h"
@@ -114,6 +115,8 @@ void count_triangles(const std::vector<uint64_t>& mesh_triangles, const std::vec
   }
 }
 
+uint64_t seam_stitcher_bytes(uint64_t texels) { return SeamStitcher::bytes_bound(texels, kStitchedChannels); }
+
 LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size) {
   LightmapMemoryEstimate e;
   e.tile_size = tile_size;
@@ -138,8 +141,8 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   // One page's results while it is written, and the outputs held: one page's when they stream, every page's
   // otherwise (counted per lightmap below when untiled).
   const double page_bytes =
-      (e.results_bytes_per_texel + (job.seams ? kSeamBytesPerTexel : 0.0) + (job.streamed ? per_texel_outputs : 0.0)) *
-      static_cast<double>(largest);
+      (e.results_bytes_per_texel + (job.streamed ? per_texel_outputs : 0.0)) * static_cast<double>(largest) +
+      (job.seams ? static_cast<double>(seam_stitcher_bytes(largest)) : 0.0);
   const bool all_outputs_here = !job.streamed && tile_size > 0;
   const uint64_t outputs_held =
       static_cast<uint64_t>(all_outputs_here ? per_texel_outputs * static_cast<double>(all) : 0.0);

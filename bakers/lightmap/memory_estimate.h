@@ -9,8 +9,9 @@
 //    known before the bake): its sample points (samples_per_texel of them) and the bake's state, held to the end; while
 //    that lightmap is rasterized and probed for leaks, the fragments (twice, while sorted) and the leak results; then
 //    one page's results (lightmap_results.h) at a time while the pages are written, with its seams' stitcher (its
-//    lookups, matrix and factors: kSeamBytesPerTexel); and the output images, raw and encoded: one page's when the
-//    outputs stream (bake::BakeControl::output_sink), else every page's, which the bake then holds until it returns.
+//    lookups, matrix and factors, at most seam_stitcher_bytes); and the output images, raw and encoded: one page's when
+//    the outputs stream (bake::BakeControl::output_sink), else every page's, which the bake then holds until it
+//    returns.
 //  - tiled (tile_size > 0: a page is sampled a tile of tile_size² texels at a time, lightmap_bake.cpp): the state and
 //    the set-up's transient of one tile, the results of one page, the outputs as above, and the tiles' bins of
 //    triangles. Light tracing is off in a tiled bake (its sums would be held for every texel), so its bytes are not
@@ -74,14 +75,12 @@ inline constexpr uint64_t kProbeBytes = 4096;
 // The probe placement's world-space copy of each traced triangle (three points).
 inline constexpr uint64_t kProbePlacementBytesPerTriangle = 72;
 
-// The seam stitcher of one lightmap while it is written, per texel of the lightmap: its factors, bounded by
-// StitchOptions::factor_bytes_per_texel (80; a lightmap beyond it solves the rest by CG), and its lookups (bounded by
-// lookup_bytes_per_texel, 48) and vectors, ~95 bytes per texel along a seam, whose share of a page depends on the
-// charts. Whatever the seams, a large lightmap's stitcher holds at most about 225 bytes a texel; this counts 150, 80
-// for the factors and 70 for the rest, which covers what the generated level needs (tests/bench/seam_bench: 18 to 34
-// bytes per texel beside the factors on its 2048² pages, 57 on a 696² page of small charts; with them, 53 to 105 and
-// 137).
-inline constexpr double kSeamBytesPerTexel = 150;
+// The seam stitcher of one lightmap while it is written: SeamStitcher::bytes_bound for the largest lightmap with
+// the default caps (362 bytes a texel of a large page: its lookups at most 48, its factors and a refactor 96 each,
+// and 122 if every texel were along a seam), stitching images of at most kStitchedChannels channels (irradiance,
+// radiance; AO has one).
+inline constexpr int kStitchedChannels = 3;
+uint64_t seam_stitcher_bytes(uint64_t texels);
 
 struct LightmapMemoryEstimate {
   std::vector<uint64_t> lightmap_bytes;  // per lightmap, in the order given: what its texels cost

@@ -4,16 +4,22 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <memory>
+#include <mutex>
+#include <numeric>
 #include <stdexcept>
 #include <tuple>
 #include <unordered_map>
 #include <utility>
 
 #include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "bakers/math/rgb.h"
 #include "bakers/scene/scene_check.h"
@@ -171,8 +177,8 @@ LightmapGeometry gather(const scene::Scene& scene, const std::string& name, int 
 }
 
 // A lightmap's byte cap: `per_texel` bytes a texel, and at least `least`.
-size_t per_texel_cap(double per_texel, size_t least, int width, int height) {
-  return std::max(least, static_cast<size_t>(per_texel * static_cast<double>(width) * static_cast<double>(height)));
+size_t per_texel_cap(double per_texel, size_t least, uint64_t texels) {
+  return std::max(least, static_cast<size_t>(per_texel * static_cast<double>(texels)));
 }
 
 // The four texels and weights of a clamp-to-edge bilinear lookup at texel-space point p.
@@ -324,24 +330,38 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
     throw std::invalid_argument("SeamStitcher: lookup_bytes_per_texel must be finite and at least 0");
   }
   static_assert(kLookupPointBytes == sizeof(Pair) + 8 * sizeof(Tap));
-  const size_t lookup_budget = per_texel_cap(options.lookup_bytes_per_texel, options.min_lookup_bytes, width, height);
-  size_t lookup_bytes = 0;  // counted at kLookupPointBytes a point
-  // Each texel's unknown, numbered in order of first use; a dense map (4 bytes a texel, allocated once per
-  // lightmap, unless it has no seam) where a page's seams read millions of taps.
-  constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
-  std::vector<uint32_t> unknown_of(seams.empty() ? 0 : validity.size(), kNone);
-  for (const Seam& s : seams) {
-    if (check_seam(s.a0, s.a1, s.b0, s.b1, width, height) != SeamCheck::seam) continue;
-    // Points spaced at most half a texel on either side, ends included.
+  const size_t lookup_budget = per_texel_cap(options.lookup_bytes_per_texel, options.min_lookup_bytes, validity.size());
+  // Points spaced at most half a texel on either side, ends included: segments + 1 of them (0: no lookups).
+  const auto segments_of = [&](const Seam& s) {
+    if (check_seam(s.a0, s.a1, s.b0, s.b1, width, height) != SeamCheck::seam) return 0;
     const double length = std::max(distance(s.a0, s.a1), distance(s.b0, s.b1));
-    const int segments = std::max(1, static_cast<int>(std::ceil(2 * length)));
-    const size_t bytes = static_cast<size_t>(segments + 1) * kLookupPointBytes;
-    if (lookup_bytes + bytes > lookup_budget) {
+    return std::max(1, static_cast<int>(std::ceil(2 * length)));
+  };
+  // Seams are taken in order while their points fit the budget; the lookups are reserved at the most those points
+  // can hold (kLookupPointBytes each), so that they never grow past it.
+  std::vector<uint8_t> used(seams.size(), 0);
+  size_t points = 0;
+  for (size_t i = 0; i < seams.size(); ++i) {
+    const int segments = segments_of(seams[i]);
+    if (segments == 0) continue;
+    if ((points + segments + 1) * kLookupPointBytes > lookup_budget) {
       ++seams_over_budget_;
       continue;
     }
-    lookup_bytes += bytes;
+    points += segments + 1;
+    used[i] = 1;
     ++seams_used_;
+  }
+  pairs_.reserve(points);
+  taps_.reserve(8 * points);
+  // Each texel's unknown, numbered in order of first use; a dense map (4 bytes a texel, allocated once per
+  // lightmap, unless it has no seam) where a page's seams read millions of taps.
+  constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> unknown_of(seams_used_ == 0 ? 0 : validity.size(), kNone);
+  for (size_t i = 0; i < seams.size(); ++i) {
+    if (!used[i]) continue;
+    const Seam& s = seams[i];
+    const int segments = segments_of(s);
     for (int k = 0; k <= segments; ++k) {
       const double t = static_cast<double>(k) / segments;
       const Point2 a{s.a0.x + t * (s.a1.x - s.a0.x), s.a0.y + t * (s.a1.y - s.a0.y)};
@@ -371,14 +391,42 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
       pairs_.push_back({first, static_cast<uint32_t>(taps_.size() - first)});
     }
   }
-  note_peak(unknown_of.capacity() * sizeof(uint32_t) + seams.size() * sizeof(Seam));
+  texels_.shrink_to_fit();
+  note_peak(unknown_of.capacity() * sizeof(uint32_t) + used.capacity() + seams.size() * sizeof(Seam));
   unknown_of = {};
   group_by_component();
 }
 
+// Each term is what the code allocates, in bytes per unknown u (at most one a texel), per texel t, or as the caps:
+// L the lookups (reserved at kLookupPointBytes a point, at most L), F the factors (build_system keeps the factors
+// and what factoring a chunk holds within F; a refactor holds at most what factoring its component did, so F more).
+//  - held throughout: the validity map (t); texels_, component_start_, component_pairs_ and the factors' pointers
+//    (4 + 4 + 4 + 8: at most a component an unknown); the lookups (L); the factors (F).
+//  - reading the seams: the unknowns' map (4t) and texels_ growing (3 × 4u at a reallocation), beside validity and L.
+//  - grouping by component: six maps of the unknowns (24u), component_start_ growing (12u), component_pairs_ and
+//    the slots (8u), the pairs reordered (8 bytes of each point's 72: L / 9), beside validity, texels_ and L.
+//  - a stitch: b, d and x0 (24u) and the channels' values before (4 × channels × u); then either build_system
+//    (each component's entries, 8u, and either its tap indexes in parallel, 16u and 8 bytes a tap of a point's 64:
+//    L × 8 / 9, or the chunks within F) or the solves (each thread's component, at most 65u in all: CG's diagonal
+//    and four vectors, the held marks, three right-hand sides; and one refactor within F).
+size_t SeamStitcher::bytes_bound(uint64_t texels, int channels, const StitchOptions& options) {
+  const double t = static_cast<double>(texels), u = t;
+  const auto lookups =
+      static_cast<double>(per_texel_cap(options.lookup_bytes_per_texel, options.min_lookup_bytes, texels));
+  const auto factors =
+      static_cast<double>(per_texel_cap(options.factor_bytes_per_texel, options.min_factor_bytes, texels));
+  const double held = t + 20 * u + lookups;
+  const double read = t + 4 * t + 12 * u + lookups;
+  const double grouped = t + 4 * u + 24 * u + 12 * u + 8 * u + lookups * 10 / 9;
+  const double stitching = held + (24 + 4.0 * channels) * u;
+  const double planned = stitching + 8 * u + std::max(16 * u + lookups * 8 / 9, factors);
+  const double solved = stitching + 65 * u + 2 * factors;
+  return static_cast<size_t>(std::ceil(std::max({read, grouped, planned, solved})));
+}
+
 size_t SeamStitcher::held_bytes() const {
-  size_t factors = factors_.capacity() * sizeof(EnvelopeCholesky);
-  for (const EnvelopeCholesky& f : factors_) factors += f.bytes();
+  size_t factors = factors_.capacity() * sizeof(factors_[0]);
+  for (const auto& f : factors_) factors += f ? sizeof(EnvelopeCholesky) + f->bytes() : 0;
   return validity_.capacity() +
          (texels_.capacity() + component_start_.capacity() + component_pairs_.capacity()) * sizeof(uint32_t) +
          taps_.capacity() * sizeof(Tap) + pairs_.capacity() * sizeof(Pair) + factors;
@@ -434,32 +482,76 @@ void SeamStitcher::group_by_component() {
   pairs_ = std::move(pairs);
 }
 
+// Each unknown's taps in component k, in pair order: tap[begin[u] .. begin[u + 1]) with each tap's pair.
+SeamStitcher::TapIndex SeamStitcher::index_taps(size_t k) const {
+  const uint32_t lo = component_start_[k], n = component_start_[k + 1] - lo;
+  const uint32_t pair_lo = component_pairs_[k], pair_hi = component_pairs_[k + 1];
+  TapIndex index;
+  index.begin.assign(n + 1, 0);
+  for (uint32_t p = pair_lo; p < pair_hi; ++p) {
+    for (uint32_t t = pairs_[p].first; t < pairs_[p].first + pairs_[p].count; ++t)
+      ++index.begin[taps_[t].unknown - lo + 1];
+  }
+  for (uint32_t u = 0; u < n; ++u) index.begin[u + 1] += index.begin[u];
+  index.tap.resize(index.begin[n]);
+  index.pair.resize(index.begin[n]);
+  std::vector<uint32_t> next(index.begin.begin(), index.begin.end() - 1);
+  for (uint32_t p = pair_lo; p < pair_hi; ++p) {
+    for (uint32_t t = pairs_[p].first; t < pairs_[p].first + pairs_[p].count; ++t) {
+      const uint32_t slot = next[taps_[t].unknown - lo]++;
+      index.tap[slot] = t;
+      index.pair[slot] = p;
+    }
+  }
+  return index;
+}
+
+// The distinct entries of component k's matrix (both triangles, the diagonal included): how large its block is,
+// known before it is built.
+size_t SeamStitcher::count_entries(size_t k, const TapIndex& index) const {
+  const uint32_t lo = component_start_[k], n = component_start_[k + 1] - lo;
+  constexpr uint32_t kUnmarked = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> marked_in(n, kUnmarked);  // per column: the last row that counted it
+  size_t entries = 0;
+  for (uint32_t r = 0; r < n; ++r) {
+    marked_in[r] = r;  // the diagonal
+    ++entries;
+    for (uint32_t e = index.begin[r]; e < index.begin[r + 1]; ++e) {
+      const Pair& p = pairs_[index.pair[e]];
+      for (uint32_t j = p.first; j < p.first + p.count; ++j) {
+        uint32_t& mark = marked_in[taps_[j].unknown - lo];
+        if (mark == r) continue;
+        mark = r;
+        ++entries;
+      }
+    }
+  }
+  return entries;
+}
+
+// What building and factoring a component of n unknowns, `taps` taps and `entries` matrix entries holds beside its
+// factor's values: the index of its taps with the marks that count the entries, its block (reserved exactly), and
+// the factor's rows and working space.
+size_t SeamStitcher::factoring_bytes(size_t n, size_t taps, size_t entries) {
+  const size_t index = (n + 1 + 2 * taps + 2 * n) * sizeof(uint32_t);  // begin, tap, pair; next or the marks
+  const size_t block = (n + 1 + entries) * sizeof(uint32_t) + (entries + n) * sizeof(double);
+  return index + block + sizeof(EnvelopeCholesky) + EnvelopeCholesky::bytes_for(n, 0) +
+         n * EnvelopeCholesky::kWorkBytesPerRow;
+}
+
 // The normal matrix's entries are the products of each lookup pair's taps and each unknown's own weight. Row r is
 // summed from the pairs that read unknown r, in pair order, its own weight last, and ordered by column: the same
 // matrix on every run. Built a component at a time, in its own numbering (row and column i is unknown lo + i), so
 // that only the components CG solves keep theirs.
 SeamStitcher::Block SeamStitcher::build_block(size_t k) const {
   const uint32_t lo = component_start_[k], n = component_start_[k + 1] - lo;
-  const uint32_t pair_lo = component_pairs_[k], pair_hi = component_pairs_[k + 1];
-  // The taps of each unknown, in pair order: taps_of[tap_begin[u] .. tap_begin[u + 1]), with each tap's pair.
-  std::vector<uint32_t> tap_begin(n + 1, 0);
-  for (uint32_t p = pair_lo; p < pair_hi; ++p) {
-    for (uint32_t t = pairs_[p].first; t < pairs_[p].first + pairs_[p].count; ++t)
-      ++tap_begin[taps_[t].unknown - lo + 1];
-  }
-  for (uint32_t u = 0; u < n; ++u) tap_begin[u + 1] += tap_begin[u];
-  std::vector<uint32_t> taps_of(tap_begin[n]), pair_of(tap_begin[n]);
-  std::vector<uint32_t> next(tap_begin.begin(), tap_begin.end() - 1);
-  for (uint32_t p = pair_lo; p < pair_hi; ++p) {
-    for (uint32_t t = pairs_[p].first; t < pairs_[p].first + pairs_[p].count; ++t) {
-      const uint32_t slot = next[taps_[t].unknown - lo]++;
-      taps_of[slot] = t;
-      pair_of[slot] = p;
-    }
-  }
+  const TapIndex index = index_taps(k);
+  const size_t entries = count_entries(k, index);
   Block b;
   b.row_start.assign(n + 1, 0);
   b.diagonal.assign(n, 0.0);
+  b.col.reserve(entries);
+  b.value.reserve(entries);
   std::vector<std::pair<uint32_t, double>> row;  // (column, sum) in order of first contribution
   const auto add = [&row](uint32_t c, double v) {
     for (auto& [col, sum] : row) {
@@ -473,9 +565,9 @@ SeamStitcher::Block SeamStitcher::build_block(size_t k) const {
   };
   for (uint32_t r = 0; r < n; ++r) {
     row.clear();
-    for (uint32_t e = tap_begin[r]; e < tap_begin[r + 1]; ++e) {
-      const Tap& mine = taps_[taps_of[e]];
-      const Pair& p = pairs_[pair_of[e]];
+    for (uint32_t e = index.begin[r]; e < index.begin[r + 1]; ++e) {
+      const Tap& mine = taps_[index.tap[e]];
+      const Pair& p = pairs_[index.pair[e]];
       for (uint32_t j = p.first; j < p.first + p.count; ++j) {
         add(taps_[j].unknown - lo, options_.seam_weight * mine.weight * taps_[j].weight);
       }
@@ -492,47 +584,67 @@ SeamStitcher::Block SeamStitcher::build_block(size_t k) const {
   return b;
 }
 
+size_t SeamStitcher::taps_of(size_t k) const {
+  size_t taps = 0;
+  for (uint32_t p = component_pairs_[k]; p < component_pairs_[k + 1]; ++p) taps += pairs_[p].count;
+  return taps;
+}
+
 size_t SeamStitcher::Block::bytes() const {
   return (row_start.capacity() + col.capacity()) * sizeof(uint32_t) +
          (value.capacity() + diagonal.capacity()) * sizeof(double);
 }
 
 size_t SeamStitcher::max_factor_bytes() const {
-  return per_texel_cap(options_.factor_bytes_per_texel, options_.min_factor_bytes, width_, height_);
+  return per_texel_cap(options_.factor_bytes_per_texel, options_.min_factor_bytes, validity_.size());
 }
 
-// Each component's matrix, factored within its budget and dropped. Components are taken in order, kChunk at a time
-// (factored in parallel, then kept in order while the factors held stay within max_factor_bytes): the same
-// components are factored on every run. The rest are solved by CG from the lookups. While a chunk is decided its
-// factors are held beside those kept, and two threads hold a matrix each: counted as the chunk's two largest.
-void SeamStitcher::build_system() {
+// Each component's matrix, factored within its budget and dropped. What factoring a component holds (its block, its
+// factor at the most values allowed, their working space) is known before its block is built (count_entries), so
+// components are taken in order into chunks of at most kChunk whose reservations fit beside the factors kept, and a
+// chunk is factored in parallel: the factors kept and everything a chunk holds while it is factored stay within
+// max_factor_bytes, on any number of threads. A component whose reservation does not fit what is left goes alone, its
+// factor allowed what is left (not factored if that is too little). The same components are factored on every run;
+// the rest are solved by CG from the lookups. Refactoring a component with values held at 0 (solve_component) holds
+// what factoring it did, so at most max_factor_bytes beside the factors kept.
+void SeamStitcher::build_system(size_t beside) {
   if (system_built_) return;
   constexpr size_t kChunk = 16;
   const size_t components = component_start_.size() - 1;
   const size_t max_bytes = max_factor_bytes();
+  std::vector<size_t> entries(components);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k < range.end(); ++k) entries[k] = count_entries(k, index_taps(k));
+  });
+  note_peak(beside + entries.capacity() * sizeof(size_t));
   factors_.resize(components);
-  size_t kept = 0;
-  for (size_t first = 0; first < components; first += kChunk) {
-    const size_t last = std::min(components, first + kChunk);
-    std::vector<size_t> block_bytes(last - first, 0);
-    tbb::parallel_for(tbb::blocked_range<size_t>(first, last), [&](const tbb::blocked_range<size_t>& range) {
-      for (size_t k = range.begin(); k < range.end(); ++k) {
-        const Block b = build_block(k);
-        block_bytes[k - first] = b.bytes();
-        const uint32_t n = component_start_[k + 1] - component_start_[k];
-        const double budget = options_.factor_budget * static_cast<double>(b.col.size());
-        factors_[k].factor({b.row_start, b.col, b.value, 0, n}, static_cast<size_t>(budget));
+  size_t kept = 0;  // the factors' bytes, as held_bytes counts them
+  for (size_t k = 0; k < components;) {
+    std::vector<std::pair<size_t, size_t>> chunk;  // (component, the most values its factor may hold)
+    size_t reserved = 0;
+    for (; k < components && chunk.size() < kChunk; ++k) {
+      const uint32_t n = component_start_[k + 1] - component_start_[k];
+      const size_t fixed = factoring_bytes(n, taps_of(k), entries[k]);
+      const size_t left = max_bytes - std::min(max_bytes, kept + reserved);
+      const auto wanted = static_cast<size_t>(options_.factor_budget * static_cast<double>(entries[k]));
+      const size_t allowed = left > fixed ? std::min(wanted, (left - fixed) / sizeof(double)) : 0;
+      if (allowed < wanted && !chunk.empty()) break;  // alone in the next chunk, with all that is left then
+      if (allowed < n) continue;                      // its factor cannot hold even the diagonal: CG
+      chunk.push_back({k, allowed});
+      reserved += fixed + allowed * sizeof(double);
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunk.size()), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t c = range.begin(); c < range.end(); ++c) {
+        const auto [j, allowed] = chunk[c];
+        const Block b = build_block(j);
+        auto f = std::make_unique<EnvelopeCholesky>();
+        const uint32_t n = component_start_[j + 1] - component_start_[j];
+        if (f->factor({b.row_start, b.col, b.value, 0, n}, allowed)) factors_[j] = std::move(f);
       }
     });
-    std::sort(block_bytes.begin(), block_bytes.end(), std::greater<>());
-    note_peak(block_bytes[0] + (block_bytes.size() > 1 ? block_bytes[1] : 0));
-    for (size_t k = first; k < last; ++k) {
-      if (!factored(k)) continue;
-      if (kept + factors_[k].bytes() > max_bytes) {
-        factors_[k] = EnvelopeCholesky();
-        continue;
-      }
-      kept += factors_[k].bytes();
+    note_peak(beside + entries.capacity() * sizeof(size_t) + reserved);
+    for (const auto& [j, allowed] : chunk) {
+      if (factors_[j]) kept += sizeof(EnvelopeCholesky) + factors_[j]->bytes();
     }
   }
   system_built_ = true;
@@ -540,7 +652,7 @@ void SeamStitcher::build_system() {
 
 size_t SeamStitcher::factor_bytes() const {
   size_t bytes = 0;
-  for (const EnvelopeCholesky& f : factors_) bytes += f.bytes();
+  for (const auto& f : factors_) bytes += f ? f->bytes() : 0;
   return bytes;
 }
 
@@ -689,6 +801,37 @@ void hold_at_zero(Block& a, const std::vector<uint8_t>& held, const double* x0, 
 
 }  // namespace
 
+// Lets refactors run together while what they may hold fits a capacity; one alone always runs (it fits: build_system
+// allowed its component that much).
+class SeamStitcher::RefactorGate {
+ public:
+  explicit RefactorGate(size_t capacity) : capacity_(capacity) {}
+  void enter(size_t bytes) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    room_.wait(lock, [&] { return in_use_ == 0 || in_use_ + bytes <= capacity_; });
+    in_use_ += bytes;
+  }
+  void leave(size_t bytes) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      in_use_ -= bytes;
+    }
+    room_.notify_all();
+  }
+
+ private:
+  size_t capacity_, in_use_ = 0;
+  std::mutex mutex_;
+  std::condition_variable room_;
+};
+
+// The most refactoring factored component k holds: its factor again, and what factoring it held, its block's entries
+// taken at their most (the envelope holds the lower triangle and the diagonal, so at most 2 · entries − n of them).
+size_t SeamStitcher::refactor_reservation(size_t k) const {
+  const EnvelopeCholesky& f = *factors_[k];
+  return factoring_bytes(f.size(), taps_of(k), 2 * f.entries() - f.size()) + f.bytes();
+}
+
 // Irradiance, radiance and AO are never negative, but the least-squares fit can take a texel below 0: a dilated
 // texel beside a seam whose sides see very different light (a lit top against a side in shadow, a sampled chart
 // against one a time limit left black) pulls its lookup toward the dark side the cheapest way, through the texel the
@@ -698,14 +841,15 @@ void hold_at_zero(Block& a, const std::vector<uint8_t>& held, const double* x0, 
 // value is ≥ 0 and the others still make the lookups agree, since any values ≥ 0 equal along a seam satisfy it. Each
 // round holds at least one more unknown; past kHoldRounds the remaining negatives are clamped in stitch().
 SeamStitcher::ComponentSolve SeamStitcher::solve_component(size_t k, const std::vector<double>& x0, bool non_negative,
-                                                           const std::vector<double>& b, std::vector<double>& d) const {
+                                                           const std::vector<double>& b, std::vector<double>& d,
+                                                           RefactorGate& gate) const {
   constexpr int kHoldRounds = 16;
   const uint32_t lo = component_start_[k], hi = component_start_[k + 1], n = hi - lo;
   ComponentSolve out;
   const size_t cg_bytes = 5 * static_cast<size_t>(n) * sizeof(double);  // its diagonal, r, z, p and q
   if (factored(k)) {
     std::copy(b.begin() + lo, b.begin() + hi, d.begin() + lo);
-    factors_[k].solve(&d[lo]);
+    factors_[k]->solve(&d[lo]);
   } else {
     out.iterations = conjugate_gradients(k, &b[lo], nullptr, &d[lo], out.converged);
     out.bytes = cg_bytes;
@@ -724,18 +868,26 @@ SeamStitcher::ComponentSolve SeamStitcher::solve_component(size_t k, const std::
     if (newly == 0) break;
     out.held_at_zero += newly;
     std::vector<double> rhs(b.begin() + lo, b.begin() + hi);
-    EnvelopeCholesky f;
+    out.bytes = std::max(out.bytes, held.capacity() + rhs.capacity() * sizeof(double));
     if (factored(k)) {
-      Block a = build_block(k);
-      hold_at_zero(a, held, &x0[lo], rhs);
-      const auto budget = static_cast<size_t>(options_.factor_budget * static_cast<double>(a.col.size()));
-      const bool solved = f.factor({a.row_start, a.col, a.value, 0, n}, budget);
-      out.bytes = std::max(out.bytes, a.bytes() + f.bytes() + held.capacity() + rhs.capacity() * sizeof(double));
-      if (solved) {
-        std::copy(rhs.begin(), rhs.end(), d.begin() + lo);
-        f.solve(&d[lo]);
-        continue;
+      // A refactor's block and factor (the same envelope as the factor kept, which build_system allowed with its
+      // block) are the stitch's largest transient: refactors run together only while they fit the factor cap.
+      bool solved = false;
+      const size_t may_hold = refactor_reservation(k);
+      gate.enter(may_hold);
+      {
+        Block a = build_block(k);
+        hold_at_zero(a, held, &x0[lo], rhs);
+        EnvelopeCholesky f;
+        solved = f.factor({a.row_start, a.col, a.value, 0, n}, factors_[k]->entries());
+        out.refactor_bytes = std::max(out.refactor_bytes, a.bytes() + f.bytes());
+        if (solved) {
+          std::copy(rhs.begin(), rhs.end(), d.begin() + lo);
+          f.solve(&d[lo]);
+        }
       }
+      gate.leave(may_hold);
+      if (solved) continue;
       rhs.assign(b.begin() + lo, b.begin() + hi);
     }
     // The held unknowns' fixed change, moved to the right-hand side: rhs −= A d_held.
@@ -753,6 +905,40 @@ SeamStitcher::ComponentSolve SeamStitcher::solve_component(size_t k, const std::
   return out;
 }
 
+// The component solves of one channel, summed: the figures StitchStats reports, and the most bytes the solves can
+// have held at once: the `threads` largest, and the `threads` largest refactors up to the gate's capacity. The same
+// whichever thread solved what.
+SeamStitcher::SolveSummary::SolveSummary(size_t threads) : largest(threads, 0), largest_refactors(threads, 0) {}
+
+void SeamStitcher::SolveSummary::add(const ComponentSolve& one) {
+  iterations = std::max(iterations, one.iterations);
+  converged = converged && one.converged;
+  held_at_zero += one.held_at_zero;
+  keep(largest, one.bytes);
+  keep(largest_refactors, one.refactor_bytes);
+}
+
+void SeamStitcher::SolveSummary::merge(const SolveSummary& other) {
+  iterations = std::max(iterations, other.iterations);
+  converged = converged && other.converged;
+  held_at_zero += other.held_at_zero;
+  for (const size_t bytes : other.largest) keep(largest, bytes);
+  for (const size_t bytes : other.largest_refactors) keep(largest_refactors, bytes);
+}
+
+// `list` stays sorted, largest first, and as long as it began.
+void SeamStitcher::SolveSummary::keep(std::vector<size_t>& list, size_t bytes) {
+  const auto at = std::upper_bound(list.begin(), list.end(), bytes, std::greater<>());
+  if (at == list.end()) return;
+  list.insert(at, bytes);
+  list.pop_back();
+}
+
+size_t SeamStitcher::SolveSummary::bytes_at_once(size_t refactor_capacity) const {
+  const size_t refactors = std::accumulate(largest_refactors.begin(), largest_refactors.end(), size_t{0});
+  return std::accumulate(largest.begin(), largest.end(), std::min(refactors, refactor_capacity));
+}
+
 StitchStats SeamStitcher::stitch(image::FloatImage& image) {
   const auto t0 = std::chrono::steady_clock::now();
   StitchStats s = measure(image);
@@ -764,12 +950,15 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
     for (int c = 0; c < ch; ++c) before[u * ch + c] = image.pixels[static_cast<size_t>(texels_[u]) * ch + c];
   }
   std::vector<double> b(n), d(n), x0(n);
-  // The stitch's own vectors, beside what the stitcher holds.
-  const size_t vector_bytes =
-      (b.capacity() + d.capacity() + x0.capacity()) * sizeof(double) + before.capacity() * sizeof(float);
-  note_peak(vector_bytes);
   const size_t components = component_start_.size() - 1;
-  std::vector<ComponentSolve> solved(components);
+  RefactorGate gate(max_factor_bytes());
+  // Each thread solves one component at a time, and refactors run together only while they fit the factor cap
+  // (RefactorGate): what the solves hold at once is counted by SolveSummary::bytes_at_once.
+  const auto threads = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  // The stitch's own vectors, beside what the stitcher holds.
+  const size_t vector_bytes = (b.capacity() + d.capacity() + x0.capacity()) * sizeof(double) +
+                              before.capacity() * sizeof(float) + 2 * (threads + 1) * threads * sizeof(size_t);
+  note_peak(vector_bytes);
   for (int c = 0; c < ch && n > 0; ++c) {
     bool finite_values = true, non_negative = true;
     for (size_t u = 0; u < n; ++u) {
@@ -792,21 +981,21 @@ StitchStats SeamStitcher::stitch(image::FloatImage& image) {
     }
     // Lookups that agree already (every value 0, as on a page left unsampled) leave nothing to solve.
     if (std::all_of(b.begin(), b.end(), [](double x) { return x == 0; })) continue;
-    build_system();
+    build_system(vector_bytes);
     // Each component on its own (they share no unknown): the result does not depend on the threads.
+    tbb::combinable<SolveSummary> summaries([threads] { return SolveSummary(threads); });
     tbb::parallel_for(tbb::blocked_range<size_t>(0, components), [&](const tbb::blocked_range<size_t>& range) {
-      for (size_t k = range.begin(); k < range.end(); ++k) solved[k] = solve_component(k, x0, non_negative, b, d);
+      SolveSummary& mine = summaries.local();
+      for (size_t k = range.begin(); k < range.end(); ++k) {
+        mine.add(solve_component(k, x0, non_negative, b, d, gate));
+      }
     });
-    // Two threads, each solving one component at a time: counted as the two that held most.
-    size_t most = 0, second = 0;
-    for (const ComponentSolve& one : solved) {
-      s.iterations = std::max(s.iterations, one.iterations);
-      s.converged = s.converged && one.converged;
-      s.held_at_zero += one.held_at_zero;
-      second = std::max(second, std::min(most, one.bytes));
-      most = std::max(most, one.bytes);
-    }
-    note_peak(vector_bytes + most + second);
+    SolveSummary all(threads);
+    summaries.combine_each([&all](const SolveSummary& one) { all.merge(one); });
+    s.iterations = std::max(s.iterations, all.iterations);
+    s.converged = s.converged && all.converged;
+    s.held_at_zero += all.held_at_zero;
+    note_peak(vector_bytes + all.bytes_at_once(max_factor_bytes()));
     constexpr double kMax = std::numeric_limits<float>::max();
     for (size_t u = 0; u < n; ++u) {
       const double value = x0[u] + d[u];

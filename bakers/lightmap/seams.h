@@ -37,6 +37,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -94,18 +95,19 @@ struct StitchOptions {
   // The most values a component's Cholesky factor may hold, per entry of its matrix; a component beyond it (or a
   // budget of 0) is solved by conjugate gradients. The level's components need 1.6 on average, 4.8 at most.
   double factor_budget = 8;
-  // The most bytes all of a lightmap's factors may hold, per texel of the lightmap: components are factored in order
-  // while their factors fit, the rest solved by conjugate gradients, which keep no matrix. A bound on the stitcher's
-  // memory whatever the seams. The level's pages need 35 to 71 (its densest, 2048² with 1.5 M seam unknowns), all
-  // factored within 80; past it CG takes several times as long.
-  double factor_bytes_per_texel = 80;
-  size_t min_factor_bytes = size_t{16} << 20;  // whatever the lightmap's size: a small one's factors are small anyway
+  // The most bytes a lightmap's factors, with what factoring them holds (a component's matrix and working space),
+  // may hold, per texel of the lightmap: components are factored in order while they fit, the rest solved by
+  // conjugate gradients, which keep no matrix. Refactors (values held at 0) run together while they fit it too. The
+  // level's 2048² pages need 35 to 71 for their factors, its 696² page of small charts 80 and its factoring a little
+  // more: all are factored within 96; past it CG takes several times as long.
+  double factor_bytes_per_texel = 96;
+  size_t min_factor_bytes = size_t{1} << 20;  // whatever the lightmap's size: a small one's factors are small anyway
   // The most bytes a lightmap's lookups may hold, per texel of it, counted at the most a lookup point can take (its
   // pair and eight taps, kLookupPointBytes): seams past it, in order, are not stitched (seams_over_budget). The
   // level's 2048² pages need 7 to 18, its 696² page of small charts 24; many tiny charts need most (at least two
   // points a seam).
   double lookup_bytes_per_texel = 48;
-  size_t min_lookup_bytes = size_t{16} << 20;
+  size_t min_lookup_bytes = size_t{1} << 20;  // 14,563 lookup points
   int max_iterations = 2000;    // of conjugate gradients, per channel
   double tolerance = 1e-10;     // relative residual ‖b − A d‖ / ‖b‖ at which CG stops
 };
@@ -158,6 +160,10 @@ class SeamStitcher {
   // The most bytes the stitcher has held at once so far: its lookups, matrix and factors, and the transients of
   // building them and of a stitch.
   size_t peak_bytes() const { return peak_bytes_; }
+  // The most peak_bytes() can reach for a lightmap of `texels` texels stitching images of at most `channels`
+  // channels, whatever its seams (beside the seams passed in): every texel an unknown, the lookups and factors at
+  // their caps.
+  static size_t bytes_bound(uint64_t texels, int channels, const StitchOptions& options = {});
 
  private:
   struct Tap {
@@ -182,10 +188,14 @@ class SeamStitcher {
     std::vector<double> value, diagonal;
     size_t bytes() const;
   };
-  // Per component, its factor, or empty for one solved by CG (from the lookups: no matrix is kept): built by the
+  // Each unknown's taps in one component, in pair order: tap[begin[u] .. begin[u + 1]), each with its pair.
+  struct TapIndex {
+    std::vector<uint32_t> begin, tap, pair;
+  };
+  // Per component, its factor, or none for one solved by CG (from the lookups: no matrix is kept): built by the
   // first stitch with something to solve (build_system).
   bool system_built_ = false;
-  std::vector<EnvelopeCholesky> factors_;
+  std::vector<std::unique_ptr<EnvelopeCholesky>> factors_;
   size_t peak_bytes_ = 0;
 
   // What solving one component of one channel took.
@@ -193,25 +203,50 @@ class SeamStitcher {
     int iterations = 0;       // CG's, the most of any solve (0: factored)
     bool converged = true;    // every CG solve reached the tolerance
     size_t held_at_zero = 0;  // unknowns the fit would have taken below 0 (solve_component)
-    size_t bytes = 0;         // the most it held beside the stitch's vectors
+    size_t bytes = 0;         // the most it held beside the stitch's vectors, but for a refactor
+    size_t refactor_bytes = 0;  // the most a refactor held: a matrix and a factor (RefactorGate)
+  };
+  // The solves of one channel on `threads` threads, summed (stitch).
+  struct SolveSummary {
+    explicit SolveSummary(size_t threads);
+    void add(const ComponentSolve& one);
+    void merge(const SolveSummary& other);
+    // The `threads` largest solves' bytes, and the largest refactors' up to what the gate lets run together.
+    size_t bytes_at_once(size_t refactor_capacity) const;
+
+    int iterations = 0;
+    bool converged = true;
+    size_t held_at_zero = 0;
+    std::vector<size_t> largest, largest_refactors;  // one per thread, largest first
+
+   private:
+    static void keep(std::vector<size_t>& list, size_t bytes);
   };
 
   size_t held_bytes() const;
   // Raises the peak to what is held now and `transient` bytes more.
   void note_peak(size_t transient) { peak_bytes_ = std::max(peak_bytes_, held_bytes() + transient); }
   void group_by_component();
+  TapIndex index_taps(size_t k) const;
+  size_t taps_of(size_t k) const;
+  size_t count_entries(size_t k, const TapIndex& index) const;
+  static size_t factoring_bytes(size_t n, size_t taps, size_t entries);
   Block build_block(size_t k) const;
-  // Factors each component within its budget, in order while the factors fit max_factor_bytes().
-  void build_system();
+  // Factors each component within its budget, in order while the factors and the factoring fit max_factor_bytes();
+  // `beside`: the bytes the caller holds meanwhile.
+  void build_system(size_t beside);
   size_t max_factor_bytes() const;
-  bool factored(size_t k) const { return k < factors_.size() && factors_[k].size() > 0; }
+  bool factored(size_t k) const { return k < factors_.size() && factors_[k] != nullptr; }
   // c_i of unknown u: how firmly its texel keeps its baked value.
   double texel_weight(uint32_t u) const {
     return validity_[texels_[u]] ? options_.valid_weight : options_.dilated_weight;
   }
   // Component k's change d[lo, hi) for the right-hand side b[lo, hi) of one channel whose baked values are x0.
+  // Refactoring a component with values held at 0 passes `gate` (seams.cpp), which bounds the refactors at once.
+  class RefactorGate;
+  size_t refactor_reservation(size_t k) const;
   ComponentSolve solve_component(size_t k, const std::vector<double>& x0, bool non_negative,
-                                 const std::vector<double>& b, std::vector<double>& d) const;
+                                 const std::vector<double>& b, std::vector<double>& d, RefactorGate& gate) const;
   // q = A p over component k's unknowns (p[0] is unknown lo), summed from its lookup pairs: A's rows and columns of
   // `held` unknowns (when given) left out, their q set to 0.
   void multiply(size_t k, const uint8_t* held, const double* p, double* q) const;

@@ -106,6 +106,10 @@ size_t EnvelopeCholesky::bytes() const {
          start_.capacity() * sizeof(size_t) + values_.capacity() * sizeof(double);
 }
 
+size_t EnvelopeCholesky::bytes_for(size_t rows, size_t entries) {
+  return 2 * rows * sizeof(uint32_t) + (rows + 1) * sizeof(size_t) + entries * sizeof(double);
+}
+
 bool EnvelopeCholesky::factor(const SymmetricBlock& a, size_t max_entries) {
   clear();
   const uint32_t n = a.hi - a.lo;

@@ -39,6 +39,10 @@ class EnvelopeCholesky {
   size_t size() const { return order_.size(); }
   size_t entries() const { return values_.size(); }  // the envelope's values, diagonal included
   size_t bytes() const;                              // held, with the ordering and the runs' bounds
+  // What a factor of `rows` rows and `entries` values holds (bytes()), and the most factor() holds beside it while it
+  // works, per row: the ordering's degrees, marks and queues, or the rows' new positions.
+  static size_t bytes_for(size_t rows, size_t entries);
+  static constexpr size_t kWorkBytesPerRow = 32;
 
  private:
   std::vector<uint32_t> order_;  // new position → row − lo

@@ -100,8 +100,8 @@ TEST(MemoryLimit, AJobThatCanNeverFitIsRefusedAtSubmitNamingTheField) {
 // A VDB medium over the quad whose grids alone exceed a limit the rest of the job fits in many times over: refused at
 // submit naming the medium's file, and taken and baked under an ample limit.
 TEST(MemoryLimit, AJobWithALargeVdbMediumIsRefusedAtSubmitNamingItsFile) {
-  // 128³ voxels of density 0.1 over 2 m: 4,096 leaves, about 10 MB of OpenVDB's trees (vdb_medium_memory_test.cpp).
-  const int n = 128;
+  // 192³ voxels of density 0.1 over 2 m: 13,824 leaves, about 34 MB of OpenVDB's trees (vdb_medium_memory_test.cpp).
+  const int n = 192;
   const std::vector<uint8_t> vdb = volume::write_vdb({volume::make_vdb_grid(
       "density", n, n, n, std::vector<float>(static_cast<size_t>(n) * n * n, 0.1f), 2.0 / n, {-1, 0, -1})});
   const std::string blob(vdb.begin(), vdb.end());

@@ -164,7 +164,7 @@ TEST(MemoryEstimateModel, CountsTheSeamStitcherOfTheLargestPage) {
     without.seams = false;
     const double difference = static_cast<double>(estimate_memory(job, tile_size).total) -
                               static_cast<double>(estimate_memory(without, tile_size).total);
-    EXPECT_NEAR(difference, kSeamBytesPerTexel * 2048 * 2048, 1.0) << "tile size " << tile_size;
+    EXPECT_NEAR(difference, static_cast<double>(seam_stitcher_bytes(2048 * 2048)), 1.0) << "tile size " << tile_size;
   }
 }
 

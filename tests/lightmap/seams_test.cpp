@@ -19,6 +19,7 @@
 
 #include "bakers/lightmap/dilate.h"
 #include "bakers/lightmap/lightmap_bake.h"
+#include "bakers/math/constants.h"
 #include "bakers/math/rgb.h"
 #include "bakers/math/rng.h"
 #include "tests/support/test_scenes.h"
@@ -395,8 +396,9 @@ struct TwoComponentPage {
   }
 };
 
-// The factors kept stay within the byte cap: components are factored in order while they fit, the rest solved by CG
-// from the lookups, to the same values (CG's tolerance, as in FactoredAndConjugateGradientSolutionsAgree).
+// The factors kept, with what factoring them holds (each component's matrix and working space), stay within the byte
+// cap: components are factored in order while they fit, the rest solved by CG from the lookups, to the same values
+// (CG's tolerance, as in FactoredAndConjugateGradientSolutionsAgree).
 TEST(SeamStitcher, FactorsBeyondTheByteCapAreSolvedByConjugateGradients) {
   const TwoComponentPage page;
   const auto stitched = [&](size_t cap, image::FloatImage& out) {
@@ -413,12 +415,21 @@ TEST(SeamStitcher, FactorsBeyondTheByteCapAreSolvedByConjugateGradients) {
   image::FloatImage all, one, none;
   const auto [all_stats, both_bytes] = stitched(size_t{1} << 30, all);
   ASSERT_EQ(all_stats.factored, 2u);
-  // The two components are the same seam shifted: their factors hold the same bytes.
-  const auto [one_stats, one_bytes] = stitched(both_bytes / 2, one);
+  // The least cap that factors one component: more than its factor alone, less than both factors with their
+  // factoring.
+  size_t lo = 0, hi = size_t{1} << 30;  // factors none at lo, at least one at hi
+  while (hi - lo > 1) {
+    const size_t mid = lo + (hi - lo) / 2;
+    image::FloatImage scratch;
+    (stitched(mid, scratch).first.factored > 0 ? hi : lo) = mid;
+  }
+  const auto [one_stats, one_bytes] = stitched(hi, one);
   EXPECT_EQ(one_stats.factored, 1u);
+  // The two components are the same seam shifted: their factors hold the same bytes.
   EXPECT_EQ(one_bytes, both_bytes / 2);
+  EXPECT_GT(hi, one_bytes);
   EXPECT_GT(one_stats.iterations, 0);
-  const auto [none_stats, no_bytes] = stitched(both_bytes / 2 - 1, none);
+  const auto [none_stats, no_bytes] = stitched(hi - 1, none);
   EXPECT_EQ(none_stats.factored, 0u);
   EXPECT_EQ(no_bytes, 0u);
   double largest_change = 0;
@@ -487,6 +498,85 @@ TEST(SeamStitcher, PeakBytesCountWhatTheStitcherMustHold) {
   by_cg.stitch(iterative.image);
   EXPECT_GE(factored.peak_bytes(), std::max(built, lookups + n * (3 + 1) * 8));
   EXPECT_GE(by_cg.peak_bytes(), lookups + n * (3 + 5) * 8);
+}
+
+// A page of nothing but seams: `count` short seams (half a texel to two texels long) at random places, the other
+// side's start either anywhere (so that the seams join into one component) or within the same 8 × 8-texel tile (many
+// small components). Random values, a fifth of them 0, so that fits go below 0 and values are held there.
+struct SeamsEverywhere {
+  int size;
+  std::vector<uint8_t> valid;
+  image::FloatImage image;
+  std::vector<Seam> seams;
+
+  SeamsEverywhere(int size_, size_t count, bool in_tiles) : size(size_) {
+    Pcg32 rng(in_tiles ? 11 : 12);
+    valid.assign(static_cast<size_t>(size) * size, 0);
+    image.width = image.height = size;
+    image.channels = 3;
+    image.pixels.resize(valid.size() * 3);
+    for (size_t t = 0; t < valid.size(); ++t) {
+      valid[t] = rng.uniform() < 0.7;
+      for (int c = 0; c < 3; ++c) image.pixels[t * 3 + c] = rng.uniform() < 0.2 ? 0.0f : 10 * rng.uniform();
+    }
+    const auto inside = [&](double v) { return std::clamp(v, 0.0, static_cast<double>(size)); };
+    const auto along = [&](Point2 p) {
+      const double angle = 2 * kPi * rng.uniform(), length = 0.5 + 1.5 * rng.uniform();
+      return Point2{inside(p.x + length * std::cos(angle)), inside(p.y + length * std::sin(angle))};
+    };
+    for (size_t k = 0; k < count; ++k) {
+      Seam s;
+      s.a0 = {size * rng.uniform(), size * rng.uniform()};
+      s.a1 = along(s.a0);
+      if (in_tiles) {
+        s.b0 = {std::floor(s.a0.x / 8) * 8 + 1 + 6 * rng.uniform(), std::floor(s.a0.y / 8) * 8 + 1 + 6 * rng.uniform()};
+        s.a0 = {std::floor(s.a0.x / 8) * 8 + 1 + 6 * rng.uniform(), std::floor(s.a0.y / 8) * 8 + 1 + 6 * rng.uniform()};
+        s.a1 = {std::clamp(s.a1.x, std::floor(s.a0.x / 8) * 8 + 1, std::floor(s.a0.x / 8) * 8 + 7),
+                std::clamp(s.a1.y, std::floor(s.a0.y / 8) * 8 + 1, std::floor(s.a0.y / 8) * 8 + 7)};
+      } else {
+        s.b0 = {size * rng.uniform(), size * rng.uniform()};
+      }
+      s.b1 = along(s.b0);
+      if (in_tiles) {
+        s.b1 = {std::clamp(s.b1.x, std::floor(s.b0.x / 8) * 8 + 1, std::floor(s.b0.x / 8) * 8 + 7),
+                std::clamp(s.b1.y, std::floor(s.b0.y / 8) * 8 + 1, std::floor(s.b0.y / 8) * 8 + 7)};
+      }
+      seams.push_back(s);
+    }
+  }
+};
+
+// Whatever the seams, the stitcher holds no more than SeamStitcher::bytes_bound: pages whose every texel is read by
+// some lookup, with more seams than the lookup budget takes, solved by CG as one component or factored as many (the
+// factor cap reached or not), with values held at 0. The memory is the point, not the fit: CG stops at 50 iterations.
+TEST(SeamStitcher, HoldsNoMoreThanItsBoundWhateverTheSeams) {
+  constexpr int kSize = 64;
+  constexpr size_t kTexels = kSize * kSize;
+  for (const bool in_tiles : {false, true}) {
+    for (const double factor_bytes : {80.0, 8.0}) {
+      SeamsEverywhere page(kSize, kTexels / 2, in_tiles);
+      StitchOptions options;
+      options.min_factor_bytes = options.min_lookup_bytes = 0;
+      options.factor_bytes_per_texel = factor_bytes;
+      options.max_iterations = 50;
+      SeamStitcher stitcher(page.seams, kSize, kSize, page.valid, options);
+      const StitchStats s = stitcher.stitch(page.image);
+      const size_t bound = SeamStitcher::bytes_bound(kTexels, 3, options);
+      const size_t beside = page.seams.size() * (sizeof(Seam) + 1);  // the seams given, and which are used
+      std::printf(
+          "%s, factors within %.0f B/texel: %.2f unknowns a texel, %zu of %zu seams, %zu components (%zu "
+          "factored), %zu values held at 0; peak %.1f B/texel, bound %.1f\n",
+          in_tiles ? "in tiles" : "anywhere", factor_bytes, double(stitcher.unknowns()) / kTexels,
+          stitcher.seams_used(), page.seams.size(), s.components, s.factored, s.held_at_zero,
+          double(stitcher.peak_bytes()) / kTexels, double(bound) / kTexels);
+      EXPECT_GT(stitcher.seams_over_budget(), 0u);
+      EXPECT_GT(stitcher.unknowns(), kTexels / 2);
+      EXPECT_GT(s.held_at_zero, 0u);
+      if (in_tiles) EXPECT_GT(s.factored, 0u);
+      EXPECT_LE(stitcher.factor_bytes(), static_cast<size_t>(factor_bytes * kTexels));
+      EXPECT_LE(stitcher.peak_bytes(), bound + beside);
+    }
+  }
 }
 
 TEST(SeamStitcher, OneChannelImages) {
