@@ -40,27 +40,50 @@ std::string read_file(const std::string& path) {
 
 // Binary glTF (GLB, by its magic, whatever the file's name): a 12-byte header, then chunks of an 8-byte header (length,
 // type) and `length` bytes. Assimp allocates each chunk's length as its header gives it before reading, so a damaged
-// header of a few hundred bytes can ask for 4 GB: refuse a chunk that claims more than the file holds after it.
-void check_glb_chunks(const std::string& path) {
+// header of a few hundred bytes can ask for 4 GB: a chunk that claims more than the file holds after it is refused.
+struct GlbChunk {
+  char type[4];
+  uint64_t offset;  // of its data
+  uint32_t length;
+};
+
+// The chunks of `path`, or none if it is not GLB (or cannot be read: Assimp reports that). Throws for a chunk longer
+// than what follows its header.
+std::vector<GlbChunk> glb_chunks(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) return;  // Assimp reports what it cannot read
+  if (!in) return {};
   const auto size = static_cast<uint64_t>(in.tellg());
   char header[12];
   in.seekg(0);
-  if (size < sizeof header || !in.read(header, sizeof header) || std::memcmp(header, "glTF", 4) != 0) return;
+  if (size < sizeof header || !in.read(header, sizeof header) || std::memcmp(header, "glTF", 4) != 0) return {};
+  std::vector<GlbChunk> chunks;
   uint64_t offset = sizeof header;
-  for (int chunk = 0; offset + 8 <= size; ++chunk) {
-    uint32_t length = 0;
+  while (offset + 8 <= size) {
+    GlbChunk chunk{};
     in.seekg(static_cast<std::streamoff>(offset));
-    if (!in.read(reinterpret_cast<char*>(&length), sizeof length)) return;
-    if (length > size - offset - 8) {
-      throw std::runtime_error("cannot import " + path + ": its GLB chunk " + std::to_string(chunk) +
-                               " says it holds " + std::to_string(length) + " bytes, but only " +
+    if (!in.read(reinterpret_cast<char*>(&chunk.length), sizeof chunk.length) || !in.read(chunk.type, 4)) break;
+    if (chunk.length > size - offset - 8) {
+      throw std::runtime_error("cannot import " + path + ": its GLB chunk " + std::to_string(chunks.size()) +
+                               " says it holds " + std::to_string(chunk.length) + " bytes, but only " +
                                std::to_string(size - offset - 8) +
                                " follow its header; the file is truncated or damaged: export it again");
     }
-    offset += 8 + static_cast<uint64_t>(length);
+    chunk.offset = offset + 8;
+    chunks.push_back(chunk);
+    offset = chunk.offset + chunk.length;
   }
+  return chunks;
+}
+
+// A GLB's JSON (its first chunk, by the format), or "" if it has none.
+std::string glb_json(const std::string& path) {
+  const std::vector<GlbChunk> chunks = glb_chunks(path);
+  if (chunks.empty() || std::memcmp(chunks[0].type, "JSON", 4) != 0) return "";
+  std::ifstream in(path, std::ios::binary);
+  std::string json(chunks[0].length, '\0');
+  in.seekg(static_cast<std::streamoff>(chunks[0].offset));
+  if (!in.read(json.data(), static_cast<std::streamsize>(json.size()))) return "";
+  return json;
 }
 
 std::string directory_of(const std::string& path) {
@@ -127,13 +150,8 @@ GltfExtras gltf_extras(const std::string& path) {
   if (ends_with(path, ".gltf")) {
     json = read_file(path);
   } else if (ends_with(path, ".glb")) {
-    const std::string glb = read_file(path);
-    // GLB: 12-byte header, then chunk 0 (length, type "JSON", data).
-    if (glb.size() < 20 || glb.compare(16, 4, "JSON") != 0) return out;
-    uint32_t length = 0;
-    std::memcpy(&length, glb.data() + 12, 4);
-    if (length > glb.size() - 20) return out;
-    json = glb.substr(20, length);
+    json = glb_json(path);
+    if (json.empty()) return out;
   } else {
     return out;
   }
@@ -226,7 +244,7 @@ class Importer {
     // FlipUVs: Assimp turns every format's UVs to v = 0 at the bottom; kiln keeps glTF's v = 0 at the top.
     const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_JoinIdenticalVertices |
                            aiProcess_FlipUVs | aiProcess_ValidateDataStructure;
-    check_glb_chunks(path_);
+    glb_chunks(path_);  // throws for a chunk longer than the file, before Assimp allocates it
     scene_ = importer.ReadFile(path_, flags);
     if (!scene_ || !scene_->mRootNode) {
       throw std::runtime_error("cannot import " + path_ + ": " + importer.GetErrorString());

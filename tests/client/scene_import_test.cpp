@@ -257,17 +257,20 @@ struct GltfScene {
     }
   }
 
-  fs::path write(const fs::path& dir, const std::string& name) const {
+  // The quad's positions, UVs and indices (104 bytes), then `bin`.
+  std::string buffer() const {
     const float positions[12] = {0, 0, 0, 1, 0, 0, 1, 0, -1, 0, 0, -1};  // counter-clockwise seen from +Y
     const float uvs[8] = {0, 0, 1, 0, 1, 1, 0, 1};
     const uint32_t indices[6] = {0, 1, 2, 0, 2, 3};
-    std::string buffer(104, '\0');
-    std::memcpy(buffer.data(), positions, 48);
-    std::memcpy(buffer.data() + 48, uvs, 32);
-    std::memcpy(buffer.data() + 80, indices, 24);
-    buffer += bin;
-    std::ofstream(dir / (name + ".bin"), std::ios::binary) << buffer;
+    std::string out(104, '\0');
+    std::memcpy(out.data(), positions, 48);
+    std::memcpy(out.data() + 48, uvs, 32);
+    std::memcpy(out.data() + 80, indices, 24);
+    return out + bin;
+  }
 
+  // The glTF JSON, its buffer at `buffer_uri` (none: a GLB's own binary chunk).
+  std::string json(const std::string& buffer_uri, size_t buffer_size) const {
     auto list = [](const std::vector<std::string>& items) {
       std::string out;
       for (const std::string& item : items) out += (out.empty() ? "" : ", ") + item;
@@ -286,10 +289,11 @@ struct GltfScene {
     for (size_t i = 0; i < images.size(); ++i) textures.push_back("{\"source\": " + std::to_string(i) + "}");
     std::vector<std::string> root_list;
     for (int r : roots) root_list.push_back(std::to_string(r));
+    const std::string uri = buffer_uri.empty() ? "" : "\"uri\": \"" + buffer_uri + "\", ";
     std::ostringstream json;
     json << R"({"asset": {"version": "2.0"},)"
          << "\"extensionsUsed\": " << extensions_used << ","
-         << "\"buffers\": [{\"uri\": \"" << name << ".bin\", \"byteLength\": " << buffer.size() << "}],"
+         << "\"buffers\": [{" << uri << "\"byteLength\": " << buffer_size << "}],"
          << "\"bufferViews\": " << list(views) << ","
          << R"("accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",)"
          << R"( "min": [0, 0, -1], "max": [1, 0, 0]},)"
@@ -300,8 +304,37 @@ struct GltfScene {
     if (!materials.empty()) json << "\"materials\": " << list(materials) << ",";
     if (!lights.empty()) json << "\"extensions\": {\"KHR_lights_punctual\": {\"lights\": " << list(lights) << "}},";
     json << "\"nodes\": " << list(nodes) << ", \"scenes\": [{\"nodes\": " << list(root_list) << "}], \"scene\": 0}";
+    return json.str();
+  }
+
+  // NAME.gltf with its buffer NAME.bin.
+  fs::path write(const fs::path& dir, const std::string& name) const {
+    const std::string bytes = buffer();
+    std::ofstream(dir / (name + ".bin"), std::ios::binary) << bytes;
     const fs::path path = dir / (name + ".gltf");
-    std::ofstream(path) << json.str();
+    std::ofstream(path) << json(name + ".bin", bytes.size());
+    return path;
+  }
+
+  // NAME.glb: the JSON chunk (padded with spaces) and the buffer's chunk (padded with zeros), as the GLB format has it.
+  fs::path write_glb(const fs::path& dir, const std::string& name) const {
+    std::string bytes = buffer();
+    std::string text = json("", bytes.size());
+    while (text.size() % 4) text += ' ';
+    while (bytes.size() % 4) bytes += '\0';
+    std::string glb = "glTF";
+    const auto u32 = [&glb](size_t v) {
+      const auto w = static_cast<uint32_t>(v);
+      glb.append(reinterpret_cast<const char*>(&w), 4);
+    };
+    u32(2);
+    u32(12 + 8 + text.size() + 8 + bytes.size());
+    u32(text.size());
+    glb += "JSON" + text;
+    u32(bytes.size());
+    glb += std::string("BIN\0", 4) + bytes;
+    const fs::path path = dir / (name + ".glb");
+    std::ofstream(path, std::ios::binary) << glb;
     return path;
   }
 };
@@ -565,6 +598,29 @@ TEST(SceneImport, GltfEmissiveMaterialsTakeTheirStrengthByIndex) {
   EXPECT_EQ(j.materials(1).name(), "lamp");
   EXPECT_EQ(j.materials(2).name(), "lamp#1");  // kiln wants material names unique
   EXPECT_NO_THROW(translated(j));
+}
+
+// The extensions Assimp does not pass on are read from a GLB's JSON chunk as from a .gltf: emissive strength and
+// KHR_materials_specular's "no specular lobe".
+TEST(SceneImport, GlbExtensionsAreReadFromItsJsonChunk) {
+  test::TempDir dir("kiln-import");
+  GltfScene g;
+  g.extensions_used = R"(["KHR_materials_emissive_strength", "KHR_materials_specular"])";
+  g.materials = {
+      R"({"emissiveFactor": [1, 0.5, 0.25], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}})",
+      R"({"name": "matte", "pbrMetallicRoughness": {"metallicFactor": 0},)"
+      R"( "extensions": {"KHR_materials_specular": {"specularColorFactor": [0, 0, 0]}}})",
+      R"({"name": "plain", "pbrMetallicRoughness": {"metallicFactor": 0}})"};
+  g.place_each_mesh();
+  const client::ImportedScene s = client::import_scene(g.write_glb(dir.path(), "extras").string());
+  ASSERT_GE(s.job.materials_size(), 2);
+  const v1::SceneMaterial& lamp = s.job.materials(0);
+  EXPECT_NEAR(lamp.emission().r(), 4, kFloat32 * 4);  // emissiveFactor × emissiveStrength
+  EXPECT_NEAR(lamp.emission().g(), 2, kFloat32 * 4);
+  EXPECT_NEAR(lamp.emission().b(), 1, kFloat32 * 4);
+  EXPECT_FALSE(material_named(s.job, "matte").bsdf().has_specular());  // specularColorFactor 0
+  EXPECT_TRUE(material_named(s.job, "plain").bsdf().has_specular());   // glTF's 4 % dielectric
+  EXPECT_NO_THROW(translated(s.job));
 }
 
 TEST(SceneImport, GltfMeshPlacedByTwoNodesGetsALightmapOfItsOwnPerNodeAndItsName) {
