@@ -138,8 +138,8 @@ struct WorldTriangle {
   }
 };
 
-// A sample before it is placed: compact, so that sorting by texel moves little memory. `world` indexes the block's
-// WorldTriangles until the blocks are joined, then all of them.
+// A sample before it is placed: compact, so that sorting by texel moves little memory. `world` indexes its block's
+// WorldTriangles.
 struct Fragment {
   uint32_t texel;
   uint32_t world;
@@ -482,6 +482,8 @@ std::vector<BlockResult> rasterize_blocks(const Rasterizer& rasterizer, const st
     stop.check();  // thrown out of parallel_for, which cancels the other blocks
     const size_t begin = block * kBlock, end = std::min(total, begin + kBlock);
     BlockResult& result = results[block];
+    // Reserved at once for every triangle of the block: growing, the vector would hold up to three times that.
+    result.triangles.reserve(end - begin);
     const auto global = [&](size_t i) -> size_t { return subset ? (*subset)[i] : i; };
     // The instance holding the block's first triangle, then walk forward (the subset is ascending).
     size_t j = static_cast<size_t>(std::upper_bound(jobs.begin(), jobs.end(), global(begin),
@@ -500,10 +502,9 @@ std::vector<BlockResult> rasterize_blocks(const Rasterizer& rasterizer, const st
 
 // Counting sort of the blocks' fragments by texel, stable (scene order within a texel), with out.first set: each
 // fragment's `texel` becomes its index among the samples, so that the samples can be made in place, block by block.
-// The blocks' triangles are joined into `world` and the fragments renumbered to match. Merges the blocks' reports.
-// Returns the number of fragments.
+// Merges the blocks' reports. Returns the number of fragments.
 size_t sort_fragments(std::vector<BlockResult>& results, const std::string& name, LightmapTexels& out,
-                      std::vector<WorldTriangle>& world, const bake::StopCheck& stop) {
+                      const bake::StopCheck& stop) {
   // One block may hold every fragment of a map (a few big triangles): polled every 2^16 fragments.
   constexpr size_t kPoll = size_t{1} << 16;
   const size_t texels = out.texel_count();
@@ -514,13 +515,9 @@ size_t sort_fragments(std::vector<BlockResult>& results, const std::string& name
     merge(out.report, r.report);
     for (size_t j = 0; j < r.fragments.size(); ++j) {
       if (j % kPoll == 0) stop.check();
-      Fragment& f = r.fragments[j];
-      ++count[f.texel + 1];
-      f.world += static_cast<uint32_t>(world.size());
+      ++count[r.fragments[j].texel + 1];
     }
     fragments += r.fragments.size();
-    world.insert(world.end(), r.triangles.begin(), r.triangles.end());
-    r.triangles = {};
   }
   if (fragments > std::numeric_limits<uint32_t>::max()) {
     throw std::invalid_argument("lightmap '" + name + "': " + std::to_string(fragments) +
@@ -717,9 +714,8 @@ void rasterize_lightmap_into(LightmapTexels& out, const scene::Scene& scene, con
   }
   std::vector<BlockResult> results =
       rasterize_blocks(Rasterizer(scene, options, stop), jobs, total, options.triangles, stop);
-  std::vector<WorldTriangle> world;
   stop.check();
-  const size_t fragments = sort_fragments(results, name, out, world, stop);
+  const size_t fragments = sort_fragments(results, name, out, stop);
   stop.check();
   // The samples, each written once at its sorted place, in parallel over the blocks. Reused storage keeps its
   // capacity: a tiled bake rasterizes every tile into the last one's.
@@ -727,6 +723,7 @@ void rasterize_lightmap_into(LightmapTexels& out, const scene::Scene& scene, con
   bake::resize_polled(out.samples, fragments, stop);
   tbb::parallel_for(size_t{0}, results.size(), [&](size_t block) {
     const std::vector<Fragment>& block_fragments = results[block].fragments;
+    const std::vector<WorldTriangle>& world = results[block].triangles;
     for (size_t j = 0; j < block_fragments.size(); ++j) {
       if (j % 4096 == 0) stop.check();
       const Fragment& f = block_fragments[j];
