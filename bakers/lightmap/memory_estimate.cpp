@@ -21,9 +21,20 @@
 namespace kiln::lightmap {
 namespace {
 
-// The 2 × 2 stratified pattern gives a texel 4 points; texels on a chart's edges get a point from each triangle that
-// covers them, so a fifth on average is a generous allowance for meshes of small triangles.
+// The 2 × 2 stratified pattern gives a texel 4 points, and a triangle that covers part of a texel without holding
+// one of its pattern points gives it one more (texels.cpp: Rasterizer::texel). Where triangles are larger than
+// texels those are the texels on a chart's edges, so a fifth point a texel on average is a generous allowance; where
+// they are smaller (a dense mesh on a small lightmap) nearly every triangle gives one: measured 1.06 and 1.1 a
+// triangle (memory_estimate_test), counted as 1.5 (a triangle smaller than a texel overlaps one to four). A texel's
+// points are therefore counted as 5 a texel, or 4 a texel and 1.5 a triangle where that is more.
 constexpr double kSamplesPerTexel = 5;
+constexpr double kPatternPointsPerTexel = 4;
+constexpr double kEdgePointsPerTriangle = 1.5;
+
+// The points beyond kSamplesPerTexel a texel that `triangles` smaller than texels may give `texels` texels.
+double edge_points_beyond(double texels, double triangles) {
+  return std::max(0.0, kEdgePointsPerTriangle * triangles - (kSamplesPerTexel - kPatternPointsPerTexel) * texels);
+}
 
 // The tracer per triangle at its peak, while Embree builds the BVH (RTC_BUILD_QUALITY_HIGH, spatial splits): measured
 // on a 359 400-triangle sphere (memory_estimate_test.cpp), the tracer holds 224 bytes a triangle once built (BVH,
@@ -115,7 +126,11 @@ void count_triangles(const std::vector<uint64_t>& mesh_triangles, const std::vec
   }
 }
 
-uint64_t seam_stitcher_bytes(uint64_t texels) { return SeamStitcher::bytes_bound(texels, kStitchedChannels); }
+uint64_t seam_bytes(uint64_t texels, uint64_t triangles) {
+  const auto seams = static_cast<uint64_t>(kMostSeamsPerTriangle * static_cast<double>(triangles));
+  return std::max<uint64_t>(seam_search_bytes_bound(triangles),
+                            SeamStitcher::bytes_bound(texels, kStitchedChannels, seams));
+}
 
 LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size) {
   LightmapMemoryEstimate e;
@@ -129,20 +144,34 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   e.results_bytes_per_texel = static_cast<double>(LightmapResults::bytes_per_texel(result_channels(job)));
   // The set-up's transient for one lightmap (or tile) at a time: the fragments, or the leak results (of the samples
   // probed: at most all, each with its index) and the samples kept.
-  const double per_texel_transient =
-      kSamplesPerTexel *
+  const double per_point_transient =
       std::max<double>(raster_bytes_per_fragment(), sizeof(LeakResult) + sizeof(uint32_t) + sizeof(uint8_t));
+  const double per_texel_transient = kSamplesPerTexel * per_point_transient;
   e.bytes_per_texel_in_flight = per_texel_held + per_texel_transient;
-  uint64_t largest = 0, all = 0;
+  uint64_t largest = 0, smallest = job.lightmap_texels.empty() ? 0 : job.lightmap_texels.front(), all = 0;
   for (uint64_t texels : job.lightmap_texels) {
     largest = std::max(largest, texels);
+    smallest = std::min(smallest, texels);
     all += texels;
   }
-  // One page's results while it is written, and the outputs held: one page's when they stream, every page's
-  // otherwise (counted per lightmap below when untiled).
+  // Tiled: the largest tile of any page is in flight.
+  const uint64_t side = static_cast<uint64_t>(std::max(tile_size, 0));
+  uint64_t tile_texels = 0;
+  for (uint64_t texels : job.lightmap_texels) {
+    if (side == 0) break;
+    const auto page_side = static_cast<uint64_t>(std::ceil(std::sqrt(static_cast<double>(texels))));
+    const uint64_t per_side = (page_side + side - 1) / side;
+    e.tiles += per_side * per_side;
+    tile_texels = std::max(tile_texels, std::min(texels, side * side));
+  }
+  // The tracer holds its triangles once per instanced mesh; the rasterizer, the bins and the seam search see the
+  // baking instances'.
+  const auto or_traced = [&](uint64_t n) { return n > 0 ? n : job.traced_triangles; };
+  // One page's results while it is written, with its seams (of at most every baking triangle), and the outputs
+  // held: one page's when they stream, every page's otherwise (counted per lightmap below when untiled).
   const double page_bytes =
       (e.results_bytes_per_texel + (job.streamed ? per_texel_outputs : 0.0)) * static_cast<double>(largest) +
-      (job.seams ? static_cast<double>(seam_stitcher_bytes(largest)) : 0.0);
+      (job.seams ? static_cast<double>(seam_bytes(largest, or_traced(job.baked_triangles))) : 0.0);
   const bool all_outputs_here = !job.streamed && tile_size > 0;
   const uint64_t outputs_held =
       static_cast<uint64_t>(all_outputs_here ? per_texel_outputs * static_cast<double>(all) : 0.0);
@@ -150,12 +179,18 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
   e.bytes_per_triangle = kTracerPerTriangle + static_cast<double>(raster_bytes_per_triangle());
   double triangle_bytes = e.bytes_per_triangle;
   if (tile_size > 0) triangle_bytes += kBinBytesPerTriangle;
-  // The tracer holds its triangles once per instanced mesh; the rasterizer and the bins see the baking instances'.
-  const auto or_traced = [&](uint64_t n) { return static_cast<double>(n > 0 ? n : job.traced_triangles); };
-  e.scene_bytes = static_cast<uint64_t>(kTracerPerTriangle * or_traced(job.held_triangles) +
+  // The sample points of triangles smaller than a texel, beyond those counted per texel, with their transient: all
+  // the baking triangles in the texels held (every lightmap's untiled, the smallest of which may hold them all; the
+  // largest tile when tiled, a smaller one holding fewer pattern points).
+  const double edge_points = edge_points_beyond(static_cast<double>(tile_size > 0 ? tile_texels : smallest),
+                                                static_cast<double>(or_traced(job.baked_triangles)));
+  e.edge_point_bytes = static_cast<uint64_t>(edge_points * (per_sample + per_point_transient));
+  e.scene_bytes = e.edge_point_bytes +
+                  static_cast<uint64_t>(kTracerPerTriangle * static_cast<double>(or_traced(job.held_triangles)) +
                                         kTracerPerInstance * static_cast<double>(job.instances) +
                                         kPerTracedTriangle * static_cast<double>(job.traced_triangles) +
-                                        (triangle_bytes - kTracerPerTriangle) * or_traced(job.baked_triangles) +
+                                        (triangle_bytes - kTracerPerTriangle) *
+                                            static_cast<double>(or_traced(job.baked_triangles)) +
                                         kMeshCopies * static_cast<double>(job.mesh_blob_bytes));
   const double encoded = static_cast<double>(job.texture_blob_bytes + job.environment_blob_bytes);
   e.input_bytes =
@@ -176,15 +211,7 @@ LightmapMemoryEstimate estimate_memory(const LightmapJobSize& job, int tile_size
     for (uint64_t b : e.lightmap_bytes) e.total += b;
     return e;
   }
-  // Tiled: one tile's state in flight (and its set-up transient), the largest tile of any page.
-  const uint64_t side = static_cast<uint64_t>(tile_size);
-  uint64_t tile_texels = 0;
-  for (uint64_t texels : job.lightmap_texels) {
-    const auto page_side = static_cast<uint64_t>(std::ceil(std::sqrt(static_cast<double>(texels))));
-    const uint64_t per_side = (page_side + side - 1) / side;
-    e.tiles += per_side * per_side;
-    tile_texels = std::max(tile_texels, std::min(texels, side * side));
-  }
+  // Tiled: one tile's state in flight (and its set-up transient).
   e.bytes_per_texel = e.bytes_per_texel_in_flight;
   for (uint64_t texels : job.lightmap_texels) {
     // What a page costs while it bakes: a tile in flight and the page's results.

@@ -6,18 +6,21 @@
 // The model, every figure from the sizes of the structures the bake allocates (memory_estimate.cpp):
 //  - untiled (tile_size 0), per texel of each lightmap (every texel counted, as if the charts covered the whole
 //    map; with atlas pages, each of max_pages pages of page_size² texels, since how many the packer fills is not
-//    known before the bake): its sample points (samples_per_texel of them) and the bake's state, held to the end; while
+//    known before the bake): its sample points (5 of them) and the bake's state, held to the end; while
 //    that lightmap is rasterized and probed for leaks, the fragments (twice, while sorted) and the leak results; then
-//    one page's results (lightmap_results.h) at a time while the pages are written, with its seams' stitcher (its
-//    lookups, matrix and factors, at most seam_stitcher_bytes); and the output images, raw and encoded: one page's when
-//    the outputs stream (bake::BakeControl::output_sink), else every page's, which the bake then holds until it
-//    returns.
+//    one page's results (lightmap_results.h) at a time while the pages are written, with its seams (their search over
+//    the page's triangles, then the stitcher's lookups, matrix and factors: at most seam_bytes, counting every baking
+//    triangle); and the output images, raw and encoded: one page's when the outputs stream
+//    (bake::BakeControl::output_sink), else every page's, which the bake then holds until it returns.
 //  - tiled (tile_size > 0: a page is sampled a tile of tile_size² texels at a time, lightmap_bake.cpp): the state and
 //    the set-up's transient of one tile, the results of one page, the outputs as above, and the tiles' bins of
 //    triangles. Light tracing is off in a tiled bake (its sums would be held for every texel), so its bytes are not
 //    counted there.
 //  - per traced triangle: Embree's BVH, vertex and index buffers and the tracer's own records, at the peak of the
-//    BVH build, and a world-space copy while the triangle is rasterized.
+//    BVH build, and a world-space copy while the triangle is rasterized. Triangles smaller than a texel give the
+//    texels they cover a sample point each (1.5 a triangle counted), more than the 5 a texel counted above where a
+//    dense mesh bakes into few texels: those beyond are counted as if all were in the texels held at once
+//    (edge_point_bytes).
 //  - the input blobs as bytes, the meshes decoded (in double precision, in up to three copies while the scene is
 //    checked) and the textures decoded at 24 bytes a texel, their texel count taken as the encoded size (an 8-bit
 //    image compresses to about a byte a texel). That last term is an estimate, not a bound: an image that compresses
@@ -75,16 +78,18 @@ inline constexpr uint64_t kProbeBytes = 4096;
 // The probe placement's world-space copy of each traced triangle (three points).
 inline constexpr uint64_t kProbePlacementBytesPerTriangle = 72;
 
-// The seam stitcher of one lightmap while it is written: SeamStitcher::bytes_bound for the largest lightmap with
-// the default caps (362 bytes a texel of a large page: its lookups at most 48, its factors and a refactor 96 each,
-// and 122 if every texel were along a seam), stitching images of at most kStitchedChannels channels (irradiance,
-// radiance; AO has one).
+// The seams of one lightmap while it is written, the larger of two stages: the search for them (seam_search_bytes_bound
+// for its `triangles`: 636 bytes a triangle, whatever the geometry), then the stitcher (SeamStitcher::bytes_bound with
+// the default caps: 362 bytes a texel of a large page, its lookups at most 48, its factors and a refactor 96 each, and
+// 122 if every texel were along a seam) with the most seams those triangles can have held while it reads them.
+// Images of at most kStitchedChannels channels are stitched (irradiance, radiance; AO has one).
 inline constexpr int kStitchedChannels = 3;
-uint64_t seam_stitcher_bytes(uint64_t texels);
+uint64_t seam_bytes(uint64_t texels, uint64_t triangles);
 
 struct LightmapMemoryEstimate {
   std::vector<uint64_t> lightmap_bytes;  // per lightmap, in the order given: what its texels cost
-  uint64_t scene_bytes = 0;              // the meshes decoded and the tracer
+  uint64_t scene_bytes = 0;              // the meshes decoded, the tracer and edge_point_bytes
+  uint64_t edge_point_bytes = 0;         // the sample points of triangles smaller than a texel, beyond 5 a texel
   uint64_t input_bytes = 0;              // the blobs and the decoded textures and environment
   uint64_t probe_bytes = 0;              // the light probes and their placement, when the job bakes any
   std::vector<uint64_t> medium_bytes;    // per VDB medium, in the order of LightmapJobSize::vdb_media

@@ -43,6 +43,10 @@ class Welder {
     cells_.reserve(points);
   }
 
+  // A point's node in the map as malloc holds it: its key (24 bytes), id and next pointer (no cached hash: KeyHash
+  // is noexcept) and malloc's 8-byte header, rounded up to 16.
+  static constexpr size_t kNodeBytes = 48;
+
   uint32_t weld(const Vec3& p) {
     const std::array<int64_t, 3> c{cell(p.x), cell(p.y), cell(p.z)};
     if (const auto own = cells_.find(Key{c[0], c[1], c[2]}); own != cells_.end()) return own->second;
@@ -71,7 +75,7 @@ class Welder {
     bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
   };
   struct KeyHash {
-    size_t operator()(const Key& k) const {
+    size_t operator()(const Key& k) const noexcept {
       uint64_t h = static_cast<uint64_t>(k.x) * 0x9E3779B97F4A7C15ull;
       h ^= static_cast<uint64_t>(k.y) + 0x632BE59BD9B4E019ull + (h << 6) + (h >> 2);
       h ^= static_cast<uint64_t>(k.z) + 0x85157AF5ull + (h << 6) + (h >> 2);
@@ -112,25 +116,14 @@ SeamCheck check_seam(const Point2& a0, const Point2& a1, const Point2& b0, const
   return SeamCheck::seam;
 }
 
-// The usable triangles' vertices of the instances of lightmap `name`, in scene order: world positions (for the
-// weld's tolerance, computed first) and the triangles that use them.
-struct LightmapGeometry {
-  struct Triangle {
-    TriangleRef ref;
-    std::array<Vec3, 3> world;
-    std::array<Point2, 3> uv;  // texel space
-  };
-  std::vector<Triangle> triangles;
-  double scale = 0;  // the larger of the bounding box's extent and the largest absolute coordinate
+// Calls visit(ref, world, uv) for each usable triangle of the baking instances of lightmap `name`, in scene order,
+// with its world positions and texel-space UVs (lightmap_scale_offset applied), and returns how many were left out
+// (no lightmap UVs, an index out of range, a non-finite value). mask_of(mesh): that mesh's per-triangle bake flags,
+// or nullptr (every triangle bakes; so does one past the flags' end).
+template <typename MaskOf, typename Visit>
+size_t for_each_lightmap_triangle(const scene::Scene& scene, const std::string& name, int width, int height,
+                                  const MaskOf& mask_of, const Visit& visit) {
   size_t skipped = 0;
-};
-
-LightmapGeometry gather(const scene::Scene& scene, const std::string& name, int width, int height,
-                        const std::vector<std::vector<uint8_t>>* bake_mask) {
-  LightmapGeometry g;
-  Vec3 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
-  Vec3 hi = -lo;
-  double largest = 0;
   for (size_t i = 0; i < scene.instances.size(); ++i) {
     const scene::Instance& inst = scene.instances[i];
     if (!inst.bake || scene::resolved_lightmap_name(scene, inst) != name) continue;
@@ -138,16 +131,15 @@ LightmapGeometry gather(const scene::Scene& scene, const std::string& name, int 
     const scene::Mesh& mesh = scene.meshes[inst.mesh];
     const size_t triangles = mesh.indices.size() / 3;
     if (mesh.lightmap_uv.size() != mesh.positions.size()) {
-      g.skipped += triangles;
+      skipped += triangles;
       continue;
     }
-    const std::vector<uint8_t>* mask =
-        bake_mask && static_cast<size_t>(inst.mesh) < bake_mask->size() ? &(*bake_mask)[inst.mesh] : nullptr;
+    const std::vector<uint8_t>* mask = mask_of(static_cast<size_t>(inst.mesh));
     const auto& so = inst.lightmap_scale_offset;
     for (size_t t = 0; t < triangles; ++t) {
       if (mask && t < mask->size() && !(*mask)[t]) continue;
-      LightmapGeometry::Triangle tri;
-      tri.ref = {static_cast<uint32_t>(i), static_cast<uint32_t>(inst.mesh), static_cast<uint32_t>(t)};
+      std::array<Vec3, 3> world;
+      std::array<Point2, 3> uv;
       bool ok = true;
       for (int k = 0; k < 3 && ok; ++k) {
         const uint32_t v = mesh.indices[3 * t + k];
@@ -155,25 +147,19 @@ LightmapGeometry gather(const scene::Scene& scene, const std::string& name, int 
           ok = false;
           break;
         }
-        const Point2& uv = mesh.lightmap_uv[v];
-        tri.world[k] = inst.to_world.point(mesh.positions[v]);
-        tri.uv[k] = {(so[0] * uv.x + so[2]) * width, (so[1] * uv.y + so[3]) * height};
-        ok = finite(tri.world[k]) && finite(tri.uv[k]);
+        world[k] = inst.to_world.point(mesh.positions[v]);
+        uv[k] = {(so[0] * mesh.lightmap_uv[v].x + so[2]) * width, (so[1] * mesh.lightmap_uv[v].y + so[3]) * height};
+        ok = finite(world[k]) && finite(uv[k]);
       }
       if (!ok) {
-        ++g.skipped;
+        ++skipped;
         continue;
       }
-      for (const Vec3& p : tri.world) {
-        lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-        hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-        largest = std::max({largest, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-      }
-      g.triangles.push_back(tri);
+      visit(TriangleRef{static_cast<uint32_t>(i), static_cast<uint32_t>(inst.mesh), static_cast<uint32_t>(t)}, world,
+            uv);
     }
   }
-  if (!g.triangles.empty()) g.scale = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, largest});
-  return g;
+  return skipped;
 }
 
 // A lightmap's byte cap: `per_texel` bytes a texel, and at least `least`.
@@ -218,53 +204,67 @@ double brightness(const image::FloatImage& img, const std::vector<uint8_t>& vali
   return b > 0 ? b : 1.0;
 }
 
-}  // namespace
+// The sides of the lightmap's world edges, each triangle's three (less any collapsed in world space), in scene order.
+// A first pass finds the weld's scale (and how many triangles there are, to reserve the sides at once); the second
+// welds. Nothing per triangle is kept between them: the positions are transformed again rather than held.
+template <typename MaskOf>
+std::vector<EdgeSide> edge_sides(const scene::Scene& scene, const std::string& name, int width, int height,
+                                 const MaskOf& mask_of, SeamSearch& out) {
+  Vec3 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
+  Vec3 hi = -lo;
+  double largest = 0;
+  size_t triangles = 0;
+  out.skipped_triangles =
+      for_each_lightmap_triangle(scene, name, width, height, mask_of, [&](TriangleRef, const auto& world, const auto&) {
+        ++triangles;
+        for (const Vec3& p : world) {
+          lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+          hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+          largest = std::max({largest, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+        }
+      });
+  std::vector<EdgeSide> sides;
+  if (triangles == 0) return sides;
+  // Near-exact welding: vertices split at UV seams carry bit-identical positions, but two instances (or two meshes
+  // exported apart) meeting at an edge reach it through different transforms and float rounding. A millionth of
+  // the lightmap's extent, or of its largest coordinate (some 16 float ulps there), covers that rounding and is far
+  // below any edge a mesh models.
+  const double scale = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, largest});
+  Welder welder(kWeldTolerance * scale > 0 ? kWeldTolerance * scale : std::numeric_limits<double>::min(),
+                triangles);  // indexed meshes: about as many vertices as triangles, or half
+  sides.reserve(3 * triangles);
+  for_each_lightmap_triangle(
+      scene, name, width, height, mask_of, [&](TriangleRef ref, const auto& world, const auto& uv) {
+        std::array<uint32_t, 3> w{};
+        for (int k = 0; k < 3; ++k) w[k] = welder.weld(world[k]);
+        for (int k = 0; k < 3; ++k) {
+          const int j = (k + 1) % 3;
+          if (w[k] == w[j]) continue;  // a collapsed edge: no length in world space
+          const bool flip = w[k] > w[j];
+          sides.push_back({flip ? w[j] : w[k], flip ? w[k] : w[j], flip ? uv[j] : uv[k], flip ? uv[k] : uv[j], ref});
+        }
+      });
+  return sides;
+}
 
-SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int width, int height,
-                      const std::vector<std::vector<uint8_t>>* bake_mask) {
+template <typename MaskOf>
+SeamSearch search_seams(const scene::Scene& scene, const std::string& name, int width, int height,
+                        const MaskOf& mask_of) {
   if (width < 1 || height < 1) {
     throw std::invalid_argument("find_seams: lightmap '" + name + "' must be at least 1x1 texels, got " +
                                 std::to_string(width) + "x" + std::to_string(height));
   }
   SeamSearch out;
-  const LightmapGeometry g = gather(scene, name, width, height, bake_mask);
-  out.skipped_triangles = g.skipped;
-  if (g.triangles.empty()) return out;
-  // Near-exact welding: vertices split at UV seams carry bit-identical positions, but two instances (or two meshes
-  // exported apart) meeting at an edge reach it through different transforms and float rounding. A millionth of
-  // the lightmap's extent, or of its largest coordinate (some 16 float ulps there), covers that rounding and is far
-  // below any edge a mesh models.
-  Welder welder(kWeldTolerance * g.scale > 0 ? kWeldTolerance * g.scale : std::numeric_limits<double>::min(),
-                g.triangles.size());  // indexed meshes: about as many vertices as triangles, or half
-  std::vector<EdgeSide> sides;
-  sides.reserve(3 * g.triangles.size());
-  for (const LightmapGeometry::Triangle& tri : g.triangles) {
-    std::array<uint32_t, 3> w{};
-    for (int k = 0; k < 3; ++k) w[k] = welder.weld(tri.world[k]);
-    for (int k = 0; k < 3; ++k) {
-      const int j = (k + 1) % 3;
-      if (w[k] == w[j]) continue;  // a collapsed edge: no length in world space
-      EdgeSide s;
-      const bool flip = w[k] > w[j];
-      s.w0 = flip ? w[j] : w[k];
-      s.w1 = flip ? w[k] : w[j];
-      s.uv0 = flip ? tri.uv[j] : tri.uv[k];
-      s.uv1 = flip ? tri.uv[k] : tri.uv[j];
-      s.triangle = tri.ref;
-      sides.push_back(s);
-    }
-  }
+  const std::vector<EdgeSide> sides = edge_sides(scene, name, width, height, mask_of, out);
   // Group the sides by world edge; stable, so each group keeps scene order.
   std::vector<uint32_t> order(sides.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<uint32_t>(i);
   std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
     return std::tie(sides[a].w0, sides[a].w1) < std::tie(sides[b].w0, sides[b].w1);
   });
-  struct Found {
-    uint32_t first_side;
-    Seam seam;
-  };
-  std::vector<Found> found;
+  // Each seam as its two sides, the earlier first: a group keeps scene order, so sorting the pairs puts the seams in
+  // scene order of their first side, and those of one side (all in its group) in order of the second.
+  std::vector<std::pair<uint32_t, uint32_t>> found;
   for (size_t i = 0; i < order.size();) {
     size_t j = i + 1;
     while (j < order.size() && sides[order[j]].w0 == sides[order[i]].w0 && sides[order[j]].w1 == sides[order[i]].w1) {
@@ -274,35 +274,68 @@ SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int wi
     ++out.edges;
     if (n == 2) ++out.shared_edges;
     if (n > 2) ++out.non_manifold;
-    if (n >= 2 && n <= 4) {
-      for (size_t a = i; a < j; ++a) {
-        for (size_t b = a + 1; b < j; ++b) {
-          const EdgeSide& sa = sides[order[a]];
-          const EdgeSide& sb = sides[order[b]];
-          if (same_uv(sa, sb, kSeamUvTolerance)) continue;
-          switch (check_seam(sa.uv0, sa.uv1, sb.uv0, sb.uv1, width, height)) {
-            case SeamCheck::degenerate: ++out.degenerate; break;
-            case SeamCheck::outside: ++out.outside; break;
-            case SeamCheck::seam:
-              found.push_back({std::min(order[a], order[b]), {sa.uv0, sa.uv1, sb.uv0, sb.uv1, sa.triangle, sb.triangle}});
-              break;
-          }
+    for (size_t a = i; n <= kMostSidesOfASeamEdge && a < j; ++a) {
+      for (size_t b = a + 1; b < j; ++b) {
+        const EdgeSide& sa = sides[order[a]];
+        const EdgeSide& sb = sides[order[b]];
+        if (same_uv(sa, sb, kSeamUvTolerance)) continue;
+        switch (check_seam(sa.uv0, sa.uv1, sb.uv0, sb.uv1, width, height)) {
+          case SeamCheck::degenerate:
+            ++out.degenerate;
+            break;
+          case SeamCheck::outside:
+            ++out.outside;
+            break;
+          case SeamCheck::seam:
+            found.emplace_back(order[a], order[b]);
+            break;
         }
       }
     }
     i = j;
   }
-  std::stable_sort(found.begin(), found.end(), [](const Found& a, const Found& b) { return a.first_side < b.first_side; });
+  order = {};
+  std::sort(found.begin(), found.end());
   out.seams.reserve(found.size());
-  for (const Found& f : found) out.seams.push_back(f.seam);
+  for (const auto& [a, b] : found) {
+    out.seams.push_back({sides[a].uv0, sides[a].uv1, sides[b].uv0, sides[b].uv1, sides[a].triangle, sides[b].triangle});
+  }
   return out;
 }
 
+}  // namespace
+
+SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int width, int height,
+                      const std::vector<std::vector<uint8_t>>* bake_mask) {
+  return search_seams(scene, name, width, height, [&](size_t mesh) -> const std::vector<uint8_t>* {
+    return bake_mask && mesh < bake_mask->size() ? &(*bake_mask)[mesh] : nullptr;
+  });
+}
+
 SeamSearch find_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height) {
-  std::vector<std::vector<uint8_t>> mask;
-  mask.reserve(checked.triangles.size());
-  for (const auto& t : checked.triangles) mask.push_back(t.bake);
-  return find_seams(checked.scene, name, width, height, &mask);
+  return search_seams(checked.scene, name, width, height, [&](size_t mesh) -> const std::vector<uint8_t>* {
+    return mesh < checked.triangles.size() ? &checked.triangles[mesh].bake : nullptr;
+  });
+}
+
+// The sum of each stage's largest terms, per triangle: what search_seams allocates, for at most three sides (reserved
+// at once) and three welded points a triangle, and kMostSeamsPerTriangle seams.
+//  - welding: the sides; the welder's points (reserved at one a triangle: 6 at the reallocation from 2 to 4), its
+//    map's nodes, and its buckets (a pointer each, reserved at one a triangle: 6 at the rehash from 2 to 4).
+//  - grouping: the sides, the order (3 × 4 bytes) and stable_sort's buffer, half the order.
+//  - pairing: the sides, the order and the pairs growing (8 bytes a seam, 3 × 8 at a reallocation).
+//  - listing: the sides, the pairs (at most 2 × 8 bytes a seam, the order freed) and the seams, reserved at once.
+double seam_search_bytes_per_triangle() {
+  constexpr double sides = 3 * sizeof(EdgeSide), seams = kMostSeamsPerTriangle, pair = 8;
+  constexpr double welding = sides + 6 * sizeof(Vec3) + 3 * Welder::kNodeBytes + 6 * sizeof(void*);
+  constexpr double grouping = sides + 3 * sizeof(uint32_t) * 1.5;
+  constexpr double pairing = sides + 3 * sizeof(uint32_t) + seams * 3 * pair;
+  constexpr double listing = sides + seams * (2 * pair + sizeof(Seam));
+  return std::max({welding, grouping, pairing, listing});
+}
+
+size_t seam_search_bytes_bound(uint64_t triangles) {
+  return static_cast<size_t>(std::ceil(seam_search_bytes_per_triangle() * static_cast<double>(triangles)));
 }
 
 SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height, const std::vector<uint8_t>& validity,
@@ -402,21 +435,22 @@ SeamStitcher::SeamStitcher(const std::vector<Seam>& seams, int width, int height
 // and what factoring a chunk holds within F; a refactor holds at most what factoring its component did, so F more).
 //  - held throughout: the validity map (t); texels_, component_start_, component_pairs_ and the factors' pointers
 //    (4 + 4 + 4 + 8: at most a component an unknown); the lookups (L); the factors (F).
-//  - reading the seams: the unknowns' map (4t) and texels_ growing (3 × 4u at a reallocation), beside validity and L.
+//  - reading the seams: the unknowns' map (4t) and texels_ growing (3 × 4u at a reallocation), beside validity, L
+//    and the seams given (and a byte each: which are used).
 //  - grouping by component: six maps of the unknowns (24u), component_start_ growing (12u), component_pairs_ and
 //    the slots (8u), the pairs reordered (8 bytes of each point's 72: L / 9), beside validity, texels_ and L.
 //  - a stitch: b, d and x0 (24u) and the channels' values before (4 × channels × u); then either build_system
 //    (each component's entries, 8u, and either its tap indexes in parallel, 16u and 8 bytes a tap of a point's 64:
 //    L × 8 / 9, or the chunks within F) or the solves (each thread's component, at most 65u in all: CG's diagonal
 //    and four vectors, the held marks, three right-hand sides; and one refactor within F).
-size_t SeamStitcher::bytes_bound(uint64_t texels, int channels, const StitchOptions& options) {
+size_t SeamStitcher::bytes_bound(uint64_t texels, int channels, uint64_t seams, const StitchOptions& options) {
   const double t = static_cast<double>(texels), u = t;
   const auto lookups =
       static_cast<double>(per_texel_cap(options.lookup_bytes_per_texel, options.min_lookup_bytes, texels));
   const auto factors =
       static_cast<double>(per_texel_cap(options.factor_bytes_per_texel, options.min_factor_bytes, texels));
   const double held = t + 20 * u + lookups;
-  const double read = t + 4 * t + 12 * u + lookups;
+  const double read = t + 4 * t + 12 * u + lookups + static_cast<double>(seams) * (sizeof(Seam) + 1);
   const double grouped = t + 4 * u + 24 * u + 12 * u + 8 * u + lookups * 10 / 9;
   const double stitching = held + (24 + 4.0 * channels) * u;
   const double planned = stitching + 8 * u + std::max(16 * u + lookups * 8 / 9, factors);

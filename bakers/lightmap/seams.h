@@ -85,6 +85,18 @@ SeamSearch find_seams(const scene::Scene& scene, const std::string& name, int wi
 // The same for the scene as the bake has it: the cleaned scene, and its triangles marked "traced, not baked" left out.
 SeamSearch find_seams(const scene::CheckedScene& checked, const std::string& name, int width, int height);
 
+// The most sides a world edge may have for its pairs to be seams; an edge on more is counted (non_manifold) and left
+// out.
+inline constexpr size_t kMostSidesOfASeamEdge = 4;
+
+// The most bytes find_seams holds at once, the seams it returns included, for a lightmap of `triangles` triangles,
+// whatever their geometry: every corner a point of its own in world space, every edge on four sides with six seams
+// among them (seam_search_bytes_per_triangle a triangle, 636).
+size_t seam_search_bytes_bound(uint64_t triangles);
+double seam_search_bytes_per_triangle();
+// The most seams find_seams finds per triangle: three sides a triangle, six seams among an edge's four sides.
+inline constexpr double kMostSeamsPerTriangle = 3.0 * 6 / kMostSidesOfASeamEdge;
+
 // The most a lookup point holds: its pair (8 bytes) and eight taps (four a side, 8 bytes each).
 inline constexpr size_t kLookupPointBytes = 72;
 
@@ -161,9 +173,9 @@ class SeamStitcher {
   // building them and of a stitch.
   size_t peak_bytes() const { return peak_bytes_; }
   // The most peak_bytes() can reach for a lightmap of `texels` texels stitching images of at most `channels`
-  // channels, whatever its seams (beside the seams passed in): every texel an unknown, the lookups and factors at
-  // their caps.
-  static size_t bytes_bound(uint64_t texels, int channels, const StitchOptions& options = {});
+  // channels, whatever its seams (`seams` of them, held by the caller while the constructor reads them): every texel
+  // an unknown, the lookups and factors at their caps.
+  static size_t bytes_bound(uint64_t texels, int channels, uint64_t seams, const StitchOptions& options = {});
 
  private:
   struct Tap {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bakers/lightmap/lightmap_bake.h"
+#include "bakers/lightmap/seams.h"
 #include "tests/support/sanitizers.h"
 #include "tests/support/test_scenes.h"
 
@@ -49,6 +50,18 @@ Measured measure(const LightmapBakeInput& in, const LightmapJobSize& size) {
       m.tracer_bytes = std::stoull(o.bytes.substr(bytes + 15));
   }
   return m;
+}
+
+// Sets the job's triangles (count_triangles) and mesh blob bytes (KILNMSH1: float positions, normals and both UV
+// sets, the indices) from the scene; returns each mesh's triangles.
+std::vector<uint64_t> size_scene(const scene::Scene& s, LightmapJobSize& size) {
+  std::vector<uint64_t> mesh_triangles;
+  for (const scene::Mesh& mesh : s.meshes) {
+    mesh_triangles.push_back(mesh.indices.size() / 3);
+    size.mesh_blob_bytes += 20 + mesh.positions.size() * 40 + mesh.indices.size() * 4;
+  }
+  count_triangles(mesh_triangles, s.instances, size);
+  return mesh_triangles;
 }
 
 // A floor of 512² texels, with the default outputs and with every output: the texels dominate.
@@ -98,11 +111,7 @@ TEST_F(MemoryEstimate, BoundsTheTracerOfABigMesh) {
   in.max_samples = 16;
   LightmapJobSize size;
   size.lightmap_texels = {16 * 16};
-  for (const scene::Mesh& mesh : s.meshes) {
-    size.traced_triangles += mesh.indices.size() / 3;
-    // The KILNMSH1 blob: float positions, normals and both UV sets, the indices.
-    size.mesh_blob_bytes += 20 + mesh.positions.size() * 40 + mesh.indices.size() * 4;
-  }
+  size_scene(s, size);
   const Measured m = measure(in, size);
   std::printf("sphere of %llu triangles: measured peak %s (the tracer holds %s once built), estimate %s\n",
               static_cast<unsigned long long>(size.traced_triangles), format_bytes(m.peak).c_str(),
@@ -132,12 +141,7 @@ TEST_F(MemoryEstimate, BoundsTheTracerOfManyInstancesOfOneMesh) {
   in.max_samples = 16;
   LightmapJobSize size;
   size.lightmap_texels = {16 * 16};
-  std::vector<uint64_t> mesh_triangles;
-  for (const scene::Mesh& mesh : s.meshes) {
-    mesh_triangles.push_back(mesh.indices.size() / 3);
-    size.mesh_blob_bytes += 20 + mesh.positions.size() * 40 + mesh.indices.size() * 4;
-  }
-  count_triangles(mesh_triangles, s.instances, size);
+  const std::vector<uint64_t> mesh_triangles = size_scene(s, size);
   EXPECT_EQ(size.traced_triangles, kCopies * mesh_triangles[0]);
   EXPECT_EQ(size.held_triangles, mesh_triangles[0]);
   EXPECT_EQ(size.baked_triangles, mesh_triangles[0]);
@@ -153,9 +157,48 @@ TEST_F(MemoryEstimate, BoundsTheTracerOfManyInstancesOfOneMesh) {
   EXPECT_LE(m.estimate.total, 4 * m.peak);
 }
 
-// A page's seam stitcher is held beside its results while the page is written: the largest page's, tiled or not, and
-// not at all when seams are not stitched.
-TEST(MemoryEstimateModel, CountsTheSeamStitcherOfTheLargestPage) {
+// A dense mesh on a small page: 24 baking instances of a 57,360-triangle sphere, each in a cell of 13² texels, about
+// 350 triangles a texel. Nearly every triangle gives a sample point of its own (1.1 a triangle), far beyond the 5 a
+// texel counted for the texels, and keeps its world-space copy until the points are made: the estimate counts both
+// per baking triangle (edge_point_bytes). Seams are not stitched here: their search is bounded on its own below, and
+// its bound, for geometry far worse than this, would hide what this test is about.
+TEST_F(MemoryEstimate, BoundsTheSamplePointsOfTrianglesSmallerThanATexel) {
+  scene::Scene s;
+  s.materials.push_back(test::lambert_material("grey", 0.5));
+  test::add_sphere(s, "prop", {0, 0, 0}, 1.0, 120, 0);
+  s.environment.constant = Rgb{1.0};
+  constexpr int kCopies = 24, kCells = 5;
+  const scene::Instance first = s.instances.front();
+  s.instances.clear();
+  for (int i = 0; i < kCopies; ++i) {
+    scene::Instance copy = first;
+    copy.to_world = test::translate_scale({3.0 * (i % kCells), 0, 3.0 * (i / kCells)}, 1.0);
+    copy.lightmap_scale_offset = {1.0 / kCells, 1.0 / kCells, static_cast<double>(i % kCells) / kCells,
+                                  static_cast<double>(i / kCells) / kCells};
+    s.instances.push_back(copy);
+  }
+  LightmapBakeInput in = test::lightmap_input(s, 64, 0.05);
+  in.min_samples = in.max_samples = 4;
+  in.stitch_seams = false;
+  LightmapJobSize size;
+  size.lightmap_texels = {64 * 64};
+  size.seams = false;
+  const std::vector<uint64_t> mesh_triangles = size_scene(s, size);
+  EXPECT_EQ(size.baked_triangles, kCopies * mesh_triangles[0]);
+  const Measured m = measure(in, size);
+  std::printf(
+      "%d baking instances of %llu triangles on a 64² page: measured peak %s, estimate %s (the points beyond "
+      "5 a texel %s)\n",
+      kCopies, static_cast<unsigned long long>(mesh_triangles[0]), format_bytes(m.peak).c_str(),
+      format_bytes(m.estimate.total).c_str(), format_bytes(m.estimate.edge_point_bytes).c_str());
+  EXPECT_GE(m.estimate.total, m.peak);
+  EXPECT_LE(m.estimate.total, 4 * m.peak);
+}
+
+// A page's seams are held beside its results while the page is written: the largest page's, tiled or not, and not
+// at all when seams are not stitched. The stitcher's bound counts on a large page; the search's on a small page of
+// many triangles.
+TEST(MemoryEstimateModel, CountsTheSeamsOfTheLargestPage) {
   LightmapJobSize job;
   job.lightmap_texels = {2048 * 2048, 512 * 512};
   job.traced_triangles = 1000;
@@ -164,8 +207,17 @@ TEST(MemoryEstimateModel, CountsTheSeamStitcherOfTheLargestPage) {
     without.seams = false;
     const double difference = static_cast<double>(estimate_memory(job, tile_size).total) -
                               static_cast<double>(estimate_memory(without, tile_size).total);
-    EXPECT_NEAR(difference, static_cast<double>(seam_stitcher_bytes(2048 * 2048)), 1.0) << "tile size " << tile_size;
+    EXPECT_NEAR(difference, static_cast<double>(seam_bytes(2048 * 2048, 1000)), 1.0) << "tile size " << tile_size;
+    EXPECT_NEAR(difference, static_cast<double>(SeamStitcher::bytes_bound(2048 * 2048, 3, 4500)), 1.0);
   }
+  job.lightmap_texels = {64 * 64};
+  job.traced_triangles = 2'000'000;
+  job.baked_triangles = 1'000'000;
+  LightmapJobSize without = job;
+  without.seams = false;
+  EXPECT_NEAR(static_cast<double>(estimate_memory(job).total - estimate_memory(without).total),
+              static_cast<double>(seam_search_bytes_bound(1'000'000)), 1.0);
+  EXPECT_NEAR(seam_search_bytes_per_triangle(), 636, 1) << "the figure memory_estimate.h quotes";
 }
 
 }  // namespace
