@@ -75,9 +75,8 @@ std::vector<GlbChunk> glb_chunks(const std::string& path) {
   return chunks;
 }
 
-// A GLB's JSON (its first chunk, by the format), or "" if it has none.
-std::string glb_json(const std::string& path) {
-  const std::vector<GlbChunk> chunks = glb_chunks(path);
+// A GLB's JSON (its first chunk, by the format) from its `chunks` (glb_chunks), or "" if it has none.
+std::string glb_json(const std::string& path, const std::vector<GlbChunk>& chunks) {
   if (chunks.empty() || std::memcmp(chunks[0].type, "JSON", 4) != 0) return "";
   std::ifstream in(path, std::ios::binary);
   std::string json(chunks[0].length, '\0');
@@ -144,13 +143,13 @@ GltfSpecular gltf_specular(const boost::property_tree::ptree& material) {
   return s;
 }
 
-GltfExtras gltf_extras(const std::string& path) {
+GltfExtras gltf_extras(const std::string& path, const std::vector<GlbChunk>& chunks) {
   GltfExtras out;
   std::string json;
   if (ends_with(path, ".gltf")) {
     json = read_file(path);
   } else if (ends_with(path, ".glb")) {
-    json = glb_json(path);
+    json = glb_json(path, chunks);
     if (json.empty()) return out;
   } else {
     return out;
@@ -244,12 +243,13 @@ class Importer {
     // FlipUVs: Assimp turns every format's UVs to v = 0 at the bottom; kiln keeps glTF's v = 0 at the top.
     const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_JoinIdenticalVertices |
                            aiProcess_FlipUVs | aiProcess_ValidateDataStructure;
-    glb_chunks(path_);  // throws for a chunk longer than the file, before Assimp allocates it
+    // Throws for a chunk longer than the file, before Assimp allocates it; the glTF extras read its JSON chunk.
+    const std::vector<GlbChunk> chunks = glb_chunks(path_);
     scene_ = importer.ReadFile(path_, flags);
     if (!scene_ || !scene_->mRootNode) {
       throw std::runtime_error("cannot import " + path_ + ": " + importer.GetErrorString());
     }
-    extras_ = gltf_extras(path_);
+    extras_ = gltf_extras(path_, chunks);
     materials();
     meshes();
     count_node_uses(scene_->mRootNode);
