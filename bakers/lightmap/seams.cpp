@@ -576,11 +576,9 @@ size_t SeamStitcher::factoring_bytes(size_t n, size_t taps, size_t entries) {
 // The normal matrix's entries are the products of each lookup pair's taps and each unknown's own weight. Row r is
 // summed from the pairs that read unknown r, in pair order, its own weight last, and ordered by column: the same
 // matrix on every run. Built a component at a time, in its own numbering (row and column i is unknown lo + i), so
-// that only the components CG solves keep theirs.
-SeamStitcher::Block SeamStitcher::build_block(size_t k) const {
+// that only the components CG solves keep theirs. `index` and `entries`: index_taps(k) and count_entries of it.
+SeamStitcher::Block SeamStitcher::build_block(size_t k, const TapIndex& index, size_t entries) const {
   const uint32_t lo = component_start_[k], n = component_start_[k + 1] - lo;
-  const TapIndex index = index_taps(k);
-  const size_t entries = count_entries(k, index);
   Block b;
   b.row_start.assign(n + 1, 0);
   b.diagonal.assign(n, 0.0);
@@ -670,7 +668,7 @@ void SeamStitcher::build_system(size_t beside) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, chunk.size()), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t c = range.begin(); c < range.end(); ++c) {
         const auto [j, allowed] = chunk[c];
-        const Block b = build_block(j);
+        const Block b = build_block(j, index_taps(j), entries[j]);
         auto f = std::make_unique<EnvelopeCholesky>();
         const uint32_t n = component_start_[j + 1] - component_start_[j];
         if (f->factor({b.row_start, b.col, b.value, 0, n}, allowed)) factors_[j] = std::move(f);
@@ -910,7 +908,8 @@ SeamStitcher::ComponentSolve SeamStitcher::solve_component(size_t k, const std::
       const size_t may_hold = refactor_reservation(k);
       gate.enter(may_hold);
       {
-        Block a = build_block(k);
+        const TapIndex index = index_taps(k);
+        Block a = build_block(k, index, count_entries(k, index));
         hold_at_zero(a, held, &x0[lo], rhs);
         EnvelopeCholesky f;
         solved = f.factor({a.row_start, a.col, a.value, 0, n}, factors_[k]->entries());

@@ -243,7 +243,7 @@ class SeamStitcher {
   size_t taps_of(size_t k) const;
   size_t count_entries(size_t k, const TapIndex& index) const;
   static size_t factoring_bytes(size_t n, size_t taps, size_t entries);
-  Block build_block(size_t k) const;
+  Block build_block(size_t k, const TapIndex& index, size_t entries) const;
   // Factors each component within its budget, in order while the factors and the factoring fit max_factor_bytes();
   // `beside`: the bytes the caller holds meanwhile.
   void build_system(size_t beside);
