@@ -4,6 +4,7 @@
 // pages kept after a free, and the rest of the bake, would blur it).
 #include <gtest/gtest.h>
 
+#include <malloc.h>
 #include <array>
 #include <atomic>
 #include <cmath>
@@ -17,41 +18,46 @@
 
 namespace {
 
-// Live bytes requested through operator new, and the most at once since the last reset. Each block carries its size
-// in a header of 16 bytes (the alignment operator new guarantees).
+// Live bytes allocated through operator new, as malloc holds them (malloc_usable_size: the size asked for, rounded up
+// to malloc's granule), and the most at once since the last reset. No header is added to a block, so the pointers
+// the program keeps are malloc's own (LeakSanitizer finds what libraries keep by them).
 std::atomic<std::size_t> g_live{0}, g_peak{0};
-constexpr std::size_t kHeader = 16;
 
-void note_allocation(std::size_t size) {
-  const std::size_t live = g_live.fetch_add(size, std::memory_order_relaxed) + size;
+void* allocate(std::size_t size) noexcept {
+  void* p = std::malloc(size == 0 ? 1 : size);
+  if (!p) return nullptr;
+  const std::size_t bytes = malloc_usable_size(p);
+  const std::size_t live = g_live.fetch_add(bytes, std::memory_order_relaxed) + bytes;
   std::size_t peak = g_peak.load(std::memory_order_relaxed);
   while (live > peak && !g_peak.compare_exchange_weak(peak, live, std::memory_order_relaxed)) {
   }
+  return p;
 }
 
 void release(void* p) noexcept {
   if (!p) return;
-  char* block = static_cast<char*>(p) - kHeader;
-  g_live.fetch_sub(*reinterpret_cast<std::size_t*>(block), std::memory_order_relaxed);
-  std::free(block);
+  g_live.fetch_sub(malloc_usable_size(p), std::memory_order_relaxed);
+  std::free(p);
 }
 
 }  // namespace
 
-// Out of line, so that GCC does not inline malloc/free pairs into callers and then warn that new and free mismatch.
+// Every form but the aligned ones (which the sanitizers' runtime serves and frees itself), so that no block is freed
+// by a form that did not allocate it. Out of line, so that GCC does not inline malloc/free pairs into callers and then
+// warn that new and free mismatch.
 [[gnu::noinline]] void* operator new(std::size_t size) {
-  if (char* block = static_cast<char*>(std::malloc(size + kHeader))) {
-    *reinterpret_cast<std::size_t*>(block) = size;
-    note_allocation(size);
-    return block + kHeader;
-  }
+  if (void* p = allocate(size)) return p;
   throw std::bad_alloc();
 }
 [[gnu::noinline]] void* operator new[](std::size_t size) { return operator new(size); }
+[[gnu::noinline]] void* operator new(std::size_t size, const std::nothrow_t&) noexcept { return allocate(size); }
+[[gnu::noinline]] void* operator new[](std::size_t size, const std::nothrow_t&) noexcept { return allocate(size); }
 [[gnu::noinline]] void operator delete(void* p) noexcept { release(p); }
 [[gnu::noinline]] void operator delete[](void* p) noexcept { release(p); }
 [[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept { release(p); }
 [[gnu::noinline]] void operator delete[](void* p, std::size_t) noexcept { release(p); }
+[[gnu::noinline]] void operator delete(void* p, const std::nothrow_t&) noexcept { release(p); }
+[[gnu::noinline]] void operator delete[](void* p, const std::nothrow_t&) noexcept { release(p); }
 
 namespace kiln::lightmap {
 namespace {
